@@ -1,0 +1,876 @@
+//! The configuration: one serde tree holding every parameter of the system, with its default.
+//!
+//! Every number of SPEC.md is a field here, documented where it is declared. A run is fully
+//! determined by a [`Config`] and a seed. Configurations come from a named preset
+//! ([`Preset`]), optionally overlaid with a TOML file and with `key.path=value` overrides
+//! ([`Config::set`]); [`Config::validate`] then checks every range and names the offending key.
+
+use std::fmt;
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+/// A complete, resolved configuration of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// The preset this configuration started from (informational; overrides may have changed it).
+    pub preset: String,
+    /// Simulated time.
+    pub run: RunConfig,
+    /// Arena, robots, physics and sensing (SPEC.md section 1).
+    pub world: WorldConfig,
+    /// Trajectory data collection (SPEC.md section 1, data collection).
+    pub data: DataConfig,
+    /// The model and its local training (SPEC.md section 2).
+    pub learn: LearnConfig,
+    /// The per-robot blockchain nodes (SPEC.md section 3).
+    pub ledger: LedgerConfig,
+    /// The federated-learning smart contract (SPEC.md section 4).
+    pub contract: ContractConfig,
+    /// Byzantine robots (SPEC.md section 5).
+    pub byzantine: ByzantineConfig,
+    /// Log and metrics settings (SPEC.md sections 6 and 8).
+    pub output: OutputConfig,
+}
+
+/// Simulated time of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Length of the run in simulated seconds (paper 5000, reference 4980).
+    pub duration_s: f64,
+    /// Simulation tick: the physics, sensing and data step (0.1 s = 10 Hz).
+    pub tick_s: f64,
+}
+
+/// The arena, the robots, their controller and their sensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldConfig {
+    /// Number of robots in the swarm (every one a blockchain node).
+    pub robots: u32,
+    /// Side of the square, walled arena in metres (paper 5, reference 4), centred on the origin.
+    pub arena_side_m: f64,
+    /// Number of cylindrical obstacles.
+    pub cylinders: u32,
+    /// Radius of each cylinder in metres.
+    pub cylinder_radius_m: f64,
+    /// Number of box obstacles (square base, axis aligned).
+    pub boxes: u32,
+    /// Side of each box's square base in metres.
+    pub box_side_m: f64,
+    /// Obstacle centres are drawn uniformly in [-h, h]^2 with h this value (reference 1.5 m);
+    /// 0 means "anywhere inside the walls" (paper).
+    pub obstacle_spread_half_m: f64,
+    /// Robot body radius in metres (Pi-puck: 0.035).
+    pub robot_radius_m: f64,
+    /// Distance between the two wheels in metres (Pi-puck: 0.053).
+    pub wheel_base_m: f64,
+    /// Forward speed of the random walk in m/s.
+    pub cruise_speed_mps: f64,
+    /// Number of IR proximity sensors, evenly spaced around the body.
+    pub proximity_sensors: u32,
+    /// Range of each proximity ray, measured from the body surface, in metres.
+    pub proximity_range_m: f64,
+    /// A front proximity reading above this value (0..1, 1 = touching) makes the robot turn away.
+    pub proximity_threshold: f64,
+    /// Probability per second that a free robot starts a random turn (the random walk).
+    pub random_turn_rate_per_s: f64,
+    /// Longest random turn in seconds (the duration is uniform in [0, this]).
+    pub random_turn_max_s: f64,
+    /// Range-and-bearing (and radio) range in metres (paper 2.5, reference 2.0).
+    pub rab_range_m: f64,
+    /// Standard deviation of the Gaussian noise on each axis of the measured offset, in metres.
+    pub rab_noise_std_m: f64,
+    /// Whether obstacles block the line of sight of range-and-bearing messages.
+    pub rab_occlusion: bool,
+    /// Probability that a range-and-bearing message is lost (per robot pair and tick).
+    pub rab_packet_drop: f64,
+    /// Period of the peer-set refresh in seconds: the node's peers are the robots in range.
+    pub peer_refresh_s: f64,
+}
+
+/// Trajectory recording and the data set of each robot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Consecutive ticks of one neighbour that form a trajectory (100 = 10 s).
+    pub trajectory_ticks: u32,
+    /// Waypoints of the model's input (0..32 = 3.2 s).
+    pub input_waypoints: u32,
+    /// Waypoints of the model's target (32..80 = 4.8 s); the rest of the trajectory is unused.
+    pub target_waypoints: u32,
+    /// Samples older than this many seconds are dropped from the robot's data set.
+    pub expiration_s: f64,
+    /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
+    pub heldout_samples: u32,
+}
+
+/// The model and local training.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearnConfig {
+    /// LSTM units (the paper's model has 16).
+    pub lstm_units: u32,
+    /// Dropout rate after the LSTM layer, active during training only.
+    pub dropout: f64,
+    /// SGD learning rate (paper 0.001, reference 0.01).
+    pub learning_rate: f64,
+    /// Mini-batch size.
+    pub batch_size: u32,
+    /// Passes over the training split per local training.
+    pub epochs: u32,
+    /// Fraction of the (chronological) data set used for training; the rest validates.
+    pub train_fraction: f64,
+    /// Period of a robot's training phase in simulated seconds.
+    pub training_period_s: f64,
+    /// Simulated time a local training takes before the model is submitted (paper: 0).
+    pub training_duration_s: f64,
+    /// Fewest training samples a robot needs before it trains and submits.
+    pub min_train_samples: u32,
+}
+
+/// The per-robot proof-of-authority nodes and the radio between them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LedgerConfig {
+    /// Minimum time between a block and its child in seconds (Clique period).
+    pub block_period_s: f64,
+    /// Unit of the out-of-turn sealing delay: delays are uniform in [0, (N/2 + 1) * this).
+    pub wiggle_unit_s: f64,
+    /// Per-link bandwidth in bytes per second; 0 means unlimited.
+    pub bandwidth_bytes_per_s: u64,
+    /// Probability that a gossip message between two peers is lost.
+    pub packet_loss: f64,
+}
+
+/// The federated-learning contract.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContractConfig {
+    /// Security mechanisms (stake, outlier rejection, ranking, rewards) on or off (Exp. 1: off).
+    pub security: bool,
+    /// Tokens every robot holds at genesis.
+    pub initial_tokens: u64,
+    /// Tokens staked with every submission (Sybil protection).
+    pub stake_tokens: u64,
+    /// Integer units per token (balances are integers of this unit).
+    pub token_units: u64,
+    /// Fixed-point scale of on-chain weights (1e9, as the reference's int48).
+    pub weight_scale: u64,
+    /// Quorum fraction q: an aggregation needs max(floor(q * N_r), 1) accepted models.
+    pub quorum_fraction: f64,
+    /// Outlier threshold on the mean absolute weight distance to the shared model.
+    pub outlier_threshold: f64,
+    /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
+    /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
+    pub penalised_ranks: u32,
+}
+
+/// Which robots are Byzantine and how they behave.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ByzantineConfig {
+    /// Behaviour of the Byzantine robots.
+    pub kind: ByzantineKind,
+    /// How many robots are Byzantine (they replace honest ones: the swarm size stays).
+    pub count: u32,
+    /// Formula variant: the paper's or the reference implementation's.
+    pub variant: ByzantineVariant,
+    /// Samples a Byzantine robot claims with each submission (reference: 200).
+    pub claimed_samples: u32,
+    /// Faulty robots send weights uniform in [-this, this].
+    pub faulty_range: f64,
+}
+
+/// The behaviour of Byzantine robots (SPEC.md section 5).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ByzantineKind {
+    /// No Byzantine robots (the count must be 0).
+    None,
+    /// Uniformly random weights.
+    Faulty,
+    /// Resubmits the current shared model.
+    Malicious,
+    /// Follows the trend of the shared model to be ranked first.
+    Smart,
+}
+
+/// Which formula a Byzantine behaviour follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ByzantineVariant {
+    /// The paper's formulas.
+    Paper,
+    /// The reference implementation's variants (smart: positive-only noise, w(t) before the
+    /// first change).
+    Reference,
+}
+
+/// Log and metrics settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    /// A full-state snapshot is written to the log every this many checkpoints (0 = never).
+    pub snapshot_every_blocks: u32,
+}
+
+/// The named configurations shipped with swarmfl.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Preset {
+    /// The paper's values (the default).
+    Paper,
+    /// The reference implementation's values where they differ from the paper.
+    Reference,
+    /// 15 robots for 600 s: quick, for fixtures and CI.
+    Smoke,
+    /// Experiment 1: no security, no Byzantine robots; sweep `data.expiration_s`.
+    E1Expiration,
+    /// Experiment 1: no security, one faulty robot.
+    E1Faulty,
+    /// Experiment 2: security on, faulty robots; sweep `byzantine.count` 0..7.
+    E2Faulty,
+    /// Experiment 2: security on, malicious robots; sweep `byzantine.count` 0..7.
+    E2Malicious,
+    /// Experiment 3: security on, smart robots; sweep `byzantine.count` 0..7.
+    E3Smart,
+}
+
+impl Preset {
+    /// Every preset, in the order `swarmfl presets` lists them.
+    pub const ALL: [Preset; 8] = [
+        Preset::Paper,
+        Preset::Reference,
+        Preset::Smoke,
+        Preset::E1Expiration,
+        Preset::E1Faulty,
+        Preset::E2Faulty,
+        Preset::E2Malicious,
+        Preset::E3Smart,
+    ];
+
+    /// The preset's name as written on the command line.
+    pub fn name(self) -> &'static str {
+        match self {
+            Preset::Paper => "paper",
+            Preset::Reference => "reference",
+            Preset::Smoke => "smoke",
+            Preset::E1Expiration => "e1-expiration",
+            Preset::E1Faulty => "e1-faulty",
+            Preset::E2Faulty => "e2-faulty",
+            Preset::E2Malicious => "e2-malicious",
+            Preset::E3Smart => "e3-smart",
+        }
+    }
+
+    /// One line on what the preset is for.
+    pub fn description(self) -> &'static str {
+        match self {
+            Preset::Paper => "the paper's system: 15 robots, 5 x 5 m, 2.5 m range, 5000 s, security on",
+            Preset::Reference => {
+                "the reference implementation's values: 4 x 4 m, 2.0 m range, 4980 s, SGD 0.01"
+            }
+            Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
+            Preset::E1Expiration => {
+                "Exp. 1: security off, no Byzantine robots; sweep data.expiration_s 250..1250"
+            }
+            Preset::E1Faulty => "Exp. 1: security off, 1 faulty robot, expiration 750 s",
+            Preset::E2Faulty => "Exp. 2: security on, faulty robots; sweep byzantine.count 0..7",
+            Preset::E2Malicious => {
+                "Exp. 2: security on, malicious robots; sweep byzantine.count 0..7"
+            }
+            Preset::E3Smart => "Exp. 3: security on, smart robots; sweep byzantine.count 0..7",
+        }
+    }
+
+    /// Looks a preset up by name.
+    pub fn from_name(name: &str) -> Result<Preset, ConfigError> {
+        Preset::ALL.iter().copied().find(|p| p.name() == name).ok_or_else(|| {
+            ConfigError::UnknownPreset {
+                name: name.to_string(),
+                allowed: Preset::ALL.iter().map(|p| p.name()).collect::<Vec<_>>().join(", "),
+            }
+        })
+    }
+
+    /// The preset's full configuration.
+    pub fn config(self) -> Config {
+        let mut c = Config::paper();
+        c.preset = self.name().to_string();
+        match self {
+            Preset::Paper => {}
+            Preset::Reference => {
+                c.run.duration_s = 4980.0;
+                c.world.arena_side_m = 4.0;
+                c.world.obstacle_spread_half_m = 1.5;
+                c.world.rab_range_m = 2.0;
+                c.learn.learning_rate = 0.01;
+            }
+            Preset::Smoke => {
+                c.run.duration_s = 600.0;
+            }
+            Preset::E1Expiration => {
+                c.contract.security = false;
+            }
+            Preset::E1Faulty => {
+                c.contract.security = false;
+                c.byzantine.kind = ByzantineKind::Faulty;
+                c.byzantine.count = 1;
+            }
+            Preset::E2Faulty => {
+                c.byzantine.kind = ByzantineKind::Faulty;
+                c.byzantine.count = 1;
+            }
+            Preset::E2Malicious => {
+                c.byzantine.kind = ByzantineKind::Malicious;
+                c.byzantine.count = 1;
+            }
+            Preset::E3Smart => {
+                c.byzantine.kind = ByzantineKind::Smart;
+                c.byzantine.count = 1;
+            }
+        }
+        c
+    }
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Preset::Paper.config()
+    }
+}
+
+impl Config {
+    fn paper() -> Config {
+        Config {
+            preset: "paper".to_string(),
+            run: RunConfig { duration_s: 5000.0, tick_s: 0.1 },
+            world: WorldConfig {
+                robots: 15,
+                arena_side_m: 5.0,
+                cylinders: 5,
+                cylinder_radius_m: 0.15,
+                boxes: 5,
+                box_side_m: 0.3,
+                obstacle_spread_half_m: 0.0,
+                robot_radius_m: 0.035,
+                wheel_base_m: 0.053,
+                cruise_speed_mps: 0.025,
+                proximity_sensors: 8,
+                proximity_range_m: 0.1,
+                proximity_threshold: 0.2,
+                random_turn_rate_per_s: 0.1,
+                random_turn_max_s: 3.0,
+                rab_range_m: 2.5,
+                rab_noise_std_m: 0.01,
+                rab_occlusion: true,
+                rab_packet_drop: 0.0,
+                peer_refresh_s: 0.5,
+            },
+            data: DataConfig {
+                trajectory_ticks: 100,
+                input_waypoints: 32,
+                target_waypoints: 48,
+                expiration_s: 750.0,
+                heldout_samples: 200,
+            },
+            learn: LearnConfig {
+                lstm_units: 16,
+                dropout: 0.2,
+                learning_rate: 0.001,
+                batch_size: 20,
+                epochs: 20,
+                train_fraction: 0.8,
+                training_period_s: 100.0,
+                training_duration_s: 0.0,
+                min_train_samples: 1,
+            },
+            ledger: LedgerConfig {
+                block_period_s: 10.0,
+                wiggle_unit_s: 0.5,
+                bandwidth_bytes_per_s: 0,
+                packet_loss: 0.0,
+            },
+            contract: ContractConfig {
+                security: true,
+                initial_tokens: 21,
+                stake_tokens: 5,
+                token_units: 1_000_000_000,
+                weight_scale: 1_000_000_000,
+                quorum_fraction: 0.5,
+                outlier_threshold: 0.05,
+                penalised_ranks: 2,
+            },
+            byzantine: ByzantineConfig {
+                kind: ByzantineKind::None,
+                count: 0,
+                variant: ByzantineVariant::Paper,
+                claimed_samples: 200,
+                faulty_range: 0.5,
+            },
+            output: OutputConfig { snapshot_every_blocks: 50 },
+        }
+    }
+
+    /// Number of simulation ticks of the run.
+    pub fn ticks(&self) -> u64 {
+        (self.run.duration_s / self.run.tick_s).round() as u64
+    }
+
+    /// The quorum: max(floor(q * N_r), 1).
+    pub fn quorum(&self) -> u32 {
+        ((self.contract.quorum_fraction * f64::from(self.world.robots)).floor() as u32).max(1)
+    }
+
+    /// The reward weight of each rank, best first: +1 for the rewarded, -1 for the
+    /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
+    pub fn reward_weights(&self) -> Vec<i64> {
+        let q = self.quorum() as usize;
+        let p = self.contract.penalised_ranks as usize;
+        (0..q).map(|rank| if rank + p < q { 1 } else { -1 }).collect()
+    }
+
+    /// The full TOML text of this configuration.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a Config always serialises to TOML")
+    }
+
+    /// The blake3 hash of the canonical TOML text: names a configuration in results.
+    pub fn hash(&self) -> blake3::Hash {
+        blake3::hash(self.to_toml().as_bytes())
+    }
+
+    /// Resolves a configuration: the preset, then the file (a partial TOML overlaid on the
+    /// preset; it may name its own `preset`), then each `key.path=value` override in order,
+    /// then validation.
+    pub fn resolve(
+        preset: Option<&str>,
+        file: Option<&Path>,
+        overrides: &[String],
+    ) -> Result<Config, ConfigError> {
+        let mut file_table: Option<toml::Table> = None;
+        let mut preset_name = preset.map(str::to_string);
+        if let Some(path) = file {
+            let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })?;
+            let table: toml::Table = toml::from_str(&text).map_err(|e| ConfigError::Parse {
+                source_name: path.display().to_string(),
+                message: e.to_string(),
+            })?;
+            if preset_name.is_none() {
+                if let Some(p) = table.get("preset").and_then(|v| v.as_str()) {
+                    preset_name = Some(p.to_string());
+                }
+            }
+            file_table = Some(table);
+        }
+        let preset = Preset::from_name(preset_name.as_deref().unwrap_or("paper"))?;
+        let mut config = preset.config();
+        if let Some(table) = file_table {
+            let source_name = file.map(|p| p.display().to_string()).unwrap_or_default();
+            let mut base = toml::Value::try_from(&config).expect("Config serialises");
+            merge(&mut base, toml::Value::Table(table), "", &source_name)?;
+            config = base.try_into().map_err(|e: toml::de::Error| ConfigError::Parse {
+                source_name,
+                message: e.to_string(),
+            })?;
+            config.preset = preset.name().to_string();
+        }
+        for assignment in overrides {
+            config.set(assignment)?;
+        }
+        config.validate()?;
+        Ok(config)
+    }
+
+    /// Applies one `key.path=value` override. The value is TOML (`0.5`, `true`, `"faulty"`,
+    /// `[1, 1, -1]`); a bare word is taken as a string. The key must exist and the value must
+    /// have the field's type.
+    pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
+        let (key, raw) = assignment.split_once('=').ok_or_else(|| ConfigError::Override {
+            assignment: assignment.to_string(),
+            message: "expected key.path=value, e.g. --set world.robots=30".to_string(),
+        })?;
+        let key = key.trim();
+        let raw = raw.trim();
+        let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
+            Ok(mut t) => t.remove("v").expect("parsed table has v"),
+            Err(_) => toml::Value::String(raw.to_string()),
+        };
+        let mut root = toml::Value::try_from(&*self).expect("Config serialises");
+        let mut slot = &mut root;
+        let mut walked = String::new();
+        for part in key.split('.') {
+            let table = slot.as_table_mut().ok_or_else(|| ConfigError::UnknownKey {
+                key: key.to_string(),
+                allowed: String::new(),
+            })?;
+            if !table.contains_key(part) {
+                let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
+                allowed.sort_unstable();
+                return Err(ConfigError::UnknownKey {
+                    key: key.to_string(),
+                    allowed: format!(
+                        "{}: {}",
+                        if walked.is_empty() { "top-level keys" } else { walked.as_str() },
+                        allowed.join(", ")
+                    ),
+                });
+            }
+            if !walked.is_empty() {
+                walked.push('.');
+            }
+            walked.push_str(part);
+            slot = table.get_mut(part).expect("checked above");
+        }
+        let value = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+            key: key.to_string(),
+            value: raw.to_string(),
+            expected,
+        })?;
+        *slot = value;
+        let updated: Config = root.try_into().map_err(|e: toml::de::Error| ConfigError::WrongType {
+            key: key.to_string(),
+            value: raw.to_string(),
+            expected: e.message().to_string(),
+        })?;
+        *self = updated;
+        Ok(())
+    }
+
+    /// Checks every value against its allowed range; the first violation is returned, naming
+    /// the key, the value and what is allowed.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        fn range(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+            if value.is_finite() && value >= lo && value <= hi {
+                Ok(())
+            } else {
+                Err(ConfigError::OutOfRange {
+                    key: key.to_string(),
+                    value: value.to_string(),
+                    allowed: format!("a number in [{lo}, {hi}]"),
+                })
+            }
+        }
+        fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
+            if value.is_finite() && value > 0.0 {
+                Ok(())
+            } else {
+                Err(ConfigError::OutOfRange {
+                    key: key.to_string(),
+                    value: value.to_string(),
+                    allowed: "a finite number > 0".to_string(),
+                })
+            }
+        }
+        fn int(key: &str, value: u64, lo: u64, hi: u64) -> Result<(), ConfigError> {
+            if value >= lo && value <= hi {
+                Ok(())
+            } else {
+                Err(ConfigError::OutOfRange {
+                    key: key.to_string(),
+                    value: value.to_string(),
+                    allowed: format!("an integer in [{lo}, {hi}]"),
+                })
+            }
+        }
+        let c = self;
+        positive("run.duration_s", c.run.duration_s)?;
+        range("run.duration_s", c.run.duration_s, 0.0, 1.0e7)?;
+        range("run.tick_s", c.run.tick_s, 0.001, 10.0)?;
+        int("world.robots", c.world.robots.into(), 1, 10_000)?;
+        range("world.arena_side_m", c.world.arena_side_m, 0.1, 10_000.0)?;
+        int("world.cylinders", c.world.cylinders.into(), 0, 100_000)?;
+        range("world.cylinder_radius_m", c.world.cylinder_radius_m, 0.001, 1000.0)?;
+        int("world.boxes", c.world.boxes.into(), 0, 100_000)?;
+        range("world.box_side_m", c.world.box_side_m, 0.001, 1000.0)?;
+        range("world.obstacle_spread_half_m", c.world.obstacle_spread_half_m, 0.0, 5_000.0)?;
+        range("world.robot_radius_m", c.world.robot_radius_m, 0.001, 10.0)?;
+        range("world.wheel_base_m", c.world.wheel_base_m, 0.001, 20.0)?;
+        range("world.cruise_speed_mps", c.world.cruise_speed_mps, 0.0, 10.0)?;
+        int("world.proximity_sensors", c.world.proximity_sensors.into(), 1, 64)?;
+        range("world.proximity_range_m", c.world.proximity_range_m, 0.001, 10.0)?;
+        range("world.proximity_threshold", c.world.proximity_threshold, 0.0, 1.0)?;
+        range("world.random_turn_rate_per_s", c.world.random_turn_rate_per_s, 0.0, 100.0)?;
+        range("world.random_turn_max_s", c.world.random_turn_max_s, 0.0, 1000.0)?;
+        range("world.rab_range_m", c.world.rab_range_m, 0.0, 10_000.0)?;
+        range("world.rab_noise_std_m", c.world.rab_noise_std_m, 0.0, 100.0)?;
+        range("world.rab_packet_drop", c.world.rab_packet_drop, 0.0, 1.0)?;
+        range("world.peer_refresh_s", c.world.peer_refresh_s, c.run.tick_s, 1.0e6)?;
+        int("data.trajectory_ticks", c.data.trajectory_ticks.into(), 2, 100_000)?;
+        int("data.input_waypoints", c.data.input_waypoints.into(), 1, 10_000)?;
+        int("data.target_waypoints", c.data.target_waypoints.into(), 1, 10_000)?;
+        if c.data.input_waypoints + c.data.target_waypoints > c.data.trajectory_ticks {
+            return Err(ConfigError::OutOfRange {
+                key: "data.target_waypoints".to_string(),
+                value: c.data.target_waypoints.to_string(),
+                allowed: format!(
+                    "input_waypoints + target_waypoints <= trajectory_ticks ({})",
+                    c.data.trajectory_ticks
+                ),
+            });
+        }
+        range("data.expiration_s", c.data.expiration_s, 0.0, 1.0e7)?;
+        int("data.heldout_samples", c.data.heldout_samples.into(), 0, 1_000_000)?;
+        int("learn.lstm_units", c.learn.lstm_units.into(), 1, 1024)?;
+        range("learn.dropout", c.learn.dropout, 0.0, 0.99)?;
+        range("learn.learning_rate", c.learn.learning_rate, 0.0, 10.0)?;
+        int("learn.batch_size", c.learn.batch_size.into(), 1, 100_000)?;
+        int("learn.epochs", c.learn.epochs.into(), 0, 100_000)?;
+        range("learn.train_fraction", c.learn.train_fraction, 0.01, 1.0)?;
+        positive("learn.training_period_s", c.learn.training_period_s)?;
+        range("learn.training_duration_s", c.learn.training_duration_s, 0.0, 1.0e6)?;
+        positive("ledger.block_period_s", c.ledger.block_period_s)?;
+        range("ledger.wiggle_unit_s", c.ledger.wiggle_unit_s, 0.0, 1.0e6)?;
+        range("ledger.packet_loss", c.ledger.packet_loss, 0.0, 1.0)?;
+        int("contract.stake_tokens", c.contract.stake_tokens, 0, c.contract.initial_tokens.max(1) * 1000)?;
+        int("contract.token_units", c.contract.token_units, 1, 1_000_000_000_000)?;
+        int("contract.weight_scale", c.contract.weight_scale, 1, 1_000_000_000_000)?;
+        let total = u128::from(c.world.robots)
+            * u128::from(c.contract.initial_tokens)
+            * u128::from(c.contract.token_units);
+        if total > u128::from(u64::MAX / 4) {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.initial_tokens".to_string(),
+                value: c.contract.initial_tokens.to_string(),
+                allowed: "robots * initial_tokens * token_units must fit in 2^62 units".to_string(),
+            });
+        }
+        range("contract.quorum_fraction", c.contract.quorum_fraction, 0.0, 1.0)?;
+        range("contract.outlier_threshold", c.contract.outlier_threshold, 0.0, 1.0e6)?;
+        int(
+            "contract.penalised_ranks",
+            c.contract.penalised_ranks.into(),
+            0,
+            u64::from(c.quorum() - 1),
+        )?;
+        int("byzantine.count", c.byzantine.count.into(), 0, c.world.robots.into())?;
+        if (c.byzantine.kind == ByzantineKind::None) != (c.byzantine.count == 0) {
+            return Err(ConfigError::OutOfRange {
+                key: "byzantine.count".to_string(),
+                value: c.byzantine.count.to_string(),
+                allowed: format!(
+                    "0 when byzantine.kind = \"none\", at least 1 otherwise (kind is {:?}); \
+                     set both, e.g. --set byzantine.kind=faulty --set byzantine.count=3",
+                    c.byzantine.kind
+                ),
+            });
+        }
+        int("byzantine.claimed_samples", c.byzantine.claimed_samples.into(), 1, 1_000_000_000)?;
+        range("byzantine.faulty_range", c.byzantine.faulty_range, 0.0, 1000.0)?;
+        Ok(())
+    }
+}
+
+/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
+fn merge(
+    base: &mut toml::Value,
+    patch: toml::Value,
+    prefix: &str,
+    source_name: &str,
+) -> Result<(), ConfigError> {
+    match (base, patch) {
+        (toml::Value::Table(b), toml::Value::Table(p)) => {
+            for (k, v) in p {
+                let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
+                match b.get_mut(&k) {
+                    Some(slot) => merge(slot, v, &path, source_name)?,
+                    None => {
+                        let mut allowed: Vec<&str> = b.keys().map(String::as_str).collect();
+                        allowed.sort_unstable();
+                        return Err(ConfigError::UnknownKey {
+                            key: format!("{path} (in {source_name})"),
+                            allowed: format!(
+                                "{}: {}",
+                                if prefix.is_empty() { "top-level keys" } else { prefix },
+                                allowed.join(", ")
+                            ),
+                        });
+                    }
+                }
+            }
+            Ok(())
+        }
+        (slot, value) => {
+            let shown = value.to_string();
+            *slot = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+                key: format!("{prefix} (in {source_name})"),
+                value: shown,
+                expected,
+            })?;
+            Ok(())
+        }
+    }
+}
+
+/// Converts `value` to the type of `slot` where that loses nothing (an integer where a float is
+/// expected); otherwise says what type was expected.
+fn coerce(slot: &toml::Value, value: toml::Value) -> Result<toml::Value, String> {
+    use toml::Value as V;
+    match (slot, value) {
+        (V::Float(_), V::Integer(i)) => Ok(V::Float(i as f64)),
+        (V::Float(_), v @ V::Float(_)) => Ok(v),
+        (V::Integer(_), v @ V::Integer(_)) => Ok(v),
+        (V::Boolean(_), v @ V::Boolean(_)) => Ok(v),
+        (V::String(_), v @ V::String(_)) => Ok(v),
+        (V::Array(_), v @ V::Array(_)) => Ok(v),
+        (V::Table(_), v @ V::Table(_)) => Ok(v),
+        (slot, _) => Err(match slot {
+            V::Float(_) => "a number".to_string(),
+            V::Integer(_) => "an integer".to_string(),
+            V::Boolean(_) => "true or false".to_string(),
+            V::String(s) => format!("a string (currently {s:?})"),
+            V::Array(_) => "an array, e.g. [1, 1, -1]".to_string(),
+            V::Table(_) => "a table (name a field inside it)".to_string(),
+            V::Datetime(_) => "a datetime".to_string(),
+        }),
+    }
+}
+
+/// What is wrong with a configuration, and how to fix it.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum ConfigError {
+    /// The preset name is not known.
+    #[error("unknown preset {name:?}; the presets are: {allowed} (see `swarmfl presets`)")]
+    UnknownPreset {
+        /// The name given.
+        name: String,
+        /// The names allowed.
+        allowed: String,
+    },
+    /// The configuration file could not be read.
+    #[error("cannot read configuration file {path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The TOML text is not valid or does not match the configuration tree.
+    #[error("invalid configuration in {source_name}: {message}")]
+    Parse {
+        /// Where the text came from.
+        source_name: String,
+        /// The parser's message, with line and column.
+        message: String,
+    },
+    /// A key that does not exist.
+    #[error("unknown configuration key `{key}`; {allowed} (see `swarmfl config`)")]
+    UnknownKey {
+        /// The key as given.
+        key: String,
+        /// The keys allowed at that level.
+        allowed: String,
+    },
+    /// A value of the wrong type.
+    #[error("configuration key `{key}`: value `{value}` has the wrong type; expected {expected}")]
+    WrongType {
+        /// The key.
+        key: String,
+        /// The value as given.
+        value: String,
+        /// The expected type.
+        expected: String,
+    },
+    /// A value outside its allowed range.
+    #[error("configuration key `{key}`: value {value} is out of range; allowed: {allowed}")]
+    OutOfRange {
+        /// The key.
+        key: String,
+        /// The value.
+        value: String,
+        /// What is allowed.
+        allowed: String,
+    },
+    /// A `--set` argument that is not `key=value`.
+    #[error("invalid override `{assignment}`: {message}")]
+    Override {
+        /// The argument.
+        assignment: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+impl fmt::Display for Preset {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_preset_is_valid_and_round_trips_through_toml() {
+        for preset in Preset::ALL {
+            let config = preset.config();
+            config.validate().unwrap_or_else(|e| panic!("{preset}: {e}"));
+            let back: Config = toml::from_str(&config.to_toml()).unwrap();
+            assert_eq!(back, config, "{preset}");
+        }
+    }
+
+    #[test]
+    fn paper_quorum_is_seven() {
+        assert_eq!(Preset::Paper.config().quorum(), 7);
+        assert_eq!(Preset::Paper.config().reward_weights(), vec![1, 1, 1, 1, 1, -1, -1]);
+    }
+
+    #[test]
+    fn overrides_set_nested_fields_and_coerce_integers_to_floats() {
+        let c = Config::resolve(
+            Some("smoke"),
+            None,
+            &["world.rab_range_m=3".into(), "byzantine.kind=faulty".into(), "byzantine.count=2".into()],
+        )
+        .unwrap();
+        assert_eq!(c.world.rab_range_m, 3.0);
+        assert_eq!(c.byzantine.kind, ByzantineKind::Faulty);
+        assert_eq!(c.byzantine.count, 2);
+    }
+
+    fn check_err(overrides: &[&str], expect: &str) {
+        let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+        let err = Config::resolve(None, None, &overrides).unwrap_err().to_string();
+        assert!(err.contains(expect), "error {err:?} lacks {expect:?}");
+    }
+
+    #[test]
+    fn errors_name_the_key_the_value_and_what_is_allowed() {
+        check_err(&["world.robtos=3"], "unknown configuration key `world.robtos`");
+        check_err(&["world.robtos=3"], "rab_range_m");
+        check_err(&["world.robots=many"], "`world.robots`: value `many` has the wrong type; expected an integer");
+        check_err(&["world.robots=0"], "`world.robots`: value 0 is out of range; allowed: an integer in [1, 10000]");
+        check_err(&["learn.dropout=1.5"], "learn.dropout");
+        check_err(&["byzantine.kind=evil"], "byzantine.kind");
+        check_err(&["byzantine.kind=faulty"], "byzantine.count");
+        check_err(&["noequals"], "expected key.path=value");
+        let err = Config::resolve(Some("papr"), None, &[]).unwrap_err().to_string();
+        assert!(err.contains("unknown preset \"papr\"") && err.contains("e3-smart"), "{err}");
+    }
+
+    #[test]
+    fn a_file_overlays_the_preset_and_names_itself_in_errors() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-config-test-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let good = dir.join("good.toml");
+        std::fs::write(&good, "preset = \"reference\"\n[world]\nrobots = 20\n").unwrap();
+        let c = Config::resolve(None, Some(&good), &[]).unwrap();
+        assert_eq!((c.world.robots, c.world.rab_range_m, c.preset.as_str()), (20, 2.0, "reference"));
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, "[world]\nrobots = 20\nspeed = 3\n").unwrap();
+        let err = Config::resolve(None, Some(&bad), &[]).unwrap_err().to_string();
+        assert!(err.contains("world.speed") && err.contains("bad.toml"), "{err}");
+        let broken = dir.join("broken.toml");
+        std::fs::write(&broken, "[world\nrobots = 20\n").unwrap();
+        let err = Config::resolve(None, Some(&broken), &[]).unwrap_err().to_string();
+        assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

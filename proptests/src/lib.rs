@@ -1,0 +1,1 @@
+//! Property-based tests across swarmfl-core live in `tests/`.

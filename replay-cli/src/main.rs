@@ -1,0 +1,2 @@
+//! The `swarmfl` command.
+fn main() {}
