@@ -1,1 +1,118 @@
-//! Placeholder.
+//! The records of a run's log: events that the reducers fold, and the checkpoints that pin the
+//! state they must produce.
+//!
+//! Events are the only inputs of the reduced state ([`crate::sim::State`]): everything random or
+//! decided by an agent (a wheel command, a sealing, a gossip delivery, a submitted model) is an
+//! event; everything else is derived by the reducers. The log is a boundary: these types are
+//! versioned by [`crate::log::FORMAT_VERSION`].
+
+use serde::{Deserialize, Serialize};
+
+use crate::types::{Digest, RobotId, SimTime};
+use crate::world::TickEvent;
+
+/// One record of the log.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Record {
+    /// An event at simulated time `time`, folded by the reducers.
+    Event {
+        /// When the event happens.
+        time: SimTime,
+        /// What happens.
+        event: Event,
+    },
+    /// The state digests the reducers must have produced after every earlier event.
+    Checkpoint(Checkpoint),
+}
+
+impl Record {
+    /// A short name of the record's kind, for messages ("tick", "checkpoint", ...).
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Record::Event { event, .. } => event.kind(),
+            Record::Checkpoint(_) => "checkpoint",
+        }
+    }
+
+    /// The record's simulated time.
+    pub fn time(&self) -> SimTime {
+        match self {
+            Record::Event { time, .. } => *time,
+            Record::Checkpoint(c) => c.time,
+        }
+    }
+}
+
+/// Something that happens in the simulation.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Event {
+    /// One world tick: every robot's wheel command (physics, sensing and data follow from it).
+    Tick(TickEvent),
+}
+
+impl Event {
+    /// A short name of the event's kind.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Event::Tick(_) => "tick",
+        }
+    }
+}
+
+/// Per-component digests of the state at a point of the run.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Checkpoint {
+    /// Simulated time of the state.
+    pub time: SimTime,
+    /// Why the checkpoint was taken.
+    pub cause: CheckpointCause,
+    /// Digest of the world (poses, sensors, data sets).
+    pub world: Digest,
+    /// Digest of each node's ledger state (head and mempool), in robot order.
+    pub nodes: Vec<Digest>,
+    /// Digest of the contract state at every node's head, combined in robot order.
+    pub contract: Digest,
+    /// Digest of the metrics accumulated so far.
+    pub metrics: Digest,
+}
+
+/// Why a checkpoint was written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CheckpointCause {
+    /// A node sealed a block.
+    Block {
+        /// The sealing node.
+        node: RobotId,
+        /// The block's height.
+        height: u64,
+    },
+    /// A periodic checkpoint (every block period when nothing is sealed).
+    Periodic,
+    /// The end of the run.
+    End,
+}
+
+impl Checkpoint {
+    /// Names the first component whose digest differs from `other`'s, or `None` if equal.
+    pub fn first_difference(&self, other: &Checkpoint) -> Option<String> {
+        if self.world != other.world {
+            return Some("world".to_string());
+        }
+        if self.nodes.len() != other.nodes.len() {
+            return Some(format!("ledger (node count {} vs {})", self.nodes.len(), other.nodes.len()));
+        }
+        if let Some(i) = self.nodes.iter().zip(&other.nodes).position(|(a, b)| a != b) {
+            return Some(format!("ledger node {i}"));
+        }
+        if self.contract != other.contract {
+            return Some("contract".to_string());
+        }
+        if self.metrics != other.metrics {
+            return Some("metrics".to_string());
+        }
+        if self.time != other.time || self.cause != other.cause {
+            return Some("checkpoint time or cause".to_string());
+        }
+        None
+    }
+}

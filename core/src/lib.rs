@@ -14,6 +14,7 @@ pub mod event;
 pub mod learn;
 pub mod ledger;
 pub mod log;
+pub mod replay;
 pub mod rng;
 pub mod sim;
 pub mod types;

@@ -1,1 +1,726 @@
-//! Placeholder.
+//! The run log: a self-describing header, then length-prefixed rmp-serde records folded into a
+//! blake3 hash chain, then a footer with the final hash. Written and read as a stream.
+//!
+//! Layout (all integers little-endian):
+//!
+//! ```text
+//! magic    "SWARMFL\0"                      8 bytes
+//! version  u32                              FORMAT_VERSION
+//! hlen     u32, header: rmp-serde (named)   Header
+//! htag     [u8; 8]                          first 8 bytes of blake3(header bytes)
+//! frames   kind u8 | len u32 | tag [u8; 8] | payload (len bytes)
+//!          kind 1 = record (payload: rmp-serde Record), kind 2 = footer (payload: Footer)
+//! ```
+//!
+//! The chain starts at `h0 = blake3("swarmfl-log" | version | run identity)`, where the identity
+//! is the seed, the resolved configuration and the fork origin (not the build provenance, so
+//! that the same run made by two builds has the same final hash), and folds every
+//! frame's payload: `h(i+1) = blake3(h(i) | payload)`. A frame's tag is the first 8 bytes of its
+//! chain value, so a flipped bit is caught at the very record it hits; the footer carries the
+//! whole final hash and the record count. A cut or damaged log is reported with the byte offset
+//! and record index of the first bad frame and the last good checkpoint, and every record
+//! before it stays readable.
+
+use std::fs::File;
+use std::io::{BufReader, BufWriter, Read, Write};
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::event::Record;
+use crate::types::{Digest, SimTime};
+
+/// The first bytes of every log.
+pub const MAGIC: &[u8; 8] = b"SWARMFL\0";
+/// The version of the layout and of the record types; bumped on any incompatible change.
+pub const FORMAT_VERSION: u32 = 1;
+/// Largest payload a frame may carry; a larger length is taken as corruption.
+pub const MAX_PAYLOAD_BYTES: u32 = 1 << 28;
+
+const KIND_RECORD: u8 = 1;
+const KIND_FOOTER: u8 = 2;
+const FRAME_OVERHEAD: u64 = 13;
+
+/// The self-describing header of a log: enough to re-simulate the run and to know what made it.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Header {
+    /// Layout version (equals the file's version field).
+    pub format_version: u32,
+    /// Version of swarmfl-core that wrote the log.
+    pub crate_version: String,
+    /// Git commit of the source, when known at build time.
+    pub git_commit: Option<String>,
+    /// `rustc --version` of the compiler, when known at build time.
+    pub rustc_version: Option<String>,
+    /// Target triple of the build.
+    pub target: String,
+    /// The run's seed.
+    pub seed: u64,
+    /// The fully resolved configuration, as TOML text.
+    pub config_toml: String,
+    /// For a forked run: the parent log and the block height it was forked at.
+    pub parent: Option<ForkOrigin>,
+}
+
+/// Where a forked run came from.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ForkOrigin {
+    /// Final hash of the parent log.
+    pub parent_final_hash: Digest,
+    /// Block height of the fork point on the parent's final canonical chain.
+    pub height: u64,
+    /// Overrides applied at the fork.
+    pub overrides: Vec<String>,
+}
+
+impl Header {
+    /// A header for a new run of this build.
+    pub fn new(seed: u64, config_toml: String) -> Header {
+        Header {
+            format_version: FORMAT_VERSION,
+            crate_version: env!("CARGO_PKG_VERSION").to_string(),
+            git_commit: option_env!("SWARMFL_GIT_COMMIT").filter(|s| !s.is_empty()).map(str::to_string),
+            rustc_version: option_env!("SWARMFL_RUSTC_VERSION")
+                .filter(|s| !s.is_empty())
+                .map(str::to_string),
+            target: option_env!("SWARMFL_TARGET").unwrap_or("unknown").to_string(),
+            seed,
+            config_toml,
+            parent: None,
+        }
+    }
+}
+
+/// The last frame of a complete log.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Footer {
+    /// Number of records before the footer.
+    pub records: u64,
+    /// The chain hash after the last record: names the whole run.
+    pub final_hash: Digest,
+}
+
+/// Where the last good checkpoint of a damaged log is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct GoodCheckpoint {
+    /// Its record index.
+    pub index: u64,
+    /// Its simulated time.
+    pub time: SimTime,
+}
+
+fn describe_checkpoint(c: &Option<GoodCheckpoint>) -> String {
+    match c {
+        Some(c) => format!("the last good checkpoint is record {} at t = {}", c.index, c.time),
+        None => "no checkpoint precedes it".to_string(),
+    }
+}
+
+/// What is wrong with a log file (or with writing one).
+#[derive(Debug, thiserror::Error)]
+pub enum LogError {
+    /// The file could not be opened, read or written.
+    #[error("{path}: {message}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The operating system's message.
+        message: String,
+    },
+    /// The file does not start with the swarmfl magic bytes.
+    #[error("{path}: not a swarmfl log (the first 8 bytes are not \"SWARMFL\\0\"); pass the run.swlog file that `swarmfl run` wrote")]
+    NotALog {
+        /// The file.
+        path: String,
+    },
+    /// The log was written in another format version.
+    #[error("{path}: log format version {found}, but this swarmfl (v{crate_version}) reads version {supported}; replay it with the swarmfl version that wrote it, or re-run the simulation with this one")]
+    Version {
+        /// The file.
+        path: String,
+        /// Version found in the file.
+        found: u32,
+        /// Version this build reads.
+        supported: u32,
+        /// This build's crate version.
+        crate_version: &'static str,
+    },
+    /// The header cannot be decoded.
+    #[error("{path}: damaged header at byte offset {offset}: {message}; the log cannot be replayed, re-run the simulation")]
+    Header {
+        /// The file.
+        path: String,
+        /// Byte offset of the header.
+        offset: u64,
+        /// The decoder's message.
+        message: String,
+    },
+    /// The log ends early: a frame is cut, or the footer is missing.
+    #[error("{path}: log is truncated at byte offset {offset}, record {index}: {message}; records 0..{index} are intact and {checkpoint}. Re-run the simulation to get the whole log, or inspect the intact prefix", checkpoint = describe_checkpoint(last_good_checkpoint))]
+    Truncated {
+        /// The file.
+        path: String,
+        /// Byte offset of the incomplete frame (or of the end of the file).
+        offset: u64,
+        /// Index of the first record that is missing.
+        index: u64,
+        /// What is missing.
+        message: String,
+        /// The last checkpoint before the damage.
+        last_good_checkpoint: Option<GoodCheckpoint>,
+    },
+    /// A frame is damaged: bad kind, absurd length, broken hash chain or undecodable payload.
+    #[error("{path}: corrupt record {index} at byte offset {offset}: {message}; records 0..{index} are intact and {checkpoint}. The file was altered after it was written: re-run the simulation with the seed and config in its header", checkpoint = describe_checkpoint(last_good_checkpoint))]
+    Corrupt {
+        /// The file.
+        path: String,
+        /// Byte offset of the damaged frame.
+        offset: u64,
+        /// Index of the damaged record.
+        index: u64,
+        /// What is wrong.
+        message: String,
+        /// The last checkpoint before the damage.
+        last_good_checkpoint: Option<GoodCheckpoint>,
+    },
+}
+
+impl LogError {
+    /// The record index of the damage, for errors that have one.
+    pub fn record_index(&self) -> Option<u64> {
+        match self {
+            LogError::Truncated { index, .. } | LogError::Corrupt { index, .. } => Some(*index),
+            _ => None,
+        }
+    }
+
+    /// The byte offset of the damage, for errors that have one.
+    pub fn offset(&self) -> Option<u64> {
+        match self {
+            LogError::Truncated { offset, .. }
+            | LogError::Corrupt { offset, .. }
+            | LogError::Header { offset, .. } => Some(*offset),
+            _ => None,
+        }
+    }
+}
+
+/// The running blake3 hash chain over a log's frames.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct HashChain {
+    value: [u8; 32],
+}
+
+impl HashChain {
+    /// The chain's start for a run: its identity (seed, configuration, fork origin).
+    pub fn start(header: &Header) -> HashChain {
+        let identity = (header.seed, &header.config_toml, &header.parent);
+        let mut h = blake3::Hasher::new();
+        h.update(b"swarmfl-log");
+        h.update(&FORMAT_VERSION.to_le_bytes());
+        h.update(&rmp_serde::to_vec(&identity).expect("identity encodes"));
+        HashChain { value: *h.finalize().as_bytes() }
+    }
+
+    /// Folds one payload; returns the frame tag (first 8 bytes of the new value).
+    pub fn fold(&mut self, payload: &[u8]) -> [u8; 8] {
+        let mut h = blake3::Hasher::new();
+        h.update(&self.value);
+        h.update(payload);
+        self.value = *h.finalize().as_bytes();
+        self.tag()
+    }
+
+    /// The tag of the current value.
+    pub fn tag(&self) -> [u8; 8] {
+        let mut tag = [0u8; 8];
+        tag.copy_from_slice(&self.value[..8]);
+        tag
+    }
+
+    /// The current chain value.
+    pub fn digest(&self) -> Digest {
+        Digest(self.value)
+    }
+}
+
+/// Encodes a record the way the log stores it (compact rmp-serde).
+pub fn encode_record(record: &Record, buf: &mut Vec<u8>) {
+    buf.clear();
+    rmp_serde::encode::write(buf, record).expect("records always encode");
+}
+
+/// Writes a log as a stream.
+pub struct LogWriter<W: Write> {
+    out: W,
+    path: String,
+    chain: HashChain,
+    records: u64,
+    bytes: u64,
+    buf: Vec<u8>,
+}
+
+impl LogWriter<BufWriter<File>> {
+    /// Creates (or replaces) the log file at `path` and writes its header.
+    pub fn create(path: &Path, header: &Header) -> Result<Self, LogError> {
+        let io = |e: std::io::Error| LogError::Io { path: path.display().to_string(), message: e.to_string() };
+        let file = File::create(path).map_err(io)?;
+        LogWriter::new(BufWriter::with_capacity(1 << 20, file), &path.display().to_string(), header)
+    }
+}
+
+impl<W: Write> LogWriter<W> {
+    /// Writes the header of a log into `out`; `name` names it in errors.
+    pub fn new(mut out: W, name: &str, header: &Header) -> Result<Self, LogError> {
+        assert_eq!(header.format_version, FORMAT_VERSION);
+        let header_bytes = rmp_serde::to_vec_named(header).expect("headers always encode");
+        let io = |e: std::io::Error| LogError::Io { path: name.to_string(), message: e.to_string() };
+        out.write_all(MAGIC).map_err(io)?;
+        out.write_all(&FORMAT_VERSION.to_le_bytes()).map_err(io)?;
+        out.write_all(&(header_bytes.len() as u32).to_le_bytes()).map_err(io)?;
+        out.write_all(&header_bytes).map_err(io)?;
+        out.write_all(&blake3::hash(&header_bytes).as_bytes()[..8]).map_err(io)?;
+        Ok(LogWriter {
+            out,
+            path: name.to_string(),
+            chain: HashChain::start(header),
+            records: 0,
+            bytes: 24 + header_bytes.len() as u64,
+            buf: Vec::with_capacity(1 << 16),
+        })
+    }
+
+    /// Appends one record.
+    pub fn append(&mut self, record: &Record) -> Result<(), LogError> {
+        let mut buf = std::mem::take(&mut self.buf);
+        encode_record(record, &mut buf);
+        let result = self.write_frame(KIND_RECORD, &buf);
+        self.buf = buf;
+        self.records += 1;
+        result
+    }
+
+    fn write_frame(&mut self, kind: u8, payload: &[u8]) -> Result<(), LogError> {
+        assert!(payload.len() <= MAX_PAYLOAD_BYTES as usize, "record of {} bytes", payload.len());
+        let tag = self.chain.fold(payload);
+        let io = |e: std::io::Error| LogError::Io { path: self.path.clone(), message: e.to_string() };
+        let mut head = [0u8; FRAME_OVERHEAD as usize];
+        head[0] = kind;
+        head[1..5].copy_from_slice(&(payload.len() as u32).to_le_bytes());
+        head[5..13].copy_from_slice(&tag);
+        self.out.write_all(&head).map_err(io)?;
+        self.out.write_all(payload).map_err(io)?;
+        self.bytes += FRAME_OVERHEAD + payload.len() as u64;
+        Ok(())
+    }
+
+    /// Records written so far.
+    pub fn records(&self) -> u64 {
+        self.records
+    }
+
+    /// Bytes written so far.
+    pub fn bytes(&self) -> u64 {
+        self.bytes
+    }
+
+    /// The chain hash after the last record.
+    pub fn chain_hash(&self) -> Digest {
+        self.chain.digest()
+    }
+
+    /// Writes the footer and flushes; returns the footer and the underlying writer.
+    pub fn finish(mut self) -> Result<(Footer, W), LogError> {
+        let footer = Footer { records: self.records, final_hash: self.chain.digest() };
+        let payload = rmp_serde::to_vec(&footer).expect("footers always encode");
+        self.write_frame(KIND_FOOTER, &payload)?;
+        self.out
+            .flush()
+            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        Ok((footer, self.out))
+    }
+}
+
+/// Reads a log as a stream, verifying the hash chain at every frame.
+pub struct LogReader<R: Read> {
+    input: R,
+    path: String,
+    header: Header,
+    header_bytes: Vec<u8>,
+    chain: HashChain,
+    offset: u64,
+    index: u64,
+    last_checkpoint: Option<GoodCheckpoint>,
+    footer: Option<Footer>,
+    payload: Vec<u8>,
+}
+
+impl LogReader<BufReader<File>> {
+    /// Opens the log at `path` and reads its header.
+    pub fn open(path: &Path) -> Result<Self, LogError> {
+        let file = File::open(path)
+            .map_err(|e| LogError::Io { path: path.display().to_string(), message: e.to_string() })?;
+        LogReader::new(BufReader::with_capacity(1 << 20, file), &path.display().to_string())
+    }
+}
+
+/// Reads until `buf` is full or the input ends; returns the bytes read.
+fn read_full<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut filled = 0;
+    while filled < buf.len() {
+        match input.read(&mut buf[filled..]) {
+            Ok(0) => break,
+            Ok(n) => filled += n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(e) => return Err(e),
+        }
+    }
+    Ok(filled)
+}
+
+impl<R: Read> LogReader<R> {
+    /// Reads the header from `input`; `name` names the log in errors.
+    pub fn new(mut input: R, name: &str) -> Result<Self, LogError> {
+        let io = |e: std::io::Error| LogError::Io { path: name.to_string(), message: e.to_string() };
+        let mut fixed = [0u8; 16];
+        let n = read_full(&mut input, &mut fixed).map_err(io)?;
+        if n < 8 || &fixed[..8] != MAGIC {
+            return Err(LogError::NotALog { path: name.to_string() });
+        }
+        if n < 16 {
+            return Err(LogError::Header {
+                path: name.to_string(),
+                offset: 8,
+                message: format!("the file ends after {n} bytes, inside the fixed header"),
+            });
+        }
+        let version = u32::from_le_bytes(fixed[8..12].try_into().expect("4 bytes"));
+        if version != FORMAT_VERSION {
+            return Err(LogError::Version {
+                path: name.to_string(),
+                found: version,
+                supported: FORMAT_VERSION,
+                crate_version: env!("CARGO_PKG_VERSION"),
+            });
+        }
+        let header_len = u32::from_le_bytes(fixed[12..16].try_into().expect("4 bytes"));
+        if header_len > MAX_PAYLOAD_BYTES {
+            return Err(LogError::Header {
+                path: name.to_string(),
+                offset: 16,
+                message: format!("header length {header_len} is absurd"),
+            });
+        }
+        let mut header_bytes = vec![0u8; header_len as usize + 8];
+        let got = read_full(&mut input, &mut header_bytes).map_err(io)?;
+        if got < header_bytes.len() {
+            return Err(LogError::Header {
+                path: name.to_string(),
+                offset: 16,
+                message: format!("the file ends inside the header ({got} of {} bytes)", header_len + 8),
+            });
+        }
+        let header_tag = header_bytes.split_off(header_len as usize);
+        if header_tag[..] != blake3::hash(&header_bytes).as_bytes()[..8] {
+            return Err(LogError::Header {
+                path: name.to_string(),
+                offset: 16,
+                message: "header checksum mismatch: the header bytes were altered".to_string(),
+            });
+        }
+        let header: Header = rmp_serde::from_slice(&header_bytes).map_err(|e| LogError::Header {
+            path: name.to_string(),
+            offset: 16,
+            message: e.to_string(),
+        })?;
+        if header.format_version != FORMAT_VERSION {
+            return Err(LogError::Header {
+                path: name.to_string(),
+                offset: 16,
+                message: format!(
+                    "header says format version {} but the file says {FORMAT_VERSION}",
+                    header.format_version
+                ),
+            });
+        }
+        Ok(LogReader {
+            input,
+            path: name.to_string(),
+            chain: HashChain::start(&header),
+            header,
+            header_bytes,
+            offset: 24 + u64::from(header_len),
+            index: 0,
+            last_checkpoint: None,
+            footer: None,
+            payload: Vec::new(),
+        })
+    }
+
+    /// The log's header.
+    pub fn header(&self) -> &Header {
+        &self.header
+    }
+
+    /// The header's encoded bytes (what the chain starts from).
+    pub fn header_bytes(&self) -> &[u8] {
+        &self.header_bytes
+    }
+
+    /// The footer, once [`LogReader::next_record`] has returned `Ok(None)`.
+    pub fn footer(&self) -> Option<Footer> {
+        self.footer
+    }
+
+    /// Index of the next record.
+    pub fn index(&self) -> u64 {
+        self.index
+    }
+
+    /// Byte offset of the next frame.
+    pub fn offset(&self) -> u64 {
+        self.offset
+    }
+
+    /// The chain hash after the records read so far.
+    pub fn chain_hash(&self) -> Digest {
+        self.chain.digest()
+    }
+
+    /// The last checkpoint read so far.
+    pub fn last_checkpoint(&self) -> Option<GoodCheckpoint> {
+        self.last_checkpoint
+    }
+
+    fn truncated(&self, offset: u64, message: String) -> LogError {
+        LogError::Truncated {
+            path: self.path.clone(),
+            offset,
+            index: self.index,
+            message,
+            last_good_checkpoint: self.last_checkpoint,
+        }
+    }
+
+    fn corrupt(&self, offset: u64, message: String) -> LogError {
+        LogError::Corrupt {
+            path: self.path.clone(),
+            offset,
+            index: self.index,
+            message,
+            last_good_checkpoint: self.last_checkpoint,
+        }
+    }
+
+    /// Reads the next record; `Ok(None)` after a verified footer. After an error the reader
+    /// must not be used further; every record returned before it was verified.
+    pub fn next_record(&mut self) -> Result<Option<Record>, LogError> {
+        if self.footer.is_some() {
+            return Ok(None);
+        }
+        let frame_offset = self.offset;
+        let mut head = [0u8; FRAME_OVERHEAD as usize];
+        let n = read_full(&mut self.input, &mut head)
+            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        if n == 0 {
+            return Err(self.truncated(frame_offset, "the file ends without a footer".to_string()));
+        }
+        if n < head.len() {
+            return Err(self.truncated(frame_offset, format!("the file ends inside a frame header ({n} of 13 bytes)")));
+        }
+        let kind = head[0];
+        let len = u32::from_le_bytes(head[1..5].try_into().expect("4 bytes"));
+        if kind != KIND_RECORD && kind != KIND_FOOTER {
+            return Err(self.corrupt(frame_offset, format!("unknown frame kind {kind}")));
+        }
+        if len > MAX_PAYLOAD_BYTES {
+            return Err(self.corrupt(frame_offset, format!("frame length {len} exceeds the maximum {MAX_PAYLOAD_BYTES}")));
+        }
+        self.payload.resize(len as usize, 0);
+        let got = read_full(&mut self.input, &mut self.payload)
+            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        if got < len as usize {
+            return Err(self.truncated(
+                frame_offset,
+                format!("the file ends inside a frame ({got} of {len} payload bytes)"),
+            ));
+        }
+        let mut chain = self.chain.clone();
+        let tag = chain.fold(&self.payload);
+        if tag[..] != head[5..13] {
+            return Err(self.corrupt(
+                frame_offset,
+                "hash chain broken: the frame's bytes (or its length or tag) were altered".to_string(),
+            ));
+        }
+        if kind == KIND_FOOTER {
+            let footer: Footer = rmp_serde::from_slice(&self.payload)
+                .map_err(|e| self.corrupt(frame_offset, format!("undecodable footer: {e}")))?;
+            if footer.records != self.index || footer.final_hash != self.chain.digest() {
+                return Err(self.corrupt(
+                    frame_offset,
+                    format!(
+                        "footer says {} records and final hash {}, but the log has {} records with hash {}",
+                        footer.records,
+                        footer.final_hash.short(),
+                        self.index,
+                        self.chain.digest().short()
+                    ),
+                ));
+            }
+            let mut extra = [0u8; 1];
+            let trailing = read_full(&mut self.input, &mut extra)
+                .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+            if trailing != 0 {
+                return Err(self.corrupt(
+                    frame_offset + FRAME_OVERHEAD + u64::from(len),
+                    "bytes follow the footer".to_string(),
+                ));
+            }
+            self.chain = chain;
+            self.offset += FRAME_OVERHEAD + u64::from(len);
+            self.footer = Some(footer);
+            return Ok(None);
+        }
+        let record: Record = rmp_serde::from_slice(&self.payload)
+            .map_err(|e| self.corrupt(frame_offset, format!("undecodable record: {e}")))?;
+        self.chain = chain;
+        self.offset += FRAME_OVERHEAD + u64::from(len);
+        if let Record::Checkpoint(c) = &record {
+            self.last_checkpoint = Some(GoodCheckpoint { index: self.index, time: c.time });
+        }
+        self.index += 1;
+        Ok(Some(record))
+    }
+
+    /// The raw payload of the record last returned (its exact encoded bytes).
+    pub fn last_payload(&self) -> &[u8] {
+        &self.payload
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::event::{Checkpoint, CheckpointCause, Event};
+    use crate::world::{TickEvent, WheelCommand};
+
+    fn sample_log(records: u64) -> (Vec<u8>, Footer) {
+        let header = Header::new(7, "preset = \"smoke\"\n".to_string());
+        let mut w = LogWriter::new(Vec::new(), "mem", &header).unwrap();
+        for i in 0..records {
+            let record = if i % 10 == 9 {
+                Record::Checkpoint(Checkpoint {
+                    time: SimTime(i * 100),
+                    cause: CheckpointCause::Periodic,
+                    world: Digest::of(&i.to_le_bytes()),
+                    nodes: vec![],
+                    contract: Digest::default(),
+                    metrics: Digest::default(),
+                })
+            } else {
+                Record::Event {
+                    time: SimTime(i * 100),
+                    event: Event::Tick(TickEvent {
+                        commands: vec![WheelCommand { left: i as f32, right: 0.5 }; 3],
+                    }),
+                }
+            };
+            w.append(&record).unwrap();
+        }
+        let (footer, out) = w.finish().unwrap();
+        (out, footer)
+    }
+
+    fn read_all(bytes: &[u8]) -> (Vec<Record>, Result<Footer, LogError>) {
+        let mut reader = match LogReader::new(bytes, "mem") {
+            Ok(r) => r,
+            Err(e) => return (vec![], Err(e)),
+        };
+        let mut records = vec![];
+        loop {
+            match reader.next_record() {
+                Ok(Some(r)) => records.push(r),
+                Ok(None) => return (records, Ok(reader.footer().unwrap())),
+                Err(e) => return (records, Err(e)),
+            }
+        }
+    }
+
+    #[test]
+    fn header_and_records_round_trip() {
+        let (bytes, footer) = sample_log(25);
+        let reader = LogReader::new(&bytes[..], "mem").unwrap();
+        assert_eq!(reader.header().seed, 7);
+        assert_eq!(reader.header().config_toml, "preset = \"smoke\"\n");
+        assert_eq!(reader.header().format_version, FORMAT_VERSION);
+        let (records, end) = read_all(&bytes);
+        assert_eq!(records.len(), 25);
+        assert_eq!(end.unwrap(), footer);
+        assert_eq!(records[9].kind(), "checkpoint");
+        assert_eq!(records[3].time(), SimTime(300));
+    }
+
+    #[test]
+    fn the_hash_chain_names_the_run() {
+        let (a, fa) = sample_log(25);
+        let (b, fb) = sample_log(25);
+        assert_eq!(a, b, "same records, same bytes");
+        assert_eq!(fa.final_hash, fb.final_hash);
+        let (_, fc) = sample_log(24);
+        assert_ne!(fa.final_hash, fc.final_hash);
+    }
+
+    #[test]
+    fn every_single_byte_flip_is_caught_at_its_record() {
+        let (bytes, _) = sample_log(25);
+        let header_end = {
+            let r = LogReader::new(&bytes[..], "mem").unwrap();
+            r.offset() as usize
+        };
+        for pos in 16..header_end {
+            let mut damaged = bytes.clone();
+            damaged[pos] ^= 0x01;
+            let err = read_all(&damaged).1.unwrap_err();
+            assert!(matches!(err, LogError::Header { .. }), "flip at {pos}: {err}");
+        }
+        for pos in (header_end..bytes.len()).step_by(7) {
+            let mut damaged = bytes.clone();
+            damaged[pos] ^= 0x10;
+            let (records, end) = read_all(&damaged);
+            let err = end.expect_err("a flipped byte must be detected");
+            let offset = err.offset().expect("offset reported") as usize;
+            assert!(offset <= pos, "damage at {pos} reported at {offset}");
+            assert_eq!(err.record_index(), Some(records.len() as u64), "{err}");
+            assert!(matches!(err, LogError::Corrupt { .. } | LogError::Truncated { .. }), "{err}");
+        }
+    }
+
+    #[test]
+    fn a_cut_log_keeps_its_prefix_and_names_the_last_checkpoint() {
+        let (bytes, _) = sample_log(25);
+        for cut in [bytes.len() - 1, bytes.len() - 40, bytes.len() / 2] {
+            let (records, end) = read_all(&bytes[..cut]);
+            let err = end.unwrap_err();
+            let message = err.to_string();
+            assert!(matches!(err, LogError::Truncated { .. }), "{message}");
+            assert!(message.contains("truncated at byte offset"), "{message}");
+            assert!(message.contains(&format!("record {}", records.len())), "{message}");
+            if records.len() > 10 {
+                assert!(message.contains("last good checkpoint is record"), "{message}");
+            }
+        }
+    }
+
+    #[test]
+    fn foreign_files_and_other_versions_are_named() {
+        let (mut bytes, _) = sample_log(3);
+        let err = read_all(b"hello world, not a log").1.unwrap_err().to_string();
+        assert!(err.contains("not a swarmfl log"), "{err}");
+        bytes[8] = 99;
+        let err = read_all(&bytes).1.unwrap_err().to_string();
+        assert!(err.contains("format version 99") && err.contains("reads version 1"), "{err}");
+        let err = read_all(&MAGIC[..]).1.unwrap_err().to_string();
+        assert!(err.contains("inside the fixed header"), "{err}");
+    }
+}

@@ -2,9 +2,16 @@
 
 mod bench_train;
 mod bench_world;
+mod run;
 mod snapshot;
 
-use clap::{Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use swarmfl_core::config::{Config, Preset};
+use swarmfl_core::log::LogError;
+use swarmfl_core::replay::{self, ReplayError};
 
 /// swarmfl: a deterministic, event-sourced replay engine for blockchain-secured federated
 /// learning in robot swarms.
@@ -12,11 +19,60 @@ use clap::{Parser, Subcommand, ValueEnum};
 #[command(name = "swarmfl", version, about)]
 struct Cli {
     #[command(subcommand)]
-    command: Option<Command>,
+    command: Command,
+}
+
+/// Which configuration to use: a preset, a TOML file over it, and overrides.
+#[derive(Args, Debug, Clone)]
+struct ConfigArgs {
+    /// The preset to start from (see `swarmfl presets`); default `paper`.
+    #[arg(long)]
+    preset: Option<String>,
+    /// A TOML file overlaid on the preset (it may name its own `preset`).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    overrides: Vec<String>,
+}
+
+impl ConfigArgs {
+    fn resolve(&self) -> anyhow::Result<Config> {
+        Ok(Config::resolve(self.preset.as_deref(), self.config.as_deref(), &self.overrides)?)
+    }
 }
 
 #[derive(Subcommand, Debug)]
 enum Command {
+    /// Simulate a run: writes DIR/run.swlog and DIR/summary.json.
+    Run {
+        #[command(flatten)]
+        config: ConfigArgs,
+        /// The seed: with the configuration, it determines the whole run.
+        #[arg(long, default_value_t = 1)]
+        seed: u64,
+        /// Output directory (default `runs/<preset>-seed<N>`).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// No progress bar and no summary on stdout.
+        #[arg(long)]
+        quiet: bool,
+    },
+    /// Replay a log: fold its events and check every checkpoint (or re-simulate it).
+    Replay {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Re-simulate from the header's seed and configuration and compare every record.
+        #[arg(long)]
+        resimulate: bool,
+    },
+    /// List the presets.
+    Presets,
+    /// Print the fully resolved configuration as TOML.
+    Config {
+        #[command(flatten)]
+        config: ConfigArgs,
+    },
     /// Time one subsystem and print its figures.
     Bench {
         /// Which subsystem.
@@ -35,18 +91,62 @@ enum BenchTarget {
     Train,
 }
 
-fn main() -> std::process::ExitCode {
+/// Exit code for a run that is not bit-exact (divergence or damaged log).
+const EXIT_DIVERGED: u8 = 1;
+/// Exit code for bad arguments or input.
+const EXIT_ERROR: u8 = 2;
+
+fn main() -> ExitCode {
     let cli = Cli::parse();
-    let result = match cli.command {
-        Some(Command::Bench { target: BenchTarget::World, json }) => bench_world::run(json),
-        Some(Command::Bench { target: BenchTarget::Train, json }) => bench_train::run(json),
-        None => Ok(()),
-    };
-    match result {
-        Ok(()) => std::process::ExitCode::SUCCESS,
+    match dispatch(cli.command) {
+        Ok(code) => code,
         Err(e) => {
             eprintln!("error: {e:#}");
-            std::process::ExitCode::from(2)
+            // Exit 1 when a log is damaged or a run is not bit-exact; 2 for bad arguments,
+            // missing files and foreign files.
+            let diverged = matches!(
+                e.downcast_ref::<ReplayError>(),
+                Some(ReplayError::Diverged { .. } | ReplayError::Apply { .. })
+                    | Some(ReplayError::Log(LogError::Corrupt { .. } | LogError::Truncated { .. }))
+            );
+            ExitCode::from(if diverged { EXIT_DIVERGED } else { EXIT_ERROR })
         }
     }
 }
+
+fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
+    match command {
+        Command::Run { config, seed, out, quiet } => {
+            let config = config.resolve()?;
+            let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
+            let outcome = run::run(config, seed, &out, quiet)?;
+            if !quiet {
+                run::print_summary(&outcome);
+            }
+        }
+        Command::Replay { log, resimulate } => {
+            let report = if resimulate { replay::resimulate(&log)? } else { replay::replay(&log)? };
+            println!(
+                "bit-exact: {} records, {} blocks ({} checkpoints verified{}); final hash {}",
+                report.records,
+                report.blocks,
+                report.checkpoints,
+                if resimulate { ", every record re-simulated" } else { "" },
+                report.final_hash
+            );
+        }
+        Command::Presets => {
+            for preset in Preset::ALL {
+                println!("{:<14} {}", preset.name(), preset.description());
+            }
+        }
+        Command::Config { config } => {
+            let config = config.resolve()?;
+            print!("{}", config.to_toml());
+        }
+        Command::Bench { target: BenchTarget::World, json } => bench_world::run(json)?,
+        Command::Bench { target: BenchTarget::Train, json } => bench_train::run(json)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
+

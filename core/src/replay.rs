@@ -1,0 +1,224 @@
+//! Replaying a log: folding its events through the reducers and checking every checkpoint, or
+//! re-simulating the run from its header and comparing record by record.
+
+use std::io::Read;
+use std::path::Path;
+
+use crate::config::{Config, ConfigError};
+use crate::event::Record;
+use crate::log::{encode_record, Footer, LogError, LogReader};
+use crate::sim::{ApplyError, Sim, SimError, State};
+use crate::types::{Digest, SimTime};
+
+/// Why a replay failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReplayError {
+    /// The log itself is unreadable, cut or damaged.
+    #[error(transparent)]
+    Log(#[from] LogError),
+    /// The header's configuration is not valid for this build.
+    #[error("{path}: the configuration in the log header is not valid for this swarmfl: {source}")]
+    Config {
+        /// The log.
+        path: String,
+        /// What is wrong.
+        source: ConfigError,
+    },
+    /// The run cannot start from the header's configuration.
+    #[error("{path}: cannot start the run of the header: {source}")]
+    Start {
+        /// The log.
+        path: String,
+        /// What is wrong.
+        source: SimError,
+    },
+    /// An event does not fit the state.
+    #[error("{path}: record {index} ({kind} at t = {time}) cannot be applied: {source}")]
+    Apply {
+        /// The log.
+        path: String,
+        /// Record index.
+        index: u64,
+        /// Record kind.
+        kind: &'static str,
+        /// Simulated time.
+        time: SimTime,
+        /// What is wrong.
+        source: ApplyError,
+    },
+    /// The replayed or re-simulated run differs from the log.
+    #[error("{path}: diverged at record {index} ({kind} at t = {time}): {component} differs{detail}")]
+    Diverged {
+        /// The log.
+        path: String,
+        /// Index of the first diverging record.
+        index: u64,
+        /// Kind of the log's record there.
+        kind: &'static str,
+        /// Its simulated time.
+        time: SimTime,
+        /// Which component (or record) differs.
+        component: String,
+        /// More detail (what the other side had).
+        detail: String,
+    },
+}
+
+/// The result of a successful replay.
+#[derive(Debug)]
+pub struct ReplayReport {
+    /// Records checked.
+    pub records: u64,
+    /// Checkpoints verified.
+    pub checkpoints: u64,
+    /// Checkpoints taken at a sealed block.
+    pub blocks: u64,
+    /// The log's final hash.
+    pub final_hash: Digest,
+    /// The state rebuilt at the end.
+    pub state: State,
+    /// The configuration of the run.
+    pub config: Config,
+}
+
+/// The configuration recorded in a log's header.
+pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Config, ReplayError> {
+    let config: Config = toml::from_str(&reader.header().config_toml).map_err(|e| ReplayError::Config {
+        path: path.to_string(),
+        source: ConfigError::Parse { source_name: format!("{path} (header)"), message: e.to_string() },
+    })?;
+    config.validate().map_err(|source| ReplayError::Config { path: path.to_string(), source })?;
+    Ok(config)
+}
+
+/// Folds every event of the log at `path` through the reducers and checks every checkpoint.
+pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
+    let name = path.display().to_string();
+    let mut reader = LogReader::open(path)?;
+    let config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut state =
+        State::genesis(&config, seed).map_err(|source| ReplayError::Start { path: name.clone(), source })?;
+    let (mut checkpoints, mut blocks) = (0u64, 0u64);
+    while let Some(record) = reader.next_record()? {
+        let index = reader.index() - 1;
+        match &record {
+            Record::Event { time, event } => {
+                state.apply(*time, event).map_err(|source| ReplayError::Apply {
+                    path: name.clone(),
+                    index,
+                    kind: record.kind(),
+                    time: *time,
+                    source,
+                })?;
+            }
+            Record::Checkpoint(expected) => {
+                let actual = state.checkpoint(expected.cause);
+                if let Some(component) = actual.first_difference(expected) {
+                    return Err(ReplayError::Diverged {
+                        path: name,
+                        index,
+                        kind: record.kind(),
+                        time: expected.time,
+                        component,
+                        detail: " between the log's checkpoint and the replayed state".to_string(),
+                    });
+                }
+                checkpoints += 1;
+                if matches!(expected.cause, crate::event::CheckpointCause::Block { .. }) {
+                    blocks += 1;
+                }
+            }
+        }
+    }
+    let Footer { records, final_hash } = reader.footer().expect("a finished reader has its footer");
+    Ok(ReplayReport { records, checkpoints, blocks, final_hash, state, config })
+}
+
+/// Re-simulates the run from the header's seed and configuration and compares every record,
+/// byte for byte, with the log.
+pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
+    let name = path.display().to_string();
+    let mut reader = LogReader::open(path)?;
+    let config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut sim =
+        Sim::new(config.clone(), seed).map_err(|source| ReplayError::Start { path: name.clone(), source })?;
+    let (mut checkpoints, mut blocks) = (0u64, 0u64);
+    let mut buf = Vec::new();
+    loop {
+        let logged = reader.next_record()?;
+        let index = reader.index().saturating_sub(1);
+        let fresh = sim.next();
+        match (logged, fresh) {
+            (None, None) => break,
+            (Some(logged), None) => {
+                return Err(ReplayError::Diverged {
+                    path: name,
+                    index,
+                    kind: logged.kind(),
+                    time: logged.time(),
+                    component: "record count".to_string(),
+                    detail: ": the log has more records than the re-simulation".to_string(),
+                })
+            }
+            (None, Some(fresh)) => {
+                return Err(ReplayError::Diverged {
+                    path: name,
+                    index: reader.index(),
+                    kind: fresh.kind(),
+                    time: fresh.time(),
+                    component: "record count".to_string(),
+                    detail: ": the re-simulation has more records than the log".to_string(),
+                })
+            }
+            (Some(logged), Some(fresh)) => {
+                encode_record(&fresh, &mut buf);
+                if buf != reader.last_payload() {
+                    return Err(describe_divergence(&name, index, &logged, &fresh));
+                }
+                if let Record::Checkpoint(c) = &logged {
+                    checkpoints += 1;
+                    if matches!(c.cause, crate::event::CheckpointCause::Block { .. }) {
+                        blocks += 1;
+                    }
+                }
+            }
+        }
+    }
+    let Footer { records, final_hash } = reader.footer().expect("a finished reader has its footer");
+    let state = sim.state().clone();
+    Ok(ReplayReport { records, checkpoints, blocks, final_hash, state, config })
+}
+
+/// Explains how two records at the same index differ.
+pub fn describe_divergence(path: &str, index: u64, logged: &Record, fresh: &Record) -> ReplayError {
+    let (component, detail) = match (logged, fresh) {
+        (Record::Checkpoint(a), Record::Checkpoint(b)) => (
+            a.first_difference(b).unwrap_or_else(|| "checkpoint encoding".to_string()),
+            " (checkpoint digests differ)".to_string(),
+        ),
+        (Record::Event { event: a, time: ta }, Record::Event { event: b, time: tb }) => {
+            if a.kind() != b.kind() || ta != tb {
+                (
+                    "event sequence".to_string(),
+                    format!(": the log has {} at t = {ta}, the other run {} at t = {tb}", a.kind(), b.kind()),
+                )
+            } else {
+                (format!("{} event", a.kind()), ": same kind and time, different contents".to_string())
+            }
+        }
+        _ => (
+            "record sequence".to_string(),
+            format!(": the log has a {} record, the other run a {} record", logged.kind(), fresh.kind()),
+        ),
+    };
+    ReplayError::Diverged {
+        path: path.to_string(),
+        index,
+        kind: logged.kind(),
+        time: logged.time(),
+        component,
+        detail,
+    }
+}
