@@ -99,9 +99,18 @@ impl Checkpoint {
             return Some("world".to_string());
         }
         if self.nodes.len() != other.nodes.len() {
-            return Some(format!("ledger (node count {} vs {})", self.nodes.len(), other.nodes.len()));
+            return Some(format!(
+                "ledger (node count {} vs {})",
+                self.nodes.len(),
+                other.nodes.len()
+            ));
         }
-        if let Some(i) = self.nodes.iter().zip(&other.nodes).position(|(a, b)| a != b) {
+        if let Some(i) = self
+            .nodes
+            .iter()
+            .zip(&other.nodes)
+            .position(|(a, b)| a != b)
+        {
             return Some(format!("ledger node {i}"));
         }
         if self.contract != other.contract {

@@ -79,11 +79,15 @@ impl Header {
         Header {
             format_version: FORMAT_VERSION,
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
-            git_commit: option_env!("SWARMFL_GIT_COMMIT").filter(|s| !s.is_empty()).map(str::to_string),
+            git_commit: option_env!("SWARMFL_GIT_COMMIT")
+                .filter(|s| !s.is_empty())
+                .map(str::to_string),
             rustc_version: option_env!("SWARMFL_RUSTC_VERSION")
                 .filter(|s| !s.is_empty())
                 .map(str::to_string),
-            target: option_env!("SWARMFL_TARGET").unwrap_or("unknown").to_string(),
+            target: option_env!("SWARMFL_TARGET")
+                .unwrap_or("unknown")
+                .to_string(),
             seed,
             config_toml,
             parent: None,
@@ -111,7 +115,10 @@ pub struct GoodCheckpoint {
 
 fn describe_checkpoint(c: &Option<GoodCheckpoint>) -> String {
     match c {
-        Some(c) => format!("the last good checkpoint is record {} at t = {}", c.index, c.time),
+        Some(c) => format!(
+            "the last good checkpoint is record {} at t = {}",
+            c.index, c.time
+        ),
         None => "no checkpoint precedes it".to_string(),
     }
 }
@@ -219,7 +226,9 @@ impl HashChain {
         h.update(b"swarmfl-log");
         h.update(&FORMAT_VERSION.to_le_bytes());
         h.update(&rmp_serde::to_vec(&identity).expect("identity encodes"));
-        HashChain { value: *h.finalize().as_bytes() }
+        HashChain {
+            value: *h.finalize().as_bytes(),
+        }
     }
 
     /// Folds one payload; returns the frame tag (first 8 bytes of the new value).
@@ -263,9 +272,16 @@ pub struct LogWriter<W: Write> {
 impl LogWriter<BufWriter<File>> {
     /// Creates (or replaces) the log file at `path` and writes its header.
     pub fn create(path: &Path, header: &Header) -> Result<Self, LogError> {
-        let io = |e: std::io::Error| LogError::Io { path: path.display().to_string(), message: e.to_string() };
+        let io = |e: std::io::Error| LogError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        };
         let file = File::create(path).map_err(io)?;
-        LogWriter::new(BufWriter::with_capacity(1 << 20, file), &path.display().to_string(), header)
+        LogWriter::new(
+            BufWriter::with_capacity(1 << 20, file),
+            &path.display().to_string(),
+            header,
+        )
     }
 }
 
@@ -274,12 +290,17 @@ impl<W: Write> LogWriter<W> {
     pub fn new(mut out: W, name: &str, header: &Header) -> Result<Self, LogError> {
         assert_eq!(header.format_version, FORMAT_VERSION);
         let header_bytes = rmp_serde::to_vec_named(header).expect("headers always encode");
-        let io = |e: std::io::Error| LogError::Io { path: name.to_string(), message: e.to_string() };
+        let io = |e: std::io::Error| LogError::Io {
+            path: name.to_string(),
+            message: e.to_string(),
+        };
         out.write_all(MAGIC).map_err(io)?;
         out.write_all(&FORMAT_VERSION.to_le_bytes()).map_err(io)?;
-        out.write_all(&(header_bytes.len() as u32).to_le_bytes()).map_err(io)?;
+        out.write_all(&(header_bytes.len() as u32).to_le_bytes())
+            .map_err(io)?;
         out.write_all(&header_bytes).map_err(io)?;
-        out.write_all(&blake3::hash(&header_bytes).as_bytes()[..8]).map_err(io)?;
+        out.write_all(&blake3::hash(&header_bytes).as_bytes()[..8])
+            .map_err(io)?;
         Ok(LogWriter {
             out,
             path: name.to_string(),
@@ -301,9 +322,16 @@ impl<W: Write> LogWriter<W> {
     }
 
     fn write_frame(&mut self, kind: u8, payload: &[u8]) -> Result<(), LogError> {
-        assert!(payload.len() <= MAX_PAYLOAD_BYTES as usize, "record of {} bytes", payload.len());
+        assert!(
+            payload.len() <= MAX_PAYLOAD_BYTES as usize,
+            "record of {} bytes",
+            payload.len()
+        );
         let tag = self.chain.fold(payload);
-        let io = |e: std::io::Error| LogError::Io { path: self.path.clone(), message: e.to_string() };
+        let io = |e: std::io::Error| LogError::Io {
+            path: self.path.clone(),
+            message: e.to_string(),
+        };
         let mut head = [0u8; FRAME_OVERHEAD as usize];
         head[0] = kind;
         head[1..5].copy_from_slice(&(payload.len() as u32).to_le_bytes());
@@ -331,12 +359,16 @@ impl<W: Write> LogWriter<W> {
 
     /// Writes the footer and flushes; returns the footer and the underlying writer.
     pub fn finish(mut self) -> Result<(Footer, W), LogError> {
-        let footer = Footer { records: self.records, final_hash: self.chain.digest() };
+        let footer = Footer {
+            records: self.records,
+            final_hash: self.chain.digest(),
+        };
         let payload = rmp_serde::to_vec(&footer).expect("footers always encode");
         self.write_frame(KIND_FOOTER, &payload)?;
-        self.out
-            .flush()
-            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        self.out.flush().map_err(|e| LogError::Io {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
         Ok((footer, self.out))
     }
 }
@@ -358,9 +390,14 @@ pub struct LogReader<R: Read> {
 impl LogReader<BufReader<File>> {
     /// Opens the log at `path` and reads its header.
     pub fn open(path: &Path) -> Result<Self, LogError> {
-        let file = File::open(path)
-            .map_err(|e| LogError::Io { path: path.display().to_string(), message: e.to_string() })?;
-        LogReader::new(BufReader::with_capacity(1 << 20, file), &path.display().to_string())
+        let file = File::open(path).map_err(|e| LogError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        })?;
+        LogReader::new(
+            BufReader::with_capacity(1 << 20, file),
+            &path.display().to_string(),
+        )
     }
 }
 
@@ -381,11 +418,16 @@ fn read_full<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
 impl<R: Read> LogReader<R> {
     /// Reads the header from `input`; `name` names the log in errors.
     pub fn new(mut input: R, name: &str) -> Result<Self, LogError> {
-        let io = |e: std::io::Error| LogError::Io { path: name.to_string(), message: e.to_string() };
+        let io = |e: std::io::Error| LogError::Io {
+            path: name.to_string(),
+            message: e.to_string(),
+        };
         let mut fixed = [0u8; 16];
         let n = read_full(&mut input, &mut fixed).map_err(io)?;
         if n < 8 || &fixed[..8] != MAGIC {
-            return Err(LogError::NotALog { path: name.to_string() });
+            return Err(LogError::NotALog {
+                path: name.to_string(),
+            });
         }
         if n < 16 {
             return Err(LogError::Header {
@@ -417,7 +459,10 @@ impl<R: Read> LogReader<R> {
             return Err(LogError::Header {
                 path: name.to_string(),
                 offset: 16,
-                message: format!("the file ends inside the header ({got} of {} bytes)", header_len + 8),
+                message: format!(
+                    "the file ends inside the header ({got} of {} bytes)",
+                    header_len + 8
+                ),
             });
         }
         let header_tag = header_bytes.split_off(header_len as usize);
@@ -428,11 +473,12 @@ impl<R: Read> LogReader<R> {
                 message: "header checksum mismatch: the header bytes were altered".to_string(),
             });
         }
-        let header: Header = rmp_serde::from_slice(&header_bytes).map_err(|e| LogError::Header {
-            path: name.to_string(),
-            offset: 16,
-            message: e.to_string(),
-        })?;
+        let header: Header =
+            rmp_serde::from_slice(&header_bytes).map_err(|e| LogError::Header {
+                path: name.to_string(),
+                offset: 16,
+                message: e.to_string(),
+            })?;
         if header.format_version != FORMAT_VERSION {
             return Err(LogError::Header {
                 path: name.to_string(),
@@ -520,13 +566,18 @@ impl<R: Read> LogReader<R> {
         }
         let frame_offset = self.offset;
         let mut head = [0u8; FRAME_OVERHEAD as usize];
-        let n = read_full(&mut self.input, &mut head)
-            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        let n = read_full(&mut self.input, &mut head).map_err(|e| LogError::Io {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
         if n == 0 {
             return Err(self.truncated(frame_offset, "the file ends without a footer".to_string()));
         }
         if n < head.len() {
-            return Err(self.truncated(frame_offset, format!("the file ends inside a frame header ({n} of 13 bytes)")));
+            return Err(self.truncated(
+                frame_offset,
+                format!("the file ends inside a frame header ({n} of 13 bytes)"),
+            ));
         }
         let kind = head[0];
         let len = u32::from_le_bytes(head[1..5].try_into().expect("4 bytes"));
@@ -534,11 +585,16 @@ impl<R: Read> LogReader<R> {
             return Err(self.corrupt(frame_offset, format!("unknown frame kind {kind}")));
         }
         if len > MAX_PAYLOAD_BYTES {
-            return Err(self.corrupt(frame_offset, format!("frame length {len} exceeds the maximum {MAX_PAYLOAD_BYTES}")));
+            return Err(self.corrupt(
+                frame_offset,
+                format!("frame length {len} exceeds the maximum {MAX_PAYLOAD_BYTES}"),
+            ));
         }
         self.payload.resize(len as usize, 0);
-        let got = read_full(&mut self.input, &mut self.payload)
-            .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+        let got = read_full(&mut self.input, &mut self.payload).map_err(|e| LogError::Io {
+            path: self.path.clone(),
+            message: e.to_string(),
+        })?;
         if got < len as usize {
             return Err(self.truncated(
                 frame_offset,
@@ -550,7 +606,8 @@ impl<R: Read> LogReader<R> {
         if tag[..] != head[5..13] {
             return Err(self.corrupt(
                 frame_offset,
-                "hash chain broken: the frame's bytes (or its length or tag) were altered".to_string(),
+                "hash chain broken: the frame's bytes (or its length or tag) were altered"
+                    .to_string(),
             ));
         }
         if kind == KIND_FOOTER {
@@ -569,8 +626,10 @@ impl<R: Read> LogReader<R> {
                 ));
             }
             let mut extra = [0u8; 1];
-            let trailing = read_full(&mut self.input, &mut extra)
-                .map_err(|e| LogError::Io { path: self.path.clone(), message: e.to_string() })?;
+            let trailing = read_full(&mut self.input, &mut extra).map_err(|e| LogError::Io {
+                path: self.path.clone(),
+                message: e.to_string(),
+            })?;
             if trailing != 0 {
                 return Err(self.corrupt(
                     frame_offset + FRAME_OVERHEAD + u64::from(len),
@@ -587,7 +646,10 @@ impl<R: Read> LogReader<R> {
         self.chain = chain;
         self.offset += FRAME_OVERHEAD + u64::from(len);
         if let Record::Checkpoint(c) = &record {
-            self.last_checkpoint = Some(GoodCheckpoint { index: self.index, time: c.time });
+            self.last_checkpoint = Some(GoodCheckpoint {
+                index: self.index,
+                time: c.time,
+            });
         }
         self.index += 1;
         Ok(Some(record))
@@ -622,7 +684,13 @@ mod tests {
                 Record::Event {
                     time: SimTime(i * 100),
                     event: Event::Tick(TickEvent {
-                        commands: vec![WheelCommand { left: i as f32, right: 0.5 }; 3],
+                        commands: vec![
+                            WheelCommand {
+                                left: i as f32,
+                                right: 0.5
+                            };
+                            3
+                        ],
                     }),
                 }
             };
@@ -682,7 +750,10 @@ mod tests {
             let mut damaged = bytes.clone();
             damaged[pos] ^= 0x01;
             let err = read_all(&damaged).1.unwrap_err();
-            assert!(matches!(err, LogError::Header { .. }), "flip at {pos}: {err}");
+            assert!(
+                matches!(err, LogError::Header { .. }),
+                "flip at {pos}: {err}"
+            );
         }
         for pos in (header_end..bytes.len()).step_by(7) {
             let mut damaged = bytes.clone();
@@ -692,7 +763,10 @@ mod tests {
             let offset = err.offset().expect("offset reported") as usize;
             assert!(offset <= pos, "damage at {pos} reported at {offset}");
             assert_eq!(err.record_index(), Some(records.len() as u64), "{err}");
-            assert!(matches!(err, LogError::Corrupt { .. } | LogError::Truncated { .. }), "{err}");
+            assert!(
+                matches!(err, LogError::Corrupt { .. } | LogError::Truncated { .. }),
+                "{err}"
+            );
         }
     }
 
@@ -705,9 +779,15 @@ mod tests {
             let message = err.to_string();
             assert!(matches!(err, LogError::Truncated { .. }), "{message}");
             assert!(message.contains("truncated at byte offset"), "{message}");
-            assert!(message.contains(&format!("record {}", records.len())), "{message}");
+            assert!(
+                message.contains(&format!("record {}", records.len())),
+                "{message}"
+            );
             if records.len() > 10 {
-                assert!(message.contains("last good checkpoint is record"), "{message}");
+                assert!(
+                    message.contains("last good checkpoint is record"),
+                    "{message}"
+                );
             }
         }
     }
@@ -715,11 +795,17 @@ mod tests {
     #[test]
     fn foreign_files_and_other_versions_are_named() {
         let (mut bytes, _) = sample_log(3);
-        let err = read_all(b"hello world, not a log").1.unwrap_err().to_string();
+        let err = read_all(b"hello world, not a log")
+            .1
+            .unwrap_err()
+            .to_string();
         assert!(err.contains("not a swarmfl log"), "{err}");
         bytes[8] = 99;
         let err = read_all(&bytes).1.unwrap_err().to_string();
-        assert!(err.contains("format version 99") && err.contains("reads version 1"), "{err}");
+        assert!(
+            err.contains("format version 99") && err.contains("reads version 1"),
+            "{err}"
+        );
         let err = read_all(&MAGIC[..]).1.unwrap_err().to_string();
         assert!(err.contains("inside the fixed header"), "{err}");
     }

@@ -47,7 +47,9 @@ pub enum ReplayError {
         source: ApplyError,
     },
     /// The replayed or re-simulated run differs from the log.
-    #[error("{path}: diverged at record {index} ({kind} at t = {time}): {component} differs{detail}")]
+    #[error(
+        "{path}: diverged at record {index} ({kind} at t = {time}): {component} differs{detail}"
+    )]
     Diverged {
         /// The log.
         path: String,
@@ -83,11 +85,18 @@ pub struct ReplayReport {
 
 /// The configuration recorded in a log's header.
 pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Config, ReplayError> {
-    let config: Config = toml::from_str(&reader.header().config_toml).map_err(|e| ReplayError::Config {
+    let config: Config =
+        toml::from_str(&reader.header().config_toml).map_err(|e| ReplayError::Config {
+            path: path.to_string(),
+            source: ConfigError::Parse {
+                source_name: format!("{path} (header)"),
+                message: e.to_string(),
+            },
+        })?;
+    config.validate().map_err(|source| ReplayError::Config {
         path: path.to_string(),
-        source: ConfigError::Parse { source_name: format!("{path} (header)"), message: e.to_string() },
+        source,
     })?;
-    config.validate().map_err(|source| ReplayError::Config { path: path.to_string(), source })?;
     Ok(config)
 }
 
@@ -97,20 +106,24 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
     let mut reader = LogReader::open(path)?;
     let config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
-    let mut state =
-        State::genesis(&config, seed).map_err(|source| ReplayError::Start { path: name.clone(), source })?;
+    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     while let Some(record) = reader.next_record()? {
         let index = reader.index() - 1;
         match &record {
             Record::Event { time, event } => {
-                state.apply(*time, event).map_err(|source| ReplayError::Apply {
-                    path: name.clone(),
-                    index,
-                    kind: record.kind(),
-                    time: *time,
-                    source,
-                })?;
+                state
+                    .apply(*time, event)
+                    .map_err(|source| ReplayError::Apply {
+                        path: name.clone(),
+                        index,
+                        kind: record.kind(),
+                        time: *time,
+                        source,
+                    })?;
             }
             Record::Checkpoint(expected) => {
                 let actual = state.checkpoint(expected.cause);
@@ -131,8 +144,18 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
             }
         }
     }
-    let Footer { records, final_hash } = reader.footer().expect("a finished reader has its footer");
-    Ok(ReplayReport { records, checkpoints, blocks, final_hash, state, config })
+    let Footer {
+        records,
+        final_hash,
+    } = reader.footer().expect("a finished reader has its footer");
+    Ok(ReplayReport {
+        records,
+        checkpoints,
+        blocks,
+        final_hash,
+        state,
+        config,
+    })
 }
 
 /// Re-simulates the run from the header's seed and configuration and compares every record,
@@ -142,8 +165,10 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
     let mut reader = LogReader::open(path)?;
     let config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
-    let mut sim =
-        Sim::new(config.clone(), seed).map_err(|source| ReplayError::Start { path: name.clone(), source })?;
+    let mut sim = Sim::new(config.clone(), seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     let mut buf = Vec::new();
     loop {
@@ -186,31 +211,53 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
             }
         }
     }
-    let Footer { records, final_hash } = reader.footer().expect("a finished reader has its footer");
+    let Footer {
+        records,
+        final_hash,
+    } = reader.footer().expect("a finished reader has its footer");
     let state = sim.state().clone();
-    Ok(ReplayReport { records, checkpoints, blocks, final_hash, state, config })
+    Ok(ReplayReport {
+        records,
+        checkpoints,
+        blocks,
+        final_hash,
+        state,
+        config,
+    })
 }
 
 /// Explains how two records at the same index differ.
 pub fn describe_divergence(path: &str, index: u64, logged: &Record, fresh: &Record) -> ReplayError {
     let (component, detail) = match (logged, fresh) {
         (Record::Checkpoint(a), Record::Checkpoint(b)) => (
-            a.first_difference(b).unwrap_or_else(|| "checkpoint encoding".to_string()),
+            a.first_difference(b)
+                .unwrap_or_else(|| "checkpoint encoding".to_string()),
             " (checkpoint digests differ)".to_string(),
         ),
         (Record::Event { event: a, time: ta }, Record::Event { event: b, time: tb }) => {
             if a.kind() != b.kind() || ta != tb {
                 (
                     "event sequence".to_string(),
-                    format!(": the log has {} at t = {ta}, the other run {} at t = {tb}", a.kind(), b.kind()),
+                    format!(
+                        ": the log has {} at t = {ta}, the other run {} at t = {tb}",
+                        a.kind(),
+                        b.kind()
+                    ),
                 )
             } else {
-                (format!("{} event", a.kind()), ": same kind and time, different contents".to_string())
+                (
+                    format!("{} event", a.kind()),
+                    ": same kind and time, different contents".to_string(),
+                )
             }
         }
         _ => (
             "record sequence".to_string(),
-            format!(": the log has a {} record, the other run a {} record", logged.kind(), fresh.kind()),
+            format!(
+                ": the log has a {} record, the other run a {} record",
+                logged.kind(),
+                fresh.kind()
+            ),
         ),
     };
     ReplayError::Diverged {
@@ -221,4 +268,50 @@ pub fn describe_divergence(path: &str, index: u64, logged: &Record, fresh: &Reco
         component,
         detail,
     }
+}
+
+/// Folds the log at `path` until the world reaches `time` (or the log ends) and returns the
+/// state there with the run's configuration and seed. Checkpoints on the way are verified.
+pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64), ReplayError> {
+    let name = path.display().to_string();
+    let mut reader = LogReader::open(path)?;
+    let config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
+    while state.world.time() < time {
+        let Some(record) = reader.next_record()? else {
+            break;
+        };
+        let index = reader.index() - 1;
+        match &record {
+            Record::Event { time, event } => {
+                state
+                    .apply(*time, event)
+                    .map_err(|source| ReplayError::Apply {
+                        path: name.clone(),
+                        index,
+                        kind: record.kind(),
+                        time: *time,
+                        source,
+                    })?;
+            }
+            Record::Checkpoint(expected) => {
+                if let Some(component) = state.checkpoint(expected.cause).first_difference(expected)
+                {
+                    return Err(ReplayError::Diverged {
+                        path: name,
+                        index,
+                        kind: record.kind(),
+                        time: expected.time,
+                        component,
+                        detail: " between the log's checkpoint and the replayed state".to_string(),
+                    });
+                }
+            }
+        }
+    }
+    Ok((state, config, seed))
 }

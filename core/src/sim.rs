@@ -43,7 +43,9 @@ pub struct State {
 impl State {
     /// The state at time 0 of the run `(config, seed)`.
     pub fn genesis(config: &Config, seed: u64) -> Result<State, SimError> {
-        Ok(State { world: World::new(config, seed)? })
+        Ok(State {
+            world: World::new(config, seed)?,
+        })
     }
 
     /// Folds one event (the reducer dispatch). Pure: no I/O, no clock, no globals.
@@ -107,7 +109,13 @@ pub struct RunSummary {
 
 impl RunSummary {
     /// The summary of a finished run.
-    pub fn new(config: &Config, seed: u64, state: &State, records: u64, final_hash: Digest) -> RunSummary {
+    pub fn new(
+        config: &Config,
+        seed: u64,
+        state: &State,
+        records: u64,
+        final_hash: Digest,
+    ) -> RunSummary {
         RunSummary {
             format: crate::log::FORMAT_VERSION,
             seed,
@@ -174,7 +182,10 @@ impl Sim {
 
     /// Simulated time reached and total, in milliseconds.
     pub fn progress(&self) -> (u64, u64) {
-        (self.next_tick * self.tick_ms, self.total_ticks * self.tick_ms)
+        (
+            self.next_tick * self.tick_ms,
+            self.total_ticks * self.tick_ms,
+        )
     }
 
     fn emit(&mut self, time: SimTime, event: Event) {
@@ -187,7 +198,9 @@ impl Sim {
     /// Decides, folds and queues the records of the next tick.
     fn advance(&mut self) {
         if self.next_tick == self.total_ticks {
-            self.queue.push_back(Record::Checkpoint(self.state.checkpoint(CheckpointCause::End)));
+            self.queue.push_back(Record::Checkpoint(
+                self.state.checkpoint(CheckpointCause::End),
+            ));
             self.finished = true;
             return;
         }
@@ -197,7 +210,9 @@ impl Sim {
         self.next_tick += 1;
         let now_ms = self.next_tick * self.tick_ms;
         if now_ms % self.checkpoint_every_ms == 0 && self.next_tick < self.total_ticks {
-            self.queue.push_back(Record::Checkpoint(self.state.checkpoint(CheckpointCause::Periodic)));
+            self.queue.push_back(Record::Checkpoint(
+                self.state.checkpoint(CheckpointCause::Periodic),
+            ));
         }
     }
 }
@@ -232,7 +247,13 @@ mod tests {
         assert_eq!(a, b);
         assert_ne!(a, c);
         assert_eq!(a.iter().filter(|r| r.kind() == "tick").count(), 300);
-        assert!(matches!(a.last(), Some(Record::Checkpoint(Checkpoint { cause: CheckpointCause::End, .. }))));
+        assert!(matches!(
+            a.last(),
+            Some(Record::Checkpoint(Checkpoint {
+                cause: CheckpointCause::End,
+                ..
+            }))
+        ));
     }
 
     #[test]

@@ -12,6 +12,7 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
 use swarmfl_core::config::{Config, Preset};
 use swarmfl_core::log::LogError;
 use swarmfl_core::replay::{self, ReplayError};
+use swarmfl_core::SimTime;
 
 /// swarmfl: a deterministic, event-sourced replay engine for blockchain-secured federated
 /// learning in robot swarms.
@@ -38,7 +39,11 @@ struct ConfigArgs {
 
 impl ConfigArgs {
     fn resolve(&self) -> anyhow::Result<Config> {
-        Ok(Config::resolve(self.preset.as_deref(), self.config.as_deref(), &self.overrides)?)
+        Ok(Config::resolve(
+            self.preset.as_deref(),
+            self.config.as_deref(),
+            &self.overrides,
+        )?)
     }
 }
 
@@ -65,6 +70,17 @@ enum Command {
         /// Re-simulate from the header's seed and configuration and compare every record.
         #[arg(long)]
         resimulate: bool,
+    },
+    /// Draw the arena, obstacles, robots and radio links at a simulated time (SVG or PNG).
+    Snapshot {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Simulated time in seconds (the state after the last tick at or before it).
+        #[arg(long)]
+        time: f64,
+        /// Output file: `.svg` or `.png`.
+        #[arg(long)]
+        out: PathBuf,
     },
     /// List the presets.
     Presets,
@@ -107,7 +123,9 @@ fn main() -> ExitCode {
             let diverged = matches!(
                 e.downcast_ref::<ReplayError>(),
                 Some(ReplayError::Diverged { .. } | ReplayError::Apply { .. })
-                    | Some(ReplayError::Log(LogError::Corrupt { .. } | LogError::Truncated { .. }))
+                    | Some(ReplayError::Log(
+                        LogError::Corrupt { .. } | LogError::Truncated { .. }
+                    ))
             );
             ExitCode::from(if diverged { EXIT_DIVERGED } else { EXIT_ERROR })
         }
@@ -116,24 +134,48 @@ fn main() -> ExitCode {
 
 fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
     match command {
-        Command::Run { config, seed, out, quiet } => {
+        Command::Run {
+            config,
+            seed,
+            out,
+            quiet,
+        } => {
             let config = config.resolve()?;
-            let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
+            let out =
+                out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
             let outcome = run::run(config, seed, &out, quiet)?;
             if !quiet {
                 run::print_summary(&outcome);
             }
         }
         Command::Replay { log, resimulate } => {
-            let report = if resimulate { replay::resimulate(&log)? } else { replay::replay(&log)? };
+            let report = if resimulate {
+                replay::resimulate(&log)?
+            } else {
+                replay::replay(&log)?
+            };
             println!(
                 "bit-exact: {} records, {} blocks ({} checkpoints verified{}); final hash {}",
                 report.records,
                 report.blocks,
                 report.checkpoints,
-                if resimulate { ", every record re-simulated" } else { "" },
+                if resimulate {
+                    ", every record re-simulated"
+                } else {
+                    ""
+                },
                 report.final_hash
             );
+        }
+        Command::Snapshot { log, time, out } => {
+            if !(time.is_finite() && time >= 0.0) {
+                anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
+            }
+            let (state, config, _seed) = replay::state_at_time(&log, SimTime::from_secs(time))?;
+            let marks = vec![snapshot::RobotMark::Honest; config.world.robots as usize];
+            let title = format!("{} at t = {}", log.display(), state.world.time());
+            snapshot::draw(&state.world, &marks, &title, &out)?;
+            println!("wrote {} (t = {})", out.display(), state.world.time());
         }
         Command::Presets => {
             for preset in Preset::ALL {
@@ -144,9 +186,14 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             let config = config.resolve()?;
             print!("{}", config.to_toml());
         }
-        Command::Bench { target: BenchTarget::World, json } => bench_world::run(json)?,
-        Command::Bench { target: BenchTarget::Train, json } => bench_train::run(json)?,
+        Command::Bench {
+            target: BenchTarget::World,
+            json,
+        } => bench_world::run(json)?,
+        Command::Bench {
+            target: BenchTarget::Train,
+            json,
+        } => bench_train::run(json)?,
     }
     Ok(ExitCode::SUCCESS)
 }
-

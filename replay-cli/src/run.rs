@@ -20,7 +20,8 @@ pub struct RunOutcome {
 
 /// Runs `config` with `seed`, writing the log and summary into `out`.
 pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result<RunOutcome> {
-    std::fs::create_dir_all(out).with_context(|| format!("cannot create output directory {}", out.display()))?;
+    std::fs::create_dir_all(out)
+        .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let log_path = out.join("run.swlog");
     let started = Instant::now();
     let header = Header::new(seed, config.to_toml());
@@ -63,8 +64,11 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     map.insert("wall_s".into(), serde_json::json!(wall_s));
     map.insert("log_bytes".into(), serde_json::json!(log_bytes));
     let summary_path = out.join("summary.json");
-    std::fs::write(&summary_path, serde_json::to_string_pretty(&summary)? + "\n")
-        .with_context(|| format!("cannot write {}", summary_path.display()))?;
+    std::fs::write(
+        &summary_path,
+        serde_json::to_string_pretty(&summary)? + "\n",
+    )
+    .with_context(|| format!("cannot write {}", summary_path.display()))?;
     Ok(RunOutcome { summary, log_path })
 }
 

@@ -10,6 +10,7 @@ pub enum RobotMark {
     /// An honest robot.
     Honest,
     /// A Byzantine robot.
+    #[allow(dead_code)]
     Byzantine,
 }
 
