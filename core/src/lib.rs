@@ -10,6 +10,7 @@
 pub mod config;
 pub mod contract;
 pub mod data;
+pub mod diff;
 pub mod event;
 pub mod learn;
 pub mod ledger;

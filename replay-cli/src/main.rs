@@ -82,6 +82,17 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Compare two logs: header differences and the first diverging record (exit 1 if they
+    /// differ). With --resimulate, compare one log with a re-simulation under this build.
+    Diff {
+        /// The first log.
+        a: PathBuf,
+        /// The second log (omit with --resimulate).
+        b: Option<PathBuf>,
+        /// Compare `a` with a fresh re-simulation of its header's seed and configuration.
+        #[arg(long)]
+        resimulate: bool,
+    },
     /// List the presets.
     Presets,
     /// Print the fully resolved configuration as TOML.
@@ -177,6 +188,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             snapshot::draw(&state.world, &marks, &title, &out)?;
             println!("wrote {} (t = {})", out.display(), state.world.time());
         }
+        Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());
@@ -196,4 +208,76 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         } => bench_train::run(json)?,
     }
     Ok(ExitCode::SUCCESS)
+}
+
+fn diff(
+    a: &std::path::Path,
+    b: Option<&std::path::Path>,
+    resimulate: bool,
+) -> anyhow::Result<ExitCode> {
+    match (b, resimulate) {
+        (None, true) => match replay::resimulate(a) {
+            Ok(report) => {
+                println!(
+                    "identical: {} records re-simulated bit-exactly; final hash {}",
+                    report.records, report.final_hash
+                );
+                Ok(ExitCode::SUCCESS)
+            }
+            Err(ReplayError::Diverged {
+                index,
+                kind,
+                time,
+                component,
+                detail,
+                ..
+            }) => {
+                println!("first divergence from the re-simulation: record {index} ({kind} at t = {time}): {component} differs{detail}");
+                Ok(ExitCode::from(EXIT_DIVERGED))
+            }
+            Err(e) => Err(e.into()),
+        },
+        (Some(b), false) => {
+            let report = swarmfl_core::diff::diff_logs(a, b)?;
+            if report.header_differences.is_empty() {
+                println!("headers: same seed and configuration");
+            } else {
+                println!("headers differ:");
+                for d in &report.header_differences {
+                    println!("  {d}");
+                }
+            }
+            match &report.divergence {
+                None => {
+                    println!(
+                        "identical: {} records; final hashes {} / {}",
+                        report.identical_records,
+                        report.final_hashes.0.short(),
+                        report.final_hashes.1.short()
+                    );
+                    Ok(if report.final_hashes.0 == report.final_hashes.1 {
+                        ExitCode::SUCCESS
+                    } else {
+                        ExitCode::from(EXIT_DIVERGED)
+                    })
+                }
+                Some(d) => {
+                    println!(
+                        "{} identical records, then the first divergence:",
+                        report.identical_records
+                    );
+                    println!(
+                        "  record {} at t = {} (byte offsets {} / {}), kinds {} / {}",
+                        d.index, d.time, d.offsets.0, d.offsets.1, d.kinds.0, d.kinds.1
+                    );
+                    println!("  {}", d.explanation);
+                    Ok(ExitCode::from(EXIT_DIVERGED))
+                }
+            }
+        }
+        (None, false) => anyhow::bail!("diff needs two logs, or one log and --resimulate"),
+        (Some(_), true) => {
+            anyhow::bail!("--resimulate compares one log with a re-simulation; give only one log")
+        }
+    }
 }
