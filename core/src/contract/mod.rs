@@ -300,6 +300,8 @@ pub struct ContractState {
     pub weights_digest: Digest,
     /// The shared model before the last aggregation, w(t-1); `None` in round 0.
     pub previous_weights: Option<Arc<[i64]>>,
+    /// blake3 of `previous_weights` (all zero bytes while it is `None`).
+    pub previous_digest: Digest,
     /// This round's counted submissions (accepted and outliers), in submission order.
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
@@ -317,6 +319,7 @@ impl ContractState {
             weights: params.genesis_weights.clone(),
             weights_digest: model_digest(&params.genesis_weights),
             previous_weights: None,
+            previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
         }
@@ -387,10 +390,8 @@ impl ContractState {
         h.update(&self.holdings_units.to_le_bytes());
         h.update(&self.round.to_le_bytes());
         h.update(&self.weights_digest.0);
-        match &self.previous_weights {
-            Some(w) => h.update(&[1]).update(&model_digest(w).0),
-            None => h.update(&[0]),
-        };
+        h.update(&[u8::from(self.previous_weights.is_some())])
+            .update(&self.previous_digest.0);
         hash_submissions(&mut h, &self.submissions);
         match &self.last_round {
             Some(r) => {
@@ -580,6 +581,7 @@ impl ContractState {
         self.holdings_units = pool_units - paid;
 
         self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
+        self.previous_digest = self.weights_digest;
         self.weights_digest = model_digest(&self.weights);
         let summary = RoundSummary {
             round: self.round,

@@ -652,6 +652,26 @@ fn cloning_shares_the_models_and_the_digest_tracks_them() {
     ));
     assert_eq!(copy.digest(), s.digest());
     assert_eq!(s.weights_digest, model_digest(&s.weights));
+    let q = ContractParams {
+        quorum: 1,
+        reward_weights: vec![1],
+        ..params(true)
+    };
+    let mut r = ContractState::genesis(&q);
+    check(
+        &mut r,
+        &q,
+        0,
+        STAKE,
+        submit([1, 2, 3, 4], 10),
+        Outcome::Aggregated {
+            round: 0,
+            distance_units: 10,
+            payouts: vec![pay(0, 0, 1, STAKE)],
+        },
+    );
+    assert_eq!(r.weights_digest, model_digest(&[1, 2, 3, 4]));
+    assert_eq!(r.previous_digest, model_digest(&[0, 0, 0, 0]));
     let mut other = ContractState::genesis(&p);
     check(
         &mut other,
