@@ -7,6 +7,7 @@
 //! ([`log`]). Replaying the log through the same reducers rebuilds every state bit-exactly.
 //! See ARCHITECTURE.md for the map and the invariants.
 
+pub mod byzantine;
 pub mod config;
 pub mod contract;
 pub mod data;

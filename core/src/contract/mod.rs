@@ -1,0 +1,641 @@
+//! The federated-learning smart contract, executed by every node on its own chain (SPEC.md
+//! section 4). Integer arithmetic only: weights are fixed point (`contract.weight_scale`),
+//! tokens are integer units (`contract.token_units` per token).
+//!
+//! The contract is a pure reducer: [`ContractState::execute`] folds one call into the state and
+//! returns its [`Outcome`]. Every node runs it on its own chain, so it must never panic on a
+//! transaction: every bad input is an `Outcome` with a reason and leaves the state unchanged.
+//!
+//! # Rules, exactly
+//!
+//! `submitModel(w, n)` sent by `sender` with `value` attached is checked in this order; the first
+//! failing check decides the outcome and nothing changes:
+//! 1. `sender` is not an account: [`Outcome::Malformed`].
+//! 2. `sender` already has a counted submission (accepted or outlier) in this round:
+//!    [`Outcome::Duplicate`].
+//! 3. `n == 0`, `n > MAX_SAMPLES` (2^32 - 1, so that FedAvg sums fit in `i128`),
+//!    `len(w) != N` (the genesis model's length) or some `|w_i| >= 2^47` (the reference's int48):
+//!    [`Outcome::Malformed`] with the reason.
+//! 4. Security on only: `value < stake` or `balance < stake`: [`Outcome::InsufficientStake`];
+//!    `value > stake`: [`Outcome::Malformed`] (the stake is exact, nothing is silently kept).
+//!
+//! Security on: the stake moves from the sender to the contract, then the model's distance
+//! `d = sum_i |w_i - w_a,i|` decides: `d <= threshold_units * N` (the paper's mean distance
+//! `<= 0.05`, exactly, in integers) is [`Outcome::Accepted`], otherwise [`Outcome::Outlier`]:
+//! the stake stays in the round's pool and the sender has used its turn for the round.
+//! Security off: `value` is ignored and no tokens move (the driver may send the same
+//! transaction in both modes); every valid model is accepted.
+//!
+//! When the round holds `quorum` accepted models, the submission that completes it is
+//! [`Outcome::Aggregated`]: the shared model becomes their FedAvg (see [`payout::fedavg`] for
+//! the rounding), the round advances, and, security on, the accepted senders are ranked and paid
+//! from the pool (see [`payout::rank`] and [`payout::payouts`]). The pool is everything the
+//! contract holds: the round's stakes, accepted and outlier, plus the units carried over from
+//! earlier rounds. What the integer payouts leave unpaid stays in the contract and is part of
+//! the next round's pool.
+//!
+//! `transfer(to, amount)` needs `value == 0` and both accounts to exist ([`Outcome::Malformed`]
+//! otherwise) and `amount <= balance` ([`Outcome::InsufficientFunds`] otherwise).
+//!
+//! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
+
+pub mod payout;
+
+#[cfg(test)]
+mod tests;
+
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::Config;
+use crate::types::{Digest, RobotId};
+
+/// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
+pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
+
+/// The largest sample count a submission may claim (2^32 - 1): keeps FedAvg's `sum(n_k w_k)`
+/// far inside `i128`.
+pub const MAX_SAMPLES: u64 = u32::MAX as u64;
+
+/// The longest model the contract supports (2^16 weights): keeps distances inside `u64`.
+pub const MAX_MODEL_LEN: usize = 1 << 16;
+
+/// Parameters of the contract, fixed at genesis.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContractParams {
+    /// Number of robots (accounts).
+    pub robots: u32,
+    /// Units every account holds at genesis.
+    pub initial_units: u64,
+    /// Stake per submission, in units.
+    pub stake_units: u64,
+    /// Security mechanisms on or off.
+    pub security: bool,
+    /// Accepted submissions per aggregation.
+    pub quorum: u32,
+    /// Outlier threshold in fixed-point units of the mean absolute distance.
+    pub outlier_threshold_units: i64,
+    /// Reward weight per rank (+1 / -1), best first.
+    pub reward_weights: Vec<i64>,
+    /// The genesis model, fixed point.
+    pub genesis_weights: Arc<[i64]>,
+}
+
+impl ContractParams {
+    /// The parameters of a run's contract.
+    pub fn from_config(config: &Config, genesis_weights: Arc<[i64]>) -> ContractParams {
+        let c = &config.contract;
+        ContractParams {
+            robots: config.world.robots,
+            initial_units: c.initial_tokens * c.token_units,
+            stake_units: c.stake_tokens * c.token_units,
+            security: c.security,
+            quorum: config.quorum(),
+            outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
+            reward_weights: config.reward_weights(),
+            genesis_weights,
+        }
+    }
+
+    /// The units in existence: `robots * initial_units`, constant for a run.
+    pub fn total_units(&self) -> u128 {
+        u128::from(self.robots) * u128::from(self.initial_units)
+    }
+
+    /// N, the number of weights of the model.
+    pub fn model_len(&self) -> usize {
+        self.genesis_weights.len()
+    }
+
+    /// The largest accepted distance `sum_i |w_i - w_a,i|`: `threshold_units * N`.
+    pub fn max_distance_units(&self) -> u128 {
+        u128::try_from(self.outlier_threshold_units).unwrap_or(0) * self.model_len() as u128
+    }
+
+    /// Asserts what the contract relies on; these come from a validated config, so a failure is
+    /// a bug, not an input error.
+    fn assert_valid(&self) {
+        assert!(self.quorum >= 1, "quorum must be at least 1");
+        assert!(
+            self.quorum <= self.robots,
+            "quorum {} exceeds robots {}",
+            self.quorum,
+            self.robots
+        );
+        assert_eq!(
+            self.reward_weights.len(),
+            self.quorum as usize,
+            "one reward weight per rank"
+        );
+        assert!(
+            self.reward_weights.iter().any(|&k| k > 0),
+            "at least one rewarded rank"
+        );
+        assert!(
+            self.total_units() <= u128::from(u64::MAX / 4),
+            "token supply must fit in 2^62"
+        );
+        let n = self.genesis_weights.len();
+        assert!(
+            (1..=MAX_MODEL_LEN).contains(&n),
+            "model length {n} outside 1..=2^16"
+        );
+        assert!(
+            self.genesis_weights
+                .iter()
+                .all(|w| w.unsigned_abs() < MAX_WEIGHT_MAGNITUDE),
+            "genesis weights must fit int48"
+        );
+    }
+}
+
+/// A call carried by a transaction.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Call {
+    /// `submitModel(weights, n)`: a locally trained model (fixed point) and its sample count.
+    SubmitModel {
+        /// The weights, fixed point (scale `contract.weight_scale`).
+        weights: Arc<[i64]>,
+        /// Training samples claimed.
+        samples: u64,
+    },
+    /// Moves `amount_units` from the sender to `to`.
+    Transfer {
+        /// Recipient account.
+        to: RobotId,
+        /// Amount in units.
+        amount_units: u64,
+    },
+}
+
+/// One robot's payout at an aggregation.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Payout {
+    /// The paid robot.
+    pub robot: RobotId,
+    /// Its rank, 0 = best.
+    pub rank: u32,
+    /// The reward weight k of that rank.
+    pub reward_weight: i64,
+    /// Units paid back to it from the pool.
+    pub units: u64,
+}
+
+/// What became of one call.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Outcome {
+    /// The model was accepted into round `round`; the round is not complete yet.
+    Accepted {
+        /// The round (model version) the submission counts for.
+        round: u64,
+        /// `sum_i |w_i - w_a,i|` in fixed-point units.
+        distance_units: u64,
+    },
+    /// The model was accepted and completed the quorum: round `round` was aggregated (the model
+    /// is now version `round + 1`) and the pool paid out.
+    Aggregated {
+        /// The round that closed.
+        round: u64,
+        /// This model's distance, as in `Accepted`.
+        distance_units: u64,
+        /// Payouts in rank order (empty with security off).
+        payouts: Vec<Payout>,
+    },
+    /// Rejected as an outlier: the stake stays in the pool, the sender's turn is used.
+    Outlier {
+        /// The round the submission counted for.
+        round: u64,
+        /// The model's distance (above `threshold_units * N`).
+        distance_units: u64,
+    },
+    /// The sender already submitted in this round; nothing changed.
+    Duplicate,
+    /// The stake was missing (value or balance below it); nothing changed.
+    InsufficientStake,
+    /// A transfer went through.
+    Transferred,
+    /// A transfer exceeded the sender's balance; nothing changed.
+    InsufficientFunds,
+    /// The call was malformed (reason given); nothing changed.
+    Malformed(String),
+}
+
+impl Outcome {
+    /// A short stable name, for metrics and logs.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Outcome::Accepted { .. } => "accepted",
+            Outcome::Aggregated { .. } => "aggregated",
+            Outcome::Outlier { .. } => "outlier",
+            Outcome::Duplicate => "duplicate",
+            Outcome::InsufficientStake => "insufficient_stake",
+            Outcome::Transferred => "transferred",
+            Outcome::InsufficientFunds => "insufficient_funds",
+            Outcome::Malformed(_) => "malformed",
+        }
+    }
+
+    /// True when a model was accepted (including the one that triggered an aggregation).
+    pub fn is_accepted(&self) -> bool {
+        matches!(self, Outcome::Accepted { .. } | Outcome::Aggregated { .. })
+    }
+}
+
+/// The verdict on a counted submission.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Verdict {
+    /// Within the threshold: part of the round's aggregate.
+    Accepted,
+    /// Beyond the threshold: excluded, stake kept by the pool.
+    Outlier,
+}
+
+/// A submission that counts for its round (accepted or outlier).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Submission {
+    /// The sender.
+    pub sender: RobotId,
+    /// Samples claimed.
+    pub samples: u64,
+    /// `sum_i |w_i - w_a,i|` against the model of the round.
+    pub distance_units: u64,
+    /// Units staked (0 with security off).
+    pub stake_units: u64,
+    /// Accepted or outlier.
+    pub verdict: Verdict,
+    /// The submitted weights (shared with the transaction, never copied).
+    pub weights: Arc<[i64]>,
+    /// blake3 of the weights, computed once.
+    pub weights_digest: Digest,
+}
+
+/// The record of the last aggregated round.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RoundSummary {
+    /// The round that closed (its models were trained on version `round`).
+    pub round: u64,
+    /// Its counted submissions in submission order.
+    pub submissions: Vec<Submission>,
+    /// Payouts in rank order (empty with security off).
+    pub payouts: Vec<Payout>,
+    /// The pool P that was distributed (round stakes plus the carried remainder).
+    pub pool_units: u64,
+    /// What stayed in the contract and rolls into the next pool: P - sum(payouts).
+    pub carried_units: u64,
+}
+
+/// The contract's state after some block: cheap to clone (weights and history are `Arc`s).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ContractState {
+    /// Token balance of every account, in units.
+    pub balances: Vec<u64>,
+    /// Units held by the contract itself (pool plus carried remainders).
+    pub holdings_units: u64,
+    /// Aggregation round (the model's version).
+    pub round: u64,
+    /// The shared model, fixed point.
+    pub weights: Arc<[i64]>,
+    /// blake3 of `weights` (kept in step by the contract).
+    pub weights_digest: Digest,
+    /// The shared model before the last aggregation, w(t-1); `None` in round 0.
+    pub previous_weights: Option<Arc<[i64]>>,
+    /// blake3 of `previous_weights` (all zero bytes while it is `None`).
+    pub previous_digest: Digest,
+    /// This round's counted submissions (accepted and outliers), in submission order.
+    pub submissions: Vec<Submission>,
+    /// The last aggregated round, with its payouts; `None` before the first aggregation.
+    pub last_round: Option<Arc<RoundSummary>>,
+}
+
+impl ContractState {
+    /// The state at genesis.
+    pub fn genesis(params: &ContractParams) -> ContractState {
+        params.assert_valid();
+        ContractState {
+            balances: vec![params.initial_units; params.robots as usize],
+            holdings_units: 0,
+            round: 0,
+            weights: params.genesis_weights.clone(),
+            weights_digest: model_digest(&params.genesis_weights),
+            previous_weights: None,
+            previous_digest: Digest::default(),
+            submissions: Vec::new(),
+            last_round: None,
+        }
+    }
+
+    /// `getModel()`: the shared model and its round (version).
+    pub fn get_model(&self) -> (Arc<[i64]>, u64) {
+        (self.weights.clone(), self.round)
+    }
+
+    /// Accepted submissions in the current round.
+    pub fn accepted_count(&self) -> u32 {
+        self.submissions
+            .iter()
+            .filter(|s| s.verdict == Verdict::Accepted)
+            .count() as u32
+    }
+
+    /// True when `robot` has a counted submission in the current round.
+    pub fn has_submitted(&self, robot: RobotId) -> bool {
+        self.submissions.iter().any(|s| s.sender == robot)
+    }
+
+    /// Executes one call sent by `sender` with `value_units` attached. Never panics on the
+    /// call's contents; asserts token conservation afterwards.
+    pub fn execute(
+        &mut self,
+        params: &ContractParams,
+        sender: RobotId,
+        value_units: u64,
+        call: &Call,
+    ) -> Outcome {
+        assert_eq!(
+            self.balances.len(),
+            params.robots as usize,
+            "state and params disagree"
+        );
+        let outcome = match call {
+            Call::SubmitModel { weights, samples } => {
+                self.submit_model(params, sender, value_units, weights, *samples)
+            }
+            Call::Transfer { to, amount_units } => {
+                self.transfer(sender, value_units, *to, *amount_units)
+            }
+        };
+        assert_eq!(
+            self.total_units(),
+            params.total_units(),
+            "token conservation broken by {} from {sender}",
+            outcome.name()
+        );
+        outcome
+    }
+
+    /// Sum of all balances plus the contract's holdings: constant for a run.
+    pub fn total_units(&self) -> u128 {
+        self.balances.iter().map(|&b| u128::from(b)).sum::<u128>() + u128::from(self.holdings_units)
+    }
+
+    /// A digest of the whole state: a compact encoding with model digests in place of models.
+    pub fn digest(&self) -> Digest {
+        let mut h = blake3::Hasher::new();
+        h.update(b"swarmfl contract state v1");
+        h.update(&(self.balances.len() as u64).to_le_bytes());
+        for b in &self.balances {
+            h.update(&b.to_le_bytes());
+        }
+        h.update(&self.holdings_units.to_le_bytes());
+        h.update(&self.round.to_le_bytes());
+        h.update(&self.weights_digest.0);
+        h.update(&[u8::from(self.previous_weights.is_some())])
+            .update(&self.previous_digest.0);
+        hash_submissions(&mut h, &self.submissions);
+        match &self.last_round {
+            Some(r) => {
+                h.update(&[1]).update(&r.round.to_le_bytes());
+                hash_submissions(&mut h, &r.submissions);
+                h.update(&(r.payouts.len() as u64).to_le_bytes());
+                for p in &r.payouts {
+                    h.update(&p.robot.to_le_bytes())
+                        .update(&p.rank.to_le_bytes());
+                    h.update(&p.reward_weight.to_le_bytes())
+                        .update(&p.units.to_le_bytes());
+                }
+                h.update(&r.pool_units.to_le_bytes())
+                    .update(&r.carried_units.to_le_bytes());
+            }
+            None => {
+                h.update(&[0]);
+            }
+        }
+        Digest::from(h.finalize())
+    }
+
+    fn transfer(&mut self, sender: RobotId, value_units: u64, to: RobotId, amount: u64) -> Outcome {
+        let accounts = self.balances.len();
+        if sender as usize >= accounts || to as usize >= accounts {
+            return Outcome::Malformed(format!(
+                "transfer from {sender} to {to}: accounts are 0..{accounts}"
+            ));
+        }
+        if value_units != 0 {
+            return Outcome::Malformed(format!(
+                "transfer carries value {value_units}; send the amount in the call, value 0"
+            ));
+        }
+        let from_balance = self.balances[sender as usize];
+        if from_balance < amount {
+            return Outcome::InsufficientFunds;
+        }
+        self.balances[sender as usize] = from_balance - amount;
+        let to_balance = &mut self.balances[to as usize];
+        *to_balance = to_balance
+            .checked_add(amount)
+            .expect("conserved supply fits u64");
+        Outcome::Transferred
+    }
+
+    fn submit_model(
+        &mut self,
+        params: &ContractParams,
+        sender: RobotId,
+        value_units: u64,
+        weights: &Arc<[i64]>,
+        samples: u64,
+    ) -> Outcome {
+        let Some(&balance) = self.balances.get(sender as usize) else {
+            return Outcome::Malformed(format!(
+                "submission from {sender}: accounts are 0..{}",
+                self.balances.len()
+            ));
+        };
+        if self.has_submitted(sender) {
+            return Outcome::Duplicate;
+        }
+        if let Err(reason) = check_model(params.model_len(), weights, samples) {
+            return Outcome::Malformed(reason);
+        }
+        let stake_units = if params.security {
+            if value_units < params.stake_units || balance < params.stake_units {
+                return Outcome::InsufficientStake;
+            }
+            if value_units > params.stake_units {
+                return Outcome::Malformed(format!(
+                    "value {value_units} exceeds the stake of {} units; send exactly the stake",
+                    params.stake_units
+                ));
+            }
+            params.stake_units
+        } else {
+            0
+        };
+
+        let distance_units = payout::distance_units(weights, &self.weights);
+        let verdict = if params.security && u128::from(distance_units) > params.max_distance_units()
+        {
+            Verdict::Outlier
+        } else {
+            Verdict::Accepted
+        };
+        self.balances[sender as usize] = balance - stake_units;
+        self.holdings_units = self
+            .holdings_units
+            .checked_add(stake_units)
+            .expect("supply fits u64");
+        self.submissions.push(Submission {
+            sender,
+            samples,
+            distance_units,
+            stake_units,
+            verdict,
+            weights: weights.clone(),
+            weights_digest: model_digest(weights),
+        });
+        let round = self.round;
+        if verdict == Verdict::Outlier {
+            return Outcome::Outlier {
+                round,
+                distance_units,
+            };
+        }
+        let accepted = self.accepted_count();
+        assert!(
+            accepted <= params.quorum,
+            "a round never exceeds the quorum"
+        );
+        if accepted < params.quorum {
+            return Outcome::Accepted {
+                round,
+                distance_units,
+            };
+        }
+        let payouts = self.aggregate(params);
+        Outcome::Aggregated {
+            round,
+            distance_units,
+            payouts,
+        }
+    }
+
+    /// Closes the round: FedAvg, ranking and payouts, round += 1. Returns the payouts.
+    fn aggregate(&mut self, params: &ContractParams) -> Vec<Payout> {
+        let submissions = std::mem::take(&mut self.submissions);
+        let accepted: Vec<&Submission> = submissions
+            .iter()
+            .filter(|s| s.verdict == Verdict::Accepted)
+            .collect();
+        assert_eq!(accepted.len(), params.quorum as usize);
+
+        let models: Vec<(&[i64], u64)> = accepted
+            .iter()
+            .map(|s| (&s.weights[..], s.samples))
+            .collect();
+        let new_weights: Arc<[i64]> = payout::fedavg(&models).into();
+        assert_eq!(new_weights.len(), self.weights.len());
+
+        let pool_units = self.holdings_units;
+        let mut payouts = Vec::new();
+        if params.security {
+            let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
+            assert!(
+                u128::from(pool_units) >= stakes,
+                "the pool holds the round's stakes"
+            );
+            assert!(
+                u128::from(pool_units)
+                    >= u128::from(params.quorum) * u128::from(params.stake_units),
+                "every accepted submission staked"
+            );
+            let distances: Vec<u64> = accepted.iter().map(|s| s.distance_units).collect();
+            let order = payout::rank(&distances);
+            let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
+            let units = payout::payouts(
+                pool_units,
+                params.stake_units,
+                &ranked_samples,
+                &params.reward_weights,
+            );
+            for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                payouts.push(Payout {
+                    robot: accepted[i].sender,
+                    rank: rank as u32,
+                    reward_weight: params.reward_weights[rank],
+                    units,
+                });
+            }
+        }
+        let paid: u64 = payouts.iter().map(|p| p.units).sum();
+        assert!(
+            paid <= pool_units,
+            "payouts {paid} exceed the pool {pool_units}"
+        );
+        for p in &payouts {
+            let balance = &mut self.balances[p.robot as usize];
+            *balance = balance
+                .checked_add(p.units)
+                .expect("conserved supply fits u64");
+        }
+        self.holdings_units = pool_units - paid;
+
+        self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
+        self.previous_digest = self.weights_digest;
+        self.weights_digest = model_digest(&self.weights);
+        let summary = RoundSummary {
+            round: self.round,
+            submissions,
+            payouts: payouts.clone(),
+            pool_units,
+            carried_units: self.holdings_units,
+        };
+        self.last_round = Some(Arc::new(summary));
+        self.round += 1;
+        payouts
+    }
+}
+
+/// Why a model is malformed, if it is (check 3 of the module doc).
+fn check_model(model_len: usize, weights: &[i64], samples: u64) -> Result<(), String> {
+    if samples == 0 {
+        return Err("samples must be at least 1, got 0".to_string());
+    }
+    if samples > MAX_SAMPLES {
+        return Err(format!("samples {samples} exceed the limit {MAX_SAMPLES}"));
+    }
+    if weights.len() != model_len {
+        return Err(format!(
+            "model has {} weights, the shared model has {model_len}",
+            weights.len()
+        ));
+    }
+    if let Some((i, w)) = weights
+        .iter()
+        .enumerate()
+        .find(|(_, w)| w.unsigned_abs() >= MAX_WEIGHT_MAGNITUDE)
+    {
+        return Err(format!("weight {i} = {w} is outside int48 (|w| < 2^47)"));
+    }
+    Ok(())
+}
+
+/// blake3 of a model's little-endian weights.
+pub fn model_digest(weights: &[i64]) -> Digest {
+    let mut bytes = Vec::with_capacity(weights.len() * 8);
+    for w in weights {
+        bytes.extend_from_slice(&w.to_le_bytes());
+    }
+    Digest::of(&bytes)
+}
+
+fn hash_submissions(h: &mut blake3::Hasher, submissions: &[Submission]) {
+    h.update(&(submissions.len() as u64).to_le_bytes());
+    for s in submissions {
+        h.update(&s.sender.to_le_bytes())
+            .update(&s.samples.to_le_bytes());
+        h.update(&s.distance_units.to_le_bytes())
+            .update(&s.stake_units.to_le_bytes());
+        h.update(&[s.verdict as u8]).update(&s.weights_digest.0);
+    }
+}
