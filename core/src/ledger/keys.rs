@@ -39,12 +39,16 @@ impl<'de> serde::Deserialize<'de> for Sig {
                 f.write_str("64 bytes")
             }
             fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Sig, E> {
-                <[u8; 64]>::try_from(v).map(Sig).map_err(|_| E::invalid_length(v.len(), &self))
+                <[u8; 64]>::try_from(v)
+                    .map(Sig)
+                    .map_err(|_| E::invalid_length(v.len(), &self))
             }
             fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Sig, A::Error> {
                 let mut out = [0u8; 64];
                 for (i, b) in out.iter_mut().enumerate() {
-                    *b = seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                    *b = seq
+                        .next_element()?
+                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
                 }
                 Ok(Sig(out))
             }
@@ -91,7 +95,8 @@ impl Keys {
         let Some(key) = self.verifying.get(robot as usize) else {
             return false;
         };
-        key.verify(&message.0, &Signature::from_bytes(&sig.0)).is_ok()
+        key.verify(&message.0, &Signature::from_bytes(&sig.0))
+            .is_ok()
     }
 }
 

@@ -52,8 +52,14 @@ impl DelayStats {
         if n == 0 {
             return DelayStats::default();
         }
-        let rank = |q: f64| delays_ms[((q * n as f64).ceil() as usize).clamp(1, n) - 1] as f64 / 1000.0;
-        DelayStats { count: n as u64, median_s: rank(0.5), p95_s: rank(0.95), max_s: delays_ms[n - 1] as f64 / 1000.0 }
+        let rank =
+            |q: f64| delays_ms[((q * n as f64).ceil() as usize).clamp(1, n) - 1] as f64 / 1000.0;
+        DelayStats {
+            count: n as u64,
+            median_s: rank(0.5),
+            p95_s: rank(0.95),
+            max_s: delays_ms[n - 1] as f64 / 1000.0,
+        }
     }
 }
 
@@ -201,7 +207,12 @@ impl Tracker {
 
     /// Takes the samples due before time `at` (the state then is the state after every event
     /// earlier than the sample time).
-    pub(crate) fn sample_until(&mut self, at: SimTime, nodes: &[Node], blocks: &BTreeMap<BlockHash, BlockEntry>) {
+    pub(crate) fn sample_until(
+        &mut self,
+        at: SimTime,
+        nodes: &[Node],
+        blocks: &BTreeMap<BlockHash, BlockEntry>,
+    ) {
         while self.next_sample_ms <= at.0 {
             let sample = sample(self.next_sample_ms, nodes, blocks);
             self.samples.push(sample);
@@ -210,27 +221,45 @@ impl Tracker {
     }
 }
 
-fn sample(time_ms: u64, nodes: &[Node], blocks: &BTreeMap<BlockHash, BlockEntry>) -> ChainBytesSample {
+fn sample(
+    time_ms: u64,
+    nodes: &[Node],
+    blocks: &BTreeMap<BlockHash, BlockEntry>,
+) -> ChainBytesSample {
     let sizes: Vec<u64> = nodes.iter().map(|n| blocks[&n.head].chain_bytes).collect();
     ChainBytesSample {
         time_s: time_ms as f64 / 1000.0,
         mean_bytes: sizes.iter().sum::<u64>() as f64 / sizes.len().max(1) as f64,
         max_bytes: sizes.iter().copied().max().unwrap_or(0),
-        max_height: nodes.iter().map(|n| n.canonical.len() as u64 - 1).max().unwrap_or(0),
+        max_height: nodes
+            .iter()
+            .map(|n| n.canonical.len() as u64 - 1)
+            .max()
+            .unwrap_or(0),
     }
 }
 
 /// The figures of a ledger now.
 pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
     let t = &ledger.metrics;
-    let heights: Vec<u64> = ledger.nodes.iter().map(|n| n.canonical.len() as u64 - 1).collect();
+    let heights: Vec<u64> = ledger
+        .nodes
+        .iter()
+        .map(|n| n.canonical.len() as u64 - 1)
+        .collect();
     let mut head_counts: BTreeMap<BlockHash, u32> = BTreeMap::new();
     for n in &ledger.nodes {
         *head_counts.entry(n.head).or_insert(0) += 1;
     }
     let last = sample(ledger.now.0, &ledger.nodes, &ledger.blocks);
     let subs: Vec<&Submission> = t.submissions.values().collect();
-    let mean = |v: Vec<u32>| if v.is_empty() { 0.0 } else { v.iter().map(|&b| f64::from(b)).sum::<f64>() / v.len() as f64 };
+    let mean = |v: Vec<u32>| {
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().map(|&b| f64::from(b)).sum::<f64>() / v.len() as f64
+        }
+    };
     let mut samples = t.samples.clone();
     if samples.last().map(|s| s.time_s) != Some(last.time_s) {
         samples.push(last.clone());
@@ -240,14 +269,31 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         canonical_height_min: heights.iter().copied().min().unwrap_or(0),
         nodes_on_common_head: head_counts.values().copied().max().unwrap_or(0),
         blocks_sealed: ledger.blocks.len() as u64 - 1,
-        forks_seen: ledger.blocks.values().map(|e| u64::from(e.children.saturating_sub(1))).sum(),
+        forks_seen: ledger
+            .blocks
+            .values()
+            .map(|e| u64::from(e.children.saturating_sub(1)))
+            .sum(),
         reorgs: t.reorgs,
         deepest_reorg: t.deepest_reorg,
         submissions: subs.len() as u64,
-        propagation: DelayStats::of(subs.iter().filter_map(|s| s.all_seen_at.map(|a| a.0 - s.at.0)).collect()),
+        propagation: DelayStats::of(
+            subs.iter()
+                .filter_map(|s| s.all_seen_at.map(|a| a.0 - s.at.0))
+                .collect(),
+        ),
         not_propagated: subs.iter().filter(|s| s.all_seen_at.is_none()).count() as u64,
-        inclusion: DelayStats::of(subs.iter().filter_map(|s| s.included_own_at.map(|a| a.0 - s.at.0)).collect()),
-        bytes_per_submission: mean(subs.iter().filter(|s| s.is_model).map(|s| s.size_bytes).collect()),
+        inclusion: DelayStats::of(
+            subs.iter()
+                .filter_map(|s| s.included_own_at.map(|a| a.0 - s.at.0))
+                .collect(),
+        ),
+        bytes_per_submission: mean(
+            subs.iter()
+                .filter(|s| s.is_model)
+                .map(|s| s.size_bytes)
+                .collect(),
+        ),
         bytes_per_tx: mean(subs.iter().map(|s| s.size_bytes).collect()),
         chain_bytes_mean: last.mean_bytes,
         chain_bytes_max: last.max_bytes,
@@ -255,7 +301,11 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         messages_sent: t.messages,
         messages_lost: t.lost,
         gossip_bytes: t.gossip_bytes,
-        rejections: t.rejections.iter().map(|(k, v)| ((*k).to_string(), *v)).collect(),
+        rejections: t
+            .rejections
+            .iter()
+            .map(|(k, v)| ((*k).to_string(), *v))
+            .collect(),
     }
 }
 
@@ -273,6 +323,9 @@ mod tests {
         check(&[], (0, 0.0, 0.0));
         check(&[1500], (1, 1.5, 1.5));
         check(&[3000, 1000, 2000], (3, 2.0, 3.0));
-        check(&(1..=100).map(|i| i * 1000).collect::<Vec<_>>(), (100, 50.0, 95.0));
+        check(
+            &(1..=100).map(|i| i * 1000).collect::<Vec<_>>(),
+            (100, 50.0, 95.0),
+        );
     }
 }

@@ -128,7 +128,9 @@ pub enum LedgerError {
         robots: u32,
     },
     /// Events must come in time order.
-    #[error("event at {at} comes after an event at {now}: ledger events must be applied in time order")]
+    #[error(
+        "event at {at} comes after an event at {now}: ledger events must be applied in time order"
+    )]
     TimeWentBack {
         /// The event's time.
         at: SimTime,
@@ -254,7 +256,10 @@ impl Ledger {
     /// Every node at genesis. Keys derive from `seed`; the genesis block commits to `params`.
     pub fn new(config: &Config, seed: u64, params: ContractParams) -> Ledger {
         let robots = config.world.robots;
-        assert_eq!(params.robots, robots, "contract parameters and config disagree on robots");
+        assert_eq!(
+            params.robots, robots,
+            "contract parameters and config disagree on robots"
+        );
         let period_ms = (config.ledger.block_period_s * 1000.0).round() as u64;
         let header = BlockHeader {
             parent: Digest::of(&rmp_serde::to_vec(&params).expect("parameters encode")),
@@ -267,7 +272,10 @@ impl Ledger {
         };
         let (genesis, size) = header.hash_and_size();
         let entry = BlockEntry {
-            block: Arc::new(Block { header, txs: Vec::new() }),
+            block: Arc::new(Block {
+                header,
+                txs: Vec::new(),
+            }),
             size_bytes: u64::from(size),
             total_difficulty: 0,
             chain_bytes: u64::from(size),
@@ -383,7 +391,12 @@ impl Ledger {
 
     /// The node's pending transactions, in arrival order.
     pub fn mempool(&self, node: RobotId) -> Vec<TxHash> {
-        let mut v: Vec<(u64, TxHash)> = self.node(node).mempool.iter().map(|(h, a)| (*a, *h)).collect();
+        let mut v: Vec<(u64, TxHash)> = self
+            .node(node)
+            .mempool
+            .iter()
+            .map(|(h, a)| (*a, *h))
+            .collect();
         v.sort_unstable();
         v.into_iter().map(|(_, h)| h).collect()
     }
@@ -412,7 +425,9 @@ impl Ledger {
         let limit = self.robots / 2;
         let mut cursor = *parent;
         for _ in 0..limit {
-            let Some(entry) = self.blocks.get(&cursor) else { return false };
+            let Some(entry) = self.blocks.get(&cursor) else {
+                return false;
+            };
             let header = &entry.block.header;
             if header.height == 0 {
                 return false;
@@ -445,7 +460,10 @@ impl Ledger {
         let mut by_sender: BTreeMap<RobotId, BTreeMap<(u64, TxHash), u64>> = BTreeMap::new();
         for (hash, arrival) in &n.mempool {
             let tx = &self.txs[hash].tx;
-            by_sender.entry(tx.sender).or_default().insert((tx.nonce, *hash), *arrival);
+            by_sender
+                .entry(tx.sender)
+                .or_default()
+                .insert((tx.nonce, *hash), *arrival);
         }
         let mut runs: Vec<std::collections::VecDeque<(u64, TxHash)>> = Vec::new();
         for (sender, pending) in by_sender {
@@ -465,7 +483,11 @@ impl Ledger {
         }
         let mut out = Vec::new();
         while out.len() < block::MAX_BLOCK_TXS {
-            let best = runs.iter().enumerate().filter_map(|(i, r)| r.front().map(|f| (f.0, i))).min();
+            let best = runs
+                .iter()
+                .enumerate()
+                .filter_map(|(i, r)| r.front().map(|f| (f.0, i)))
+                .min();
             let Some((_, i)) = best else { break };
             out.push(runs[i].pop_front().expect("front exists").1);
         }
@@ -538,27 +560,46 @@ impl Ledger {
         match event {
             LedgerEvent::Submit { tx } => {
                 let hash = self.store_tx(tx);
-                self.metrics.on_submit(hash, tx, self.txs[&hash].size_bytes, at);
+                self.metrics
+                    .on_submit(hash, tx, self.txs[&hash].size_bytes, at);
                 self.receive_tx(tx.sender, hash, at, &mut applied);
             }
             LedgerEvent::Seal { node, txs, .. } => {
-                let (hash, entry) = self.build_seal(*node, txs, at).map_err(|reason| {
-                    LedgerError::InvalidSeal { node: *node, reason }
-                })?;
+                let (hash, entry) =
+                    self.build_seal(*node, txs, at)
+                        .map_err(|reason| LedgerError::InvalidSeal {
+                            node: *node,
+                            reason,
+                        })?;
                 self.insert_valid(hash, entry);
                 self.accept_block(*node, hash, at, &mut applied);
             }
-            LedgerEvent::Send { from, to, items, lost } => {
+            LedgerEvent::Send {
+                from,
+                to,
+                items,
+                lost,
+            } => {
                 let seq = self.messages_sent;
                 self.messages_sent += 1;
                 let bytes: u64 = items.iter().map(|i| self.item_bytes(i)).sum();
                 self.metrics.on_send(bytes, *lost);
                 if !lost {
-                    self.flights.insert(seq, Flight { from: *from, to: *to, items: items.clone() });
+                    self.flights.insert(
+                        seq,
+                        Flight {
+                            from: *from,
+                            to: *to,
+                            items: items.clone(),
+                        },
+                    );
                 }
             }
             LedgerEvent::Deliver { message } => {
-                let flight = self.flights.remove(message).expect("checked in check_event");
+                let flight = self
+                    .flights
+                    .remove(message)
+                    .expect("checked in check_event");
                 for item in &flight.items {
                     match item {
                         ItemRef::Block(h) => self.receive_block(flight.to, *h, at, &mut applied),
@@ -578,7 +619,10 @@ impl Ledger {
             if node < self.robots {
                 Ok(())
             } else {
-                Err(LedgerError::UnknownNode { node, robots: self.robots })
+                Err(LedgerError::UnknownNode {
+                    node,
+                    robots: self.robots,
+                })
             }
         };
         match event {
@@ -587,16 +631,25 @@ impl Ledger {
                 node_ok(*node)?;
                 let n = self.node(*node);
                 if *parent != n.head {
-                    return Err(LedgerError::SealNotOnHead { node: *node, parent: *parent, head: n.head });
+                    return Err(LedgerError::SealNotOnHead {
+                        node: *node,
+                        parent: *parent,
+                        head: n.head,
+                    });
                 }
                 for h in txs {
                     if !n.known_txs.contains(h) || !self.txs.contains_key(h) {
-                        return Err(LedgerError::UnknownItem { node: *node, item: ItemRef::Tx(*h) });
+                        return Err(LedgerError::UnknownItem {
+                            node: *node,
+                            item: ItemRef::Tx(*h),
+                        });
                     }
                 }
                 Ok(())
             }
-            LedgerEvent::Send { from, to, items, .. } => {
+            LedgerEvent::Send {
+                from, to, items, ..
+            } => {
                 node_ok(*from)?;
                 node_ok(*to)?;
                 if from == to || items.is_empty() {
@@ -613,7 +666,10 @@ impl Ledger {
                         ItemRef::Tx(h) => n.known_txs.contains(h) && self.txs.contains_key(h),
                     };
                     if !known {
-                        return Err(LedgerError::UnknownItem { node: *from, item: *item });
+                        return Err(LedgerError::UnknownItem {
+                            node: *from,
+                            item: *item,
+                        });
                     }
                 }
                 Ok(())
@@ -647,13 +703,24 @@ impl Ledger {
             } else {
                 Ok(())
             };
-            let entry = TxEntry { tx: Arc::new(tx.clone()), size_bytes: bytes.len() as u32, intrinsic };
+            let entry = TxEntry {
+                tx: Arc::new(tx.clone()),
+                size_bytes: bytes.len() as u32,
+                intrinsic,
+            };
             self.txs.insert(hash, entry);
         }
         hash
     }
 
-    fn reject(&mut self, node: RobotId, item: Option<ItemRef>, reason: RejectReason, at: SimTime, applied: &mut Applied) {
+    fn reject(
+        &mut self,
+        node: RobotId,
+        item: Option<ItemRef>,
+        reason: RejectReason,
+        at: SimTime,
+        applied: &mut Applied,
+    ) {
         self.metrics.on_reject(&reason);
         let n = &mut self.nodes[node as usize];
         n.rejections.push(Rejection { at, item, reason });
@@ -679,10 +746,22 @@ impl Ledger {
         let n = &mut self.nodes[node as usize];
         let expected = self.blocks[&n.head].next_nonce[sender as usize];
         if nonce < expected {
-            return self.reject(node, Some(ItemRef::Tx(hash)), RejectReason::ReplayedNonce { nonce, expected }, at, applied);
+            return self.reject(
+                node,
+                Some(ItemRef::Tx(hash)),
+                RejectReason::ReplayedNonce { nonce, expected },
+                at,
+                applied,
+            );
         }
         if nonce > expected + MAX_NONCE_GAP {
-            return self.reject(node, Some(ItemRef::Tx(hash)), RejectReason::NonceGap { nonce, expected }, at, applied);
+            return self.reject(
+                node,
+                Some(ItemRef::Tx(hash)),
+                RejectReason::NonceGap { nonce, expected },
+                at,
+                applied,
+            );
         }
         n.mempool.insert(hash, n.arrivals);
         n.arrivals += 1;
@@ -692,21 +771,33 @@ impl Ledger {
     /// Validates a block against its parent: header rules, signature, transactions (each
     /// stored, intrinsically valid, with the next nonce of its sender) and execution. Pure.
     fn validate(&self, header: &BlockHeader, txs: &[TxHash]) -> Result<BlockEntry, RejectReason> {
-        let parent = self.blocks.get(&header.parent).ok_or(RejectReason::UnknownParent(header.parent))?;
+        let parent = self
+            .blocks
+            .get(&header.parent)
+            .ok_or(RejectReason::UnknownParent(header.parent))?;
         let ph = &parent.block.header;
         if header.signer >= self.robots {
             return Err(RejectReason::UnauthorisedSigner(header.signer));
         }
         if header.height != ph.height + 1 {
-            return Err(RejectReason::BadHeight { got: header.height, expected: ph.height + 1 });
+            return Err(RejectReason::BadHeight {
+                got: header.height,
+                expected: ph.height + 1,
+            });
         }
         let earliest_ms = ph.timestamp_ms + self.period_ms;
         if header.timestamp_ms < earliest_ms {
-            return Err(RejectReason::TooEarly { got_ms: header.timestamp_ms, earliest_ms });
+            return Err(RejectReason::TooEarly {
+                got_ms: header.timestamp_ms,
+                earliest_ms,
+            });
         }
         let expected = self.expected_difficulty(header.height, header.signer);
         if header.difficulty != expected {
-            return Err(RejectReason::BadDifficulty { got: header.difficulty, expected });
+            return Err(RejectReason::BadDifficulty {
+                got: header.difficulty,
+                expected,
+            });
         }
         if self.signed_recently(&header.parent, header.signer) {
             return Err(RejectReason::RecentSigner(header.signer));
@@ -721,7 +812,10 @@ impl Ledger {
         if header.tx_root != block::tx_root(txs) {
             return Err(RejectReason::BadTxRoot);
         }
-        if !self.keys.verify(header.signer, &header.signing_hash(), &header.signature) {
+        if !self
+            .keys
+            .verify(header.signer, &header.signing_hash(), &header.signature)
+        {
             return Err(RejectReason::BadSignature);
         }
         let mut state = parent.state.clone();
@@ -729,23 +823,38 @@ impl Ledger {
         let mut receipts = Vec::with_capacity(txs.len());
         let mut size_bytes = u64::from(header.hash_and_size().1);
         for (index, hash) in txs.iter().enumerate() {
-            let bad = |reason| RejectReason::BadTx { index: index as u32, reason: Box::new(reason) };
-            let entry = self.txs.get(hash).ok_or_else(|| bad(RejectReason::Malformed("unknown transaction".into())))?;
+            let bad = |reason| RejectReason::BadTx {
+                index: index as u32,
+                reason: Box::new(reason),
+            };
+            let entry = self
+                .txs
+                .get(hash)
+                .ok_or_else(|| bad(RejectReason::Malformed("unknown transaction".into())))?;
             entry.intrinsic.clone().map_err(bad)?;
             let tx = &entry.tx;
             let expected = next_nonce[tx.sender as usize];
             if tx.nonce < expected {
-                return Err(bad(RejectReason::ReplayedNonce { nonce: tx.nonce, expected }));
+                return Err(bad(RejectReason::ReplayedNonce {
+                    nonce: tx.nonce,
+                    expected,
+                }));
             }
             if tx.nonce > expected {
-                return Err(bad(RejectReason::NonceGap { nonce: tx.nonce, expected }));
+                return Err(bad(RejectReason::NonceGap {
+                    nonce: tx.nonce,
+                    expected,
+                }));
             }
             next_nonce[tx.sender as usize] += 1;
             receipts.push(state.execute(&self.params, tx.sender, tx.value_units, &tx.call));
             size_bytes += u64::from(entry.size_bytes);
         }
         Ok(BlockEntry {
-            block: Arc::new(Block { header: header.clone(), txs: txs.to_vec() }),
+            block: Arc::new(Block {
+                header: header.clone(),
+                txs: txs.to_vec(),
+            }),
             size_bytes,
             total_difficulty: parent.total_difficulty + header.difficulty,
             chain_bytes: parent.chain_bytes + size_bytes,
@@ -757,7 +866,12 @@ impl Ledger {
     }
 
     /// The block `node` seals on its head at `at` with `txs`, validated.
-    fn build_seal(&self, node: RobotId, txs: &[TxHash], at: SimTime) -> Result<(BlockHash, BlockEntry), RejectReason> {
+    fn build_seal(
+        &self,
+        node: RobotId,
+        txs: &[TxHash],
+        at: SimTime,
+    ) -> Result<(BlockHash, BlockEntry), RejectReason> {
         let n = self.node(node);
         let height = n.canonical.len() as u64;
         let mut header = BlockHeader {
@@ -780,11 +894,20 @@ impl Ledger {
         }
         let parent = entry.block.header.parent;
         self.blocks.insert(hash, entry);
-        self.blocks.get_mut(&parent).expect("a valid block's parent is stored").children += 1;
+        self.blocks
+            .get_mut(&parent)
+            .expect("a valid block's parent is stored")
+            .children += 1;
     }
 
     /// A node receives a stored valid block by id (gossip).
-    fn receive_block(&mut self, node: RobotId, hash: BlockHash, at: SimTime, applied: &mut Applied) {
+    fn receive_block(
+        &mut self,
+        node: RobotId,
+        hash: BlockHash,
+        at: SimTime,
+        applied: &mut Applied,
+    ) {
         let n = &self.nodes[node as usize];
         if n.known_blocks.contains(&hash) {
             applied.duplicates += 1;
@@ -796,7 +919,10 @@ impl Ledger {
             return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
         }
         if header.timestamp_ms > at.0 {
-            let reason = RejectReason::FutureBlock { got_ms: header.timestamp_ms, now_ms: at.0 };
+            let reason = RejectReason::FutureBlock {
+                got_ms: header.timestamp_ms,
+                now_ms: at.0,
+            };
             return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
         }
         self.accept_block(node, hash, at, applied);
@@ -806,7 +932,15 @@ impl Ledger {
     fn inject(&mut self, node: RobotId, bytes: &[u8], at: SimTime, applied: &mut Applied) {
         let item: WireItem = match rmp_serde::from_slice(bytes) {
             Ok(item) => item,
-            Err(e) => return self.reject(node, None, RejectReason::Undecodable(e.to_string()), at, applied),
+            Err(e) => {
+                return self.reject(
+                    node,
+                    None,
+                    RejectReason::Undecodable(e.to_string()),
+                    at,
+                    applied,
+                )
+            }
         };
         match item {
             WireItem::Tx(tx) => {
@@ -824,17 +958,30 @@ impl Ledger {
                     return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
                 }
                 if !self.blocks.contains_key(&hash) {
-                    if !self.nodes[node as usize].known_blocks.contains(&wire.header.parent) {
+                    if !self.nodes[node as usize]
+                        .known_blocks
+                        .contains(&wire.header.parent)
+                    {
                         let reason = RejectReason::UnknownParent(wire.header.parent);
                         return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
                     }
-                    let tx_hashes: Vec<TxHash> = wire.txs.iter().map(|tx| self.store_tx(tx)).collect();
+                    let tx_hashes: Vec<TxHash> =
+                        wire.txs.iter().map(|tx| self.store_tx(tx)).collect();
                     match self.validate(&wire.header, &tx_hashes) {
                         Ok(entry) => self.insert_valid(hash, entry),
                         Err(reason) => {
-                            assert!(reason.is_intrinsic() || matches!(reason, RejectReason::BadTx { .. }));
+                            assert!(
+                                reason.is_intrinsic()
+                                    || matches!(reason, RejectReason::BadTx { .. })
+                            );
                             self.invalid_blocks.insert(hash, reason.clone());
-                            return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+                            return self.reject(
+                                node,
+                                Some(ItemRef::Block(hash)),
+                                reason,
+                                at,
+                                applied,
+                            );
                         }
                     }
                 }
@@ -850,7 +997,10 @@ impl Ledger {
         let td = entry.total_difficulty;
         let tx_ids = entry.block.txs.clone();
         let n = &mut self.nodes[node as usize];
-        assert!(n.known_blocks.contains(&header.parent), "accepting a block whose parent is unknown");
+        assert!(
+            n.known_blocks.contains(&header.parent),
+            "accepting a block whose parent is unknown"
+        );
         n.known_blocks.insert(hash);
         n.version += 1;
         applied.accepted += 1;
@@ -930,9 +1080,16 @@ impl Ledger {
     pub fn replay_state(&self, chain: &[BlockHash]) -> Result<ContractState, String> {
         let mut state = ContractState::genesis(&self.params);
         for (i, hash) in chain.iter().enumerate() {
-            let entry = self.blocks.get(hash).ok_or_else(|| format!("block {i} ({hash:?}) is not stored"))?;
+            let entry = self
+                .blocks
+                .get(hash)
+                .ok_or_else(|| format!("block {i} ({hash:?}) is not stored"))?;
             for tx in &entry.block.txs {
-                let tx = &self.txs.get(tx).ok_or_else(|| format!("transaction {tx:?} is not stored"))?.tx;
+                let tx = &self
+                    .txs
+                    .get(tx)
+                    .ok_or_else(|| format!("transaction {tx:?} is not stored"))?
+                    .tx;
                 state.execute(&self.params, tx.sender, tx.value_units, &tx.call);
             }
         }
@@ -962,7 +1119,9 @@ impl Ledger {
             if h.parent != pair[0] || h.height != height || h.hash_and_size().0 != pair[1] {
                 return fail("broken linkage");
             }
-            if h.signer >= self.robots || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature) {
+            if h.signer >= self.robots
+                || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature)
+            {
                 return fail("bad signer or signature");
             }
             if h.timestamp_ms < parent.block.header.timestamp_ms + self.period_ms {
@@ -998,7 +1157,9 @@ impl Ledger {
 
 /// The set of every node's known block ids (tests and metrics).
 pub fn known_block_union(ledger: &Ledger) -> BTreeSet<BlockHash> {
-    (0..ledger.robots()).flat_map(|i| ledger.node(i).known_blocks.iter().copied()).collect()
+    (0..ledger.robots())
+        .flat_map(|i| ledger.node(i).known_blocks.iter().copied())
+        .collect()
 }
 
 #[cfg(test)]

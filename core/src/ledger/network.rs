@@ -80,7 +80,9 @@ impl Network {
             wiggle_max_ms: (f64::from(robots / 2 + 1) * l.wiggle_unit_s * 1000.0).round() as u64,
             bandwidth_bytes_per_s: l.bandwidth_bytes_per_s,
             packet_loss: l.packet_loss,
-            loss_rngs: (0..robots).map(|r| rng::stream(seed, Purpose::Network, r)).collect(),
+            loss_rngs: (0..robots)
+                .map(|r| rng::stream(seed, Purpose::Network, r))
+                .collect(),
             next_gossip: SimTime(0),
             batch: VecDeque::new(),
             batch_time: SimTime(0),
@@ -116,7 +118,12 @@ impl Network {
         let t = if ledger.signed_recently(&head, node) {
             None
         } else {
-            let parent_ms = ledger.block(&head).expect("the head is stored").block.header.timestamp_ms;
+            let parent_ms = ledger
+                .block(&head)
+                .expect("the head is stored")
+                .block
+                .header
+                .timestamp_ms;
             let base = parent_ms + ledger.period_ms();
             let delay = if ledger.expected_difficulty(height + 1, node) == 2 {
                 0
@@ -139,9 +146,16 @@ impl Network {
         peers: &[Vec<RobotId>],
     ) -> Option<(SimTime, LedgerEvent)> {
         if let Some(seq) = self.awaiting_send.take() {
-            assert!(ledger.messages_sent() > seq, "the driver did not apply the last Send before polling");
+            assert!(
+                ledger.messages_sent() > seq,
+                "the driver did not apply the last Send before polling"
+            );
         }
-        assert_eq!(ledger.robots(), self.robots, "network and ledger disagree on robots");
+        assert_eq!(
+            ledger.robots(),
+            self.robots,
+            "network and ledger disagree on robots"
+        );
         loop {
             // Candidates as (time, kind rank, node).
             let delivery = self.flights.keys().next().map(|&(t, to, _)| (t, 0u8, to));
@@ -153,9 +167,17 @@ impl Network {
                     }
                 }
             }
-            let gossip_time = if self.batch.is_empty() { self.next_gossip } else { self.batch_time };
+            let gossip_time = if self.batch.is_empty() {
+                self.next_gossip
+            } else {
+                self.batch_time
+            };
             let gossip = Some((gossip_time, 4u8, 0));
-            let best = [delivery, seal, gossip].into_iter().flatten().min().expect("gossip is always a candidate");
+            let best = [delivery, seal, gossip]
+                .into_iter()
+                .flatten()
+                .min()
+                .expect("gossip is always a candidate");
             if best.0 > until {
                 return None;
             }
@@ -192,7 +214,13 @@ impl Network {
 
     /// Schedules the delivery of a send being returned now.
     fn register_send(&mut self, ledger: &Ledger, event: &LedgerEvent) {
-        let LedgerEvent::Send { from, to, items, lost } = event else {
+        let LedgerEvent::Send {
+            from,
+            to,
+            items,
+            lost,
+        } = event
+        else {
             unreachable!("the gossip batch holds sends only")
         };
         let seq = ledger.messages_sent();
@@ -208,7 +236,12 @@ impl Network {
         let due = SimTime(start.0 + airtime_ms);
         *link = due;
         if !lost {
-            self.flights.insert((due, *to, seq), Pending { items: items.clone() });
+            self.flights.insert(
+                (due, *to, seq),
+                Pending {
+                    items: items.clone(),
+                },
+            );
         }
     }
 
@@ -216,8 +249,14 @@ impl Network {
     fn gossip_round(&mut self, ledger: &Ledger, peers: &[Vec<RobotId>]) {
         let n = self.robots as usize;
         for a in 0..self.robots {
-            let Some(list) = peers.get(a as usize) else { continue };
-            let mut list: Vec<RobotId> = list.iter().copied().filter(|&b| b != a && b < self.robots).collect();
+            let Some(list) = peers.get(a as usize) else {
+                continue;
+            };
+            let mut list: Vec<RobotId> = list
+                .iter()
+                .copied()
+                .filter(|&b| b != a && b < self.robots)
+                .collect();
             list.sort_unstable();
             list.dedup();
             for b in list {
@@ -238,7 +277,12 @@ impl Network {
                         self.in_flight.insert((b, *item));
                     }
                 }
-                self.batch.push_back(LedgerEvent::Send { from: a, to: b, items, lost });
+                self.batch.push_back(LedgerEvent::Send {
+                    from: a,
+                    to: b,
+                    items,
+                    lost,
+                });
             }
         }
     }

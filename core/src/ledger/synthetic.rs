@@ -20,10 +20,25 @@ pub struct Wanderers {
 impl Wanderers {
     /// `robots` points placed uniformly in a `side_m` square, from `seed`.
     pub fn new(robots: u32, seed: u64, side_m: f64, range_m: f64, speed_mps: f64) -> Wanderers {
-        let mut rngs: Vec<Rng> = (0..robots).map(|r| rng::stream(seed, Purpose::Controller, r)).collect();
-        let positions = rngs.iter_mut().map(|r| (r.range(0.0, side_m), r.range(0.0, side_m))).collect();
-        let headings = rngs.iter_mut().map(|r| r.range(0.0, std::f64::consts::TAU)).collect();
-        Wanderers { side_m, range_m, speed_mps, positions, headings, rngs }
+        let mut rngs: Vec<Rng> = (0..robots)
+            .map(|r| rng::stream(seed, Purpose::Controller, r))
+            .collect();
+        let positions = rngs
+            .iter_mut()
+            .map(|r| (r.range(0.0, side_m), r.range(0.0, side_m)))
+            .collect();
+        let headings = rngs
+            .iter_mut()
+            .map(|r| r.range(0.0, std::f64::consts::TAU))
+            .collect();
+        Wanderers {
+            side_m,
+            range_m,
+            speed_mps,
+            positions,
+            headings,
+            rngs,
+        }
     }
 
     /// Moves every point for `dt_s` seconds.
@@ -63,13 +78,19 @@ impl Wanderers {
 
 /// Everyone hears everyone.
 pub fn full_mesh(robots: u32) -> Vec<Vec<RobotId>> {
-    (0..robots).map(|i| (0..robots).filter(|&j| j != i).collect()).collect()
+    (0..robots)
+        .map(|i| (0..robots).filter(|&j| j != i).collect())
+        .collect()
 }
 
 /// Two groups that hear only their own members: robots below `split` and the others.
 pub fn partition(robots: u32, split: u32) -> Vec<Vec<RobotId>> {
     (0..robots)
-        .map(|i| (0..robots).filter(|&j| j != i && (i < split) == (j < split)).collect())
+        .map(|i| {
+            (0..robots)
+                .filter(|&j| j != i && (i < split) == (j < split))
+                .collect()
+        })
         .collect()
 }
 

@@ -46,7 +46,13 @@ struct UnsignedTx<'a> {
 impl Tx {
     /// A transaction signed by `sender`'s key.
     pub fn signed(keys: &Keys, sender: RobotId, nonce: u64, value_units: u64, call: Call) -> Tx {
-        let mut tx = Tx { sender, nonce, value_units, call, signature: Sig::ZERO };
+        let mut tx = Tx {
+            sender,
+            nonce,
+            value_units,
+            call,
+            signature: Sig::ZERO,
+        };
         tx.signature = keys.sign(sender, &tx.signing_hash());
         tx
     }
@@ -91,7 +97,16 @@ mod tests {
     #[test]
     fn hashes_cover_the_signature_and_signatures_cover_the_body() {
         let keys = Keys::new(1, 3);
-        let tx = Tx::signed(&keys, 1, 0, 5, Call::Transfer { to: 2, amount_units: 7 });
+        let tx = Tx::signed(
+            &keys,
+            1,
+            0,
+            5,
+            Call::Transfer {
+                to: 2,
+                amount_units: 7,
+            },
+        );
         assert!(tx.signature_ok(&keys));
         let mut forged = tx.clone();
         forged.signature = Sig::ZERO;
