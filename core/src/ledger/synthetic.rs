@@ -2,7 +2,11 @@
 //! wander in a square, peers within a radio range, and a driver loop that applies every
 //! network event tick by tick. Nothing here is used by a real run.
 
+use std::sync::Arc;
+
 use super::{Ledger, LedgerError, LedgerEvent, Network};
+use crate::config::Config;
+use crate::contract::{Call, ContractParams};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{RobotId, SimTime};
 
@@ -108,4 +112,98 @@ pub fn drain(
         log.push((at, event));
     }
     Ok(())
+}
+
+/// The shape of a synthetic run that loads the ledger as a `paper` run would.
+#[derive(Clone, Debug)]
+pub struct Workload {
+    /// Simulated seconds.
+    pub duration_s: u64,
+    /// Each robot submits a model every this many seconds (offset per robot).
+    pub submit_period_s: u64,
+    /// Weights per submitted model.
+    pub weights: usize,
+    /// Side of the square the robots wander in, metres.
+    pub side_m: f64,
+    /// Radio range, metres.
+    pub range_m: f64,
+    /// Speed of the robots, m/s.
+    pub speed_mps: f64,
+}
+
+impl Workload {
+    /// The `paper` run's load: 5000 s, a 2848-weight submission per robot every 100 s (750
+    /// submissions with 15 robots), a 5 m arena, 2.5 m range, 0.025 m/s.
+    pub fn paper() -> Workload {
+        Workload {
+            duration_s: 5000,
+            submit_period_s: 100,
+            weights: 2848,
+            side_m: 5.0,
+            range_m: 2.5,
+            speed_mps: 0.025,
+        }
+    }
+}
+
+/// Runs the ledger alone under `workload` (robots, tick and ledger settings from `config`):
+/// wandering robots, peers refreshed every `world.peer_refresh_s`, a `SubmitModel` with
+/// random fixed-point weights (uniform in +-0.5 at scale `contract.weight_scale`) and the
+/// stake from each robot every period, every event applied and handed to `sink`. For
+/// benchmarks and size estimates.
+pub fn run_workload(
+    config: &Config,
+    seed: u64,
+    workload: &Workload,
+    mut sink: impl FnMut(SimTime, &LedgerEvent),
+) -> Result<Ledger, LedgerError> {
+    let robots = config.world.robots;
+    let params = ContractParams::from_config(config, Arc::from(vec![0i64; workload.weights]));
+    let mut ledger = Ledger::new(config, seed, params);
+    let mut net = Network::new(config, seed);
+    let mut swarm = Wanderers::new(
+        robots,
+        seed,
+        workload.side_m,
+        workload.range_m,
+        workload.speed_mps,
+    );
+    let mut weights_rng = rng::stream(seed, Purpose::Byzantine, 0);
+    let tick_ms = ((config.run.tick_s * 1000.0).round() as u64).max(1);
+    let refresh_ms = ((config.world.peer_refresh_s * 1000.0).round() as u64).max(tick_ms);
+    let period_ms = workload.submit_period_s * 1000;
+    let stake_units = config.contract.stake_tokens * config.contract.token_units;
+    let scale = config.contract.weight_scale as f64;
+    let mut peers = swarm.peers();
+    let mut log = Vec::new();
+    let mut t = 0;
+    while t <= workload.duration_s * 1000 {
+        if t > 0 && t % refresh_ms == 0 {
+            swarm.step(refresh_ms as f64 / 1000.0);
+            peers = swarm.peers();
+        }
+        drain(&mut ledger, &mut net, SimTime(t), &peers, &mut log)?;
+        for (at, event) in log.drain(..) {
+            sink(at, &event);
+        }
+        for robot in 0..robots {
+            let offset_ms = period_ms * u64::from(robot) / u64::from(robots) / tick_ms * tick_ms;
+            if period_ms > 0 && t >= offset_ms + period_ms && (t - offset_ms) % period_ms == 0 {
+                let weights: Arc<[i64]> = (0..workload.weights)
+                    .map(|_| (weights_rng.range(-0.5, 0.5) * scale).round() as i64)
+                    .collect();
+                let call = Call::SubmitModel {
+                    weights,
+                    samples: 100,
+                };
+                let event = LedgerEvent::Submit {
+                    tx: ledger.make_tx(robot, stake_units, call),
+                };
+                ledger.apply(SimTime(t), &event)?;
+                sink(SimTime(t), &event);
+            }
+        }
+        t += tick_ms;
+    }
+    Ok(ledger)
 }
