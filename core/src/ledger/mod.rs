@@ -6,6 +6,11 @@
 //! [`network::Network`] is the driver side: it decides, from the ledger's state, the peer sets
 //! and its own seeded randomness, which event comes next (sealings, gossip sends, deliveries).
 //!
+//! Fork choice: the greatest total difficulty; a tie keeps the current head, except that a
+//! node which may not seal on its head (Clique's recent-signer rule) moves to an equally heavy
+//! known block on which it may: without that exception equally heavy branches can deadlock
+//! (see `Ledger::unstick`).
+//!
 //! Storage is shared: a block or transaction is stored once, by id, whatever the number of
 //! nodes that know it; each node holds only ids. The contract state after a block is a pure
 //! function of the block's chain, so it is computed once, when the block is first validated,
@@ -1013,10 +1018,43 @@ impl Ledger {
         if header.parent != n.head {
             n.side_blocks += 1;
         }
-        // Fork choice: the greatest total difficulty; a tie keeps the current head.
+        n.by_td.entry(td).or_default().push(hash);
+        // Fork choice: the greatest total difficulty; a tie keeps the current head...
         if td > self.blocks[&n.head].total_difficulty {
             self.set_head(node, hash, at);
             applied.head_changes += 1;
+        }
+        // ...unless the node may not seal on it (see `unstick`).
+        if self.unstick(node, at) {
+            applied.head_changes += 1;
+        }
+    }
+
+    /// Liveness under Clique's recent-signer rule. A node that may not seal on its head moves
+    /// to an equally heavy known block on which it may (the lowest id if several). Without
+    /// this, equally heavy branches whose every node signed recently on its own branch
+    /// deadlock forever under "ties keep the head" (geth's Clique has the same hole: it breaks
+    /// ties by lower height, then by a coin flip); the property test found such a deadlock
+    /// with 4 robots. With it, some node can always seal, so connected nodes converge. The
+    /// rule changes nothing while a node may seal on its head. Returns whether the head moved.
+    fn unstick(&mut self, node: RobotId, at: SimTime) -> bool {
+        let n = &self.nodes[node as usize];
+        if !self.signed_recently(&n.head, node) {
+            return false;
+        }
+        let td = self.blocks[&n.head].total_difficulty;
+        let better = n.by_td.get(&td).and_then(|same| {
+            same.iter()
+                .filter(|h| **h != n.head && !self.signed_recently(h, node))
+                .min()
+                .copied()
+        });
+        match better {
+            Some(b) => {
+                self.set_head(node, b, at);
+                true
+            }
+            None => false,
         }
     }
 

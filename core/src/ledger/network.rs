@@ -16,7 +16,8 @@
 //!   heads the node went through.
 //! - *Gossip*: every `run.tick_s` (the gossip round), for each node `a` in id order and each
 //!   peer `b` in ascending order: if `a`'s head is heavier than `b`'s and unknown to `b`, `a`
-//!   sends the blocks of its canonical chain that `b` lacks (ancestors first); and `a` sends
+//!   sends the blocks of its canonical chain that `b` lacks (ancestors first; also for an
+//!   equally heavy head when `b` may not seal on its own but may on `a`'s); and `a` sends
 //!   the pending transactions `b` has not seen (in `a`'s arrival order). Items already in
 //!   flight to `b` are not sent again (so `b` fetches each item from one peer at a time). All
 //!   of it goes in one message per (a, b) and round; nothing is sent (and nothing logged) when
@@ -293,7 +294,13 @@ impl Network {
         let (head_a, _) = ledger.head(a);
         let (head_b, _) = ledger.head(b);
         let td = |h: &BlockHash| ledger.block(h).expect("heads are stored").total_difficulty;
-        if !ledger.knows_block(b, &head_a) && td(&head_a) > td(&head_b) {
+        // `b` fetches a heavier chain, or an equally heavy one when it may not seal on its own
+        // head but may on `a`'s (see the liveness rule of fork choice in `Ledger`).
+        let wanted = td(&head_a) > td(&head_b)
+            || (td(&head_a) == td(&head_b)
+                && ledger.signed_recently(&head_b, b)
+                && !ledger.signed_recently(&head_a, b));
+        if wanted && !ledger.knows_block(b, &head_a) {
             for hash in ledger.canonical_chain(a).iter().rev() {
                 if ledger.knows_block(b, hash) {
                     break;

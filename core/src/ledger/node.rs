@@ -152,6 +152,8 @@ pub struct Node {
     /// The canonical chain by height: `canonical[h]` is the block at height h.
     pub(crate) canonical: Vec<BlockHash>,
     pub(crate) known_blocks: BTreeSet<BlockHash>,
+    /// The known blocks by total difficulty (for the liveness rule of fork choice).
+    pub(crate) by_td: BTreeMap<u64, Vec<BlockHash>>,
     pub(crate) known_txs: BTreeSet<TxHash>,
     /// Pending transactions and their arrival sequence numbers at this node.
     pub(crate) mempool: BTreeMap<TxHash, u64>,
@@ -171,6 +173,7 @@ impl Node {
             head_since: SimTime(0),
             canonical: vec![genesis],
             known_blocks: BTreeSet::from([genesis]),
+            by_td: BTreeMap::from([(0, vec![genesis])]),
             known_txs: BTreeSet::new(),
             mempool: BTreeMap::new(),
             arrivals: 0,

@@ -760,3 +760,34 @@ fn sealable_txs_follow_nonce_order_and_arrival_across_senders() {
         "node 1 has no pending txs"
     );
 }
+
+#[test]
+fn a_node_that_may_not_seal_on_its_head_moves_to_an_equally_heavy_branch() {
+    let (_, mut ledger, _) = setup(4, 13);
+    let g = ledger.genesis();
+    let block = |l: &Ledger, parent, signer| header(l, parent, signer, &[], |_| {});
+    // A: node 1 in turn (2), then node 0 out of turn (1): total 3, last two signers {1, 0}.
+    let a1 = inject_block(&mut ledger, 0, 10_000, block(&ledger, g, 1), vec![]);
+    let a2 = inject_block(&mut ledger, 0, 20_000, block(&ledger, a1, 0), vec![]);
+    assert!(ledger.signed_recently(&a2, 0), "node 0 may not seal on A");
+    // B: node 3 out of turn (1), then node 2 in turn (2): total 3 as well.
+    let b1 = inject_block(&mut ledger, 0, 20_000, block(&ledger, g, 3), vec![]);
+    assert_eq!(ledger.head(0).0, a2);
+    let b2 = inject_block(&mut ledger, 0, 20_000, block(&ledger, b1, 2), vec![]);
+    assert_eq!(
+        ledger.block(&b2).unwrap().total_difficulty,
+        ledger.block(&a2).unwrap().total_difficulty
+    );
+    assert_eq!(
+        ledger.head(0).0,
+        b2,
+        "stuck on A, node 0 moves to B where it may seal"
+    );
+    // Node 3 is not stuck on A: the tie keeps its head.
+    for h in [a1, a2, b1, b2] {
+        let header = ledger.block(&h).unwrap().block.header.clone();
+        inject_block(&mut ledger, 3, 20_000, header, vec![]);
+    }
+    assert_eq!(ledger.head(3).0, a2);
+    assert_state_is_a_fresh_replay(&ledger);
+}
