@@ -765,15 +765,18 @@ fn sealable_txs_follow_nonce_order_and_arrival_across_senders() {
 fn a_node_that_may_not_seal_on_its_head_moves_to_an_equally_heavy_branch() {
     let (_, mut ledger, _) = setup(4, 13);
     let g = ledger.genesis();
-    let block = |l: &Ledger, parent, signer| header(l, parent, signer, &[], |_| {});
+    fn add(ledger: &mut Ledger, at_ms: u64, parent: BlockHash, signer: RobotId) -> BlockHash {
+        let h = header(ledger, parent, signer, &[], |_| {});
+        inject_block(ledger, 0, at_ms, h, vec![])
+    }
     // A: node 1 in turn (2), then node 0 out of turn (1): total 3, last two signers {1, 0}.
-    let a1 = inject_block(&mut ledger, 0, 10_000, block(&ledger, g, 1), vec![]);
-    let a2 = inject_block(&mut ledger, 0, 20_000, block(&ledger, a1, 0), vec![]);
+    let a1 = add(&mut ledger, 10_000, g, 1);
+    let a2 = add(&mut ledger, 20_000, a1, 0);
     assert!(ledger.signed_recently(&a2, 0), "node 0 may not seal on A");
     // B: node 3 out of turn (1), then node 2 in turn (2): total 3 as well.
-    let b1 = inject_block(&mut ledger, 0, 20_000, block(&ledger, g, 3), vec![]);
+    let b1 = add(&mut ledger, 20_000, g, 3);
     assert_eq!(ledger.head(0).0, a2);
-    let b2 = inject_block(&mut ledger, 0, 20_000, block(&ledger, b1, 2), vec![]);
+    let b2 = add(&mut ledger, 20_000, b1, 2);
     assert_eq!(
         ledger.block(&b2).unwrap().total_difficulty,
         ledger.block(&a2).unwrap().total_difficulty
