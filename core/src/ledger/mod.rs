@@ -559,6 +559,18 @@ impl Ledger {
             return Err(LedgerError::TimeWentBack { at, now: self.now });
         }
         self.check_event(event)?;
+        // A sealing is built and validated before anything changes.
+        let sealed = match event {
+            LedgerEvent::Seal { node, txs, .. } => {
+                Some(self.build_seal(*node, txs, at).map_err(|reason| {
+                    LedgerError::InvalidSeal {
+                        node: *node,
+                        reason,
+                    }
+                })?)
+            }
+            _ => None,
+        };
         self.metrics.sample_until(at, &self.nodes, &self.blocks);
         self.now = at;
         let mut applied = Applied::default();
@@ -569,13 +581,8 @@ impl Ledger {
                     .on_submit(hash, tx, self.txs[&hash].size_bytes, at);
                 self.receive_tx(tx.sender, hash, at, &mut applied);
             }
-            LedgerEvent::Seal { node, txs, .. } => {
-                let (hash, entry) =
-                    self.build_seal(*node, txs, at)
-                        .map_err(|reason| LedgerError::InvalidSeal {
-                            node: *node,
-                            reason,
-                        })?;
+            LedgerEvent::Seal { node, .. } => {
+                let (hash, entry) = sealed.expect("built above");
                 self.insert_valid(hash, entry);
                 self.accept_block(*node, hash, at, &mut applied);
             }
@@ -807,15 +814,15 @@ impl Ledger {
         if self.signed_recently(&header.parent, header.signer) {
             return Err(RejectReason::RecentSigner(header.signer));
         }
+        if header.tx_root != block::tx_root(txs) {
+            return Err(RejectReason::BadTxRoot);
+        }
         if txs.len() > block::MAX_BLOCK_TXS {
             return Err(RejectReason::Malformed(format!(
                 "{} transactions, more than the {} allowed",
                 txs.len(),
                 block::MAX_BLOCK_TXS
             )));
-        }
-        if header.tx_root != block::tx_root(txs) {
-            return Err(RejectReason::BadTxRoot);
         }
         if !self
             .keys
@@ -975,11 +982,12 @@ impl Ledger {
                     match self.validate(&wire.header, &tx_hashes) {
                         Ok(entry) => self.insert_valid(hash, entry),
                         Err(reason) => {
-                            assert!(
-                                reason.is_intrinsic()
-                                    || matches!(reason, RejectReason::BadTx { .. })
-                            );
-                            self.invalid_blocks.insert(hash, reason.clone());
+                            // A body that does not match the header's root says nothing about
+                            // the header (whose id is the block's): never cached, so that a
+                            // forged body cannot poison the honest block's id.
+                            if reason.is_intrinsic() {
+                                self.invalid_blocks.insert(hash, reason.clone());
+                            }
                             return self.reject(
                                 node,
                                 Some(ItemRef::Block(hash)),

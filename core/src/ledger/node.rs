@@ -120,13 +120,15 @@ impl RejectReason {
         }
     }
 
-    /// True when the reason depends only on the item, so it holds at every node and may be
-    /// cached by id.
+    /// True when the reason depends only on the item's id (for a block, its header, which
+    /// commits to the parent and to the body through the root), so it holds at every node and
+    /// may be cached by id. A body that does not match the root is not: another body may.
     pub fn is_intrinsic(&self) -> bool {
         !matches!(
             self,
             RejectReason::UnknownParent(_)
                 | RejectReason::FutureBlock { .. }
+                | RejectReason::BadTxRoot
                 | RejectReason::ReplayedNonce { .. }
                 | RejectReason::NonceGap { .. }
         )

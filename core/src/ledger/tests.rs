@@ -794,3 +794,45 @@ fn a_node_that_may_not_seal_on_its_head_moves_to_an_equally_heavy_branch() {
     assert_eq!(ledger.head(3).0, a2);
     assert_state_is_a_fresh_replay(&ledger);
 }
+
+#[test]
+fn a_forged_body_does_not_poison_the_honest_block() {
+    let (_, mut ledger, _) = setup(3, 17);
+    let g = ledger.genesis();
+    let keys = ledger.keys().clone();
+    let tx = Tx::signed(&keys, 2, 0, 0, transfer(0, 3));
+    let other = Tx::signed(&keys, 2, 0, 0, transfer(1, 3));
+    let h = header(&ledger, g, 1, &[tx.hash_and_size().0], |_| {});
+    let id = h.hash_and_size().0;
+    inject_block(&mut ledger, 0, 10_000, h.clone(), vec![other]);
+    assert_eq!(last_rejection(&ledger, 0), Some("bad_tx_root"));
+    inject_block(&mut ledger, 0, 10_000, h, vec![tx]);
+    assert_eq!(ledger.head(0).0, id);
+    assert_eq!(ledger.receipts(&id).unwrap().len(), 1);
+}
+
+#[test]
+fn event_times_do_not_depend_on_how_often_the_network_is_polled() {
+    let logs: Vec<Vec<(SimTime, LedgerEvent)>> = [100u64, 700, 100_000]
+        .iter()
+        .map(|&step_ms| {
+            let (_, mut ledger, mut net) = setup(5, 19);
+            let keys = ledger.keys().clone();
+            let tx = Tx::signed(&keys, 3, 0, 0, transfer(4, 1));
+            ledger
+                .apply(SimTime(0), &LedgerEvent::Submit { tx })
+                .unwrap();
+            let peers = partition(5, 2);
+            let mut log = Vec::new();
+            let mut t = 0;
+            while t < 100_000 {
+                t = (t + step_ms).min(100_000);
+                drain(&mut ledger, &mut net, SimTime(t), &peers, &mut log).unwrap();
+            }
+            log
+        })
+        .collect();
+    assert!(logs[0].len() > 20);
+    assert_eq!(logs[0], logs[1]);
+    assert_eq!(logs[0], logs[2]);
+}
