@@ -16,7 +16,8 @@
 //!   `submitModel` transaction, as a mean; the same for all transactions.
 //! - *chain bytes per node*: the sum of the encoded sizes (header plus transactions) of the
 //!   blocks of a node's canonical chain; mean and max over nodes, sampled every
-//!   [`SAMPLE_PERIOD_MS`] of simulated time and at the end.
+//!   [`SAMPLE_PERIOD_MS`] of simulated time and at the end. *Stored bytes*: the same over
+//!   every block a node holds, side branches included (what a node's disk would hold).
 
 use std::collections::BTreeMap;
 
@@ -74,6 +75,10 @@ pub struct ChainBytesSample {
     pub max_bytes: u64,
     /// Highest canonical head.
     pub max_height: u64,
+    /// Mean over nodes of the bytes of every block held (side branches included).
+    pub stored_mean_bytes: f64,
+    /// Most bytes of blocks held by one node.
+    pub stored_max_bytes: u64,
 }
 
 /// The ledger section of `summary.json`.
@@ -109,6 +114,10 @@ pub struct LedgerStats {
     pub chain_bytes_mean: f64,
     /// Largest canonical chain at the end, in bytes.
     pub chain_bytes_max: u64,
+    /// Mean over nodes of the bytes of every block held at the end (side branches included).
+    pub stored_bytes_mean: f64,
+    /// Most bytes of blocks held by one node at the end.
+    pub stored_bytes_max: u64,
     /// Chain size over time.
     pub chain_bytes_samples: Vec<ChainBytesSample>,
     /// Gossip messages sent.
@@ -236,6 +245,9 @@ fn sample(
             .map(|n| n.canonical.len() as u64 - 1)
             .max()
             .unwrap_or(0),
+        stored_mean_bytes: nodes.iter().map(|n| n.stored_bytes).sum::<u64>() as f64
+            / nodes.len().max(1) as f64,
+        stored_max_bytes: nodes.iter().map(|n| n.stored_bytes).max().unwrap_or(0),
     }
 }
 
@@ -297,6 +309,8 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         bytes_per_tx: mean(subs.iter().map(|s| s.size_bytes).collect()),
         chain_bytes_mean: last.mean_bytes,
         chain_bytes_max: last.max_bytes,
+        stored_bytes_mean: last.stored_mean_bytes,
+        stored_bytes_max: last.stored_max_bytes,
         chain_bytes_samples: samples,
         messages_sent: t.messages,
         messages_lost: t.lost,

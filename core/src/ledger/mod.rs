@@ -379,6 +379,11 @@ impl Ledger {
         self.txs.get(hash)
     }
 
+    /// The contract state after a valid block (e.g. `canonical_chain(node)[height]`).
+    pub fn state_after(&self, hash: &BlockHash) -> Option<&ContractState> {
+        self.blocks.get(hash).map(|e| &e.state)
+    }
+
     /// The receipts (one outcome per transaction) of a valid block.
     pub fn receipts(&self, hash: &BlockHash) -> Option<&[Outcome]> {
         self.blocks.get(hash).map(|e| &e.receipts[..])
@@ -1008,6 +1013,7 @@ impl Ledger {
         let entry = &self.blocks[&hash];
         let header = entry.block.header.clone();
         let td = entry.total_difficulty;
+        let size_bytes = entry.size_bytes;
         let tx_ids = entry.block.txs.clone();
         let n = &mut self.nodes[node as usize];
         assert!(
@@ -1015,6 +1021,7 @@ impl Ledger {
             "accepting a block whose parent is unknown"
         );
         n.known_blocks.insert(hash);
+        n.stored_bytes += size_bytes;
         n.version += 1;
         applied.accepted += 1;
         for tx in &tx_ids {

@@ -166,6 +166,8 @@ pub struct Node {
     pub(crate) reorgs: u64,
     pub(crate) deepest_reorg: u64,
     pub(crate) side_blocks: u64,
+    /// Encoded bytes of every block the node holds, side branches included.
+    pub(crate) stored_bytes: u64,
 }
 
 impl Node {
@@ -184,6 +186,7 @@ impl Node {
             reorgs: 0,
             deepest_reorg: 0,
             side_blocks: 0,
+            stored_bytes: 0,
         }
     }
 
@@ -207,6 +210,11 @@ impl Node {
         self.side_blocks
     }
 
+    /// Encoded bytes of every block the node holds (side branches included, genesis not).
+    pub fn stored_bytes(&self) -> u64 {
+        self.stored_bytes
+    }
+
     /// A digest of the node's view: head, mempool and counts.
     pub(crate) fn digest(&self, id: RobotId) -> Digest {
         let mut h = blake3::Hasher::new();
@@ -225,6 +233,7 @@ impl Node {
             self.reorgs,
             self.deepest_reorg,
             self.side_blocks,
+            self.stored_bytes,
         ] {
             h.update(&n.to_le_bytes());
         }
