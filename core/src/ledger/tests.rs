@@ -709,6 +709,10 @@ fn a_partitioned_swarm_grows_two_chains_and_heals_to_one() {
         stats.reorgs >= 2 && stats.deepest_reorg >= 1 && stats.forks_seen >= 1,
         "{stats:?}"
     );
+    assert!(
+        stats.stored_bytes_max > stats.chain_bytes_max,
+        "the losing side holds its old branch too"
+    );
     assert_state_is_a_fresh_replay(&ledger);
     // Transfers submitted on the losing side went back to the mempool and were sealed again.
     assert_eq!(stats.not_propagated, 0, "{stats:?}");
