@@ -421,6 +421,14 @@ impl Ledger {
         self.messages_sent
     }
 
+    /// The messages in flight, in number order: (number, sender, receiver, items).
+    pub fn messages_in_flight(&self) -> Vec<(u64, RobotId, RobotId, &[ItemRef])> {
+        self.flights
+            .iter()
+            .map(|(seq, f)| (*seq, f.from, f.to, &f.items[..]))
+            .collect()
+    }
+
     /// Encoded bytes of an item as it travels (a block with all its transactions).
     pub fn item_bytes(&self, item: &ItemRef) -> u64 {
         match item {

@@ -96,6 +96,29 @@ impl Network {
         }
     }
 
+    /// A network that takes over a ledger replayed up to some time (a forked run): gossip
+    /// resumes at the first round at or after the ledger's time, and the messages in flight
+    /// are delivered 1 ms after it. The loss streams and the link queues start afresh, so the
+    /// continuation is deterministic but is not the one the original network would have
+    /// produced.
+    pub fn resume(config: &Config, seed: u64, ledger: &Ledger) -> Network {
+        let mut net = Network::new(config, seed);
+        let now = ledger.now().0;
+        net.next_gossip = SimTime(now.div_ceil(net.gossip_ms) * net.gossip_ms);
+        for (seq, _, to, items) in ledger.messages_in_flight() {
+            for item in items {
+                net.in_flight.insert((to, *item));
+            }
+            net.flights.insert(
+                (SimTime(now + 1), to, seq),
+                Pending {
+                    items: items.to_vec(),
+                },
+            );
+        }
+        net
+    }
+
     /// The out-of-turn sealing delay of `node` on `parent`, in ms.
     pub fn sealing_delay_ms(&self, node: RobotId, parent: &BlockHash) -> u64 {
         if self.wiggle_max_ms == 0 {

@@ -840,3 +840,32 @@ fn event_times_do_not_depend_on_how_often_the_network_is_polled() {
     assert_eq!(logs[0], logs[1]);
     assert_eq!(logs[0], logs[2]);
 }
+
+#[test]
+fn a_network_resumes_a_replayed_ledger_deterministically() {
+    let tweak = |c: &mut Config| c.ledger.bandwidth_bytes_per_s = 500;
+    let (_, log) = wander(5, 23, 200, tweak);
+    let cut = log.len() / 2;
+    let (mut config, _, _) = setup(5, 23);
+    tweak(&mut config);
+    let resumed = |log: &[(SimTime, LedgerEvent)]| {
+        let mut ledger = replay(5, 23, log, tweak);
+        let mut net = Network::resume(&config, 23, &ledger);
+        let mut more = Vec::new();
+        let start = ledger.now().0;
+        run(
+            &mut ledger,
+            &mut net,
+            (start, start + 100_000),
+            |_| full_mesh(5),
+            |_, _| vec![],
+            &mut more,
+        );
+        (ledger.digest(), more)
+    };
+    let (a, more) = resumed(&log[..cut]);
+    assert_eq!((a, more.clone()), resumed(&log[..cut]));
+    assert!(more
+        .iter()
+        .any(|(_, e)| matches!(e, LedgerEvent::Seal { .. })));
+}
