@@ -65,7 +65,12 @@ pub fn substream(seed: u64, purpose: Purpose, robot: u32, index: u64) -> Rng {
     material[8..12].copy_from_slice(&(purpose as u32).to_le_bytes());
     material[12..16].copy_from_slice(&robot.to_le_bytes());
     material[16..].copy_from_slice(&index.to_le_bytes());
-    Rng { inner: Pcg64::from_seed(blake3::derive_key("swarmfl 2026-11 rng substream v1", &material)) }
+    Rng {
+        inner: Pcg64::from_seed(blake3::derive_key(
+            "swarmfl 2026-11 rng substream v1",
+            &material,
+        )),
+    }
 }
 
 /// 32 bytes derived from (seed, purpose, robot) with blake3's key derivation; used for stream
