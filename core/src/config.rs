@@ -441,7 +441,9 @@ impl Config {
     /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
     pub fn reward_weights(&self) -> Vec<i64> {
         let q = self.quorum() as usize;
-        let p = self.contract.penalised_ranks as usize;
+        // At least the best rank is rewarded (validation enforces it; the clamp keeps
+        // unvalidated test configurations meaningful).
+        let p = (self.contract.penalised_ranks as usize).min(q - 1);
         (0..q)
             .map(|rank| if rank + p < q { 1 } else { -1 })
             .collect()
