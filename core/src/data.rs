@@ -249,7 +249,7 @@ mod tests {
 
     #[test]
     fn samples_keep_the_first_waypoints_and_expire() {
-        let mut r = feed(&[&[7]; 10]);
+        let mut r = feed(&[&[7 as RobotId][..]; 10]);
         let s = r.samples();
         assert_eq!(s.len(), 2);
         assert_eq!(s[0].time, SimTime(500));

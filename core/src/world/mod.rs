@@ -457,6 +457,7 @@ fn place_robots(
     let lim = arena.half_side_m - r;
     let mut poses: Vec<Pose> = Vec::with_capacity(w.robots as usize);
     let mut grid = RobotGrid::default();
+    grid.rebuild(&arena.grid, &poses);
     for i in 0..w.robots {
         let what = || format!("robot {} of {} (a disk of radius {r} m)", i + 1, w.robots);
         if lim < 0.0 {
