@@ -88,7 +88,10 @@ impl Recorder {
         heard: &[RobotId],
         mut position: impl FnMut(RobotId, bool) -> [f32; 2],
     ) -> u32 {
-        debug_assert!(heard.windows(2).all(|w| w[0] < w[1]), "heard must be ascending");
+        debug_assert!(
+            heard.windows(2).all(|w| w[0] < w[1]),
+            "heard must be ascending"
+        );
         let mut old = std::mem::take(&mut self.tracks);
         let mut new = std::mem::take(&mut self.spare);
         debug_assert!(new.is_empty());
@@ -117,7 +120,10 @@ impl Recorder {
                 track.ticks += 1;
                 if track.ticks == rec.trajectory_ticks {
                     debug_assert_eq!(track.points.len(), rec.kept_waypoints as usize);
-                    self.samples.push_back(Sample { time: now, points: track.points });
+                    self.samples.push_back(Sample {
+                        time: now,
+                        points: track.points,
+                    });
                     completed += 1;
                 } else {
                     new.push(track);
@@ -134,7 +140,11 @@ impl Recorder {
 
     /// Drops the samples older than the expiration at time `now`.
     pub fn expire(&mut self, rec: &Recording, now: SimTime) {
-        while self.samples.front().is_some_and(|s| now.0 - s.time.0 > rec.expiration_ms) {
+        while self
+            .samples
+            .front()
+            .is_some_and(|s| now.0 - s.time.0 > rec.expiration_ms)
+        {
             self.samples.pop_front();
         }
     }
@@ -200,7 +210,10 @@ impl HeldoutObserver {
         if self.ticks == self.rec.trajectory_ticks {
             for w in &mut self.windows {
                 if self.samples.len() < self.wanted {
-                    self.samples.push(Sample { time: now, points: std::mem::take(w) });
+                    self.samples.push(Sample {
+                        time: now,
+                        points: std::mem::take(w),
+                    });
                 }
                 w.clear();
             }
@@ -219,7 +232,11 @@ mod tests {
     use super::*;
 
     fn rec() -> Recording {
-        Recording { trajectory_ticks: 5, kept_waypoints: 3, expiration_ms: 1000 }
+        Recording {
+            trajectory_ticks: 5,
+            kept_waypoints: 3,
+            expiration_ms: 1000,
+        }
     }
 
     /// Feeds `heard` lists tick by tick (tick k at time 100 k ms) and returns the recorder.
@@ -234,7 +251,11 @@ mod tests {
 
     fn check(ticks: &[&[RobotId]], completed: u64, discarded: u64, tracks: &[(RobotId, u32)]) {
         let r = feed(ticks);
-        assert_eq!((r.completed(), r.discarded()), (completed, discarded), "{ticks:?}");
+        assert_eq!(
+            (r.completed(), r.discarded()),
+            (completed, discarded),
+            "{ticks:?}"
+        );
         assert_eq!(r.tracks().collect::<Vec<_>>(), tracks, "{ticks:?}");
     }
 
@@ -243,8 +264,18 @@ mod tests {
         check(&[&[1], &[1], &[1], &[1], &[1]], 1, 0, &[]);
         check(&[&[1], &[1], &[1], &[1], &[1], &[1]], 1, 0, &[(1, 1)]);
         check(&[&[1], &[1], &[], &[1], &[1]], 0, 1, &[(1, 2)]);
-        check(&[&[1, 2], &[2], &[1, 2], &[1, 2, 3], &[2, 3]], 1, 2, &[(3, 2)]);
-        check(&[&[0, 4], &[4], &[4], &[4], &[4], &[4], &[4]], 1, 1, &[(4, 2)]);
+        check(
+            &[&[1, 2], &[2], &[1, 2], &[1, 2, 3], &[2, 3]],
+            1,
+            2,
+            &[(3, 2)],
+        );
+        check(
+            &[&[0, 4], &[4], &[4], &[4], &[4], &[4], &[4]],
+            1,
+            1,
+            &[(4, 2)],
+        );
     }
 
     #[test]
@@ -256,7 +287,11 @@ mod tests {
         assert_eq!(s[0].points, vec![[7.0, 0.0], [7.0, 1.0], [7.0, 2.0]]);
         assert_eq!(s[1].points, vec![[7.0, 5.0], [7.0, 6.0], [7.0, 7.0]]);
         r.expire(&rec(), SimTime(1500));
-        assert_eq!(r.samples().len(), 2, "age 1000 ms is not older than the expiration");
+        assert_eq!(
+            r.samples().len(),
+            2,
+            "age 1000 ms is not older than the expiration"
+        );
         r.expire(&rec(), SimTime(1501));
         assert_eq!(r.samples().len(), 1);
         assert_eq!(r.samples()[0].time, SimTime(1000));

@@ -22,7 +22,10 @@ fn violations(w: &World) -> Vec<String> {
         for (j, q) in w.poses().iter().enumerate().skip(i + 1) {
             let d2 = (p.x - q.x) * (p.x - q.x) + (p.y - q.y) * (p.y - q.y);
             if d2 < 4.0 * r * r {
-                out.push(format!("robots {i} and {j} overlap (distance {})", d2.sqrt()));
+                out.push(format!(
+                    "robots {i} and {j} overlap (distance {})",
+                    d2.sqrt()
+                ));
             }
         }
     }

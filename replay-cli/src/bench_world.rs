@@ -45,7 +45,8 @@ fn case(name: &str, config: &Config, ticks: u64) -> anyhow::Result<Case> {
     let mut event_bytes = 0;
     for _ in 0..RUNS {
         let t0 = Instant::now();
-        let mut world = World::new(config, SEED).with_context(|| format!("building the {name} world"))?;
+        let mut world =
+            World::new(config, SEED).with_context(|| format!("building the {name} world"))?;
         let mut controllers = Controllers::new(config, SEED);
         let t1 = Instant::now();
         for _ in 0..ticks {

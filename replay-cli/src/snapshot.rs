@@ -5,6 +5,9 @@
 //! The title is drawn with the system's sans-serif font (plotters `ttf`); if no font can be
 //! loaded, the picture is drawn without the title rather than failing.
 
+// `swarmfl snapshot` is wired in main.rs at integration; until then only the tests call `draw`.
+#![allow(dead_code)]
+
 use std::path::Path;
 
 use anyhow::Context;
@@ -31,17 +34,25 @@ const BYZANTINE: RGBColor = RGBColor(220, 30, 30);
 /// Draws `world` with the robots marked as given (missing marks are honest) into `out`
 /// (`.svg` or `.png`, by extension).
 pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyhow::Result<()> {
-    let ext = out.extension().and_then(|e| e.to_str()).map(str::to_ascii_lowercase);
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
     let result = match ext.as_deref() {
         Some("svg") => {
             let root = SVGBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
-            draw_on(&root, world, marks, Some(title)).or_else(|_| draw_on(&root, world, marks, None))
+            draw_on(&root, world, marks, Some(title))
+                .or_else(|_| draw_on(&root, world, marks, None))
         }
         Some("png") => {
             let root = BitMapBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
-            draw_on(&root, world, marks, Some(title)).or_else(|_| draw_on(&root, world, marks, None))
+            draw_on(&root, world, marks, Some(title))
+                .or_else(|_| draw_on(&root, world, marks, None))
         }
-        _ => anyhow::bail!("cannot draw {}: the file name must end in .svg or .png", out.display()),
+        _ => anyhow::bail!(
+            "cannot draw {}: the file name must end in .svg or .png",
+            out.display()
+        ),
     };
     result.with_context(|| format!("drawing the snapshot into {}", out.display()))
 }
@@ -62,7 +73,9 @@ where
     if let Some(title) = title {
         builder.caption(title, ("sans-serif", 22));
     }
-    let mut chart = builder.build_cartesian_2d(-h..h, -h..h).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let mut chart = builder
+        .build_cartesian_2d(-h..h, -h..h)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     let (xr, _) = chart.plotting_area().get_pixel_range();
     let px_per_m = f64::from(xr.end - xr.start) / (2.0 * h);
     let px = |m: f64| ((m * px_per_m).round() as i32).max(1);
@@ -81,32 +94,53 @@ where
             let len = (1.0 - reading) * range;
             let from = (p.x + r * c, p.y + r * s);
             let to = (from.0 + len * c, from.1 + len * s);
-            chart.draw_series(std::iter::once(PathElement::new(vec![from, to], RAY))).map_err(err)?;
+            chart
+                .draw_series(std::iter::once(PathElement::new(vec![from, to], RAY)))
+                .map_err(err)?;
         }
     }
     // Radio links.
     for (i, j) in world.links() {
         let (a, b) = (world.poses()[i as usize], world.poses()[j as usize]);
         chart
-            .draw_series(std::iter::once(PathElement::new(vec![(a.x, a.y), (b.x, b.y)], LINK.stroke_width(1))))
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(a.x, a.y), (b.x, b.y)],
+                LINK.stroke_width(1),
+            )))
             .map_err(err)?;
     }
     // Obstacles.
     for o in &world.arena().obstacles {
         match *o {
             Obstacle::Cylinder { x, y, radius_m } => {
-                chart.draw_series(std::iter::once(Circle::new((x, y), px(radius_m), OBSTACLE.filled()))).map_err(err)?;
-            }
-            Obstacle::Box { x, y, half_side_m: e } => {
                 chart
-                    .draw_series(std::iter::once(Rectangle::new([(x - e, y - e), (x + e, y + e)], OBSTACLE.filled())))
+                    .draw_series(std::iter::once(Circle::new(
+                        (x, y),
+                        px(radius_m),
+                        OBSTACLE.filled(),
+                    )))
+                    .map_err(err)?;
+            }
+            Obstacle::Box {
+                x,
+                y,
+                half_side_m: e,
+            } => {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x - e, y - e), (x + e, y + e)],
+                        OBSTACLE.filled(),
+                    )))
                     .map_err(err)?;
             }
         }
     }
     // Walls.
     chart
-        .draw_series(std::iter::once(Rectangle::new([(-h, -h), (h, h)], BLACK.stroke_width(4))))
+        .draw_series(std::iter::once(Rectangle::new(
+            [(-h, -h), (h, h)],
+            BLACK.stroke_width(4),
+        )))
         .map_err(err)?;
     // Robots with heading lines.
     for (i, p) in world.poses().iter().enumerate() {
@@ -114,10 +148,19 @@ where
             Some(RobotMark::Byzantine) => BYZANTINE,
             _ => HONEST,
         };
-        chart.draw_series(std::iter::once(Circle::new((p.x, p.y), px(r), color.filled()))).map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (p.x, p.y),
+                px(r),
+                color.filled(),
+            )))
+            .map_err(err)?;
         let tip = (p.x + 2.2 * r * p.theta.cos(), p.y + 2.2 * r * p.theta.sin());
         chart
-            .draw_series(std::iter::once(PathElement::new(vec![(p.x, p.y), tip], BLACK.stroke_width(2))))
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(p.x, p.y), tip],
+                BLACK.stroke_width(2),
+            )))
             .map_err(err)?;
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;

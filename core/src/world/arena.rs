@@ -92,12 +92,20 @@ impl Obstacle {
     /// Whether two obstacles overlap (touching does not).
     pub fn overlaps(&self, other: &Obstacle) -> bool {
         match (*self, *other) {
-            (Obstacle::Cylinder { x, y, radius_m }, o) | (o, Obstacle::Cylinder { x, y, radius_m }) => {
-                o.overlaps_disk(x, y, radius_m)
-            }
-            (Obstacle::Box { x: x1, y: y1, half_side_m: h1 }, Obstacle::Box { x: x2, y: y2, half_side_m: h2 }) => {
-                (x1 - x2).abs() < h1 + h2 && (y1 - y2).abs() < h1 + h2
-            }
+            (Obstacle::Cylinder { x, y, radius_m }, o)
+            | (o, Obstacle::Cylinder { x, y, radius_m }) => o.overlaps_disk(x, y, radius_m),
+            (
+                Obstacle::Box {
+                    x: x1,
+                    y: y1,
+                    half_side_m: h1,
+                },
+                Obstacle::Box {
+                    x: x2,
+                    y: y2,
+                    half_side_m: h2,
+                },
+            ) => (x1 - x2).abs() < h1 + h2 && (y1 - y2).abs() < h1 + h2,
         }
     }
 
@@ -105,11 +113,17 @@ impl Obstacle {
     /// (solid: an origin inside gives 0).
     pub fn ray_toi(&self, origin: (f64, f64), dir: (f64, f64), max_m: f64) -> Option<f64> {
         let (cx, cy) = self.centre();
-        let ray = Ray::new(Point2::new(origin.0 - cx, origin.1 - cy), Vector2::new(dir.0, dir.1));
+        let ray = Ray::new(
+            Point2::new(origin.0 - cx, origin.1 - cy),
+            Vector2::new(dir.0, dir.1),
+        );
         match *self {
-            Obstacle::Cylinder { radius_m, .. } => Ball::new(radius_m).cast_local_ray(&ray, max_m, true),
+            Obstacle::Cylinder { radius_m, .. } => {
+                Ball::new(radius_m).cast_local_ray(&ray, max_m, true)
+            }
             Obstacle::Box { half_side_m, .. } => {
-                Cuboid::new(Vector2::new(half_side_m, half_side_m)).cast_local_ray(&ray, max_m, true)
+                Cuboid::new(Vector2::new(half_side_m, half_side_m))
+                    .cast_local_ray(&ray, max_m, true)
             }
         }
     }
@@ -119,12 +133,21 @@ impl Obstacle {
         let (cx, cy) = self.centre();
         let e = self.extent_m();
         // Cheap rejection on bounding boxes first.
-        if a.0.max(b.0) < cx - e || a.0.min(b.0) > cx + e || a.1.max(b.1) < cy - e || a.1.min(b.1) > cy + e {
+        if a.0.max(b.0) < cx - e
+            || a.0.min(b.0) > cx + e
+            || a.1.max(b.1) < cy - e
+            || a.1.min(b.1) > cy + e
+        {
             return false;
         }
-        let ray = Ray::new(Point2::new(a.0 - cx, a.1 - cy), Vector2::new(b.0 - a.0, b.1 - a.1));
+        let ray = Ray::new(
+            Point2::new(a.0 - cx, a.1 - cy),
+            Vector2::new(b.0 - a.0, b.1 - a.1),
+        );
         match *self {
-            Obstacle::Cylinder { radius_m, .. } => Ball::new(radius_m).intersects_local_ray(&ray, 1.0),
+            Obstacle::Cylinder { radius_m, .. } => {
+                Ball::new(radius_m).intersects_local_ray(&ray, 1.0)
+            }
             Obstacle::Box { half_side_m, .. } => {
                 Cuboid::new(Vector2::new(half_side_m, half_side_m)).intersects_local_ray(&ray, 1.0)
             }
@@ -149,7 +172,11 @@ impl GridShape {
         let side = 2.0 * half_m;
         let cell_m = min_cell_m.max(side / f64::from(MAX_CELLS_PER_AXIS));
         let cells = ((side / cell_m).ceil() as u32).clamp(1, MAX_CELLS_PER_AXIS);
-        GridShape { half_m, cell_m, cells }
+        GridShape {
+            half_m,
+            cell_m,
+            cells,
+        }
     }
 
     fn axis(&self, v: f64) -> u32 {
@@ -177,7 +204,7 @@ impl GridShape {
     }
 
     /// Number of cells.
-    pub fn len(&self) -> usize {
+    pub fn cell_count(&self) -> usize {
         (self.cells * self.cells) as usize
     }
 }
@@ -204,15 +231,31 @@ impl Arena {
         let mut obstacles: Vec<Obstacle> = Vec::with_capacity(total as usize);
         for index in 0..total {
             let is_cylinder = index < w.cylinders;
-            let extent = if is_cylinder { w.cylinder_radius_m } else { w.box_side_m / 2.0 };
-            let what = if is_cylinder {
-                format!("obstacle {} of {total} (a cylinder of radius {} m)", index + 1, w.cylinder_radius_m)
+            let extent = if is_cylinder {
+                w.cylinder_radius_m
             } else {
-                format!("obstacle {} of {total} (a box of side {} m)", index + 1, w.box_side_m)
+                w.box_side_m / 2.0
+            };
+            let what = if is_cylinder {
+                format!(
+                    "obstacle {} of {total} (a cylinder of radius {} m)",
+                    index + 1,
+                    w.cylinder_radius_m
+                )
+            } else {
+                format!(
+                    "obstacle {} of {total} (a box of side {} m)",
+                    index + 1,
+                    w.box_side_m
+                )
             };
             // Centres are uniform in [-s, s]^2, where the obstacle stays inside the walls.
             let inside = half - extent;
-            let s = if w.obstacle_spread_half_m > 0.0 { w.obstacle_spread_half_m.min(inside) } else { inside };
+            let s = if w.obstacle_spread_half_m > 0.0 {
+                w.obstacle_spread_half_m.min(inside)
+            } else {
+                inside
+            };
             if s < 0.0 {
                 return Err(WorldError::Placement {
                     what,
@@ -227,9 +270,17 @@ impl Arena {
             for _ in 0..PLACEMENT_ATTEMPTS {
                 let (x, y) = (rng.range(-s, s), rng.range(-s, s));
                 let o = if is_cylinder {
-                    Obstacle::Cylinder { x, y, radius_m: extent }
+                    Obstacle::Cylinder {
+                        x,
+                        y,
+                        radius_m: extent,
+                    }
                 } else {
-                    Obstacle::Box { x, y, half_side_m: extent }
+                    Obstacle::Box {
+                        x,
+                        y,
+                        half_side_m: extent,
+                    }
                 };
                 if obstacles.iter().all(|p| !p.overlaps(&o)) {
                     placed = Some(o);
@@ -258,13 +309,20 @@ impl Arena {
     /// An arena with the given obstacles (indexes them in the grid).
     pub fn with_obstacles(half_side_m: f64, obstacles: Vec<Obstacle>, min_cell_m: f64) -> Arena {
         let grid = GridShape::new(half_side_m, min_cell_m);
-        let mut obstacle_cells = vec![Vec::new(); grid.len()];
+        let mut obstacle_cells = vec![Vec::new(); grid.cell_count()];
         for (i, o) in obstacles.iter().enumerate() {
             let (x, y) = o.centre();
             let e = o.extent_m();
-            grid.for_cells(x - e, y - e, x + e, y + e, |c| obstacle_cells[c as usize].push(i as u32));
+            grid.for_cells(x - e, y - e, x + e, y + e, |c| {
+                obstacle_cells[c as usize].push(i as u32)
+            });
         }
-        Arena { half_side_m, obstacles, grid, obstacle_cells }
+        Arena {
+            half_side_m,
+            obstacles,
+            grid,
+            obstacle_cells,
+        }
     }
 
     /// Calls `f` with the index of every obstacle whose bounding box may intersect the box
@@ -298,9 +356,15 @@ impl Arena {
     /// Whether an obstacle blocks the line of sight from `a` to `b`.
     pub fn occluded(&self, a: (f64, f64), b: (f64, f64)) -> bool {
         let mut hit = false;
-        self.obstacles_near(a.0.min(b.0), a.1.min(b.1), a.0.max(b.0), a.1.max(b.1), |o| {
-            hit = hit || self.obstacles[o as usize].blocks_segment(a, b);
-        });
+        self.obstacles_near(
+            a.0.min(b.0),
+            a.1.min(b.1),
+            a.0.max(b.0),
+            a.1.max(b.1),
+            |o| {
+                hit = hit || self.obstacles[o as usize].blocks_segment(a, b);
+            },
+        );
         hit
     }
 
@@ -322,11 +386,17 @@ impl Arena {
         }
         best = best.max(0.0);
         let end = (origin.0 + dir.0 * max_m, origin.1 + dir.1 * max_m);
-        self.obstacles_near(origin.0.min(end.0), origin.1.min(end.1), origin.0.max(end.0), origin.1.max(end.1), |o| {
-            if let Some(t) = self.obstacles[o as usize].ray_toi(origin, dir, max_m) {
-                best = best.min(t);
-            }
-        });
+        self.obstacles_near(
+            origin.0.min(end.0),
+            origin.1.min(end.1),
+            origin.0.max(end.0),
+            origin.1.max(end.1),
+            |o| {
+                if let Some(t) = self.obstacles[o as usize].ray_toi(origin, dir, max_m) {
+                    best = best.min(t);
+                }
+            },
+        );
         (best <= max_m).then_some(best)
     }
 }
@@ -337,14 +407,26 @@ mod tests {
 
     #[test]
     fn overlap_tests_allow_touching_and_catch_overlap() {
-        let c = Obstacle::Cylinder { x: 0.0, y: 0.0, radius_m: 1.0 };
-        let b = Obstacle::Box { x: 3.0, y: 0.0, half_side_m: 1.0 };
+        let c = Obstacle::Cylinder {
+            x: 0.0,
+            y: 0.0,
+            radius_m: 1.0,
+        };
+        let b = Obstacle::Box {
+            x: 3.0,
+            y: 0.0,
+            half_side_m: 1.0,
+        };
         assert!(!c.overlaps_disk(1.5, 0.0, 0.5));
         assert!(c.overlaps_disk(1.49, 0.0, 0.5));
         assert!(!b.overlaps_disk(1.5, 0.0, 0.5));
         assert!(b.overlaps_disk(1.51, 0.0, 0.5));
         assert!(!c.overlaps(&b));
-        assert!(c.overlaps(&Obstacle::Box { x: 1.9, y: 0.0, half_side_m: 1.0 }));
+        assert!(c.overlaps(&Obstacle::Box {
+            x: 1.9,
+            y: 0.0,
+            half_side_m: 1.0
+        }));
         // A corner: the disk near the box corner but outside the rounded distance.
         assert!(!b.overlaps_disk(4.0 + 0.3, 1.0 + 0.3, 0.42));
         assert!(b.overlaps_disk(4.0 + 0.3, 1.0 + 0.3, 0.43));
@@ -354,7 +436,18 @@ mod tests {
     fn segments_and_rays_see_obstacles() {
         let arena = Arena::with_obstacles(
             2.0,
-            vec![Obstacle::Cylinder { x: 0.0, y: 0.0, radius_m: 0.2 }, Obstacle::Box { x: 1.0, y: 1.0, half_side_m: 0.1 }],
+            vec![
+                Obstacle::Cylinder {
+                    x: 0.0,
+                    y: 0.0,
+                    radius_m: 0.2,
+                },
+                Obstacle::Box {
+                    x: 1.0,
+                    y: 1.0,
+                    half_side_m: 0.1,
+                },
+            ],
             1.0,
         );
         assert!(arena.occluded((-1.0, 0.0), (1.0, 0.1)));

@@ -33,7 +33,10 @@ pub struct WheelCommand {
 impl WheelCommand {
     /// The command closest to the given speeds in m/s (saturating at +-32.767 m/s).
     pub fn from_mps(left: f64, right: f64) -> WheelCommand {
-        WheelCommand { left_mmps: quantise(left), right_mmps: quantise(right) }
+        WheelCommand {
+            left_mmps: quantise(left),
+            right_mmps: quantise(right),
+        }
     }
 
     /// Left wheel speed in m/s.
@@ -105,7 +108,13 @@ impl Controllers {
             .map(|i| {
                 let mut rng = rng::stream(seed, Purpose::Controller, i);
                 let last_avoid_dir = if rng.below(2) == 0 { 1 } else { -1 };
-                RobotController { rng, turn_ticks: 0, turn_dir: 1, avoiding: None, last_avoid_dir }
+                RobotController {
+                    rng,
+                    turn_ticks: 0,
+                    turn_dir: 1,
+                    avoiding: None,
+                    last_avoid_dir,
+                }
             })
             .collect();
         Controllers {
@@ -122,14 +131,27 @@ impl Controllers {
 
     /// Decides every robot's wheel command for the next tick from the current state.
     pub fn decide(&mut self, world: &World) -> TickEvent {
-        assert_eq!(world.poses().len(), self.robots.len(), "controllers built for another swarm");
+        assert_eq!(
+            world.poses().len(),
+            self.robots.len(),
+            "controllers built for another swarm"
+        );
         let v = self.cruise_mmps;
-        let straight = WheelCommand { left_mmps: v, right_mmps: v };
+        let straight = WheelCommand {
+            left_mmps: v,
+            right_mmps: v,
+        };
         let turn = |dir: i8| {
             if dir > 0 {
-                WheelCommand { left_mmps: -v, right_mmps: v }
+                WheelCommand {
+                    left_mmps: -v,
+                    right_mmps: v,
+                }
             } else {
-                WheelCommand { left_mmps: v, right_mmps: -v }
+                WheelCommand {
+                    left_mmps: v,
+                    right_mmps: -v,
+                }
             }
         };
         let mut commands = Vec::with_capacity(self.robots.len());
@@ -187,14 +209,26 @@ mod tests {
         let c = WheelCommand::from_mps(0.025, -0.0254);
         assert_eq!((c.left_mmps, c.right_mmps), (25, -25));
         assert_eq!(c.left_mps(), 0.025);
-        assert_eq!(WheelCommand::from_mps(1e9, f64::NAN), WheelCommand { left_mmps: i16::MAX, right_mmps: 0 });
+        assert_eq!(
+            WheelCommand::from_mps(1e9, f64::NAN),
+            WheelCommand {
+                left_mmps: i16::MAX,
+                right_mmps: 0
+            }
+        );
     }
 
     #[test]
     fn a_tick_event_of_fifteen_robots_is_small() {
         let ev = TickEvent {
             commands: (0..15)
-                .map(|i| if i % 3 == 0 { WheelCommand::from_mps(-0.025, 0.025) } else { WheelCommand::from_mps(0.025, 0.025) })
+                .map(|i| {
+                    if i % 3 == 0 {
+                        WheelCommand::from_mps(-0.025, 0.025)
+                    } else {
+                        WheelCommand::from_mps(0.025, 0.025)
+                    }
+                })
                 .collect(),
         };
         let bytes = rmp_serde::to_vec(&ev).unwrap();

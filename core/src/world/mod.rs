@@ -165,10 +165,19 @@ impl World {
 
     /// A world with obstacles from `seed` and robots from `placement_seed`, with or without
     /// sensing (the held-out observer's copy has none).
-    fn build(config: &Config, seed: u64, placement_seed: u64, sensing: bool) -> Result<World, WorldError> {
+    fn build(
+        config: &Config,
+        seed: u64,
+        placement_seed: u64,
+        sensing: bool,
+    ) -> Result<World, WorldError> {
         let w = &config.world;
         let tick_ms = SimTime::from_secs(config.run.tick_s).0;
-        let body = Body { radius_m: w.robot_radius_m, wheel_base_m: w.wheel_base_m, dt_s: tick_ms as f64 / 1000.0 };
+        let body = Body {
+            radius_m: w.robot_radius_m,
+            wheel_base_m: w.wheel_base_m,
+            dt_s: tick_ms as f64 / 1000.0,
+        };
         let sensors = w.proximity_sensors;
         let sensor_dirs = (0..sensors)
             .map(|k| {
@@ -190,9 +199,16 @@ impl World {
             sensing,
         };
         // The grid cell covers the longest query: RAB range, or proximity reach plus a robot.
-        let min_cell = w.rab_range_m.max(2.0 * w.robot_radius_m + w.proximity_range_m).max(1e-3);
+        let min_cell = w
+            .rab_range_m
+            .max(2.0 * w.robot_radius_m + w.proximity_range_m)
+            .max(1e-3);
         let arena = Arena::new(w, &mut rng::stream(seed, Purpose::Obstacles, 0), min_cell)?;
-        let (poses, grid) = place_robots(w, &arena, &mut rng::stream(placement_seed, Purpose::Placement, 0))?;
+        let (poses, grid) = place_robots(
+            w,
+            &arena,
+            &mut rng::stream(placement_seed, Purpose::Placement, 0),
+        )?;
         let n = w.robots;
         let mut world = World {
             params,
@@ -200,14 +216,20 @@ impl World {
             tick: 0,
             poses,
             peers: vec![Vec::new(); n as usize],
-            rab_rngs: (0..n).map(|i| rng::stream(seed, Purpose::RangeAndBearing, i)).collect(),
+            rab_rngs: (0..n)
+                .map(|i| rng::stream(seed, Purpose::RangeAndBearing, i))
+                .collect(),
             recorders: vec![Recorder::default(); n as usize],
             heldout: Vec::new(),
             counters: Counters::default(),
             sample_chain: Digest::default(),
             reading_mix: 0,
             fixed_digest: Digest::default(),
-            scratch: Scratch { grid, grid_tick: Some(0), ..Scratch::default() },
+            scratch: Scratch {
+                grid,
+                grid_tick: Some(0),
+                ..Scratch::default()
+            },
         };
         if sensing {
             let mut contacts = std::mem::take(&mut world.scratch.contacts);
@@ -223,7 +245,11 @@ impl World {
         if event.commands.len() != self.poses.len() {
             return Err(WorldError::Event {
                 time: self.time(),
-                why: format!("{} wheel commands for {} robots", event.commands.len(), self.poses.len()),
+                why: format!(
+                    "{} wheel commands for {} robots",
+                    event.commands.len(),
+                    self.poses.len()
+                ),
             });
         }
         Ok(())
@@ -238,14 +264,24 @@ impl World {
 
     /// Folds one tick. The event must hold one command per robot (see [`World::check`]).
     pub fn apply(&mut self, event: &TickEvent) {
-        assert_eq!(event.commands.len(), self.poses.len(), "one wheel command per robot");
+        assert_eq!(
+            event.commands.len(),
+            self.poses.len(),
+            "one wheel command per robot"
+        );
         let mut grid = std::mem::take(&mut self.scratch.grid);
-        if self.scratch.grid_tick != Some(self.tick) || grid.len() != self.poses.len() {
+        if self.scratch.grid_tick != Some(self.tick) || grid.robots() != self.poses.len() {
             grid.rebuild(&self.arena.grid, &self.poses);
         }
-        self.counters.blocked_moves +=
-            physics::step(&self.arena, &mut grid, &mut self.poses, &self.params.body, &event.commands);
-        let overlaps = physics::overlaps(&self.arena, &grid, &self.poses, self.params.body.radius_m);
+        self.counters.blocked_moves += physics::step(
+            &self.arena,
+            &mut grid,
+            &mut self.poses,
+            &self.params.body,
+            &event.commands,
+        );
+        let overlaps =
+            physics::overlaps(&self.arena, &grid, &self.poses, self.params.body.radius_m);
         debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick + 1);
         self.counters.collisions += overlaps;
         self.tick += 1;
@@ -285,10 +321,17 @@ impl World {
                     return [0.0, 0.0];
                 }
                 let q = poses[j as usize];
-                let (nx, ny) = if sigma > 0.0 { gaussian_pair(rng, sigma) } else { (0.0, 0.0) };
+                let (nx, ny) = if sigma > 0.0 {
+                    gaussian_pair(rng, sigma)
+                } else {
+                    (0.0, 0.0)
+                };
                 let point = [(q.x + nx) as f32, (q.y + ny) as f32];
                 *mix = mix_in(*mix, (u64::from(j) << 32) | i as u64);
-                *mix = mix_in(*mix, (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()));
+                *mix = mix_in(
+                    *mix,
+                    (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()),
+                );
                 point
             });
             if completed > 0 {
@@ -351,7 +394,11 @@ impl World {
 
     /// The robot's current data set (unexpired samples, oldest first).
     pub fn dataset(&self, robot: RobotId) -> Vec<Sample> {
-        self.recorders[robot as usize].samples().iter().cloned().collect()
+        self.recorders[robot as usize]
+            .samples()
+            .iter()
+            .cloned()
+            .collect()
     }
 
     /// Number of samples in the robot's current data set.
@@ -375,7 +422,13 @@ impl World {
         let rates: Vec<f64> = self
             .recorders
             .iter()
-            .map(|r| if elapsed_s > 0.0 { r.completed() as f64 * 600.0 / elapsed_s } else { 0.0 })
+            .map(|r| {
+                if elapsed_s > 0.0 {
+                    r.completed() as f64 * 600.0 / elapsed_s
+                } else {
+                    0.0
+                }
+            })
             .collect();
         let mean = rates.iter().sum::<f64>() / n;
         let std = if rates.len() > 1 {
@@ -385,7 +438,11 @@ impl World {
         };
         WorldStats {
             collisions: self.counters.collisions,
-            mean_neighbours: if self.tick > 0 { self.counters.contact_ticks as f64 / (self.tick as f64 * n) } else { 0.0 },
+            mean_neighbours: if self.tick > 0 {
+                self.counters.contact_ticks as f64 / (self.tick as f64 * n)
+            } else {
+                0.0
+            },
             samples_per_robot_per_600s: mean,
             samples_per_robot_per_600s_std: std,
             trajectories_discarded: self.recorders.iter().map(Recorder::discarded).sum(),
@@ -427,7 +484,13 @@ impl World {
             }
         }
         let c = &self.counters;
-        for v in [c.collisions, c.blocked_moves, c.contact_ticks, c.messages_dropped, self.reading_mix] {
+        for v in [
+            c.collisions,
+            c.blocked_moves,
+            c.contact_ticks,
+            c.messages_dropped,
+            self.reading_mix,
+        ] {
             h.update(&v.to_le_bytes());
         }
         h.update(&self.sample_chain.0);
@@ -435,7 +498,8 @@ impl World {
     }
 
     fn compute_fixed_digest(&self) -> Digest {
-        let mut bytes = rmp_serde::to_vec(&(&self.params, &self.arena)).expect("world parameters serialise");
+        let mut bytes =
+            rmp_serde::to_vec(&(&self.params, &self.arena)).expect("world parameters serialise");
         for s in &self.heldout {
             bytes.extend_from_slice(&s.time.0.to_le_bytes());
             for p in &s.points {
@@ -463,7 +527,10 @@ fn place_robots(
         if lim < 0.0 {
             return Err(WorldError::Placement {
                 what: what(),
-                why: format!("it is larger than the arena (world.arena_side_m = {})", w.arena_side_m),
+                why: format!(
+                    "it is larger than the arena (world.arena_side_m = {})",
+                    w.arena_side_m
+                ),
             });
         }
         let mut placed = None;
@@ -518,9 +585,15 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
         }
         let event = controllers.decide(&copy);
         copy.apply(&event);
-        observer.observe(copy.time(), copy.poses.iter().map(|p| [p.x as f32, p.y as f32]));
+        observer.observe(
+            copy.time(),
+            copy.poses.iter().map(|p| [p.x as f32, p.y as f32]),
+        );
     }
-    assert!(observer.done(), "the held-out observer has a sample per robot and window");
+    assert!(
+        observer.done(),
+        "the held-out observer has a sample per robot and window"
+    );
     Ok(observer.into_samples())
 }
 
@@ -534,7 +607,10 @@ fn gaussian_pair(rng: &mut Rng, sigma: f64) -> (f64, f64) {
 }
 
 fn mix_in(state: u64, word: u64) -> u64 {
-    (state ^ word).wrapping_mul(0x9E37_79B9_7F4A_7C15).rotate_left(29) ^ (state >> 7)
+    (state ^ word)
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .rotate_left(29)
+        ^ (state >> 7)
 }
 
 fn chain_sample(prev: &Digest, robot: RobotId, s: &Sample) -> Digest {

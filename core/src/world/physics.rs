@@ -38,7 +38,7 @@ pub struct RobotGrid {
 impl RobotGrid {
     /// Re-indexes every robot.
     pub fn rebuild(&mut self, shape: &GridShape, poses: &[Pose]) {
-        self.cells.resize(shape.len(), Vec::new());
+        self.cells.resize(shape.cell_count(), Vec::new());
         for c in &mut self.cells {
             c.clear();
         }
@@ -52,7 +52,7 @@ impl RobotGrid {
 
     /// Adds robot `i` (the next index) at (`x`, `y`).
     pub fn push(&mut self, shape: &GridShape, x: f64, y: f64) {
-        self.cells.resize(shape.len(), Vec::new());
+        self.cells.resize(shape.cell_count(), Vec::new());
         let c = shape.cell_of(x, y);
         self.cells[c as usize].push(self.cell_of.len() as u32);
         self.cell_of.push(c);
@@ -64,7 +64,10 @@ impl RobotGrid {
         let old = self.cell_of[i as usize];
         if c != old {
             let cell = &mut self.cells[old as usize];
-            let at = cell.iter().position(|&r| r == i).expect("robot indexed in its cell");
+            let at = cell
+                .iter()
+                .position(|&r| r == i)
+                .expect("robot indexed in its cell");
             cell.swap_remove(at);
             self.cells[c as usize].push(i);
             self.cell_of[i as usize] = c;
@@ -72,7 +75,15 @@ impl RobotGrid {
     }
 
     /// Calls `f` for every robot whose centre lies in a cell overlapping the box.
-    pub fn near(&self, shape: &GridShape, x0: f64, y0: f64, x1: f64, y1: f64, mut f: impl FnMut(u32)) {
+    pub fn near(
+        &self,
+        shape: &GridShape,
+        x0: f64,
+        y0: f64,
+        x1: f64,
+        y1: f64,
+        mut f: impl FnMut(u32),
+    ) {
         shape.for_cells(x0, y0, x1, y1, |c| {
             for &r in &self.cells[c as usize] {
                 f(r);
@@ -81,14 +92,22 @@ impl RobotGrid {
     }
 
     /// Number of robots indexed.
-    pub fn len(&self) -> usize {
+    pub fn robots(&self) -> usize {
         self.cell_of.len()
     }
 }
 
 /// Whether a robot disk of radius `r` at (`x`, `y`) would overlap a wall, an obstacle or a
 /// robot other than `skip`.
-pub fn blocked(arena: &Arena, grid: &RobotGrid, poses: &[Pose], r: f64, skip: u32, x: f64, y: f64) -> bool {
+pub fn blocked(
+    arena: &Arena,
+    grid: &RobotGrid,
+    poses: &[Pose],
+    r: f64,
+    skip: u32,
+    x: f64,
+    y: f64,
+) -> bool {
     if arena.disk_blocked(x, y, r) {
         return true;
     }
@@ -105,9 +124,15 @@ pub fn blocked(arena: &Arena, grid: &RobotGrid, poses: &[Pose], r: f64, skip: u3
 
 /// Moves every robot by its wheel command for one tick; returns how many translations were
 /// refused. `grid` must index `poses` on entry and indexes them on exit.
-pub fn step(arena: &Arena, grid: &mut RobotGrid, poses: &mut [Pose], body: &Body, commands: &[WheelCommand]) -> u64 {
+pub fn step(
+    arena: &Arena,
+    grid: &mut RobotGrid,
+    poses: &mut [Pose],
+    body: &Body,
+    commands: &[WheelCommand],
+) -> u64 {
     assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
-    debug_assert_eq!(grid.len(), poses.len());
+    debug_assert_eq!(grid.robots(), poses.len());
     let r = body.radius_m;
     let mut refused = 0;
     for i in 0..poses.len() {
@@ -130,7 +155,11 @@ pub fn step(arena: &Arena, grid: &mut RobotGrid, poses: &mut [Pose], body: &Body
             let n = substeps.max(1.0) as u32;
             (1..=n).all(|k| {
                 let f = f64::from(k) / f64::from(n);
-                let (x, y) = if k == n { (p.x + dx, p.y + dy) } else { (p.x + f * dx, p.y + f * dy) };
+                let (x, y) = if k == n {
+                    (p.x + dx, p.y + dy)
+                } else {
+                    (p.x + f * dx, p.y + f * dy)
+                };
                 !blocked(arena, grid, poses, r, i as u32, x, y)
             })
         };

@@ -23,7 +23,9 @@ impl World {
     /// Calls `f` for every robot that may lie within the box (a superset, by grid cell or, for
     /// a world just deserialised, every robot).
     pub(super) fn robots_near(&self, x0: f64, y0: f64, x1: f64, y1: f64, f: impl FnMut(u32)) {
-        if self.scratch.grid_tick == Some(self.tick) && self.scratch.grid.len() == self.poses.len() {
+        if self.scratch.grid_tick == Some(self.tick)
+            && self.scratch.grid.robots() == self.poses.len()
+        {
             self.scratch.grid.near(&self.arena.grid, x0, y0, x1, y1, f);
         } else {
             (0..self.poses.len() as u32).for_each(f);
@@ -58,9 +60,11 @@ impl World {
         });
         let mut near_static = !self.arena.inside(p.x, p.y, reach);
         if !near_static {
-            self.arena.obstacles_near(p.x - reach, p.y - reach, p.x + reach, p.y + reach, |o| {
-                near_static = near_static || self.arena.obstacles[o as usize].distance_sq(p.x, p.y) < reach * reach;
-            });
+            self.arena
+                .obstacles_near(p.x - reach, p.y - reach, p.x + reach, p.y + reach, |o| {
+                    near_static = near_static
+                        || self.arena.obstacles[o as usize].distance_sq(p.x, p.y) < reach * reach;
+                });
         }
         if robot_count == 0 && !overflow && !near_static {
             return;
@@ -70,13 +74,22 @@ impl World {
         for (k, &(ox, oy)) in dirs.iter().enumerate() {
             let dir = (c * ox - s * oy, s * ox + c * oy);
             let origin = (p.x + r * dir.0, p.y + r * dir.1);
-            let mut best = if near_static { self.arena.ray_toi(origin, dir, range).unwrap_or(f64::INFINITY) } else { f64::INFINITY };
+            let mut best = if near_static {
+                self.arena
+                    .ray_toi(origin, dir, range)
+                    .unwrap_or(f64::INFINITY)
+            } else {
+                f64::INFINITY
+            };
             let mut cast = |j: u32| {
                 if j == robot {
                     return;
                 }
                 let q = &self.poses[j as usize];
-                let ray = Ray::new(Point2::new(origin.0 - q.x, origin.1 - q.y), Vector2::new(dir.0, dir.1));
+                let ray = Ray::new(
+                    Point2::new(origin.0 - q.x, origin.1 - q.y),
+                    Vector2::new(dir.0, dir.1),
+                );
                 if let Some(t) = ball.cast_local_ray(&ray, range, true) {
                     best = best.min(t);
                 }
@@ -106,7 +119,9 @@ impl World {
                 }
                 let q = &self.poses[j as usize];
                 let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
-                if d2 <= range * range && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y))) {
+                if d2 <= range * range
+                    && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
+                {
                     adj[i].push(j);
                     adj[j as usize].push(i as u32);
                 }
@@ -124,7 +139,11 @@ impl World {
         self.contacts(&mut adj);
         let mut out = Vec::new();
         for (i, a) in adj.iter().enumerate() {
-            out.extend(a.iter().filter(|&&j| j as usize > i).map(|&j| (i as RobotId, j)));
+            out.extend(
+                a.iter()
+                    .filter(|&&j| j as usize > i)
+                    .map(|&j| (i as RobotId, j)),
+            );
         }
         out
     }

@@ -54,7 +54,10 @@ fn check_placement_error(overrides: &[(&str, &str)], expect: &[&str]) {
     for (k, v) in overrides {
         c.set(&format!("{k}={v}")).unwrap();
     }
-    let err = World::new(&c, 3).err().unwrap_or_else(|| panic!("{overrides:?} should not fit")).to_string();
+    let err = World::new(&c, 3)
+        .err()
+        .unwrap_or_else(|| panic!("{overrides:?} should not fit"))
+        .to_string();
     for e in expect {
         assert!(err.contains(e), "error {err:?} lacks {e:?}");
     }
@@ -62,13 +65,30 @@ fn check_placement_error(overrides: &[(&str, &str)], expect: &[&str]) {
 
 #[test]
 fn impossible_placements_are_errors_naming_the_parameters() {
-    check_placement_error(&[("world.cylinders", "400")], &["cannot place obstacle", "world.cylinders = 400", "world.arena_side_m"]);
-    check_placement_error(&[("world.box_side_m", "6")], &["a box of side 6 m", "larger than the arena"]);
+    check_placement_error(
+        &[("world.cylinders", "400")],
+        &[
+            "cannot place obstacle",
+            "world.cylinders = 400",
+            "world.arena_side_m",
+        ],
+    );
+    check_placement_error(
+        &[("world.box_side_m", "6")],
+        &["a box of side 6 m", "larger than the arena"],
+    );
     check_placement_error(
         &[("world.robots", "3000"), ("world.arena_side_m", "2")],
-        &["cannot place robot", "world.robots = 3000", "world.arena_side_m = 2"],
+        &[
+            "cannot place robot",
+            "world.robots = 3000",
+            "world.arena_side_m = 2",
+        ],
     );
-    check_placement_error(&[("world.obstacle_spread_half_m", "0.2")], &["world.obstacle_spread_half_m = 0.2"]);
+    check_placement_error(
+        &[("world.obstacle_spread_half_m", "0.2")],
+        &["world.obstacle_spread_half_m = 0.2"],
+    );
     check_placement_error(&[("world.robots", "0")], &["world.robots"]);
 }
 
@@ -98,11 +118,19 @@ fn dense_swarms_never_overlap_and_stay_inside() {
     let mut controllers = Controllers::new(&c, 11);
     for _ in 0..40 {
         run_on(&mut world, &mut controllers, 50);
-        assert_eq!(brute_overlaps(&world), Vec::<String>::new(), "at {}", world.time());
+        assert_eq!(
+            brute_overlaps(&world),
+            Vec::<String>::new(),
+            "at {}",
+            world.time()
+        );
     }
     let stats = world.stats();
     assert_eq!(stats.collisions, 0);
-    assert!(stats.blocked_moves > 0, "a dense swarm at 0.1 m/s must bump: {stats:?}");
+    assert!(
+        stats.blocked_moves > 0,
+        "a dense swarm at 0.1 m/s must bump: {stats:?}"
+    );
 }
 
 #[test]
@@ -111,14 +139,30 @@ fn fast_wheel_commands_cannot_tunnel_through_obstacles() {
     c.world.cylinders = 0;
     c.world.boxes = 0;
     let mut world = World::new(&c, 1).unwrap();
-    world.arena = Arena::with_obstacles(2.0, vec![Obstacle::Box { x: 0.0, y: 0.0, half_side_m: 0.05 }], 2.5);
-    world.poses[0] = Pose { x: -0.5, y: 0.0, theta: 0.0 };
+    world.arena = Arena::with_obstacles(
+        2.0,
+        vec![Obstacle::Box {
+            x: 0.0,
+            y: 0.0,
+            half_side_m: 0.05,
+        }],
+        2.5,
+    );
+    world.poses[0] = Pose {
+        x: -0.5,
+        y: 0.0,
+        theta: 0.0,
+    };
     // 10 m/s for 0.1 s = 1 m: the end point (0.5, 0) is free, the path is not.
-    world.apply(&TickEvent { commands: vec![WheelCommand::from_mps(10.0, 10.0)] });
+    world.apply(&TickEvent {
+        commands: vec![WheelCommand::from_mps(10.0, 10.0)],
+    });
     assert_eq!(world.poses()[0].x, -0.5);
     assert_eq!(world.stats().blocked_moves, 1);
     world.poses[0].y = 0.5;
-    world.apply(&TickEvent { commands: vec![WheelCommand::from_mps(10.0, 10.0)] });
+    world.apply(&TickEvent {
+        commands: vec![WheelCommand::from_mps(10.0, 10.0)],
+    });
     assert!((world.poses()[0].x - 0.5).abs() < 1e-12);
 }
 
@@ -130,19 +174,39 @@ fn pair(distance_m: f64, obstacle: Option<Obstacle>, config: impl FnOnce(&mut Co
     config(&mut c);
     let mut world = World::new(&c, 9).unwrap();
     world.arena = Arena::with_obstacles(2.0, obstacle.into_iter().collect(), 2.5);
-    world.poses = vec![Pose { x: -distance_m / 2.0, y: 0.0, theta: 0.0 }, Pose { x: distance_m / 2.0, y: 0.0, theta: 0.0 }];
+    world.poses = vec![
+        Pose {
+            x: -distance_m / 2.0,
+            y: 0.0,
+            theta: 0.0,
+        },
+        Pose {
+            x: distance_m / 2.0,
+            y: 0.0,
+            theta: 0.0,
+        },
+    ];
     world.scratch.grid_tick = None;
     world
 }
 
-const STILL: fn() -> TickEvent = || TickEvent { commands: vec![WheelCommand::from_mps(0.0, 0.0); 2] };
+const STILL: fn() -> TickEvent = || TickEvent {
+    commands: vec![WheelCommand::from_mps(0.0, 0.0); 2],
+};
 
 #[test]
 fn obstacles_occlude_range_and_bearing_when_configured() {
-    let wall = Some(Obstacle::Box { x: 0.0, y: 0.0, half_side_m: 0.1 });
+    let wall = Some(Obstacle::Box {
+        x: 0.0,
+        y: 0.0,
+        half_side_m: 0.1,
+    });
     assert_eq!(pair(1.0, None, |_| {}).links(), vec![(0, 1)]);
     assert_eq!(pair(1.0, wall, |_| {}).links(), vec![]);
-    assert_eq!(pair(1.0, wall, |c| c.world.rab_occlusion = false).links(), vec![(0, 1)]);
+    assert_eq!(
+        pair(1.0, wall, |c| c.world.rab_occlusion = false).links(),
+        vec![(0, 1)]
+    );
     assert_eq!(pair(2.4, None, |_| {}).links(), vec![(0, 1)]);
     assert_eq!(pair(2.6, None, |_| {}).links(), vec![]);
     let mut w = pair(1.0, wall, |_| {});
@@ -188,7 +252,13 @@ fn samples_expire_after_the_expiration_time() {
     let mut seen = Vec::new();
     for _ in 0..400 {
         w.apply(&STILL());
-        seen.push((w.time().0, w.dataset(1).iter().map(|s| s.time.0 / 1000).collect::<Vec<_>>()));
+        seen.push((
+            w.time().0,
+            w.dataset(1)
+                .iter()
+                .map(|s| s.time.0 / 1000)
+                .collect::<Vec<_>>(),
+        ));
     }
     let at = |ms: u64| seen.iter().find(|(t, _)| *t == ms).unwrap().1.clone();
     assert_eq!(at(9_900), Vec::<u64>::new());
@@ -206,7 +276,10 @@ fn packet_drop_loses_messages_and_breaks_trajectories() {
         w.apply(&STILL());
     }
     let s = w.stats();
-    assert!(s.messages_dropped > 100 && s.messages_dropped < 300, "{s:?}");
+    assert!(
+        s.messages_dropped > 100 && s.messages_dropped < 300,
+        "{s:?}"
+    );
     assert!(s.trajectories_discarded > 50, "{s:?}");
     assert!(s.samples_collected < 10, "{s:?}");
     assert_eq!(w.peers(0), &[1], "the peer set ignores packet drop");
@@ -251,8 +324,15 @@ fn the_same_seed_and_events_give_the_same_state() {
 #[test]
 fn events_of_the_wrong_size_are_errors() {
     let mut w = run(&small(3, 3.0), 1, 1);
-    let err = w.try_apply(&TickEvent { commands: vec![WheelCommand::from_mps(0.0, 0.0); 2] }).unwrap_err();
-    assert!(err.to_string().contains("2 wheel commands for 3 robots"), "{err}");
+    let err = w
+        .try_apply(&TickEvent {
+            commands: vec![WheelCommand::from_mps(0.0, 0.0); 2],
+        })
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("2 wheel commands for 3 robots"),
+        "{err}"
+    );
     assert_eq!(w.tick(), 1);
 }
 
@@ -268,7 +348,10 @@ fn the_heldout_set_is_fixed_by_the_seed_and_noise_free() {
         assert_eq!(s.points.len(), 80);
         for w in s.points.windows(2) {
             let d = (f64::from(w[1][0] - w[0][0])).hypot(f64::from(w[1][1] - w[0][1]));
-            assert!(d <= step, "a noise-free step is at most one tick of cruise: {d}");
+            assert!(
+                d <= step,
+                "a noise-free step is at most one tick of cruise: {d}"
+            );
         }
     }
     let mut none = c.clone();
@@ -284,10 +367,25 @@ fn proximity_reads_walls_obstacles_and_robots() {
     w.proximity(0, &mut out);
     assert!((out[0] - 0.5).abs() < 1e-9, "{out:?}");
     assert_eq!(out[4], 0.0);
-    w.poses[0] = Pose { x: -1.9, y: 0.0, theta: std::f64::consts::PI };
+    w.poses[0] = Pose {
+        x: -1.9,
+        y: 0.0,
+        theta: std::f64::consts::PI,
+    };
     w.proximity(0, &mut out);
-    assert!((out[0] - (1.0 - 0.065 / 0.1)).abs() < 1e-9, "wall ahead: {out:?}");
-    w.arena = Arena::with_obstacles(2.0, vec![Obstacle::Cylinder { x: -1.9, y: 0.2, radius_m: 0.1 }], 2.5);
+    assert!(
+        (out[0] - (1.0 - 0.065 / 0.1)).abs() < 1e-9,
+        "wall ahead: {out:?}"
+    );
+    w.arena = Arena::with_obstacles(
+        2.0,
+        vec![Obstacle::Cylinder {
+            x: -1.9,
+            y: 0.2,
+            radius_m: 0.1,
+        }],
+        2.5,
+    );
     w.proximity(0, &mut out);
     // The sensor at 270 degrees (pointing +y when facing -x) sees the cylinder 0.065 away.
     assert!((out[6] - (1.0 - 0.065 / 0.1)).abs() < 1e-9, "{out:?}");
