@@ -17,6 +17,9 @@ use crate::rng::Rng;
 /// Attempts per obstacle or robot before placement is declared impossible.
 pub const PLACEMENT_ATTEMPTS: u32 = 10_000;
 
+/// Up to this many obstacles, queries test them all rather than walk the grid.
+const FEW_OBSTACLES: usize = 16;
+
 /// Most grid cells per axis (bounds memory for huge arenas with short ranges).
 const MAX_CELLS_PER_AXIS: u32 = 256;
 
@@ -180,11 +183,13 @@ impl GridShape {
     }
 
     fn axis(&self, v: f64) -> u32 {
-        let c = ((v + self.half_m) / self.cell_m).floor();
-        if c.is_nan() || c < 0.0 {
-            0
-        } else {
+        // Truncation is floor for the non-negative values; `as` saturates large ones. (No
+        // `floor` call: on baseline x86-64 it is a library call, and this is the hot path.)
+        let c = (v + self.half_m) / self.cell_m;
+        if c >= 0.0 {
             (c as u32).min(self.cells - 1)
+        } else {
+            0
         }
     }
 
@@ -326,8 +331,13 @@ impl Arena {
     }
 
     /// Calls `f` with the index of every obstacle whose bounding box may intersect the box
-    /// `[x0, x1] x [y0, y1]`; an obstacle spanning several cells may come more than once.
+    /// `[x0, x1] x [y0, y1]` (a superset: with few obstacles, all of them); an obstacle
+    /// spanning several cells may come more than once.
     pub fn obstacles_near(&self, x0: f64, y0: f64, x1: f64, y1: f64, mut f: impl FnMut(u32)) {
+        if self.obstacles.len() <= FEW_OBSTACLES {
+            (0..self.obstacles.len() as u32).for_each(f);
+            return;
+        }
         self.grid.for_cells(x0, y0, x1, y1, |c| {
             for &o in &self.obstacle_cells[c as usize] {
                 f(o);

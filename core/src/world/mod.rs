@@ -614,15 +614,15 @@ fn mix_in(state: u64, word: u64) -> u64 {
 }
 
 fn chain_sample(prev: &Digest, robot: RobotId, s: &Sample) -> Digest {
-    let mut h = blake3::Hasher::new();
-    h.update(&prev.0);
-    h.update(&robot.to_le_bytes());
-    h.update(&s.time.0.to_le_bytes());
+    let mut bytes = Vec::with_capacity(44 + 8 * s.points.len());
+    bytes.extend_from_slice(&prev.0);
+    bytes.extend_from_slice(&robot.to_le_bytes());
+    bytes.extend_from_slice(&s.time.0.to_le_bytes());
     for p in &s.points {
-        h.update(&p[0].to_bits().to_le_bytes());
-        h.update(&p[1].to_bits().to_le_bytes());
+        bytes.extend_from_slice(&p[0].to_bits().to_le_bytes());
+        bytes.extend_from_slice(&p[1].to_bits().to_le_bytes());
     }
-    h.finalize().into()
+    Digest::of(&bytes)
 }
 
 #[cfg(test)]

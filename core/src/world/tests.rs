@@ -395,6 +395,8 @@ fn proximity_reads_walls_obstacles_and_robots() {
 fn a_paper_world_collects_data_and_reports_stats() {
     let w = run(&Preset::Paper.config(), 7, 6000);
     let s = w.stats();
+    // Printed so that builds (debug, release, target-cpu) can be compared with --nocapture.
+    println!("paper seed 7 world digest after 600 s: {}", w.digest());
     assert_eq!(s.collisions, 0);
     assert!(s.mean_neighbours > 2.0 && s.mean_neighbours < 14.0, "{s:?}");
     assert!(s.samples_per_robot_per_600s > 20.0, "{s:?}");
