@@ -1,11 +1,21 @@
 //! Trajectory data: the samples a robot records about its neighbours (SPEC.md section 1).
 //!
-//! Placeholder types fixed here so that `world` (which produces samples) and `learn` (which
-//! consumes them) agree; the world issue fills in collection, expiry and the held-out set.
+//! Each tick a robot hears some neighbours (range-and-bearing) and records their absolute
+//! positions. `trajectory_ticks` consecutive ticks of the same neighbour form one trajectory; a
+//! missed tick discards the partial trajectory; windows do not overlap (after a complete
+//! trajectory the next one starts at the next tick it hears that neighbour). A [`Sample`] keeps
+//! the first `input_waypoints + target_waypoints` positions; the rest of the trajectory is only
+//! counted. Samples expire `data.expiration_s` after their completion.
+//!
+//! [`Recorder`] is one robot's recorder and data set; [`HeldoutObserver`] is the noise-free
+//! ground-truth observer that builds the held-out set.
+
+use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::types::SimTime;
+use crate::config::DataConfig;
+use crate::types::{RobotId, SimTime};
 
 /// One training example cut from a 100-tick trajectory of a neighbour: `input_waypoints`
 /// (x, y) positions followed by `target_waypoints` positions, in world metres (not normalised).
@@ -15,4 +25,293 @@ pub struct Sample {
     pub time: SimTime,
     /// Input waypoints then target waypoints, each an (x, y) pair.
     pub points: Vec<[f32; 2]>,
+}
+
+/// The trajectory lengths and the expiry, in the units the recorders use.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Recording {
+    /// Ticks of one trajectory.
+    pub trajectory_ticks: u32,
+    /// Waypoints kept in a sample (input + target).
+    pub kept_waypoints: u32,
+    /// Age in milliseconds beyond which a sample is dropped.
+    pub expiration_ms: u64,
+}
+
+impl Recording {
+    /// From the data configuration (validated: kept <= trajectory).
+    pub fn new(data: &DataConfig) -> Recording {
+        let kept_waypoints = data.input_waypoints + data.target_waypoints;
+        assert!(kept_waypoints <= data.trajectory_ticks && data.trajectory_ticks >= 1);
+        Recording {
+            trajectory_ticks: data.trajectory_ticks,
+            kept_waypoints,
+            expiration_ms: SimTime::from_secs(data.expiration_s).0,
+        }
+    }
+}
+
+/// A trajectory of one neighbour being recorded.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Track {
+    neighbour: RobotId,
+    ticks: u32,
+    points: Vec<[f32; 2]>,
+}
+
+/// One robot's trajectory recorder and data set.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Recorder {
+    /// Trajectories in progress, ascending by neighbour.
+    tracks: Vec<Track>,
+    /// Unexpired samples, oldest first.
+    samples: VecDeque<Sample>,
+    /// Samples ever completed.
+    completed: u64,
+    /// Partial trajectories ever discarded because a tick was missed.
+    discarded: u64,
+    /// Reused buffer (always empty between ticks).
+    #[serde(skip)]
+    spare: Vec<Track>,
+}
+
+impl Recorder {
+    /// Records one tick: `heard` are the neighbours heard this tick, ascending. `position(j,
+    /// kept)` gives neighbour `j`'s measured position; `kept` says whether the point is stored
+    /// (callers may skip drawing noise otherwise). It is called once per heard neighbour, in
+    /// the order of `heard`. Returns the number of samples completed (appended at the back,
+    /// timed `now`).
+    pub fn observe(
+        &mut self,
+        rec: &Recording,
+        now: SimTime,
+        heard: &[RobotId],
+        mut position: impl FnMut(RobotId, bool) -> [f32; 2],
+    ) -> u32 {
+        debug_assert!(
+            heard.windows(2).all(|w| w[0] < w[1]),
+            "heard must be ascending"
+        );
+        let mut old = std::mem::take(&mut self.tracks);
+        let mut new = std::mem::take(&mut self.spare);
+        debug_assert!(new.is_empty());
+        let mut completed = 0;
+        let mut discarded = 0;
+        {
+            let mut old_iter = old.drain(..).peekable();
+            for &j in heard {
+                while old_iter.peek().is_some_and(|t| t.neighbour < j) {
+                    old_iter.next();
+                    discarded += 1;
+                }
+                let mut track = match old_iter.next_if(|t| t.neighbour == j) {
+                    Some(t) => t,
+                    None => Track {
+                        neighbour: j,
+                        ticks: 0,
+                        points: Vec::with_capacity(rec.kept_waypoints as usize),
+                    },
+                };
+                let kept = track.ticks < rec.kept_waypoints;
+                let p = position(j, kept);
+                if kept {
+                    track.points.push(p);
+                }
+                track.ticks += 1;
+                if track.ticks == rec.trajectory_ticks {
+                    debug_assert_eq!(track.points.len(), rec.kept_waypoints as usize);
+                    self.samples.push_back(Sample {
+                        time: now,
+                        points: track.points,
+                    });
+                    completed += 1;
+                } else {
+                    new.push(track);
+                }
+            }
+            discarded += old_iter.count() as u64;
+        }
+        self.tracks = new;
+        self.spare = old;
+        self.completed += u64::from(completed);
+        self.discarded += discarded;
+        completed
+    }
+
+    /// Drops the samples older than the expiration at time `now`.
+    pub fn expire(&mut self, rec: &Recording, now: SimTime) {
+        while self
+            .samples
+            .front()
+            .is_some_and(|s| now.0 - s.time.0 > rec.expiration_ms)
+        {
+            self.samples.pop_front();
+        }
+    }
+
+    /// The unexpired samples, oldest first.
+    pub fn samples(&self) -> &VecDeque<Sample> {
+        &self.samples
+    }
+
+    /// Samples ever completed by this robot.
+    pub fn completed(&self) -> u64 {
+        self.completed
+    }
+
+    /// Partial trajectories ever discarded by this robot.
+    pub fn discarded(&self) -> u64 {
+        self.discarded
+    }
+
+    /// The neighbours being tracked and how many ticks each has so far, ascending.
+    pub fn tracks(&self) -> impl Iterator<Item = (RobotId, u32)> + '_ {
+        self.tracks.iter().map(|t| (t.neighbour, t.ticks))
+    }
+}
+
+/// The noise-free ground-truth observer: it sees every robot every tick, so every robot yields
+/// one trajectory per `trajectory_ticks` ticks; it keeps samples in robot order until it has
+/// `wanted` of them.
+#[derive(Clone, Debug, PartialEq)]
+pub struct HeldoutObserver {
+    rec: Recording,
+    wanted: usize,
+    ticks: u32,
+    windows: Vec<Vec<[f32; 2]>>,
+    samples: Vec<Sample>,
+}
+
+impl HeldoutObserver {
+    /// An observer of `robots` robots that wants `wanted` samples.
+    pub fn new(rec: Recording, robots: usize, wanted: usize) -> HeldoutObserver {
+        HeldoutObserver {
+            rec,
+            wanted,
+            ticks: 0,
+            windows: vec![Vec::with_capacity(rec.kept_waypoints as usize); robots],
+            samples: Vec::with_capacity(wanted),
+        }
+    }
+
+    /// Whether enough samples have been collected.
+    pub fn done(&self) -> bool {
+        self.samples.len() >= self.wanted
+    }
+
+    /// Records the true positions of every robot at time `now`.
+    pub fn observe(&mut self, now: SimTime, positions: impl Iterator<Item = [f32; 2]>) {
+        if self.ticks < self.rec.kept_waypoints {
+            for (w, p) in self.windows.iter_mut().zip(positions) {
+                w.push(p);
+            }
+        }
+        self.ticks += 1;
+        if self.ticks == self.rec.trajectory_ticks {
+            for w in &mut self.windows {
+                if self.samples.len() < self.wanted {
+                    self.samples.push(Sample {
+                        time: now,
+                        points: std::mem::take(w),
+                    });
+                }
+                w.clear();
+            }
+            self.ticks = 0;
+        }
+    }
+
+    /// The collected samples.
+    pub fn into_samples(self) -> Vec<Sample> {
+        self.samples
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn rec() -> Recording {
+        Recording {
+            trajectory_ticks: 5,
+            kept_waypoints: 3,
+            expiration_ms: 1000,
+        }
+    }
+
+    /// Feeds `heard` lists tick by tick (tick k at time 100 k ms) and returns the recorder.
+    fn feed(ticks: &[&[RobotId]]) -> Recorder {
+        let mut r = Recorder::default();
+        for (k, heard) in ticks.iter().enumerate() {
+            let now = SimTime(100 * (k as u64 + 1));
+            r.observe(&rec(), now, heard, |j, _| [j as f32, k as f32]);
+        }
+        r
+    }
+
+    fn check(ticks: &[&[RobotId]], completed: u64, discarded: u64, tracks: &[(RobotId, u32)]) {
+        let r = feed(ticks);
+        assert_eq!(
+            (r.completed(), r.discarded()),
+            (completed, discarded),
+            "{ticks:?}"
+        );
+        assert_eq!(r.tracks().collect::<Vec<_>>(), tracks, "{ticks:?}");
+    }
+
+    #[test]
+    fn trajectories_complete_are_discarded_on_gaps_and_do_not_overlap() {
+        check(&[&[1], &[1], &[1], &[1], &[1]], 1, 0, &[]);
+        check(&[&[1], &[1], &[1], &[1], &[1], &[1]], 1, 0, &[(1, 1)]);
+        check(&[&[1], &[1], &[], &[1], &[1]], 0, 1, &[(1, 2)]);
+        check(
+            &[&[1, 2], &[2], &[1, 2], &[1, 2, 3], &[2, 3]],
+            1,
+            2,
+            &[(3, 2)],
+        );
+        check(
+            &[&[0, 4], &[4], &[4], &[4], &[4], &[4], &[4]],
+            1,
+            1,
+            &[(4, 2)],
+        );
+    }
+
+    #[test]
+    fn samples_keep_the_first_waypoints_and_expire() {
+        let mut r = feed(&[&[7 as RobotId][..]; 10]);
+        let s = r.samples();
+        assert_eq!(s.len(), 2);
+        assert_eq!(s[0].time, SimTime(500));
+        assert_eq!(s[0].points, vec![[7.0, 0.0], [7.0, 1.0], [7.0, 2.0]]);
+        assert_eq!(s[1].points, vec![[7.0, 5.0], [7.0, 6.0], [7.0, 7.0]]);
+        r.expire(&rec(), SimTime(1500));
+        assert_eq!(
+            r.samples().len(),
+            2,
+            "age 1000 ms is not older than the expiration"
+        );
+        r.expire(&rec(), SimTime(1501));
+        assert_eq!(r.samples().len(), 1);
+        assert_eq!(r.samples()[0].time, SimTime(1000));
+        r.expire(&rec(), SimTime(2001));
+        assert!(r.samples().is_empty());
+        assert_eq!(r.completed(), 2);
+    }
+
+    #[test]
+    fn the_observer_collects_windows_in_robot_order() {
+        let mut o = HeldoutObserver::new(rec(), 2, 3);
+        let mut k = 0.0;
+        while !o.done() {
+            k += 1.0;
+            o.observe(SimTime(0), [[0.0, k], [1.0, k]].into_iter());
+        }
+        let s = o.into_samples();
+        assert_eq!(s.len(), 3);
+        assert_eq!(s[0].points, vec![[0.0, 1.0], [0.0, 2.0], [0.0, 3.0]]);
+        assert_eq!(s[1].points, vec![[1.0, 1.0], [1.0, 2.0], [1.0, 3.0]]);
+        assert_eq!(s[2].points, vec![[0.0, 6.0], [0.0, 7.0], [0.0, 8.0]]);
+    }
 }

@@ -686,8 +686,8 @@ mod tests {
                     event: Event::Tick(TickEvent {
                         commands: vec![
                             WheelCommand {
-                                left: i as f32,
-                                right: 0.5
+                                left_mmps: i as i16,
+                                right_mmps: 25
                             };
                             3
                         ],

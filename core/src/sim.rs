@@ -52,20 +52,13 @@ impl State {
     pub fn apply(&mut self, time: SimTime, event: &Event) -> Result<(), ApplyError> {
         match event {
             Event::Tick(tick) => {
-                if tick.commands.len() != self.world.poses().len() {
-                    return Err(ApplyError::Invalid(format!(
-                        "tick at {time} carries {} wheel commands for {} robots",
-                        tick.commands.len(),
-                        self.world.poses().len()
-                    )));
-                }
                 if time != self.world.time() {
                     return Err(ApplyError::Invalid(format!(
                         "tick at {time} but the world is at {}",
                         self.world.time()
                     )));
                 }
-                self.world.apply(tick);
+                self.world.try_apply(tick).map_err(|e| ApplyError::Invalid(e.to_string()))?;
             }
         }
         Ok(())

@@ -1,8 +1,18 @@
-//! Drawing a picture of the world (arena, obstacles, robots, radio links) as SVG or PNG.
+//! Drawing a picture of the world (arena, obstacles, robots, radio links) as SVG or PNG, like
+//! Fig. 1 of the paper: walls in black, obstacles in grey, robots as green disks (Byzantine
+//! ones red) with a heading line, range-and-bearing links as cyan lines, and each robot's
+//! proximity rays as short light-blue lines (as long as the free distance they measure).
+//! The title is drawn with the system's sans-serif font (plotters `ttf`); if no font can be
+//! loaded, the picture is drawn without the title rather than failing.
+
+// `swarmfl snapshot` is wired in main.rs at integration; until then only the tests call `draw`.
 
 use std::path::Path;
 
-use swarmfl_core::world::World;
+use anyhow::Context;
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use swarmfl_core::world::{Obstacle, World};
 
 /// How one robot is drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -14,8 +24,175 @@ pub enum RobotMark {
     Byzantine,
 }
 
-/// Draws `world` with the robots marked as given into `out` (`.svg` or `.png`).
+const SIZE_PX: u32 = 900;
+const LINK: RGBColor = RGBColor(0, 190, 210);
+const RAY: RGBColor = RGBColor(120, 200, 255);
+const OBSTACLE: RGBColor = RGBColor(150, 150, 150);
+const HONEST: RGBColor = RGBColor(40, 170, 60);
+const BYZANTINE: RGBColor = RGBColor(220, 30, 30);
+
+/// Draws `world` with the robots marked as given (missing marks are honest) into `out`
+/// (`.svg` or `.png`, by extension).
 pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyhow::Result<()> {
-    let _ = (world, marks, title, out);
-    anyhow::bail!("snapshots are not drawn yet")
+    let ext = out
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    let result = match ext.as_deref() {
+        Some("svg") => {
+            let root = SVGBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
+            draw_on(&root, world, marks, Some(title))
+                .or_else(|_| draw_on(&root, world, marks, None))
+        }
+        Some("png") => {
+            let root = BitMapBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
+            draw_on(&root, world, marks, Some(title))
+                .or_else(|_| draw_on(&root, world, marks, None))
+        }
+        _ => anyhow::bail!(
+            "cannot draw {}: the file name must end in .svg or .png",
+            out.display()
+        ),
+    };
+    result.with_context(|| format!("drawing the snapshot into {}", out.display()))
+}
+
+fn draw_on<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    world: &World,
+    marks: &[RobotMark],
+    title: Option<&str>,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let h = world.arena().half_side_m;
+    let mut builder = ChartBuilder::on(root);
+    builder.margin(20);
+    if let Some(title) = title {
+        builder.caption(title, ("sans-serif", 22));
+    }
+    let mut chart = builder
+        .build_cartesian_2d(-h..h, -h..h)
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (xr, _) = chart.plotting_area().get_pixel_range();
+    let px_per_m = f64::from(xr.end - xr.start) / (2.0 * h);
+    let px = |m: f64| ((m * px_per_m).round() as i32).max(1);
+    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e}");
+
+    // Proximity rays, under everything else.
+    let r = world.robot_radius_m();
+    let range = world.proximity_range_m();
+    let mut readings = vec![0.0; world.proximity_sensors()];
+    let n_sensors = readings.len();
+    for (i, p) in world.poses().iter().enumerate() {
+        world.proximity(i as u32, &mut readings);
+        for (k, reading) in readings.iter().enumerate() {
+            let a = p.theta + 2.0 * std::f64::consts::PI * k as f64 / n_sensors as f64;
+            let (s, c) = (a.sin(), a.cos());
+            let len = (1.0 - reading) * range;
+            let from = (p.x + r * c, p.y + r * s);
+            let to = (from.0 + len * c, from.1 + len * s);
+            chart
+                .draw_series(std::iter::once(PathElement::new(vec![from, to], RAY)))
+                .map_err(err)?;
+        }
+    }
+    // Radio links.
+    for (i, j) in world.links() {
+        let (a, b) = (world.poses()[i as usize], world.poses()[j as usize]);
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(a.x, a.y), (b.x, b.y)],
+                LINK.stroke_width(1),
+            )))
+            .map_err(err)?;
+    }
+    // Obstacles.
+    for o in &world.arena().obstacles {
+        match *o {
+            Obstacle::Cylinder { x, y, radius_m } => {
+                chart
+                    .draw_series(std::iter::once(Circle::new(
+                        (x, y),
+                        px(radius_m),
+                        OBSTACLE.filled(),
+                    )))
+                    .map_err(err)?;
+            }
+            Obstacle::Box {
+                x,
+                y,
+                half_side_m: e,
+            } => {
+                chart
+                    .draw_series(std::iter::once(Rectangle::new(
+                        [(x - e, y - e), (x + e, y + e)],
+                        OBSTACLE.filled(),
+                    )))
+                    .map_err(err)?;
+            }
+        }
+    }
+    // Walls.
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(-h, -h), (h, h)],
+            BLACK.stroke_width(4),
+        )))
+        .map_err(err)?;
+    // Robots with heading lines.
+    for (i, p) in world.poses().iter().enumerate() {
+        let color = match marks.get(i) {
+            Some(RobotMark::Byzantine) => BYZANTINE,
+            _ => HONEST,
+        };
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (p.x, p.y),
+                px(r),
+                color.filled(),
+            )))
+            .map_err(err)?;
+        let tip = (p.x + 2.2 * r * p.theta.cos(), p.y + 2.2 * r * p.theta.sin());
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(p.x, p.y), tip],
+                BLACK.stroke_width(2),
+            )))
+            .map_err(err)?;
+    }
+    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use swarmfl_core::config::Preset;
+    use swarmfl_core::world::Controllers;
+
+    #[test]
+    fn a_paper_world_after_600_s_draws_as_png_and_svg() {
+        let config = Preset::Paper.config();
+        let mut world = World::new(&config, 1).unwrap();
+        let mut controllers = Controllers::new(&config, 1);
+        for _ in 0..6000 {
+            let event = controllers.decide(&world);
+            world.apply(&event);
+        }
+        let mut marks = vec![RobotMark::Honest; 15];
+        marks[3] = RobotMark::Byzantine;
+        let dir = std::env::temp_dir();
+        for name in ["swarmfl-snapshot-600s.png", "swarmfl-snapshot-600s.svg"] {
+            let out = dir.join(name);
+            draw(&world, &marks, "paper preset, seed 1, t = 600 s", &out).unwrap();
+            let size = std::fs::metadata(&out).unwrap().len();
+            assert!(size > 5_000, "{name}: {size} bytes");
+        }
+        let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg")).unwrap();
+        assert!(svg.contains("t = 600 s"), "the title is drawn");
+        assert!(draw(&world, &marks, "x", &dir.join("snapshot.gif")).is_err());
+    }
 }

@@ -1,0 +1,629 @@
+//! The world: arena, robots, physics, sensing and trajectory data (SPEC.md section 1).
+//!
+//! [`World`] is the reduced state, folded tick by tick by [`World::apply`] from [`TickEvent`]s
+//! (every robot's wheel command); [`Controllers`] is the driver-side decision maker whose
+//! choices become those events. One tick of `apply`, in order:
+//! 1. physics ([`physics`]): robots move in robot order; a move that would overlap a wall, an
+//!    obstacle or a robot is not taken (the robot turns but stays);
+//! 2. overlap check (counted in `collisions`, must stay 0);
+//! 3. range-and-bearing contacts ([`sensors`]), packet drop and noise drawn from each
+//!    receiver's `Purpose::RangeAndBearing` stream (kept in the state), trajectory recording
+//!    and expiry ([`crate::data`]);
+//! 4. every `peer_refresh_s`, the peer sets become the current contacts.
+//!
+//! Submodules: [`arena`] (walls, obstacles, grid), [`physics`], [`sensors`], [`controller`].
+
+pub mod arena;
+pub mod controller;
+pub mod physics;
+pub mod sensors;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Config, ConfigError};
+use crate::data::{HeldoutObserver, Recorder, Recording, Sample};
+use crate::rng::{self, Purpose, Rng};
+use crate::types::{Digest, RobotId, SimTime};
+
+pub use arena::{Arena, Obstacle};
+pub use controller::{Controllers, TickEvent, WheelCommand};
+use physics::{Body, RobotGrid};
+
+/// What can go wrong building a world or folding an event into it.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldError {
+    /// The obstacles or robots do not fit.
+    #[error("cannot place {what}: {why}")]
+    Placement {
+        /// What could not be placed.
+        what: String,
+        /// Why, naming the parameters.
+        why: String,
+    },
+    /// The configuration is invalid.
+    #[error(transparent)]
+    Config(#[from] ConfigError),
+    /// A tick event that does not fit this world.
+    #[error("tick event at {time}: {why}")]
+    Event {
+        /// The world's time when the event came.
+        time: SimTime,
+        /// What is wrong.
+        why: String,
+    },
+}
+
+/// A robot's pose.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pose {
+    /// x in metres.
+    pub x: f64,
+    /// y in metres.
+    pub y: f64,
+    /// Heading in radians, in [-pi, pi].
+    pub theta: f64,
+}
+
+/// Summary figures of the world, for `summary.json`.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct WorldStats {
+    /// Overlaps detected after a step (must be 0).
+    pub collisions: u64,
+    /// Mean number of robots in range-and-bearing contact per robot and tick.
+    pub mean_neighbours: f64,
+    /// Samples collected per robot per 600 s: mean over robots.
+    pub samples_per_robot_per_600s: f64,
+    /// Standard deviation over robots of the above (n - 1 denominator).
+    pub samples_per_robot_per_600s_std: f64,
+    /// Partial trajectories discarded because a tick was missed.
+    pub trajectories_discarded: u64,
+    /// Samples ever completed, all robots.
+    pub samples_collected: u64,
+    /// Moves refused because they would have overlapped something.
+    pub blocked_moves: u64,
+    /// Range-and-bearing messages lost to packet drop.
+    pub messages_dropped: u64,
+    /// Samples in the held-out set.
+    pub heldout_samples: u64,
+}
+
+/// Parameters derived from the configuration, in the units the reducer uses.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+struct Params {
+    tick_ms: u64,
+    body: Body,
+    proximity_range_m: f64,
+    /// Unit direction of each proximity sensor relative to the heading.
+    sensor_dirs: Vec<(f64, f64)>,
+    rab_range_m: f64,
+    rab_noise_std_m: f64,
+    rab_occlusion: bool,
+    rab_packet_drop: f64,
+    peer_refresh_ticks: u64,
+    recording: Recording,
+    /// False for the held-out observer's copy: physics only.
+    sensing: bool,
+}
+
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+struct Counters {
+    collisions: u64,
+    blocked_moves: u64,
+    contact_ticks: u64,
+    messages_dropped: u64,
+}
+
+/// Buffers rebuilt from the state; not part of it (skipped by serde, ignored by `==`).
+#[derive(Clone, Debug, Default)]
+struct Scratch {
+    grid: RobotGrid,
+    /// The tick the grid indexes, if any.
+    grid_tick: Option<u64>,
+    contacts: Vec<Vec<RobotId>>,
+    heard: Vec<RobotId>,
+}
+
+impl PartialEq for Scratch {
+    fn eq(&self, _: &Scratch) -> bool {
+        true
+    }
+}
+
+/// The reduced state of the world.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct World {
+    params: Params,
+    arena: Arena,
+    tick: u64,
+    poses: Vec<Pose>,
+    peers: Vec<Vec<RobotId>>,
+    /// Range-and-bearing noise and drop, per receiving robot.
+    rab_rngs: Vec<Rng>,
+    recorders: Vec<Recorder>,
+    heldout: Vec<Sample>,
+    counters: Counters,
+    /// blake3 chain over every completed sample (robot, time, points).
+    sample_chain: Digest,
+    /// A cheap running mix of every recorded reading (covers trajectories in progress).
+    reading_mix: u64,
+    /// Digest of the parts fixed at construction (parameters, arena, held-out set).
+    fixed_digest: Digest,
+    #[serde(skip)]
+    scratch: Scratch,
+}
+
+impl World {
+    /// The world at time 0 of the run seeded with `seed`: obstacles from `Purpose::Obstacles`,
+    /// robots from `Purpose::Placement`, and the held-out set (see [`World::heldout`]).
+    pub fn new(config: &Config, seed: u64) -> Result<World, WorldError> {
+        config.validate()?;
+        let mut world = World::build(config, seed, seed, true)?;
+        world.heldout = heldout_set(config, seed)?;
+        world.fixed_digest = world.compute_fixed_digest();
+        Ok(world)
+    }
+
+    /// A world with obstacles from `seed` and robots from `placement_seed`, with or without
+    /// sensing (the held-out observer's copy has none).
+    fn build(
+        config: &Config,
+        seed: u64,
+        placement_seed: u64,
+        sensing: bool,
+    ) -> Result<World, WorldError> {
+        let w = &config.world;
+        let tick_ms = SimTime::from_secs(config.run.tick_s).0;
+        let body = Body {
+            radius_m: w.robot_radius_m,
+            wheel_base_m: w.wheel_base_m,
+            dt_s: tick_ms as f64 / 1000.0,
+        };
+        let sensors = w.proximity_sensors;
+        let sensor_dirs = (0..sensors)
+            .map(|k| {
+                let a = 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(sensors);
+                (libm::cos(a), libm::sin(a))
+            })
+            .collect();
+        let params = Params {
+            tick_ms,
+            body,
+            proximity_range_m: w.proximity_range_m,
+            sensor_dirs,
+            rab_range_m: w.rab_range_m,
+            rab_noise_std_m: w.rab_noise_std_m,
+            rab_occlusion: w.rab_occlusion,
+            rab_packet_drop: w.rab_packet_drop,
+            peer_refresh_ticks: ((w.peer_refresh_s / config.run.tick_s).round() as u64).max(1),
+            recording: Recording::new(&config.data),
+            sensing,
+        };
+        // The grid cell covers the longest query: RAB range, or proximity reach plus a robot.
+        let min_cell = w
+            .rab_range_m
+            .max(2.0 * w.robot_radius_m + w.proximity_range_m)
+            .max(1e-3);
+        let arena = Arena::new(w, &mut rng::stream(seed, Purpose::Obstacles, 0), min_cell)?;
+        let (poses, grid) = place_robots(
+            w,
+            &arena,
+            &mut rng::stream(placement_seed, Purpose::Placement, 0),
+        )?;
+        let n = w.robots;
+        let mut world = World {
+            params,
+            arena,
+            tick: 0,
+            poses,
+            peers: vec![Vec::new(); n as usize],
+            rab_rngs: (0..n)
+                .map(|i| rng::stream(seed, Purpose::RangeAndBearing, i))
+                .collect(),
+            recorders: vec![Recorder::default(); n as usize],
+            heldout: Vec::new(),
+            counters: Counters::default(),
+            sample_chain: Digest::default(),
+            reading_mix: 0,
+            fixed_digest: Digest::default(),
+            scratch: Scratch {
+                grid,
+                grid_tick: Some(0),
+                ..Scratch::default()
+            },
+        };
+        if sensing {
+            let mut contacts = std::mem::take(&mut world.scratch.contacts);
+            world.contacts(&mut contacts);
+            world.peers.clone_from(&contacts);
+            world.scratch.contacts = contacts;
+        }
+        Ok(world)
+    }
+
+    /// Checks that `event` fits this world (for events decoded from a file).
+    pub fn check(&self, event: &TickEvent) -> Result<(), WorldError> {
+        if event.commands.len() != self.poses.len() {
+            return Err(WorldError::Event {
+                time: self.time(),
+                why: format!(
+                    "{} wheel commands for {} robots",
+                    event.commands.len(),
+                    self.poses.len()
+                ),
+            });
+        }
+        Ok(())
+    }
+
+    /// Folds one tick after [`World::check`]ing the event.
+    pub fn try_apply(&mut self, event: &TickEvent) -> Result<(), WorldError> {
+        self.check(event)?;
+        self.apply(event);
+        Ok(())
+    }
+
+    /// Folds one tick. The event must hold one command per robot (see [`World::check`]).
+    pub fn apply(&mut self, event: &TickEvent) {
+        assert_eq!(
+            event.commands.len(),
+            self.poses.len(),
+            "one wheel command per robot"
+        );
+        let mut grid = std::mem::take(&mut self.scratch.grid);
+        if self.scratch.grid_tick != Some(self.tick) || grid.robots() != self.poses.len() {
+            grid.rebuild(&self.arena.grid, &self.poses);
+        }
+        self.counters.blocked_moves += physics::step(
+            &self.arena,
+            &mut grid,
+            &mut self.poses,
+            &self.params.body,
+            &event.commands,
+        );
+        let overlaps =
+            physics::overlaps(&self.arena, &grid, &self.poses, self.params.body.radius_m);
+        debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick + 1);
+        self.counters.collisions += overlaps;
+        self.tick += 1;
+        self.scratch.grid = grid;
+        self.scratch.grid_tick = Some(self.tick);
+        if self.params.sensing {
+            self.sense();
+        }
+    }
+
+    /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick.
+    fn sense(&mut self) {
+        let mut contacts = std::mem::take(&mut self.scratch.contacts);
+        let mut heard = std::mem::take(&mut self.scratch.heard);
+        self.contacts(&mut contacts);
+        let now = self.time();
+        let p = &self.params;
+        let sigma = p.rab_noise_std_m;
+        for (i, neighbours) in contacts.iter().enumerate() {
+            self.counters.contact_ticks += neighbours.len() as u64;
+            let rng = &mut self.rab_rngs[i];
+            heard.clear();
+            for &j in neighbours {
+                if rng.chance(p.rab_packet_drop) {
+                    self.counters.messages_dropped += 1;
+                } else {
+                    heard.push(j);
+                }
+            }
+            // The receiver knows its own pose; the measured offset carries Gaussian noise on
+            // each axis (one Box-Muller pair per reading), so the recorded absolute position is
+            // the neighbour's true position plus that noise.
+            let poses = &self.poses;
+            let mix = &mut self.reading_mix;
+            let completed = self.recorders[i].observe(&p.recording, now, &heard, |j, kept| {
+                if !kept {
+                    return [0.0, 0.0];
+                }
+                let q = poses[j as usize];
+                let (nx, ny) = if sigma > 0.0 {
+                    gaussian_pair(rng, sigma)
+                } else {
+                    (0.0, 0.0)
+                };
+                let point = [(q.x + nx) as f32, (q.y + ny) as f32];
+                *mix = mix_in(*mix, (u64::from(j) << 32) | i as u64);
+                *mix = mix_in(
+                    *mix,
+                    (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()),
+                );
+                point
+            });
+            if completed > 0 {
+                let samples = self.recorders[i].samples();
+                for s in samples.range(samples.len() - completed as usize..) {
+                    self.sample_chain = chain_sample(&self.sample_chain, i as RobotId, s);
+                }
+            }
+            self.recorders[i].expire(&p.recording, now);
+        }
+        if self.tick % p.peer_refresh_ticks == 0 {
+            for (peers, c) in self.peers.iter_mut().zip(&contacts) {
+                peers.clone_from(c);
+            }
+        }
+        self.scratch.contacts = contacts;
+        self.scratch.heard = heard;
+    }
+
+    /// Simulated time of the state.
+    pub fn time(&self) -> SimTime {
+        SimTime(self.tick * self.params.tick_ms)
+    }
+
+    /// Ticks folded so far.
+    pub fn tick(&self) -> u64 {
+        self.tick
+    }
+
+    /// Robot poses, in robot order.
+    pub fn poses(&self) -> &[Pose] {
+        &self.poses
+    }
+
+    /// The arena: walls and obstacles.
+    pub fn arena(&self) -> &Arena {
+        &self.arena
+    }
+
+    /// The robots' body radius in metres.
+    pub fn robot_radius_m(&self) -> f64 {
+        self.params.body.radius_m
+    }
+
+    /// The proximity sensors' range in metres.
+    pub fn proximity_range_m(&self) -> f64 {
+        self.params.proximity_range_m
+    }
+
+    /// Number of proximity sensors per robot.
+    pub fn proximity_sensors(&self) -> usize {
+        self.params.sensor_dirs.len()
+    }
+
+    /// The robot's current peer set (robots in range-and-bearing contact at the last refresh,
+    /// every `world.peer_refresh_s`), ascending.
+    pub fn peers(&self, robot: RobotId) -> &[RobotId] {
+        &self.peers[robot as usize]
+    }
+
+    /// The robot's current data set (unexpired samples, oldest first).
+    pub fn dataset(&self, robot: RobotId) -> Vec<Sample> {
+        self.recorders[robot as usize]
+            .samples()
+            .iter()
+            .cloned()
+            .collect()
+    }
+
+    /// Number of samples in the robot's current data set.
+    pub fn dataset_len(&self, robot: RobotId) -> usize {
+        self.recorders[robot as usize].samples().len()
+    }
+
+    /// The fixed held-out set of noise-free samples: `data.heldout_samples` trajectories
+    /// recorded by a ground-truth observer in an independent copy of the world (same arena and
+    /// obstacles; robots placed and driven by streams derived from `Purpose::Heldout`), which
+    /// sees every robot's true position every tick. It depends only on the seed and the
+    /// configuration and is available from time 0.
+    pub fn heldout(&self) -> &[Sample] {
+        &self.heldout
+    }
+
+    /// Summary figures so far.
+    pub fn stats(&self) -> WorldStats {
+        let n = self.poses.len() as f64;
+        let elapsed_s = self.time().secs();
+        let rates: Vec<f64> = self
+            .recorders
+            .iter()
+            .map(|r| {
+                if elapsed_s > 0.0 {
+                    r.completed() as f64 * 600.0 / elapsed_s
+                } else {
+                    0.0
+                }
+            })
+            .collect();
+        let mean = rates.iter().sum::<f64>() / n;
+        let std = if rates.len() > 1 {
+            (rates.iter().map(|r| (r - mean) * (r - mean)).sum::<f64>() / (n - 1.0)).sqrt()
+        } else {
+            0.0
+        };
+        WorldStats {
+            collisions: self.counters.collisions,
+            mean_neighbours: if self.tick > 0 {
+                self.counters.contact_ticks as f64 / (self.tick as f64 * n)
+            } else {
+                0.0
+            },
+            samples_per_robot_per_600s: mean,
+            samples_per_robot_per_600s_std: std,
+            trajectories_discarded: self.recorders.iter().map(Recorder::discarded).sum(),
+            samples_collected: self.recorders.iter().map(Recorder::completed).sum(),
+            blocked_moves: self.counters.blocked_moves,
+            messages_dropped: self.counters.messages_dropped,
+            heldout_samples: self.heldout.len() as u64,
+        }
+    }
+
+    /// A digest of the whole state. Cheap: the data is covered by running digests kept as
+    /// samples complete and readings are recorded, so this hashes a few kilobytes.
+    pub fn digest(&self) -> Digest {
+        let mut h = blake3::Hasher::new();
+        h.update(b"swarmfl world v1");
+        h.update(&self.fixed_digest.0);
+        h.update(&self.tick.to_le_bytes());
+        for p in &self.poses {
+            for v in [p.x, p.y, p.theta] {
+                h.update(&v.to_bits().to_le_bytes());
+            }
+        }
+        for peers in &self.peers {
+            h.update(&(peers.len() as u32).to_le_bytes());
+            for &j in peers {
+                h.update(&j.to_le_bytes());
+            }
+        }
+        for rng in &self.rab_rngs {
+            h.update(&rmp_serde::to_vec(rng).expect("rng state serialises"));
+        }
+        for r in &self.recorders {
+            h.update(&r.completed().to_le_bytes());
+            h.update(&r.discarded().to_le_bytes());
+            h.update(&(r.samples().len() as u64).to_le_bytes());
+            for (j, ticks) in r.tracks() {
+                h.update(&j.to_le_bytes());
+                h.update(&ticks.to_le_bytes());
+            }
+        }
+        let c = &self.counters;
+        for v in [
+            c.collisions,
+            c.blocked_moves,
+            c.contact_ticks,
+            c.messages_dropped,
+            self.reading_mix,
+        ] {
+            h.update(&v.to_le_bytes());
+        }
+        h.update(&self.sample_chain.0);
+        h.finalize().into()
+    }
+
+    fn compute_fixed_digest(&self) -> Digest {
+        let mut bytes =
+            rmp_serde::to_vec(&(&self.params, &self.arena)).expect("world parameters serialise");
+        for s in &self.heldout {
+            bytes.extend_from_slice(&s.time.0.to_le_bytes());
+            for p in &s.points {
+                bytes.extend_from_slice(&p[0].to_bits().to_le_bytes());
+                bytes.extend_from_slice(&p[1].to_bits().to_le_bytes());
+            }
+        }
+        Digest::of(&bytes)
+    }
+}
+
+/// Places the robots uniformly without overlap (with an index of them).
+fn place_robots(
+    w: &crate::config::WorldConfig,
+    arena: &Arena,
+    rng: &mut Rng,
+) -> Result<(Vec<Pose>, RobotGrid), WorldError> {
+    let r = w.robot_radius_m;
+    let lim = arena.half_side_m - r;
+    let mut poses: Vec<Pose> = Vec::with_capacity(w.robots as usize);
+    let mut grid = RobotGrid::default();
+    grid.rebuild(&arena.grid, &poses);
+    for i in 0..w.robots {
+        let what = || format!("robot {} of {} (a disk of radius {r} m)", i + 1, w.robots);
+        if lim < 0.0 {
+            return Err(WorldError::Placement {
+                what: what(),
+                why: format!(
+                    "it is larger than the arena (world.arena_side_m = {})",
+                    w.arena_side_m
+                ),
+            });
+        }
+        let mut placed = None;
+        for _ in 0..arena::PLACEMENT_ATTEMPTS {
+            let (x, y) = (rng.range(-lim, lim), rng.range(-lim, lim));
+            if !physics::blocked(arena, &grid, &poses, r, u32::MAX, x, y) {
+                placed = Some((x, y));
+                break;
+            }
+        }
+        let Some((x, y)) = placed else {
+            return Err(WorldError::Placement {
+                what: what(),
+                why: format!(
+                    "no spot free of walls, obstacles and robots after {} attempts: world.robots = {} \
+                     do not fit in world.arena_side_m = {} with world.cylinders = {} and world.boxes = {}; \
+                     use fewer robots or obstacles or a larger arena",
+                    arena::PLACEMENT_ATTEMPTS,
+                    w.robots,
+                    w.arena_side_m,
+                    w.cylinders,
+                    w.boxes
+                ),
+            });
+        };
+        let theta = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
+        grid.push(&arena.grid, x, y);
+        poses.push(Pose { x, y, theta });
+    }
+    Ok((poses, grid))
+}
+
+/// The held-out set: an observer copy of the world (same obstacles, robots placed and driven
+/// from a seed derived with `Purpose::Heldout`) run until the ground-truth observer has
+/// `data.heldout_samples` trajectories.
+fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
+    let wanted = config.data.heldout_samples as usize;
+    if wanted == 0 {
+        return Ok(Vec::new());
+    }
+    let derived = rng::stream(seed, Purpose::Heldout, 0).next_u64();
+    let mut copy = World::build(config, seed, derived, false)?;
+    let mut controllers = Controllers::new(config, derived);
+    let rec = Recording::new(&config.data);
+    let n = copy.poses.len();
+    let mut observer = HeldoutObserver::new(rec, n, wanted);
+    // Every robot yields one trajectory per window, so this many ticks are always enough.
+    let max_ticks = (wanted / n + 1) as u64 * u64::from(rec.trajectory_ticks);
+    for _ in 0..max_ticks {
+        if observer.done() {
+            break;
+        }
+        let event = controllers.decide(&copy);
+        copy.apply(&event);
+        observer.observe(
+            copy.time(),
+            copy.poses.iter().map(|p| [p.x as f32, p.y as f32]),
+        );
+    }
+    assert!(
+        observer.done(),
+        "the held-out observer has a sample per robot and window"
+    );
+    Ok(observer.into_samples())
+}
+
+/// Two independent normal draws times `sigma` (Box-Muller, both branches, `libm` only).
+fn gaussian_pair(rng: &mut Rng, sigma: f64) -> (f64, f64) {
+    let u1 = 1.0 - rng.uniform();
+    let u2 = rng.uniform();
+    let radius = sigma * libm::sqrt(-2.0 * libm::log(u1));
+    let (s, c) = libm::sincos(2.0 * std::f64::consts::PI * u2);
+    (radius * c, radius * s)
+}
+
+fn mix_in(state: u64, word: u64) -> u64 {
+    (state ^ word)
+        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+        .rotate_left(29)
+        ^ (state >> 7)
+}
+
+fn chain_sample(prev: &Digest, robot: RobotId, s: &Sample) -> Digest {
+    let mut bytes = Vec::with_capacity(44 + 8 * s.points.len());
+    bytes.extend_from_slice(&prev.0);
+    bytes.extend_from_slice(&robot.to_le_bytes());
+    bytes.extend_from_slice(&s.time.0.to_le_bytes());
+    for p in &s.points {
+        bytes.extend_from_slice(&p[0].to_bits().to_le_bytes());
+        bytes.extend_from_slice(&p[1].to_bits().to_le_bytes());
+    }
+    Digest::of(&bytes)
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,150 @@
+//! The robots' sensors: IR proximity rays and range-and-bearing (RAB).
+//!
+//! Proximity: `proximity_sensors` rays evenly spaced around the body, the first along the
+//! heading, starting at the body surface, of length `proximity_range_m`; a reading is
+//! `1 - distance / range` to the nearest wall, obstacle or robot (1 at contact, 0 at range or
+//! with nothing in range).
+//!
+//! Range-and-bearing: robot `i` is in contact with `j` when their centres are at most
+//! `rab_range_m` apart and, with `rab_occlusion`, no obstacle crosses the segment between them
+//! (robots do not occlude). Contact is symmetric; it defines the links, the peer sets and
+//! `mean_neighbours`. Each tick, each message from a contact is lost with probability
+//! `rab_packet_drop` (drawn by the receiver); the peer set ignores packet drop, because gossip
+//! has its own loss (`ledger.packet_loss`).
+
+use parry2d_f64::na::{Point2, Vector2};
+use parry2d_f64::query::{Ray, RayCast};
+use parry2d_f64::shape::Ball;
+
+use super::World;
+use crate::types::RobotId;
+
+impl World {
+    /// Calls `f` for every robot that may lie within the box (a superset, by grid cell or, for
+    /// a world just deserialised, every robot).
+    pub(super) fn robots_near(&self, x0: f64, y0: f64, x1: f64, y1: f64, f: impl FnMut(u32)) {
+        if self.scratch.grid_tick == Some(self.tick)
+            && self.scratch.grid.robots() == self.poses.len()
+        {
+            self.scratch.grid.near(&self.arena.grid, x0, y0, x1, y1, f);
+        } else {
+            (0..self.poses.len() as u32).for_each(f);
+        }
+    }
+
+    /// The proximity readings of `robot` in the current state, one per sensor (`out` must hold
+    /// `world.proximity_sensors` values), counter-clockwise from the heading.
+    pub fn proximity(&self, robot: RobotId, out: &mut [f64]) {
+        let dirs = &self.params.sensor_dirs;
+        assert_eq!(out.len(), dirs.len(), "one reading per proximity sensor");
+        out.fill(0.0);
+        let p = self.poses[robot as usize];
+        let r = self.params.body.radius_m;
+        let range = self.params.proximity_range_m;
+        let reach = r + range;
+        // Only cast rays when something is within reach.
+        let mut robots: [u32; 16] = [0; 16];
+        let mut robot_count = 0usize;
+        let mut overflow = false;
+        let d = reach + r;
+        self.robots_near(p.x - d, p.y - d, p.x + d, p.y + d, |j| {
+            let q = &self.poses[j as usize];
+            if j != robot && (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y) < d * d {
+                if robot_count < robots.len() {
+                    robots[robot_count] = j;
+                    robot_count += 1;
+                } else {
+                    overflow = true;
+                }
+            }
+        });
+        let mut near_static = !self.arena.inside(p.x, p.y, reach);
+        if !near_static {
+            self.arena
+                .obstacles_near(p.x - reach, p.y - reach, p.x + reach, p.y + reach, |o| {
+                    near_static = near_static
+                        || self.arena.obstacles[o as usize].distance_sq(p.x, p.y) < reach * reach;
+                });
+        }
+        if robot_count == 0 && !overflow && !near_static {
+            return;
+        }
+        let (s, c) = libm::sincos(p.theta);
+        let ball = Ball::new(r);
+        for (k, &(ox, oy)) in dirs.iter().enumerate() {
+            let dir = (c * ox - s * oy, s * ox + c * oy);
+            let origin = (p.x + r * dir.0, p.y + r * dir.1);
+            let mut best = if near_static {
+                self.arena
+                    .ray_toi(origin, dir, range)
+                    .unwrap_or(f64::INFINITY)
+            } else {
+                f64::INFINITY
+            };
+            let mut cast = |j: u32| {
+                if j == robot {
+                    return;
+                }
+                let q = &self.poses[j as usize];
+                let ray = Ray::new(
+                    Point2::new(origin.0 - q.x, origin.1 - q.y),
+                    Vector2::new(dir.0, dir.1),
+                );
+                if let Some(t) = ball.cast_local_ray(&ray, range, true) {
+                    best = best.min(t);
+                }
+            };
+            if overflow {
+                self.robots_near(p.x - d, p.y - d, p.x + d, p.y + d, &mut cast);
+            } else {
+                robots[..robot_count].iter().for_each(|&j| cast(j));
+            }
+            if best <= range {
+                out[k] = 1.0 - best / range;
+            }
+        }
+    }
+
+    /// Fills `adj[i]` with the robots in range-and-bearing contact with `i`, ascending.
+    pub(super) fn contacts(&self, adj: &mut Vec<Vec<RobotId>>) {
+        let n = self.poses.len();
+        adj.resize(n, Vec::new());
+        adj.iter_mut().for_each(Vec::clear);
+        let range = self.params.rab_range_m;
+        for i in 0..n {
+            let p = self.poses[i];
+            self.robots_near(p.x - range, p.y - range, p.x + range, p.y + range, |j| {
+                if (j as usize) <= i {
+                    return;
+                }
+                let q = &self.poses[j as usize];
+                let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+                if d2 <= range * range
+                    && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
+                {
+                    adj[i].push(j);
+                    adj[j as usize].push(i as u32);
+                }
+            });
+        }
+        for a in adj.iter_mut() {
+            a.sort_unstable();
+        }
+    }
+
+    /// The range-and-bearing links of the current state (pairs `(i, j)`, `i < j`, ascending),
+    /// for drawing.
+    pub fn links(&self) -> Vec<(RobotId, RobotId)> {
+        let mut adj = Vec::new();
+        self.contacts(&mut adj);
+        let mut out = Vec::new();
+        for (i, a) in adj.iter().enumerate() {
+            out.extend(
+                a.iter()
+                    .filter(|&&j| j as usize > i)
+                    .map(|&j| (i as RobotId, j)),
+            );
+        }
+        out
+    }
+}

@@ -1,0 +1,409 @@
+//! Tests of the world reducer.
+
+use super::*;
+use crate::config::Preset;
+
+fn run_on(world: &mut World, controllers: &mut Controllers, ticks: u64) {
+    for _ in 0..ticks {
+        let event = controllers.decide(world);
+        world.apply(&event);
+    }
+}
+
+fn run(config: &Config, seed: u64, ticks: u64) -> World {
+    let mut world = World::new(config, seed).unwrap();
+    let mut controllers = Controllers::new(config, seed);
+    run_on(&mut world, &mut controllers, ticks);
+    world
+}
+
+fn small(robots: u32, side: f64) -> Config {
+    let mut c = Preset::Paper.config();
+    c.world.robots = robots;
+    c.world.arena_side_m = side;
+    c.data.heldout_samples = 20;
+    // Few robots make a small quorum: keep the whole configuration valid.
+    c.contract.penalised_ranks = 0;
+    c
+}
+
+/// Every overlap, by brute force over all pairs.
+fn brute_overlaps(w: &World) -> Vec<String> {
+    let r = w.robot_radius_m();
+    let mut out = Vec::new();
+    for (i, p) in w.poses().iter().enumerate() {
+        if !w.arena().inside(p.x, p.y, r) {
+            out.push(format!("robot {i} crosses a wall at {p:?}"));
+        }
+        for (k, o) in w.arena().obstacles.iter().enumerate() {
+            if o.overlaps_disk(p.x, p.y, r) {
+                out.push(format!("robot {i} overlaps obstacle {k}"));
+            }
+        }
+        for (j, q) in w.poses().iter().enumerate().skip(i + 1) {
+            if (p.x - q.x).powi(2) + (p.y - q.y).powi(2) < (2.0 * r).powi(2) {
+                out.push(format!("robots {i} and {j} overlap"));
+            }
+        }
+    }
+    out
+}
+
+fn check_placement_error(overrides: &[(&str, &str)], expect: &[&str]) {
+    let mut c = Preset::Paper.config();
+    for (k, v) in overrides {
+        c.set(&format!("{k}={v}")).unwrap();
+    }
+    let err = World::new(&c, 3)
+        .err()
+        .unwrap_or_else(|| panic!("{overrides:?} should not fit"))
+        .to_string();
+    for e in expect {
+        assert!(err.contains(e), "error {err:?} lacks {e:?}");
+    }
+}
+
+#[test]
+fn impossible_placements_are_errors_naming_the_parameters() {
+    check_placement_error(
+        &[("world.cylinders", "400")],
+        &[
+            "cannot place obstacle",
+            "world.cylinders = 400",
+            "world.arena_side_m",
+        ],
+    );
+    check_placement_error(
+        &[("world.box_side_m", "6")],
+        &["a box of side 6 m", "larger than the arena"],
+    );
+    check_placement_error(
+        &[("world.robots", "3000"), ("world.arena_side_m", "2")],
+        &[
+            "cannot place robot",
+            "world.robots = 3000",
+            "world.arena_side_m = 2",
+        ],
+    );
+    check_placement_error(
+        &[("world.obstacle_spread_half_m", "0.2")],
+        &["world.obstacle_spread_half_m = 0.2"],
+    );
+    check_placement_error(&[("world.robots", "0")], &["world.robots"]);
+}
+
+#[test]
+fn obstacles_follow_the_spread_and_the_seed() {
+    let c = Preset::Reference.config();
+    let a = World::new(&c, 5).unwrap();
+    assert_eq!(a.arena().obstacles.len(), 10);
+    for o in &a.arena().obstacles {
+        let (x, y) = o.centre();
+        assert!(x.abs() <= 1.5 && y.abs() <= 1.5, "{o:?}");
+    }
+    for (i, o) in a.arena().obstacles.iter().enumerate() {
+        for p in &a.arena().obstacles[i + 1..] {
+            assert!(!o.overlaps(p), "{o:?} overlaps {p:?}");
+        }
+    }
+    assert_eq!(a.arena(), World::new(&c, 5).unwrap().arena());
+    assert_ne!(a.arena(), World::new(&c, 6).unwrap().arena());
+}
+
+#[test]
+fn dense_swarms_never_overlap_and_stay_inside() {
+    let mut c = small(60, 2.0);
+    c.world.cruise_speed_mps = 0.1;
+    let mut world = World::new(&c, 11).unwrap();
+    let mut controllers = Controllers::new(&c, 11);
+    for _ in 0..40 {
+        run_on(&mut world, &mut controllers, 50);
+        assert_eq!(
+            brute_overlaps(&world),
+            Vec::<String>::new(),
+            "at {}",
+            world.time()
+        );
+    }
+    let stats = world.stats();
+    assert_eq!(stats.collisions, 0);
+    assert!(
+        stats.blocked_moves > 0,
+        "a dense swarm at 0.1 m/s must bump: {stats:?}"
+    );
+}
+
+#[test]
+fn fast_wheel_commands_cannot_tunnel_through_obstacles() {
+    let mut c = small(1, 4.0);
+    c.world.cylinders = 0;
+    c.world.boxes = 0;
+    let mut world = World::new(&c, 1).unwrap();
+    world.arena = Arena::with_obstacles(
+        2.0,
+        vec![Obstacle::Box {
+            x: 0.0,
+            y: 0.0,
+            half_side_m: 0.05,
+        }],
+        2.5,
+    );
+    world.poses[0] = Pose {
+        x: -0.5,
+        y: 0.0,
+        theta: 0.0,
+    };
+    // 10 m/s for 0.1 s = 1 m: the end point (0.5, 0) is free, the path is not.
+    world.apply(&TickEvent {
+        commands: vec![WheelCommand::from_mps(10.0, 10.0)],
+    });
+    assert_eq!(world.poses()[0].x, -0.5);
+    assert_eq!(world.stats().blocked_moves, 1);
+    world.poses[0].y = 0.5;
+    world.apply(&TickEvent {
+        commands: vec![WheelCommand::from_mps(10.0, 10.0)],
+    });
+    assert!((world.poses()[0].x - 0.5).abs() < 1e-12);
+}
+
+/// Two robots at fixed places (no obstacles), standing still.
+fn pair(distance_m: f64, obstacle: Option<Obstacle>, config: impl FnOnce(&mut Config)) -> World {
+    let mut c = small(2, 4.0);
+    c.world.cylinders = 0;
+    c.world.boxes = 0;
+    config(&mut c);
+    let mut world = World::new(&c, 9).unwrap();
+    world.arena = Arena::with_obstacles(2.0, obstacle.into_iter().collect(), 2.5);
+    world.poses = vec![
+        Pose {
+            x: -distance_m / 2.0,
+            y: 0.0,
+            theta: 0.0,
+        },
+        Pose {
+            x: distance_m / 2.0,
+            y: 0.0,
+            theta: 0.0,
+        },
+    ];
+    world.scratch.grid_tick = None;
+    world
+}
+
+const STILL: fn() -> TickEvent = || TickEvent {
+    commands: vec![WheelCommand::from_mps(0.0, 0.0); 2],
+};
+
+#[test]
+fn obstacles_occlude_range_and_bearing_when_configured() {
+    let wall = Some(Obstacle::Box {
+        x: 0.0,
+        y: 0.0,
+        half_side_m: 0.1,
+    });
+    assert_eq!(pair(1.0, None, |_| {}).links(), vec![(0, 1)]);
+    assert_eq!(pair(1.0, wall, |_| {}).links(), vec![]);
+    assert_eq!(
+        pair(1.0, wall, |c| c.world.rab_occlusion = false).links(),
+        vec![(0, 1)]
+    );
+    assert_eq!(pair(2.4, None, |_| {}).links(), vec![(0, 1)]);
+    assert_eq!(pair(2.6, None, |_| {}).links(), vec![]);
+    let mut w = pair(1.0, wall, |_| {});
+    for _ in 0..300 {
+        w.apply(&STILL());
+    }
+    assert_eq!(w.stats().samples_collected, 0);
+    assert!(w.peers(0).is_empty());
+}
+
+#[test]
+fn standing_neighbours_yield_noisy_trajectories_discarded_on_a_gap() {
+    let mut w = pair(1.0, None, |_| {});
+    for _ in 0..250 {
+        w.apply(&STILL());
+    }
+    assert_eq!(w.peers(0), &[1]);
+    assert_eq!(w.peers(1), &[0]);
+    let d = w.dataset(0);
+    assert_eq!(d.len(), 2);
+    assert_eq!((d[0].time, d[1].time), (SimTime(10_000), SimTime(20_000)));
+    assert_eq!(d[0].points.len(), 80);
+    let mut err2 = 0.0;
+    for p in d.iter().flat_map(|s| &s.points) {
+        let (dx, dy) = (f64::from(p[0]) - 0.5, f64::from(p[1]));
+        assert!(dx.abs() < 0.06 && dy.abs() < 0.06, "{p:?}");
+        err2 += dx * dx + dy * dy;
+    }
+    let std = (err2 / 320.0).sqrt();
+    assert!((0.007..0.013).contains(&std), "noise std {std}");
+    // Robot 1 leaves mid-trajectory (50 ticks into the third): both partials are discarded.
+    w.poses[1].x = 1.9;
+    w.poses[0].x = -1.9;
+    w.apply(&STILL());
+    let s = w.stats();
+    assert_eq!((s.samples_collected, s.trajectories_discarded), (4, 2));
+    assert!((s.mean_neighbours - 250.0 / 251.0).abs() < 1e-12, "{s:?}");
+}
+
+#[test]
+fn samples_expire_after_the_expiration_time() {
+    let mut w = pair(1.0, None, |c| c.data.expiration_s = 15.0);
+    let mut seen = Vec::new();
+    for _ in 0..400 {
+        w.apply(&STILL());
+        seen.push((
+            w.time().0,
+            w.dataset(1)
+                .iter()
+                .map(|s| s.time.0 / 1000)
+                .collect::<Vec<_>>(),
+        ));
+    }
+    let at = |ms: u64| seen.iter().find(|(t, _)| *t == ms).unwrap().1.clone();
+    assert_eq!(at(9_900), Vec::<u64>::new());
+    assert_eq!(at(10_000), vec![10]);
+    assert_eq!(at(25_000), vec![10, 20], "age 15 s is not older than 15 s");
+    assert_eq!(at(25_100), vec![20]);
+    assert_eq!(at(40_000), vec![30, 40]);
+    assert_eq!(w.dataset_len(1), 2);
+}
+
+#[test]
+fn packet_drop_loses_messages_and_breaks_trajectories() {
+    let mut w = pair(1.0, None, |c| c.world.rab_packet_drop = 0.05);
+    for _ in 0..2000 {
+        w.apply(&STILL());
+    }
+    let s = w.stats();
+    assert!(
+        s.messages_dropped > 100 && s.messages_dropped < 300,
+        "{s:?}"
+    );
+    assert!(s.trajectories_discarded > 50, "{s:?}");
+    assert!(s.samples_collected < 10, "{s:?}");
+    assert_eq!(w.peers(0), &[1], "the peer set ignores packet drop");
+}
+
+#[test]
+fn the_same_seed_and_events_give_the_same_state() {
+    let c = small(15, 3.0);
+    let a = run(&c, 21, 600);
+    let b = run(&c, 21, 600);
+    assert_eq!(a.digest(), b.digest());
+    assert_eq!(a, b);
+    assert_ne!(a.digest(), run(&c, 22, 600).digest());
+    assert_ne!(a.digest(), run(&c, 21, 599).digest());
+    // From a clone and from a serde round trip, the same events give the same state.
+    let mut controllers = Controllers::new(&c, 5);
+    let events: Vec<TickEvent> = {
+        let mut probe = a.clone();
+        (0..300)
+            .map(|_| {
+                let e = controllers.decide(&probe);
+                probe.apply(&e);
+                e
+            })
+            .collect()
+    };
+    let mut clone = a.clone();
+    let mut restored: World = rmp_serde::from_slice(&rmp_serde::to_vec(&a).unwrap()).unwrap();
+    assert_eq!(restored.digest(), a.digest());
+    let mut original = a;
+    for e in &events {
+        original.apply(e);
+        clone.apply(e);
+        restored.try_apply(e).unwrap();
+    }
+    assert_eq!(original.digest(), clone.digest());
+    assert_eq!(original.digest(), restored.digest());
+    assert_eq!(original, restored);
+    assert!(original.stats().samples_collected > 0);
+}
+
+#[test]
+fn events_of_the_wrong_size_are_errors() {
+    let mut w = run(&small(3, 3.0), 1, 1);
+    let err = w
+        .try_apply(&TickEvent {
+            commands: vec![WheelCommand::from_mps(0.0, 0.0); 2],
+        })
+        .unwrap_err();
+    assert!(
+        err.to_string().contains("2 wheel commands for 3 robots"),
+        "{err}"
+    );
+    assert_eq!(w.tick(), 1);
+}
+
+#[test]
+fn the_heldout_set_is_fixed_by_the_seed_and_noise_free() {
+    let c = small(15, 5.0);
+    let a = World::new(&c, 4).unwrap();
+    assert_eq!(a.heldout().len(), 20);
+    assert_eq!(a.heldout(), World::new(&c, 4).unwrap().heldout());
+    assert_ne!(a.heldout(), World::new(&c, 5).unwrap().heldout());
+    let step = c.world.cruise_speed_mps * c.run.tick_s + 1e-6;
+    for s in a.heldout() {
+        assert_eq!(s.points.len(), 80);
+        for w in s.points.windows(2) {
+            let d = (f64::from(w[1][0] - w[0][0])).hypot(f64::from(w[1][1] - w[0][1]));
+            assert!(
+                d <= step,
+                "a noise-free step is at most one tick of cruise: {d}"
+            );
+        }
+    }
+    let mut none = c.clone();
+    none.data.heldout_samples = 0;
+    assert!(World::new(&none, 4).unwrap().heldout().is_empty());
+}
+
+#[test]
+fn proximity_reads_walls_obstacles_and_robots() {
+    let mut w = pair(0.12, None, |_| {});
+    let mut out = vec![0.0; 8];
+    // Robot 0 at (-0.06, 0) faces robot 1 at (0.06, 0): surfaces 0.05 apart.
+    w.proximity(0, &mut out);
+    assert!((out[0] - 0.5).abs() < 1e-9, "{out:?}");
+    assert_eq!(out[4], 0.0);
+    w.poses[0] = Pose {
+        x: -1.9,
+        y: 0.0,
+        theta: std::f64::consts::PI,
+    };
+    w.proximity(0, &mut out);
+    assert!(
+        (out[0] - (1.0 - 0.065 / 0.1)).abs() < 1e-9,
+        "wall ahead: {out:?}"
+    );
+    w.arena = Arena::with_obstacles(
+        2.0,
+        vec![Obstacle::Cylinder {
+            x: -1.9,
+            y: 0.2,
+            radius_m: 0.1,
+        }],
+        2.5,
+    );
+    w.proximity(0, &mut out);
+    // The sensor at 270 degrees (pointing +y when facing -x) sees the cylinder 0.065 away.
+    assert!((out[6] - (1.0 - 0.065 / 0.1)).abs() < 1e-9, "{out:?}");
+}
+
+#[test]
+fn a_paper_world_collects_data_and_reports_stats() {
+    let w = run(&Preset::Paper.config(), 7, 6000);
+    let s = w.stats();
+    // Printed so that builds (debug, release, target-cpu) can be compared with --nocapture.
+    println!("paper seed 7 world digest after 600 s: {}", w.digest());
+    assert_eq!(s.collisions, 0);
+    assert!(s.mean_neighbours > 2.0 && s.mean_neighbours < 14.0, "{s:?}");
+    assert!(s.samples_per_robot_per_600s > 20.0, "{s:?}");
+    assert_eq!(s.heldout_samples, 200);
+    for r in 0..15 {
+        let d = w.dataset(r);
+        assert!(d.windows(2).all(|p| p[0].time <= p[1].time), "oldest first");
+        assert_eq!(d.len(), w.dataset_len(r));
+    }
+}
