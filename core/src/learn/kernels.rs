@@ -119,28 +119,34 @@ fn outer_block<const L: usize>(
     }
 }
 
-/// Every buffer one training needs, allocated once.
+/// Samples processed together: their forward and backward passes are interleaved step by step,
+/// so that the CPU overlaps their independent dependency chains (one sample alone is bound by
+/// the latency of its recurrence). Each sample's arithmetic is unchanged by the grouping, and
+/// gradients are still added in sample order: the bits do not depend on the group size.
+pub(crate) const GROUP: usize = 4;
+
+/// Every buffer one training needs, allocated once; per-sample buffers exist [`GROUP`] times.
 pub(crate) struct Workspace {
     pub(crate) shape: ModelShape,
-    /// Per step t: the stacked row `[x_t, h_{t-1}, 1]` (`steps x rows_lstm`).
+    /// Per sample, per step t: the stacked row `[x_t, h_{t-1}, 1]` (`steps x rows_lstm`).
     xh: Vec<f32>,
-    /// Per step: activated gates i, f, g, o (`steps x gates`).
+    /// Per sample, per step: activated gates i, f, g, o (`steps x gates`).
     gates: Vec<f32>,
-    /// Cell states c_0 = 0, c_1, ..., c_T (`(steps + 1) x units`).
+    /// Per sample: cell states c_0 = 0, c_1, ..., c_T (`(steps + 1) x units`).
     cs: Vec<f32>,
-    /// tanh(c_t) for t = 1..T (`steps x units`).
+    /// Per sample: tanh(c_t) for t = 1..T (`steps x units`).
     tanh_c: Vec<f32>,
-    /// Gate pre-activation gradients per step (`steps x gates`).
+    /// Per sample: gate pre-activation gradients per step (`steps x gates`).
     dz: Vec<f32>,
-    /// `[h_T * mask, 1]`.
+    /// Per sample: `[h_T * mask, 1]`.
     hd1: Vec<f32>,
-    /// Dense output, then its error.
+    /// Per sample: the dense output.
     y: Vec<f32>,
-    /// Gradient of the loss with respect to the dense output.
+    /// Per sample: gradient of the loss with respect to the dense output.
     dy: Vec<f32>,
     dh: Vec<f32>,
     dc: Vec<f32>,
-    /// Dropout mask of the current sample (0 or 1 / (1 - p)).
+    /// Per sample: dropout mask (0 or 1 / (1 - p)).
     pub(crate) mask: Vec<f32>,
     /// Recurrent kernel transposed (`gates x units`).
     rec_t: Vec<f32>,
@@ -152,26 +158,21 @@ pub(crate) struct Workspace {
 
 impl Workspace {
     pub(crate) fn new(shape: &ModelShape) -> Workspace {
-        let (t, h, g, r1, o) = (
-            shape.steps_in(),
-            shape.units(),
-            shape.gates(),
-            shape.rows_lstm(),
-            shape.outputs(),
-        );
+        let (t, h, g, r1, o) =
+            (shape.steps_in(), shape.units(), shape.gates(), shape.rows_lstm(), shape.outputs());
         Workspace {
             shape: shape.clone(),
-            xh: vec![0.0; t * r1],
-            gates: vec![0.0; t * g],
-            cs: vec![0.0; (t + 1) * h],
-            tanh_c: vec![0.0; t * h],
-            dz: vec![0.0; t * g],
-            hd1: vec![0.0; h + 1],
-            y: vec![0.0; o],
-            dy: vec![0.0; o],
-            dh: vec![0.0; h],
-            dc: vec![0.0; h],
-            mask: vec![1.0; h],
+            xh: vec![0.0; GROUP * t * r1],
+            gates: vec![0.0; GROUP * t * g],
+            cs: vec![0.0; GROUP * (t + 1) * h],
+            tanh_c: vec![0.0; GROUP * t * h],
+            dz: vec![0.0; GROUP * t * g],
+            hd1: vec![0.0; GROUP * (h + 1)],
+            y: vec![0.0; GROUP * o],
+            dy: vec![0.0; GROUP * o],
+            dh: vec![0.0; GROUP * h],
+            dc: vec![0.0; GROUP * h],
+            mask: vec![1.0; GROUP * h],
             rec_t: vec![0.0; g * h],
             dense_t: vec![0.0; o * h],
             grad: vec![0.0; shape.weights()],
@@ -197,112 +198,168 @@ impl Workspace {
         }
     }
 
-    /// Forward pass of one sample (`x`: steps x 2 inputs), with the current dropout `mask`;
-    /// leaves the output in `y` and every intermediate for the backward pass.
+    /// The dropout mask of sample `s` of the group.
+    pub(crate) fn mask_mut(&mut self, s: usize) -> &mut [f32] {
+        let h = self.shape.units();
+        &mut self.mask[s * h..(s + 1) * h]
+    }
+
+    /// Forward pass of up to [`GROUP`] samples (`inputs[s]`: steps x 2 values), each with its
+    /// dropout mask; leaves the outputs in `y` and every intermediate for the backward pass.
     #[inline(always)]
-    pub(crate) fn forward(&mut self, w: &[f32], x: &[f32]) {
-        let s = &self.shape;
-        let (t_n, d, h, g, r1, o) = (
-            s.steps_in(),
-            s.input_dims(),
-            s.units(),
-            s.gates(),
-            s.rows_lstm(),
-            s.outputs(),
-        );
+    pub(crate) fn forward(&mut self, w: &[f32], inputs: &[&[f32]]) {
+        let n = inputs.len();
+        assert!(n >= 1 && n <= GROUP);
+        let sh = &self.shape;
+        let (t_n, d, h, g, r1, o) =
+            (sh.steps_in(), sh.input_dims(), sh.units(), sh.gates(), sh.rows_lstm(), sh.outputs());
         let lstm = &w[..r1 * g];
-        self.cs[..h].fill(0.0);
+        let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
+        for s in 0..n {
+            self.cs[s * c_n..s * c_n + h].fill(0.0);
+        }
         for t in 0..t_n {
-            let xh = &mut self.xh[t * r1..(t + 1) * r1];
-            xh[..d].copy_from_slice(&x[t * d..(t + 1) * d]);
-            if t == 0 {
-                xh[d..d + h].fill(0.0);
+            for (s, x) in inputs.iter().enumerate() {
+                let xh = &mut self.xh[s * xh_n + t * r1..s * xh_n + (t + 1) * r1];
+                xh[..d].copy_from_slice(&x[t * d..(t + 1) * d]);
+                if t == 0 {
+                    xh[d..d + h].fill(0.0);
+                }
+                xh[d + h] = 1.0;
+                let z = &mut self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
+                z.fill(0.0);
+                rows_acc(z, xh, lstm);
             }
-            xh[d + h] = 1.0;
-            let z = &mut self.gates[t * g..(t + 1) * g];
-            z.fill(0.0);
-            rows_acc(z, xh, lstm);
-            sigmoid_in_place(&mut z[..2 * h]);
-            tanh_in_place(&mut z[2 * h..3 * h]);
-            sigmoid_in_place(&mut z[3 * h..]);
-            let (c_prev, c_next) = self.cs[t * h..(t + 2) * h].split_at_mut(h);
-            let tc = &mut self.tanh_c[t * h..(t + 1) * h];
-            for u in 0..h {
-                c_next[u] = z[h + u] * c_prev[u] + z[u] * z[2 * h + u];
-                tc[u] = c_next[u];
+            for s in 0..n {
+                let z = &mut self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
+                sigmoid_in_place(&mut z[..2 * h]);
+                tanh_in_place(&mut z[2 * h..3 * h]);
+                sigmoid_in_place(&mut z[3 * h..]);
             }
-            tanh_in_place(tc);
-            let h_out: &mut [f32] = if t + 1 < t_n {
-                &mut self.xh[(t + 1) * r1 + d..(t + 1) * r1 + d + h]
-            } else {
-                &mut self.hd1[..h]
-            };
-            for u in 0..h {
-                h_out[u] = z[3 * h + u] * tc[u];
+            for s in 0..n {
+                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
+                let cs = &mut self.cs[s * c_n + t * h..s * c_n + (t + 2) * h];
+                let (c_prev, c_next) = cs.split_at_mut(h);
+                let tc = &mut self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
+                for u in 0..h {
+                    c_next[u] = z[h + u] * c_prev[u] + z[u] * z[2 * h + u];
+                    tc[u] = c_next[u];
+                }
+                tanh_in_place(tc);
+            }
+            for s in 0..n {
+                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
+                let tc = &self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
+                let h_out: &mut [f32] = if t + 1 < t_n {
+                    let at = s * xh_n + (t + 1) * r1 + d;
+                    &mut self.xh[at..at + h]
+                } else {
+                    &mut self.hd1[s * (h + 1)..s * (h + 1) + h]
+                };
+                for u in 0..h {
+                    h_out[u] = z[3 * h + u] * tc[u];
+                }
             }
         }
-        for u in 0..h {
-            self.hd1[u] *= self.mask[u];
+        let dense = &w[r1 * g..r1 * g + (h + 1) * o];
+        for s in 0..n {
+            let hd1 = &mut self.hd1[s * (h + 1)..(s + 1) * (h + 1)];
+            for u in 0..h {
+                hd1[u] *= self.mask[s * h + u];
+            }
+            hd1[h] = 1.0;
+            let y = &mut self.y[s * o..(s + 1) * o];
+            y.fill(0.0);
+            rows_acc(y, hd1, dense);
         }
-        self.hd1[h] = 1.0;
-        self.y.fill(0.0);
-        rows_acc(&mut self.y, &self.hd1, &w[r1 * g..r1 * g + (h + 1) * o]);
     }
 
-    /// The output of the last [`Workspace::forward`].
-    pub(crate) fn output(&self) -> &[f32] {
-        &self.y
+    /// The output of sample `s` of the last [`Workspace::forward`].
+    pub(crate) fn output(&self, s: usize) -> &[f32] {
+        let o = self.shape.outputs();
+        &self.y[s * o..(s + 1) * o]
     }
 
-    /// Squared error of the last forward pass against `target`, summed in f64 over the outputs
-    /// in order; also stores `dy = (y - target) * grad_scale`.
+    /// Squared error of sample `s` of the last forward pass against `target`, summed in f64
+    /// over the outputs in order; also stores `dy = (y - target) * grad_scale`.
     #[inline(always)]
-    pub(crate) fn error(&mut self, target: &[f32], grad_scale: f32) -> f64 {
+    pub(crate) fn error(&mut self, s: usize, target: &[f32], grad_scale: f32) -> f64 {
+        let o = self.shape.outputs();
+        let y = &self.y[s * o..(s + 1) * o];
+        let dy = &mut self.dy[s * o..(s + 1) * o];
         let mut sse = 0.0f64;
-        for j in 0..self.y.len() {
-            let e = self.y[j] - target[j];
+        for j in 0..o {
+            let e = y[j] - target[j];
             sse += f64::from(e) * f64::from(e);
-            self.dy[j] = e * grad_scale;
+            dy[j] = e * grad_scale;
         }
         sse
     }
 
-    /// Backward pass of the last forward pass with output gradient `dy`; adds the sample's
-    /// gradient into `grad`.
+    /// Backward pass of the first `n` samples of the last forward pass, with output gradients
+    /// `dy`; adds their gradients into `grad`, sample after sample.
     #[inline(always)]
-    pub(crate) fn backward(&mut self) {
-        let s = &self.shape;
-        let (t_n, h, g, r1) = (s.steps_in(), s.units(), s.gates(), s.rows_lstm());
-        let dense_off = s.dense_offset();
+    pub(crate) fn backward(&mut self, n: usize) {
+        assert!(n >= 1 && n <= GROUP);
+        let sh = &self.shape;
+        let (t_n, h, g, r1, o) = (sh.steps_in(), sh.units(), sh.gates(), sh.rows_lstm(), sh.outputs());
+        let dense_off = sh.dense_offset();
+        let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
         // Dense layer: gradient of [kernel; bias] and of the (masked) last hidden state.
-        outer_acc(&mut self.grad[dense_off..], &self.hd1, &self.dy, 1, h + 1);
-        self.dh.fill(0.0);
-        rows_acc(&mut self.dh, &self.dy, &self.dense_t);
-        for u in 0..h {
-            self.dh[u] *= self.mask[u];
+        for s in 0..n {
+            outer_acc(
+                &mut self.grad[dense_off..],
+                &self.hd1[s * (h + 1)..(s + 1) * (h + 1)],
+                &self.dy[s * o..(s + 1) * o],
+                1,
+                h + 1,
+            );
         }
-        self.dc.fill(0.0);
-        for t in (0..t_n).rev() {
-            let z = &self.gates[t * g..(t + 1) * g];
-            let c_prev = &self.cs[t * h..(t + 1) * h];
-            let tc = &self.tanh_c[t * h..(t + 1) * h];
-            let dz = &mut self.dz[t * g..(t + 1) * g];
+        for s in 0..n {
+            let dh = &mut self.dh[s * h..(s + 1) * h];
+            dh.fill(0.0);
+            rows_acc(dh, &self.dy[s * o..(s + 1) * o], &self.dense_t);
             for u in 0..h {
-                let (i, f, gg, oo) = (z[u], z[h + u], z[2 * h + u], z[3 * h + u]);
-                let dh = self.dh[u];
-                let d_o = dh * tc[u];
-                let dc = self.dc[u] + dh * oo * (1.0 - tc[u] * tc[u]);
-                dz[u] = dc * gg * (i * (1.0 - i));
-                dz[h + u] = dc * c_prev[u] * (f * (1.0 - f));
-                dz[2 * h + u] = dc * i * (1.0 - gg * gg);
-                dz[3 * h + u] = d_o * (oo * (1.0 - oo));
-                self.dc[u] = dc * f;
+                dh[u] *= self.mask[s * h + u];
+            }
+        }
+        self.dc[..n * h].fill(0.0);
+        for t in (0..t_n).rev() {
+            for s in 0..n {
+                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
+                let c_prev = &self.cs[s * c_n + t * h..s * c_n + (t + 1) * h];
+                let tc = &self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
+                let dz = &mut self.dz[s * g_n + t * g..s * g_n + (t + 1) * g];
+                let dh_s = &self.dh[s * h..(s + 1) * h];
+                let dc_s = &mut self.dc[s * h..(s + 1) * h];
+                for u in 0..h {
+                    let (i, f, gg, oo) = (z[u], z[h + u], z[2 * h + u], z[3 * h + u]);
+                    let dh = dh_s[u];
+                    let d_o = dh * tc[u];
+                    let dc = dc_s[u] + dh * oo * (1.0 - tc[u] * tc[u]);
+                    dz[u] = dc * gg * (i * (1.0 - i));
+                    dz[h + u] = dc * c_prev[u] * (f * (1.0 - f));
+                    dz[2 * h + u] = dc * i * (1.0 - gg * gg);
+                    dz[3 * h + u] = d_o * (oo * (1.0 - oo));
+                    dc_s[u] = dc * f;
+                }
             }
             if t > 0 {
-                self.dh.fill(0.0);
-                rows_acc(&mut self.dh, dz, &self.rec_t);
+                for s in 0..n {
+                    let dh = &mut self.dh[s * h..(s + 1) * h];
+                    dh.fill(0.0);
+                    rows_acc(dh, &self.dz[s * g_n + t * g..s * g_n + (t + 1) * g], &self.rec_t);
+                }
             }
         }
-        outer_acc(&mut self.grad[..r1 * g], &self.xh, &self.dz, t_n, r1);
+        for s in 0..n {
+            outer_acc(
+                &mut self.grad[..r1 * g],
+                &self.xh[s * xh_n..(s + 1) * xh_n],
+                &self.dz[s * g_n..(s + 1) * g_n],
+                t_n,
+                r1,
+            );
+        }
     }
 }

@@ -32,7 +32,7 @@ use crate::rng::Rng;
 
 pub use fixed::{from_fixed, to_fixed, FixedPointError};
 pub use init::init_weights;
-use kernels::Workspace;
+use kernels::{Workspace, GROUP};
 
 /// Coordinates per waypoint (x, y).
 const POINT_DIMS: usize = 2;
@@ -366,8 +366,8 @@ pub fn predict(shape: &ModelShape, weights: &[f32], data: &TrainData) -> Vec<f32
     ws.transpose_weights(weights);
     let mut out = Vec::with_capacity(data.len() * shape.outputs());
     for i in 0..data.len() {
-        ws.forward(weights, data.input(i));
-        out.extend_from_slice(ws.output());
+        ws.forward(weights, &[data.input(i)]);
+        out.extend_from_slice(ws.output(0));
     }
     out
 }
@@ -386,9 +386,9 @@ pub fn gradient(shape: &ModelShape, weights: &[f32], data: &TrainData) -> (Vec<f
     let scale = grad_scale(data.len(), shape.outputs());
     let mut sse = 0.0;
     for i in 0..data.len() {
-        ws.forward(weights, data.input(i));
-        sse += ws.error(data.target(i), scale);
-        ws.backward();
+        ws.forward(weights, &[data.input(i)]);
+        sse += ws.error(0, data.target(i), scale);
+        ws.backward(1);
     }
     (ws.grad.clone(), sse / (data.len() * shape.outputs()) as f64)
 }
@@ -469,7 +469,6 @@ fn train_loop(
     dropout: &mut Rng,
 ) -> f64 {
     let outputs = ws.shape.outputs();
-    let units = ws.shape.units();
     let keep_scale = 1.0f32 / (1.0f32 - sgd.dropout);
     let mut epoch_sse = 0.0f64;
     for _ in 0..sgd.epochs {
@@ -480,14 +479,24 @@ fn train_loop(
             let scale = grad_scale(end - start, outputs);
             ws.transpose_weights(weights);
             ws.grad.fill(0.0);
-            for i in start..end {
-                for u in 0..units {
-                    let keep = dropout.uniform_f32() >= sgd.dropout;
-                    ws.mask[u] = if keep { keep_scale } else { 0.0 };
+            let mut first = start;
+            while first < end {
+                let last = (first + GROUP).min(end);
+                let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
+                for (s, i) in (first..last).enumerate() {
+                    for m in ws.mask_mut(s) {
+                        let keep = dropout.uniform_f32() >= sgd.dropout;
+                        *m = if keep { keep_scale } else { 0.0 };
+                    }
+                    inputs[s] = data.input(i);
                 }
-                ws.forward(weights, data.input(i));
-                epoch_sse += ws.error(data.target(i), scale);
-                ws.backward();
+                let n = last - first;
+                ws.forward(weights, &inputs[..n]);
+                for (s, i) in (first..last).enumerate() {
+                    epoch_sse += ws.error(s, data.target(i), scale);
+                }
+                ws.backward(n);
+                first = last;
             }
             for (w, g) in weights.iter_mut().zip(&ws.grad) {
                 *w -= *g * sgd.lr;
@@ -536,9 +545,18 @@ unsafe fn loss_avx2(
 fn loss_loop(ws: &mut Workspace, weights: &[f32], data: &TrainData, from: usize, to: usize) -> f64 {
     ws.mask.fill(1.0);
     let mut sse = 0.0f64;
-    for i in from..to {
-        ws.forward(weights, data.input(i));
-        sse += ws.error(data.target(i), 0.0);
+    let mut first = from;
+    while first < to {
+        let last = (first + GROUP).min(to);
+        let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
+        for (s, i) in (first..last).enumerate() {
+            inputs[s] = data.input(i);
+        }
+        ws.forward(weights, &inputs[..last - first]);
+        for (s, i) in (first..last).enumerate() {
+            sse += ws.error(s, data.target(i), 0.0);
+        }
+        first = last;
     }
     sse / ((to - from) * ws.shape.outputs()) as f64
 }
