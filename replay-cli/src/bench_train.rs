@@ -55,7 +55,10 @@ pub fn bench_workload() -> Vec<Sample> {
                 heading = -heading;
             }
         }
-        samples.push(Sample { time: SimTime(s as u64 * 10_000), points });
+        samples.push(Sample {
+            time: SimTime(s as u64 * 10_000),
+            points,
+        });
     }
     samples
 }
@@ -63,7 +66,10 @@ pub fn bench_workload() -> Vec<Sample> {
 /// CPU time of the calling thread in milliseconds (immune to other processes sharing the
 /// cores, unlike wall time).
 fn thread_cpu_ms() -> f64 {
-    let mut ts = libc::timespec { tv_sec: 0, tv_nsec: 0 };
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
     // SAFETY: clock_gettime only writes the timespec we pass.
     let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
     if rc != 0 {
@@ -73,7 +79,12 @@ fn thread_cpu_ms() -> f64 {
 }
 
 /// Median wall time, median thread CPU time (ms) and the validation loss of the last run.
-fn median_ms(kernel: Kernel, shape: &ModelShape, data: &TrainData, start: &[f32]) -> (f64, f64, f64) {
+fn median_ms(
+    kernel: Kernel,
+    shape: &ModelShape,
+    data: &TrainData,
+    start: &[f32],
+) -> (f64, f64, f64) {
     let cfg = Preset::Reference.config().learn;
     let mut wall = Vec::with_capacity(REPETITIONS);
     let mut cpu = Vec::with_capacity(REPETITIONS);
@@ -131,8 +142,13 @@ pub fn run(json: bool) -> anyhow::Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        println!("local training (240 + 60 samples, 20 epochs, batch 20), 1 thread, {REPETITIONS} runs");
-        println!("  median            {auto_ms:.1} ms wall, {auto_cpu_ms:.1} ms CPU ({})", report["kernel"].as_str().unwrap_or(""));
+        println!(
+            "local training (240 + 60 samples, 20 epochs, batch 20), 1 thread, {REPETITIONS} runs"
+        );
+        println!(
+            "  median            {auto_ms:.1} ms wall, {auto_cpu_ms:.1} ms CPU ({})",
+            report["kernel"].as_str().unwrap_or("")
+        );
         println!("  baseline kernel   {base_ms:.1} ms wall, {base_cpu_ms:.1} ms CPU");
         println!("  sample passes/s   {passes_per_s:.0}");
         println!("  GFLOP/s           {gflops:.2} (baseline {base_gflops:.2}); {flop_train} FLOP per training sample pass");

@@ -158,8 +158,13 @@ pub(crate) struct Workspace {
 
 impl Workspace {
     pub(crate) fn new(shape: &ModelShape) -> Workspace {
-        let (t, h, g, r1, o) =
-            (shape.steps_in(), shape.units(), shape.gates(), shape.rows_lstm(), shape.outputs());
+        let (t, h, g, r1, o) = (
+            shape.steps_in(),
+            shape.units(),
+            shape.gates(),
+            shape.rows_lstm(),
+            shape.outputs(),
+        );
         Workspace {
             shape: shape.clone(),
             xh: vec![0.0; GROUP * t * r1],
@@ -211,8 +216,14 @@ impl Workspace {
         let n = inputs.len();
         assert!(n >= 1 && n <= GROUP);
         let sh = &self.shape;
-        let (t_n, d, h, g, r1, o) =
-            (sh.steps_in(), sh.input_dims(), sh.units(), sh.gates(), sh.rows_lstm(), sh.outputs());
+        let (t_n, d, h, g, r1, o) = (
+            sh.steps_in(),
+            sh.input_dims(),
+            sh.units(),
+            sh.gates(),
+            sh.rows_lstm(),
+            sh.outputs(),
+        );
         let lstm = &w[..r1 * g];
         let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
         for s in 0..n {
@@ -302,7 +313,13 @@ impl Workspace {
     pub(crate) fn backward(&mut self, n: usize) {
         assert!(n >= 1 && n <= GROUP);
         let sh = &self.shape;
-        let (t_n, h, g, r1, o) = (sh.steps_in(), sh.units(), sh.gates(), sh.rows_lstm(), sh.outputs());
+        let (t_n, h, g, r1, o) = (
+            sh.steps_in(),
+            sh.units(),
+            sh.gates(),
+            sh.rows_lstm(),
+            sh.outputs(),
+        );
         let dense_off = sh.dense_offset();
         let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
         // Dense layer: gradient of [kernel; bias] and of the (masked) last hidden state.
@@ -348,7 +365,11 @@ impl Workspace {
                 for s in 0..n {
                     let dh = &mut self.dh[s * h..(s + 1) * h];
                     dh.fill(0.0);
-                    rows_acc(dh, &self.dz[s * g_n + t * g..s * g_n + (t + 1) * g], &self.rec_t);
+                    rows_acc(
+                        dh,
+                        &self.dz[s * g_n + t * g..s * g_n + (t + 1) * g],
+                        &self.rec_t,
+                    );
                 }
             }
         }

@@ -45,7 +45,9 @@ pub fn expf_lane(x_in: f32) -> f32 {
     let half = if sign != 0 { -0.5f32 } else { 0.5f32 };
     let q = (INV_LN2 * x_in + half).clamp(-256.0, 256.0);
     let q = if q.is_nan() { 0.0 } else { q };
-    let k_far = q as i32;
+    // SAFETY: q is finite and within [-256, 256], so the truncation fits an i32. (A plain `as`
+    // would saturate, which LLVM does not vectorise.)
+    let k_far: i32 = unsafe { q.to_int_unchecked() };
     let k = if hx > 0x3f85_1592 {
         k_far
     } else if hx > 0x3eb1_7218 {
@@ -109,7 +111,9 @@ pub fn expm1f_lane(x_in: f32) -> f32 {
     let half = if sign { -0.5f32 } else { 0.5f32 };
     let q = (INV_LN2 * x_in + half).clamp(-256.0, 256.0);
     let q = if q.is_nan() { 0.0 } else { q };
-    let k_far = q as i32;
+    // SAFETY: q is finite and within [-256, 256], so the truncation fits an i32. (A plain `as`
+    // would saturate, which LLVM does not vectorise.)
+    let k_far: i32 = unsafe { q.to_int_unchecked() };
     let reduce = hx > 0x3eb1_7218;
     let k = if reduce {
         if hx < 0x3f85_1592 {
@@ -186,6 +190,76 @@ pub fn expm1f_lane(x_in: f32) -> f32 {
     r
 }
 
+/// `libm::expm1f` restricted to the arguments `tanhf` passes it: x in [-0.55, 20.5] (k in
+/// [-1, 30]), where libm's special cases (|x| >= 27 ln2 with x < 0, overflow, NaN) and its
+/// far branch (k < -1 or k > 56) cannot occur. Outside that range the result is unspecified
+/// (but never undefined behaviour); `tanhf_lane` discards those lanes.
+#[inline(always)]
+fn expm1f_for_tanh(x_in: f32) -> f32 {
+    let bits = x_in.to_bits();
+    let sign = (bits >> 31) != 0;
+    let hx = bits & 0x7fff_ffff;
+    let half = if sign { -0.5f32 } else { 0.5f32 };
+    let q = (INV_LN2 * x_in + half).clamp(-64.0, 64.0);
+    let q = if q.is_nan() { 0.0 } else { q };
+    // SAFETY: q is finite and within [-64, 64].
+    let k_far: i32 = unsafe { q.to_int_unchecked() };
+    let reduce = hx > 0x3eb1_7218;
+    let k = if !reduce {
+        0
+    } else if hx < 0x3f85_1592 {
+        if sign {
+            -1
+        } else {
+            1
+        }
+    } else {
+        k_far
+    };
+    let t = k as f32;
+    let hi = x_in - t * EXPM1_LN2_HI;
+    let lo = t * EXPM1_LN2_LO;
+    let x = if reduce { hi - lo } else { x_in };
+    let c = if reduce { (hi - x) - lo } else { 0.0 };
+
+    let hfx = 0.5 * x;
+    let hxs = x * hfx;
+    let r1 = 1. + hxs * (EXPM1_Q1 + hxs * EXPM1_Q2);
+    let tt = 3. - r1 * hfx;
+    let e0 = hxs * ((r1 - tt) / (6. - x * tt));
+    let res_k0 = x - (x * e0 - hxs);
+    let e = x * (e0 - c) - c;
+    let e = e - hxs;
+    let res_km1 = 0.5 * (x - e) - 0.5;
+    let res_k1 = if x < -0.25 {
+        -2. * (e - (x + 0.5))
+    } else {
+        1. + 2. * (x - e)
+    };
+    let kc = k.clamp(-64, 64);
+    let twopk = pow2(kc);
+    let uf = pow2(-kc);
+    let res_mid = if k < 23 {
+        (x - e + (1. - uf)) * twopk
+    } else {
+        (x - (e + uf) + 1.) * twopk
+    };
+    let r = if k == 0 {
+        res_k0
+    } else if k == -1 {
+        res_km1
+    } else if k == 1 {
+        res_k1
+    } else {
+        res_mid
+    };
+    if hx < 0x3300_0000 {
+        x_in
+    } else {
+        r
+    }
+}
+
 /// `libm::tanhf` of one value, written branch-free.
 #[inline(always)]
 pub fn tanhf_lane(x_in: f32) -> f32 {
@@ -195,19 +269,20 @@ pub fn tanhf_lane(x_in: f32) -> f32 {
     let x = f32::from_bits(w);
 
     let arg = if w > 0x3e82_c578 { 2. * x } else { -2. * x };
-    let t = expm1f_lane(arg);
+    let t = expm1f_for_tanh(arg);
     let big = 1. + 0. / x;
     let upper = 1. - 2. / (t + 2.);
-    let middle = t / (t + 2.);
-    let lower = -t / (t + 2.);
+    // libm's lower branch is -t / (t + 2); negating the dividend negates a correctly rounded
+    // quotient exactly, so it is -(t / (t + 2)): one division serves both branches.
+    let quotient = t / (t + 2.);
     let tt = if w > 0x4120_0000 {
         big
     } else if w > 0x3f0c_9f54 {
         upper
     } else if w > 0x3e82_c578 {
-        middle
+        quotient
     } else if w >= 0x0080_0000 {
-        lower
+        -quotient
     } else {
         x
     };
