@@ -18,6 +18,9 @@
 //!   over time steps t ascending, then `grad[r][j] += P[r][j]` for the samples of the batch in
 //!   data order; the SGD step is `w -= grad * lr`, as Keras' SGD.
 
+// Index loops read several arrays at the same position; iterators would hide that.
+#![allow(clippy::needless_range_loop)]
+
 use super::math::{sigmoid_in_place, tanh_in_place};
 use super::ModelShape;
 
@@ -214,7 +217,7 @@ impl Workspace {
     #[inline(always)]
     pub(crate) fn forward(&mut self, w: &[f32], inputs: &[&[f32]]) {
         let n = inputs.len();
-        assert!(n >= 1 && n <= GROUP);
+        assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
         let (t_n, d, h, g, r1, o) = (
             sh.steps_in(),
@@ -311,7 +314,7 @@ impl Workspace {
     /// `dy`; adds their gradients into `grad`, sample after sample.
     #[inline(always)]
     pub(crate) fn backward(&mut self, n: usize) {
-        assert!(n >= 1 && n <= GROUP);
+        assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
         let (t_n, h, g, r1, o) = (
             sh.steps_in(),

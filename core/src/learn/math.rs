@@ -15,16 +15,16 @@
 /// is padded internally).
 pub const LANES: usize = 8;
 
-const EXP_LN2_HI: f32 = 6.931_457_5e-1; // 0x3f317200
-const EXP_LN2_LO: f32 = 1.428_606_8e-6; // 0x35bfbe8e
-const INV_LN2: f32 = 1.442_695_f32; // 0x3fb8aa3b
-const EXP_P1: f32 = 1.666_662_5e-1; // 0x3e2aaa8f
-const EXP_P2: f32 = -2.766_733_3e-3; // 0xbb355215
+const EXP_LN2_HI: f32 = f32::from_bits(0x3f317200);
+const EXP_LN2_LO: f32 = f32::from_bits(0x35bfbe8e);
+const INV_LN2: f32 = f32::from_bits(0x3fb8aa3b);
+const EXP_P1: f32 = f32::from_bits(0x3e2aaa8f);
+const EXP_P2: f32 = f32::from_bits(0xbb355215);
 
-const EXPM1_LN2_HI: f32 = 6.931_381_2e-1; // 0x3f317180
-const EXPM1_LN2_LO: f32 = 9.058_001e-6; // 0x3717f7d1
-const EXPM1_Q1: f32 = -3.333_321_2e-2; // 0xbd088868
-const EXPM1_Q2: f32 = 1.580_717e-3; // 0x3acf3010
+const EXPM1_LN2_HI: f32 = f32::from_bits(0x3f317180);
+const EXPM1_LN2_LO: f32 = f32::from_bits(0x3717f7d1);
+const EXPM1_Q1: f32 = f32::from_bits(0xbd088868);
+const EXPM1_Q2: f32 = f32::from_bits(0x3acf3010);
 
 #[inline(always)]
 fn pow2(k: i32) -> f32 {
