@@ -11,9 +11,9 @@
 //! No fused multiply-add is used (Rust never contracts `a * b + c`), and no operation is
 //! reassociated.
 
-/// Width of the chunks the lane-wise functions process; any slice length is accepted (the tail
-/// is padded internally).
-pub const LANES: usize = 8;
+/// Width of the chunks the lane-wise functions process (one AVX-512 vector, two AVX2 vectors);
+/// any slice length is accepted (the tail runs lane by lane through the same code).
+pub const LANES: usize = 16;
 
 const EXP_LN2_HI: f32 = f32::from_bits(0x3f317200);
 const EXP_LN2_LO: f32 = f32::from_bits(0x35bfbe8e);
@@ -403,6 +403,58 @@ mod tests {
         check("expm1f", expm1_in_place, libm::expm1f, &inputs);
         check("tanhf", tanh_in_place, libm::tanhf, &inputs);
         check("sigmoid", sigmoid_in_place, sigmoid_libm, &inputs);
+    }
+
+    /// The same sweep through the AVX2 and AVX-512 compilations of the ports (run-time
+    /// dispatch in `learn` uses them), where the CPU has them.
+    #[cfg(target_arch = "x86_64")]
+    #[test]
+    fn simd_compilations_of_the_ports_match_libm() {
+        #[target_feature(enable = "avx2")]
+        unsafe fn all_avx2(v: &mut [f32], which: usize) {
+            [
+                exp_in_place,
+                expm1_in_place,
+                tanh_in_place,
+                sigmoid_in_place,
+            ][which](v)
+        }
+        #[target_feature(enable = "avx512f")]
+        unsafe fn all_avx512(v: &mut [f32], which: usize) {
+            [
+                exp_in_place,
+                expm1_in_place,
+                tanh_in_place,
+                sigmoid_in_place,
+            ][which](v)
+        }
+        let inputs = sweep();
+        let refs: [fn(f32) -> f32; 4] = [libm::expf, libm::expm1f, libm::tanhf, sigmoid_libm];
+        for (which, reference) in refs.iter().enumerate() {
+            let mut variants = Vec::new();
+            if std::arch::is_x86_feature_detected!("avx2") {
+                let mut v = inputs.clone();
+                // SAFETY: the CPU has AVX2.
+                unsafe { all_avx2(&mut v, which) };
+                variants.push(("avx2", v));
+            }
+            if std::arch::is_x86_feature_detected!("avx512f") {
+                let mut v = inputs.clone();
+                // SAFETY: the CPU has AVX-512F.
+                unsafe { all_avx512(&mut v, which) };
+                variants.push(("avx512", v));
+            }
+            for (name, out) in variants {
+                for (x, got) in inputs.iter().zip(&out) {
+                    let want = reference(*x);
+                    assert_eq!(
+                        got.to_bits(),
+                        want.to_bits(),
+                        "{name} function {which} at {x:e}"
+                    );
+                }
+            }
+        }
     }
 
     /// All 2^32 inputs; run in release with `SWARMFL_EXHAUSTIVE=1` (about a minute per

@@ -10,8 +10,8 @@
 //! SGD on the mean squared error with full backpropagation through time, in `f32` as
 //! TensorFlow, with every sum in a fixed order ([`kernels`]) and activations bit-identical to
 //! the `libm` crate ([`math`]). The result is the same bits on any number of threads, in debug
-//! or release, and on any x86-64 build; AVX2 code is selected at run time where the CPU has it
-//! and is tested to give the same bits as the baseline code.
+//! or release, and on any x86-64 build; AVX-512 or AVX2 code is selected at run time where the CPU has
+//! it and is tested to give the same bits as the baseline code.
 //!
 //! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise `expf`/`tanhf`),
 //! [`kernels`] (forward, backward, SGD), [`fixed`] (on-chain fixed point).
@@ -246,18 +246,48 @@ pub enum Kernel {
     Baseline,
     /// AVX2 code (x86-64 only; falls back to baseline if the CPU lacks AVX2).
     Avx2,
+    /// AVX-512 code (x86-64 only; falls back to AVX2, then baseline, if the CPU lacks it).
+    Avx512,
+}
+
+/// The compiled code a [`Kernel`] resolves to on this CPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Resolved {
+    Baseline,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
 }
 
 impl Kernel {
-    /// Whether this variant resolves to the AVX2 code on this CPU.
-    pub fn uses_avx2(self) -> bool {
+    fn resolve(self) -> Resolved {
         #[cfg(target_arch = "x86_64")]
         {
-            self != Kernel::Baseline && std::arch::is_x86_feature_detected!("avx2")
+            let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+            let avx2 = std::arch::is_x86_feature_detected!("avx2");
+            match self {
+                Kernel::Baseline => Resolved::Baseline,
+                Kernel::Auto | Kernel::Avx512 if avx512 => Resolved::Avx512,
+                _ if avx2 => Resolved::Avx2,
+                _ => Resolved::Baseline,
+            }
         }
         #[cfg(not(target_arch = "x86_64"))]
         {
-            false
+            let _ = self;
+            Resolved::Baseline
+        }
+    }
+
+    /// The code this variant runs on this CPU: "avx512", "avx2" or "baseline".
+    pub fn describe(self) -> &'static str {
+        match self.resolve() {
+            Resolved::Baseline => "baseline",
+            #[cfg(target_arch = "x86_64")]
+            Resolved::Avx2 => "avx2",
+            #[cfg(target_arch = "x86_64")]
+            Resolved::Avx512 => "avx512",
         }
     }
 }
@@ -438,12 +468,26 @@ fn dispatch_train(
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
-    #[cfg(target_arch = "x86_64")]
-    if kernel.uses_avx2() {
-        // SAFETY: the CPU supports AVX2 (checked at run time just above).
-        return unsafe { train_avx2(ws, weights, data, sgd, dropout) };
+    match kernel.resolve() {
+        Resolved::Baseline => train_loop(ws, weights, data, sgd, dropout),
+        // SAFETY: `resolve` checked at run time that the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx2 => unsafe { train_avx2(ws, weights, data, sgd, dropout) },
+        // SAFETY: `resolve` checked at run time that the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx512 => unsafe { train_avx512(ws, weights, data, sgd, dropout) },
     }
-    let _ = kernel;
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn train_avx512(
+    ws: &mut Workspace,
+    weights: &mut [f32],
+    data: &TrainData,
+    sgd: &Sgd,
+    dropout: &mut Rng,
+) -> f64 {
     train_loop(ws, weights, data, sgd, dropout)
 }
 
@@ -520,13 +564,27 @@ fn loss_range_with(
         return f64::NAN;
     }
     let mut ws = Workspace::new(shape);
-    #[cfg(target_arch = "x86_64")]
-    if kernel.uses_avx2() {
-        // SAFETY: the CPU supports AVX2 (checked at run time just above).
-        return unsafe { loss_avx2(&mut ws, weights, data, from, to) };
+    match kernel.resolve() {
+        Resolved::Baseline => loss_loop(&mut ws, weights, data, from, to),
+        // SAFETY: `resolve` checked at run time that the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx2 => unsafe { loss_avx2(&mut ws, weights, data, from, to) },
+        // SAFETY: `resolve` checked at run time that the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx512 => unsafe { loss_avx512(&mut ws, weights, data, from, to) },
     }
-    let _ = kernel;
-    loss_loop(&mut ws, weights, data, from, to)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn loss_avx512(
+    ws: &mut Workspace,
+    weights: &[f32],
+    data: &TrainData,
+    from: usize,
+    to: usize,
+) -> f64 {
+    loss_loop(ws, weights, data, from, to)
 }
 
 #[cfg(target_arch = "x86_64")]

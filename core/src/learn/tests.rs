@@ -312,7 +312,7 @@ fn training_is_bit_identical_across_runs_threads_and_kernels() {
     let four = run(4);
     assert_eq!(bits(&one), bits(&four), "1 vs 4 threads");
     // Sequentially, twice, and with each kernel variant.
-    for kernel in [Kernel::Auto, Kernel::Baseline, Kernel::Avx2] {
+    for kernel in [Kernel::Auto, Kernel::Baseline, Kernel::Avx2, Kernel::Avx512] {
         let seq: Vec<TrainOutcome> = jobs
             .iter()
             .map(|j| {
@@ -365,7 +365,12 @@ fn training_is_bit_identical_across_runs_threads_and_kernels() {
         a.weights, b.weights,
         "without dropout the stream must not matter"
     );
-    eprintln!("avx2 kernel in use: {}", Kernel::Auto.uses_avx2());
+    eprintln!(
+        "kernels compared: auto = {}, avx2 = {}, avx512 = {}, baseline",
+        Kernel::Auto.describe(),
+        Kernel::Avx2.describe(),
+        Kernel::Avx512.describe()
+    );
 }
 
 #[test]
