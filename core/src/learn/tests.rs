@@ -457,3 +457,50 @@ fn flop_count_is_stated_for_the_paper_model() {
     assert!(2 * t > 5 * f && 2 * t < 7 * f, "{t} vs {f}");
     eprintln!("FLOP per sample pass: training {t}, evaluation {f}");
 }
+
+/// blake3 of the outcomes' weights and losses, as hex.
+fn digest(outcomes: &[TrainOutcome]) -> String {
+    let mut h = blake3::Hasher::new();
+    for o in outcomes {
+        for w in &o.weights {
+            h.update(&w.to_le_bytes());
+        }
+        h.update(&o.val_loss.to_le_bytes());
+        h.update(&o.final_train_loss.to_le_bytes());
+        h.update(&o.train_samples.to_le_bytes());
+    }
+    h.finalize().to_hex().to_string()
+}
+
+/// Pins the bits of a few trainings (and of the Keras-default initialisation), so that a debug
+/// build, a release build (`cargo test --release`) and a `-C target-cpu=x86-64-v3` build must
+/// all agree with the same constant. A deliberate change of the arithmetic updates it.
+#[test]
+fn training_bits_are_pinned_across_builds() {
+    let mut jobs = small_jobs();
+    jobs[1].start = init_weights(&paper_shape(), &mut stream(4, Purpose::ModelInit, 0));
+    let outcomes: Vec<TrainOutcome> = jobs
+        .iter()
+        .map(|j| {
+            train_with(
+                Kernel::Baseline,
+                &j.shape,
+                &j.cfg,
+                &j.start,
+                &j.data,
+                j.dropout.clone(),
+            )
+        })
+        .collect();
+    let got = digest(&outcomes);
+    eprintln!("pinned training digest: {got}");
+    assert_eq!(got, PINNED_TRAINING_DIGEST);
+    assert_eq!(
+        digest(&train_many(jobs)),
+        got,
+        "dispatched kernels agree with the pin"
+    );
+}
+
+const PINNED_TRAINING_DIGEST: &str =
+    "fdc30e2970a74c42304dbe2d6440af92f0bf1cf71372d6403bd41a1804201096";
