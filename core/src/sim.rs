@@ -58,7 +58,9 @@ impl State {
                         self.world.time()
                     )));
                 }
-                self.world.try_apply(tick).map_err(|e| ApplyError::Invalid(e.to_string()))?;
+                self.world
+                    .try_apply(tick)
+                    .map_err(|e| ApplyError::Invalid(e.to_string()))?;
             }
         }
         Ok(())

@@ -1,0 +1,620 @@
+//! The model and its deterministic local training (SPEC.md section 2).
+//!
+//! The model is the paper's: LSTM(`units`) over `input_waypoints` steps of (x, y), dropout,
+//! Dense(2 * `target_waypoints`), read as (`target_waypoints`, 2). Its weights are one flat
+//! `Vec<f32>` in the Keras layout (LSTM kernel `2 x 4H`, recurrent kernel `H x 4H`, bias `4H`,
+//! Dense kernel `H x O`, Dense bias `O`; gate order i, f, c, o; row-major): 2848 values for the
+//! paper's sizes.
+//!
+//! Training is a pure function of (shape, config, start weights, data, dropout stream): plain
+//! SGD on the mean squared error with full backpropagation through time, in `f32` as
+//! TensorFlow, with every sum in a fixed order ([`kernels`]) and activations bit-identical to
+//! the `libm` crate ([`math`]). The result is the same bits on any number of threads, in debug
+//! or release, and on any x86-64 build; AVX-512 or AVX2 code is selected at run time where the CPU has
+//! it and is tested to give the same bits as the baseline code.
+//!
+//! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise `expf`/`tanhf`),
+//! [`kernels`] (forward, backward, SGD), [`fixed`] (on-chain fixed point).
+
+pub mod fixed;
+pub mod init;
+pub(crate) mod kernels;
+pub mod math;
+#[cfg(test)]
+mod tests;
+
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+use crate::config::{Config, LearnConfig};
+use crate::data::Sample;
+use crate::rng::Rng;
+
+pub use fixed::{from_fixed, to_fixed, FixedPointError};
+pub use init::init_weights;
+use kernels::{Workspace, GROUP};
+
+/// Coordinates per waypoint (x, y).
+const POINT_DIMS: usize = 2;
+
+/// The sizes of the model; everything else (offsets, weight count) derives from them.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ModelShape {
+    /// LSTM units H.
+    pub units: u32,
+    /// Input time steps (waypoints fed to the LSTM).
+    pub input_steps: u32,
+    /// Predicted waypoints (the Dense layer has 2x this many outputs).
+    pub output_steps: u32,
+}
+
+impl ModelShape {
+    /// The shape configured in `learn.lstm_units`, `data.input_waypoints` and
+    /// `data.target_waypoints`.
+    pub fn from_config(config: &Config) -> ModelShape {
+        ModelShape {
+            units: config.learn.lstm_units,
+            input_steps: config.data.input_waypoints,
+            output_steps: config.data.target_waypoints,
+        }
+    }
+
+    /// Number of trainable weights: `4H (2 + H + 1) + O (H + 1)`; 2848 for the paper's model.
+    pub fn weights(&self) -> usize {
+        self.rows_lstm() * self.gates() + (self.units() + 1) * self.outputs()
+    }
+
+    /// Floating-point operations of one training sample pass (forward and backward, without
+    /// the SGD step), counting each add and multiply as one and each sigmoid/tanh as one.
+    pub fn flops_per_train_sample(&self) -> u64 {
+        let (t, h, g, r1, o) = (
+            self.steps_in() as u64,
+            self.units() as u64,
+            self.gates() as u64,
+            self.rows_lstm() as u64,
+            self.outputs() as u64,
+        );
+        let forward = self.flops_per_eval_sample();
+        // Error and its gradient (subtract, square, accumulate, scale).
+        let loss = 4 * o;
+        // Dense: kernel/bias gradient (multiply, add, add into grad), hidden gradient, mask.
+        let dense_back = 3 * (h + 1) * o + 2 * o * h + h;
+        // Per step: 22 elementwise operations per unit (gate derivatives), the hidden gradient
+        // (all steps but the first), the kernel gradient partials; then adding them once.
+        let lstm_back = t * 22 * h + (t - 1) * 2 * g * h + t * 2 * r1 * g + r1 * g;
+        forward + loss + dense_back + lstm_back
+    }
+
+    /// Floating-point operations of one evaluation (forward-only) sample pass.
+    pub fn flops_per_eval_sample(&self) -> u64 {
+        let (t, h, g, r1, o) = (
+            self.steps_in() as u64,
+            self.units() as u64,
+            self.gates() as u64,
+            self.rows_lstm() as u64,
+            self.outputs() as u64,
+        );
+        // Gates (multiply-add over the stacked row), 4H activations, cell update (3 per
+        // unit), tanh(c), h = o * tanh(c); then mask and the dense layer.
+        t * (2 * r1 * g + g + 3 * h + h + h) + h + 2 * (h + 1) * o
+    }
+
+    pub(crate) fn units(&self) -> usize {
+        self.units as usize
+    }
+    pub(crate) fn steps_in(&self) -> usize {
+        self.input_steps as usize
+    }
+    pub(crate) fn input_dims(&self) -> usize {
+        POINT_DIMS
+    }
+    pub(crate) fn gates(&self) -> usize {
+        4 * self.units()
+    }
+    /// Rows of the stacked LSTM matrix `[kernel; recurrent; bias]`.
+    pub(crate) fn rows_lstm(&self) -> usize {
+        POINT_DIMS + self.units() + 1
+    }
+    pub(crate) fn outputs(&self) -> usize {
+        POINT_DIMS * self.output_steps as usize
+    }
+    /// Offset of the Dense kernel in the flat layout.
+    pub(crate) fn dense_offset(&self) -> usize {
+        self.rows_lstm() * self.gates()
+    }
+    fn input_len(&self) -> usize {
+        POINT_DIMS * self.steps_in()
+    }
+}
+
+/// Errors building a training set.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum LearnError {
+    /// A sample has fewer waypoints than the model reads.
+    #[error(
+        "sample {index} has {points} waypoints but the model needs {needed} \
+         (data.input_waypoints + data.target_waypoints); record full trajectories"
+    )]
+    SampleTooShort {
+        /// Index of the sample in the slice given.
+        index: usize,
+        /// Waypoints it has.
+        points: usize,
+        /// Waypoints needed.
+        needed: usize,
+    },
+}
+
+/// A data set in the model's layout: per sample, `input_steps` (x, y) inputs and
+/// `2 * output_steps` targets, oldest sample first.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainData {
+    shape: ModelShape,
+    inputs: Vec<f32>,
+    targets: Vec<f32>,
+    len: usize,
+}
+
+impl TrainData {
+    /// Builds the data set from samples (oldest first). Waypoints beyond input + target are
+    /// ignored (SPEC.md: waypoints 80..100 are unused); a shorter sample is an error.
+    pub fn new(shape: &ModelShape, samples: &[Sample]) -> Result<TrainData, LearnError> {
+        let (n_in, n_out) = (shape.steps_in(), shape.output_steps as usize);
+        let mut inputs = Vec::with_capacity(samples.len() * shape.input_len());
+        let mut targets = Vec::with_capacity(samples.len() * shape.outputs());
+        for (index, sample) in samples.iter().enumerate() {
+            if sample.points.len() < n_in + n_out {
+                return Err(LearnError::SampleTooShort {
+                    index,
+                    points: sample.points.len(),
+                    needed: n_in + n_out,
+                });
+            }
+            inputs.extend(sample.points[..n_in].iter().flatten());
+            targets.extend(sample.points[n_in..n_in + n_out].iter().flatten());
+        }
+        Ok(TrainData {
+            shape: shape.clone(),
+            inputs,
+            targets,
+            len: samples.len(),
+        })
+    }
+
+    /// Builds the data set from flat arrays: `inputs` is `samples x input_steps x 2`, `targets`
+    /// is `samples x output_steps x 2`, both row-major. Returns `None` if the lengths do not fit.
+    pub fn from_flat(shape: &ModelShape, inputs: Vec<f32>, targets: Vec<f32>) -> Option<TrainData> {
+        let n_in = shape.input_len();
+        let n_out = shape.outputs();
+        if n_in == 0 || n_out == 0 || inputs.len() % n_in != 0 {
+            return None;
+        }
+        let len = inputs.len() / n_in;
+        (targets.len() == len * n_out).then(|| TrainData {
+            shape: shape.clone(),
+            inputs,
+            targets,
+            len,
+        })
+    }
+
+    /// Number of samples.
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
+    /// True if there are no samples.
+    pub fn is_empty(&self) -> bool {
+        self.len == 0
+    }
+
+    fn input(&self, i: usize) -> &[f32] {
+        let n = self.shape.input_len();
+        &self.inputs[i * n..(i + 1) * n]
+    }
+
+    fn target(&self, i: usize) -> &[f32] {
+        let n = self.shape.outputs();
+        &self.targets[i * n..(i + 1) * n]
+    }
+}
+
+/// The result of one local training.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainOutcome {
+    /// The trained weights (the start weights unchanged if there was nothing to train on).
+    pub weights: Vec<f32>,
+    /// Samples in the training split (the n_k the robot reports).
+    pub train_samples: u32,
+    /// Samples in the validation split.
+    pub val_samples: u32,
+    /// Mean squared error of the trained model on the validation split, dropout off; NaN if
+    /// the validation split is empty.
+    pub val_loss: f64,
+    /// Mean squared error over the training samples of the last epoch, each measured in its
+    /// batch's forward pass (dropout on, before that batch's update), as Keras reports `loss`;
+    /// NaN if no training step ran.
+    pub final_train_loss: f64,
+}
+
+/// Which compiled variant of the kernels runs. They give identical bits; the choice is speed.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Kernel {
+    /// The best the CPU supports (AVX2 if detected at run time, else baseline).
+    Auto,
+    /// Baseline x86-64 (SSE2) or the target's default code.
+    Baseline,
+    /// AVX2 code (x86-64 only; falls back to baseline if the CPU lacks AVX2).
+    Avx2,
+    /// AVX-512 code (x86-64 only; falls back to AVX2, then baseline, if the CPU lacks it).
+    Avx512,
+}
+
+/// The compiled code a [`Kernel`] resolves to on this CPU.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Resolved {
+    Baseline,
+    #[cfg(target_arch = "x86_64")]
+    Avx2,
+    #[cfg(target_arch = "x86_64")]
+    Avx512,
+}
+
+impl Kernel {
+    fn resolve(self) -> Resolved {
+        #[cfg(target_arch = "x86_64")]
+        {
+            let avx512 = std::arch::is_x86_feature_detected!("avx512f");
+            let avx2 = std::arch::is_x86_feature_detected!("avx2");
+            match self {
+                Kernel::Baseline => Resolved::Baseline,
+                Kernel::Auto | Kernel::Avx512 if avx512 => Resolved::Avx512,
+                _ if avx2 => Resolved::Avx2,
+                _ => Resolved::Baseline,
+            }
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        {
+            let _ = self;
+            Resolved::Baseline
+        }
+    }
+
+    /// The code this variant runs on this CPU: "avx512", "avx2" or "baseline".
+    pub fn describe(self) -> &'static str {
+        match self.resolve() {
+            Resolved::Baseline => "baseline",
+            #[cfg(target_arch = "x86_64")]
+            Resolved::Avx2 => "avx2",
+            #[cfg(target_arch = "x86_64")]
+            Resolved::Avx512 => "avx512",
+        }
+    }
+}
+
+/// The chronological split: the first `floor(n * train_fraction)` samples train, the rest
+/// validate (Keras' `validation_split` rule).
+pub fn split_point(samples: usize, train_fraction: f64) -> usize {
+    let at = (samples as f64 * train_fraction).floor();
+    if at.is_nan() || at <= 0.0 {
+        0
+    } else {
+        (at as usize).min(samples)
+    }
+}
+
+/// One local training: SGD on the MSE from `start`, `cfg.epochs` passes over the first
+/// `floor(n * cfg.train_fraction)` samples in order (no shuffling) in batches of
+/// `cfg.batch_size` (the last batch may be smaller, as Keras), dropout after the LSTM with
+/// masks from `dropout`; then the validation loss of the trained model on the remaining
+/// samples. With no training samples (or 0 epochs) the weights come back unchanged. NaN in the
+/// data propagates into the weights and losses; it never panics.
+///
+/// Dropout draws `units` values `u = dropout.uniform_f32()` per training sample pass (samples
+/// in order), keeping a unit iff `u >= p` and scaling kept units by `1 / (1 - p)` (f32).
+///
+/// Panics if `start.len() != shape.weights()` or `data` was built for another shape (internal
+/// invariants: the contract only stores models of the right length).
+pub fn train(
+    shape: &ModelShape,
+    cfg: &LearnConfig,
+    start: &[f32],
+    data: &TrainData,
+    dropout: Rng,
+) -> TrainOutcome {
+    train_with(Kernel::Auto, shape, cfg, start, data, dropout)
+}
+
+/// [`train`] with an explicit kernel variant (for benchmarks and the bit-identity tests).
+pub fn train_with(
+    kernel: Kernel,
+    shape: &ModelShape,
+    cfg: &LearnConfig,
+    start: &[f32],
+    data: &TrainData,
+    mut dropout: Rng,
+) -> TrainOutcome {
+    assert_eq!(
+        start.len(),
+        shape.weights(),
+        "start weights do not fit the model shape"
+    );
+    assert_eq!(
+        &data.shape, shape,
+        "training data built for another model shape"
+    );
+    let n_train = split_point(data.len(), cfg.train_fraction);
+    let n_val = data.len() - n_train;
+    let mut weights = start.to_vec();
+    let mut final_train_loss = f64::NAN;
+    if n_train > 0 && cfg.epochs > 0 && cfg.batch_size > 0 {
+        let mut ws = Workspace::new(shape);
+        let sgd = Sgd {
+            epochs: cfg.epochs,
+            batch: cfg.batch_size as usize,
+            lr: cfg.learning_rate as f32,
+            dropout: cfg.dropout as f32,
+            samples: n_train,
+        };
+        final_train_loss = dispatch_train(kernel, &mut ws, &mut weights, data, &sgd, &mut dropout);
+    }
+    let val_loss = if n_val > 0 {
+        loss_range_with(kernel, shape, &weights, data, n_train, data.len())
+    } else {
+        f64::NAN
+    };
+    TrainOutcome {
+        weights,
+        train_samples: n_train as u32,
+        val_samples: n_val as u32,
+        val_loss,
+        final_train_loss,
+    }
+}
+
+/// Mean squared error of `weights` over every sample of `data` (dropout off), NaN for an empty
+/// set. Squared errors are summed in f64: samples in order, the outputs of each in order.
+pub fn loss(shape: &ModelShape, weights: &[f32], data: &TrainData) -> f64 {
+    assert_eq!(
+        weights.len(),
+        shape.weights(),
+        "weights do not fit the model shape"
+    );
+    assert_eq!(&data.shape, shape, "data built for another model shape");
+    loss_range_with(Kernel::Auto, shape, weights, data, 0, data.len())
+}
+
+/// The model's output for every sample of `data` (dropout off), `samples x 2 * output_steps`.
+pub fn predict(shape: &ModelShape, weights: &[f32], data: &TrainData) -> Vec<f32> {
+    assert_eq!(
+        weights.len(),
+        shape.weights(),
+        "weights do not fit the model shape"
+    );
+    assert_eq!(&data.shape, shape, "data built for another model shape");
+    let mut ws = Workspace::new(shape);
+    ws.transpose_weights(weights);
+    let mut out = Vec::with_capacity(data.len() * shape.outputs());
+    for i in 0..data.len() {
+        ws.forward(weights, &[data.input(i)]);
+        out.extend_from_slice(ws.output(0));
+    }
+    out
+}
+
+/// The gradient of the mean squared error over all samples of `data` (one batch, dropout
+/// off) and that loss (f64 sum as in [`loss`]).
+pub fn gradient(shape: &ModelShape, weights: &[f32], data: &TrainData) -> (Vec<f32>, f64) {
+    assert_eq!(
+        weights.len(),
+        shape.weights(),
+        "weights do not fit the model shape"
+    );
+    assert_eq!(&data.shape, shape, "data built for another model shape");
+    let mut ws = Workspace::new(shape);
+    ws.transpose_weights(weights);
+    let scale = grad_scale(data.len(), shape.outputs());
+    let mut sse = 0.0;
+    for i in 0..data.len() {
+        ws.forward(weights, &[data.input(i)]);
+        sse += ws.error(0, data.target(i), scale);
+        ws.backward(1);
+    }
+    (ws.grad.clone(), sse / (data.len() * shape.outputs()) as f64)
+}
+
+/// One robot's training, for [`train_many`].
+#[derive(Clone, Debug)]
+pub struct TrainJob {
+    /// Model sizes.
+    pub shape: ModelShape,
+    /// Training hyper-parameters.
+    pub cfg: LearnConfig,
+    /// Start weights (the shared model in the robot's view of the chain).
+    pub start: Vec<f32>,
+    /// The robot's data set, oldest first.
+    pub data: TrainData,
+    /// The robot's dropout stream.
+    pub dropout: Rng,
+}
+
+/// Runs the jobs in parallel (rayon) and returns their outcomes in job order. Every job is
+/// independent, so the bits do not depend on the number of threads.
+pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
+    jobs.into_par_iter()
+        .map(|job| train(&job.shape, &job.cfg, &job.start, &job.data, job.dropout))
+        .collect()
+}
+
+/// SGD settings of one training.
+struct Sgd {
+    epochs: u32,
+    batch: usize,
+    lr: f32,
+    dropout: f32,
+    samples: usize,
+}
+
+/// d(mean of squares)/dy = 2 e / (batch * outputs), in f32.
+fn grad_scale(batch: usize, outputs: usize) -> f32 {
+    2.0f32 / (batch * outputs) as f32
+}
+
+fn dispatch_train(
+    kernel: Kernel,
+    ws: &mut Workspace,
+    weights: &mut [f32],
+    data: &TrainData,
+    sgd: &Sgd,
+    dropout: &mut Rng,
+) -> f64 {
+    match kernel.resolve() {
+        Resolved::Baseline => train_loop(ws, weights, data, sgd, dropout),
+        // SAFETY: `resolve` checked at run time that the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx2 => unsafe { train_avx2(ws, weights, data, sgd, dropout) },
+        // SAFETY: `resolve` checked at run time that the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx512 => unsafe { train_avx512(ws, weights, data, sgd, dropout) },
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn train_avx512(
+    ws: &mut Workspace,
+    weights: &mut [f32],
+    data: &TrainData,
+    sgd: &Sgd,
+    dropout: &mut Rng,
+) -> f64 {
+    train_loop(ws, weights, data, sgd, dropout)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn train_avx2(
+    ws: &mut Workspace,
+    weights: &mut [f32],
+    data: &TrainData,
+    sgd: &Sgd,
+    dropout: &mut Rng,
+) -> f64 {
+    train_loop(ws, weights, data, sgd, dropout)
+}
+
+/// The epochs of SGD; returns the last epoch's training loss.
+#[inline(always)]
+fn train_loop(
+    ws: &mut Workspace,
+    weights: &mut [f32],
+    data: &TrainData,
+    sgd: &Sgd,
+    dropout: &mut Rng,
+) -> f64 {
+    let outputs = ws.shape.outputs();
+    let keep_scale = 1.0f32 / (1.0f32 - sgd.dropout);
+    let mut epoch_sse = 0.0f64;
+    for _ in 0..sgd.epochs {
+        epoch_sse = 0.0;
+        let mut start = 0;
+        while start < sgd.samples {
+            let end = (start + sgd.batch).min(sgd.samples);
+            let scale = grad_scale(end - start, outputs);
+            ws.transpose_weights(weights);
+            ws.grad.fill(0.0);
+            let mut first = start;
+            while first < end {
+                let last = (first + GROUP).min(end);
+                let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
+                for (s, i) in (first..last).enumerate() {
+                    for m in ws.mask_mut(s) {
+                        let keep = dropout.uniform_f32() >= sgd.dropout;
+                        *m = if keep { keep_scale } else { 0.0 };
+                    }
+                    inputs[s] = data.input(i);
+                }
+                let n = last - first;
+                ws.forward(weights, &inputs[..n]);
+                for (s, i) in (first..last).enumerate() {
+                    epoch_sse += ws.error(s, data.target(i), scale);
+                }
+                ws.backward(n);
+                first = last;
+            }
+            for (w, g) in weights.iter_mut().zip(&ws.grad) {
+                *w -= *g * sgd.lr;
+            }
+            start = end;
+        }
+    }
+    ws.mask.fill(1.0);
+    epoch_sse / (sgd.samples * outputs) as f64
+}
+
+fn loss_range_with(
+    kernel: Kernel,
+    shape: &ModelShape,
+    weights: &[f32],
+    data: &TrainData,
+    from: usize,
+    to: usize,
+) -> f64 {
+    if from >= to {
+        return f64::NAN;
+    }
+    let mut ws = Workspace::new(shape);
+    match kernel.resolve() {
+        Resolved::Baseline => loss_loop(&mut ws, weights, data, from, to),
+        // SAFETY: `resolve` checked at run time that the CPU has AVX2.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx2 => unsafe { loss_avx2(&mut ws, weights, data, from, to) },
+        // SAFETY: `resolve` checked at run time that the CPU has AVX-512F.
+        #[cfg(target_arch = "x86_64")]
+        Resolved::Avx512 => unsafe { loss_avx512(&mut ws, weights, data, from, to) },
+    }
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f")]
+unsafe fn loss_avx512(
+    ws: &mut Workspace,
+    weights: &[f32],
+    data: &TrainData,
+    from: usize,
+    to: usize,
+) -> f64 {
+    loss_loop(ws, weights, data, from, to)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn loss_avx2(
+    ws: &mut Workspace,
+    weights: &[f32],
+    data: &TrainData,
+    from: usize,
+    to: usize,
+) -> f64 {
+    loss_loop(ws, weights, data, from, to)
+}
+
+#[inline(always)]
+fn loss_loop(ws: &mut Workspace, weights: &[f32], data: &TrainData, from: usize, to: usize) -> f64 {
+    ws.mask.fill(1.0);
+    let mut sse = 0.0f64;
+    let mut first = from;
+    while first < to {
+        let last = (first + GROUP).min(to);
+        let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
+        for (s, i) in (first..last).enumerate() {
+            inputs[s] = data.input(i);
+        }
+        ws.forward(weights, &inputs[..last - first]);
+        for (s, i) in (first..last).enumerate() {
+            sse += ws.error(s, data.target(i), 0.0);
+        }
+        first = last;
+    }
+    sse / ((to - from) * ws.shape.outputs()) as f64
+}
