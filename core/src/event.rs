@@ -8,6 +8,8 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::ledger::LedgerEvent;
+use crate::metrics::LearnReport;
 use crate::types::{Digest, RobotId, SimTime};
 use crate::world::TickEvent;
 
@@ -48,6 +50,10 @@ impl Record {
 pub enum Event {
     /// One world tick: every robot's wheel command (physics, sensing and data follow from it).
     Tick(TickEvent),
+    /// A ledger event: a submission, a sealing, a gossip send or delivery.
+    Ledger(LedgerEvent),
+    /// A robot's learning phase: what it trained or forged and what it measured.
+    Learn(LearnReport),
 }
 
 impl Event {
@@ -55,6 +61,14 @@ impl Event {
     pub fn kind(&self) -> &'static str {
         match self {
             Event::Tick(_) => "tick",
+            Event::Ledger(e) => match e {
+                LedgerEvent::Submit { .. } => "submit",
+                LedgerEvent::Seal { .. } => "seal",
+                LedgerEvent::Send { .. } => "send",
+                LedgerEvent::Deliver { .. } => "deliver",
+                LedgerEvent::Inject { .. } => "inject",
+            },
+            Event::Learn(_) => "learn",
         }
     }
 }

@@ -16,6 +16,7 @@ pub mod event;
 pub mod learn;
 pub mod ledger;
 pub mod log;
+pub mod metrics;
 pub mod replay;
 pub mod rng;
 pub mod sim;

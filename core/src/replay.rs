@@ -126,7 +126,7 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
                     })?;
             }
             Record::Checkpoint(expected) => {
-                let actual = state.checkpoint(expected.cause);
+                let actual = state.checkpoint(expected.time, expected.cause);
                 if let Some(component) = actual.first_difference(expected) {
                     return Err(ReplayError::Diverged {
                         path: name,
@@ -299,7 +299,9 @@ pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64),
                     })?;
             }
             Record::Checkpoint(expected) => {
-                if let Some(component) = state.checkpoint(expected.cause).first_difference(expected)
+                if let Some(component) = state
+                    .checkpoint(expected.time, expected.cause)
+                    .first_difference(expected)
                 {
                     return Err(ReplayError::Diverged {
                         path: name,

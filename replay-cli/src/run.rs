@@ -8,7 +8,44 @@ use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use swarmfl_core::config::Config;
 use swarmfl_core::log::{Header, LogWriter};
-use swarmfl_core::sim::{RunSummary, Sim};
+use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
+
+/// Wall time per part of the driver, shared with the driver's profiler hook.
+#[derive(Clone, Default)]
+struct Timing(std::sync::Arc<std::sync::Mutex<TimingState>>);
+
+#[derive(Default)]
+struct TimingState {
+    current: Option<(Part, Instant)>,
+    totals: std::collections::BTreeMap<Part, f64>,
+}
+
+impl Profiler for Timing {
+    fn switch(&mut self, part: Part) {
+        let now = Instant::now();
+        let mut t = self.0.lock().expect("timing lock");
+        if let Some((previous, since)) = t.current.take() {
+            *t.totals.entry(previous).or_insert(0.0) += now.duration_since(since).as_secs_f64();
+        }
+        t.current = Some((part, now));
+    }
+}
+
+impl Timing {
+    fn json(&self) -> serde_json::Value {
+        let mut t = self.clone();
+        t.switch(Part::Log);
+        let t = self.0.lock().expect("timing lock");
+        let get = |p: Part| t.totals.get(&p).copied().unwrap_or(0.0);
+        serde_json::json!({
+            "world_s": get(Part::World),
+            "ledger_s": get(Part::Ledger),
+            "learning_s": get(Part::Learning),
+            "checkpoint_s": get(Part::Checkpoint),
+            "log_and_summary_s": get(Part::Log),
+        })
+    }
+}
 
 /// What a finished run reports.
 pub struct RunOutcome {
@@ -27,6 +64,8 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     let header = Header::new(seed, config.to_toml());
     let mut writer = LogWriter::create(&log_path, &header)?;
     let mut sim = Sim::new(config.clone(), seed)?;
+    let mut timing = Timing::default();
+    sim.set_profiler(Box::new(timing.clone()));
     let (_, total_ms) = sim.progress();
     let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
         let bar = ProgressBar::new(total_ms / 1000);
@@ -40,6 +79,7 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     });
     let mut last_update = Instant::now();
     while let Some(record) = sim.next() {
+        timing.switch(Part::Log);
         writer.append(&record)?;
         if let Some(bar) = &bar {
             if last_update.elapsed().as_millis() >= 100 {
@@ -57,12 +97,13 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     let records = writer.records();
     let log_bytes = writer.bytes();
     let (footer, _) = writer.finish()?;
-    let wall_s = started.elapsed().as_secs_f64();
     let core = RunSummary::new(&config, seed, sim.state(), records, footer.final_hash);
+    let wall_s = started.elapsed().as_secs_f64();
     let mut summary = serde_json::to_value(&core)?;
     let map = summary.as_object_mut().expect("summary is an object");
     map.insert("wall_s".into(), serde_json::json!(wall_s));
     map.insert("log_bytes".into(), serde_json::json!(log_bytes));
+    map.insert("timing".into(), timing.json());
     let summary_path = out.join("summary.json");
     std::fs::write(
         &summary_path,
@@ -92,6 +133,43 @@ pub fn print_summary(outcome: &RunOutcome) {
             world["samples_per_robot_per_600s"].as_f64().unwrap_or(0.0)
         );
     }
+    let c = &s["contract"];
+    let loss = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{x:.4}"));
+    let rounds = c["rounds"].as_u64().unwrap_or(0);
+    let losses = c["loss_by_round"].as_array().cloned().unwrap_or_default();
+    let mut shown = String::new();
+    for r in [1u64, 10, 25, 50, rounds] {
+        if r >= 1 && r <= rounds && !shown.contains(&format!("r{r}=")) {
+            shown.push_str(&format!(" r{r}={}", loss(&losses[(r - 1) as usize])));
+        }
+    }
+    println!("contract:   {rounds} rounds; loss by round:{shown}");
+    println!(
+        "            held-out loss {} -> {}; submissions {}",
+        loss(&c["heldout_loss_initial"]),
+        loss(&c["final_heldout_loss"]),
+        c["submissions"]
+    );
+    let t = &s["tokens"];
+    println!(
+        "tokens:     honest mean gain {}, Byzantine mean gain {}, total units {} -> {}",
+        loss(&t["honest_mean_gain"]),
+        loss(&t["byzantine_mean_gain"]),
+        t["total_units_start"],
+        t["total_units_end"]
+    );
+    let l = &s["ledger"];
+    println!(
+        "ledger:     height {}, forks {}, reorgs {} (deepest {}), tx delay median {} s p95 {} s, {:.0} B/submission",
+        l["canonical_height"],
+        l["forks"],
+        l["reorgs"],
+        l["deepest_reorg"],
+        l["tx_delay_median_s"],
+        l["tx_delay_p95_s"],
+        l["bytes_per_submission"].as_f64().unwrap_or(0.0)
+    );
+    println!("timing:     {}", s["timing"]);
     println!("final hash: {}", s["final_hash"].as_str().unwrap_or("?"));
     println!("wall time:  {:.2} s", s["wall_s"].as_f64().unwrap_or(0.0));
 }

@@ -1,0 +1,307 @@
+//! What the robots measured (reduced from [`LearnReport`] events) and the run's figures derived
+//! from the final canonical chain: the paper's average loss per round, the shared model's loss
+//! on the held-out set, submissions by outcome, and tokens gained per group (SPEC.md section 6).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use crate::config::Config;
+use crate::contract::{Call, Outcome};
+use crate::learn::{self, ModelShape, TrainData};
+use crate::ledger::{Ledger, TxHash};
+use crate::types::{Digest, RobotId, SimTime};
+
+/// What a robot did in one learning phase. Logged as an event because only the robot knows it:
+/// the trained model itself travels in the transaction that follows.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LearnReport {
+    /// The robot.
+    pub robot: RobotId,
+    /// The aggregation round of the shared model it started from (its own chain's view).
+    pub base_round: u64,
+    /// What it did.
+    pub action: LearnAction,
+}
+
+/// The outcome of a learning phase.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum LearnAction {
+    /// An honest robot trained and submits the model in transaction `tx`.
+    Trained {
+        /// The submission.
+        tx: TxHash,
+        /// Training samples (the n it claims).
+        train_samples: u32,
+        /// Validation samples.
+        val_samples: u32,
+        /// Validation loss of its trained model (NaN if it had no validation split).
+        val_loss: f64,
+        /// Training loss of the last epoch.
+        final_train_loss: f64,
+    },
+    /// A Byzantine robot forged a model and submits it in transaction `tx`.
+    Forged {
+        /// The submission.
+        tx: TxHash,
+        /// Samples it claims.
+        claimed_samples: u32,
+    },
+    /// The robot did not submit this period.
+    Skipped {
+        /// Why.
+        reason: SkipReason,
+    },
+}
+
+/// Why a robot did not submit in a learning phase.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum SkipReason {
+    /// Fewer training samples than `learn.min_train_samples`.
+    NotEnoughData,
+    /// Its balance (in its own view) is below the stake: it can no longer take part.
+    InsufficientStake,
+    /// It already submitted in the current round (in its own view).
+    AlreadySubmitted,
+    /// Training produced weights that are not finite or do not fit the fixed point.
+    NonFiniteModel,
+}
+
+impl SkipReason {
+    /// A stable name for summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            SkipReason::NotEnoughData => "not_enough_data",
+            SkipReason::InsufficientStake => "insufficient_stake",
+            SkipReason::AlreadySubmitted => "already_submitted",
+            SkipReason::NonFiniteModel => "non_finite_model",
+        }
+    }
+}
+
+/// One honest training, as recorded.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TrainRecord {
+    /// The robot.
+    pub robot: RobotId,
+    /// When it trained.
+    pub time: SimTime,
+    /// Round of its start model.
+    pub base_round: u64,
+    /// Training samples.
+    pub train_samples: u32,
+    /// Validation loss.
+    pub val_loss: f64,
+}
+
+/// The reduced measurements: every learning phase, folded.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Metrics {
+    /// Honest trainings by their submission.
+    pub trained: BTreeMap<TxHash, TrainRecord>,
+    /// Forged submissions by Byzantine robots.
+    pub forged: u64,
+    /// Skipped learning phases by reason.
+    pub skipped: BTreeMap<SkipReason, u64>,
+    digest: Digest,
+}
+
+impl Metrics {
+    /// Folds one report (the metrics reducer).
+    pub fn apply(&mut self, time: SimTime, report: &LearnReport) {
+        let bytes = rmp_serde::to_vec(&(time, report)).expect("reports encode");
+        let mut h = blake3::Hasher::new();
+        h.update(&self.digest.0);
+        h.update(&bytes);
+        self.digest = h.finalize().into();
+        match &report.action {
+            LearnAction::Trained {
+                tx,
+                train_samples,
+                val_loss,
+                ..
+            } => {
+                self.trained.insert(
+                    *tx,
+                    TrainRecord {
+                        robot: report.robot,
+                        time,
+                        base_round: report.base_round,
+                        train_samples: *train_samples,
+                        val_loss: *val_loss,
+                    },
+                );
+            }
+            LearnAction::Forged { .. } => self.forged += 1,
+            LearnAction::Skipped { reason } => *self.skipped.entry(*reason).or_insert(0) += 1,
+        }
+    }
+
+    /// A running digest of every report folded so far.
+    pub fn digest(&self) -> Digest {
+        self.digest
+    }
+}
+
+/// The contract section of `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContractSummary {
+    /// Aggregation rounds completed on the final canonical chain.
+    pub rounds: u64,
+    /// Simulated time of the block that closed round r (index r - 1).
+    pub round_times_s: Vec<f64>,
+    /// The paper's metric: sample-weighted mean validation loss of the honest models aggregated
+    /// in round r (Byzantine models have no validation loss; NaN if a round had only those).
+    pub loss_by_round: Vec<f64>,
+    /// Loss of the shared model after round r on the fixed held-out set.
+    pub heldout_loss_by_round: Vec<f64>,
+    /// Loss of the genesis model on the held-out set.
+    pub heldout_loss_initial: f64,
+    /// Last entry of `loss_by_round` (None without a round).
+    pub final_loss: Option<f64>,
+    /// Last entry of `heldout_loss_by_round`.
+    pub final_heldout_loss: Option<f64>,
+    /// `submitModel` transactions on the final canonical chain by outcome.
+    pub submissions: BTreeMap<String, u64>,
+    /// Honest models aggregated, Byzantine models aggregated.
+    pub aggregated_honest: u64,
+    /// Byzantine models aggregated.
+    pub aggregated_byzantine: u64,
+    /// Learning phases skipped, by reason (from the robots' reports).
+    pub skipped: BTreeMap<String, u64>,
+}
+
+/// The tokens section of `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TokenSummary {
+    /// Sum of balances and contract holdings at genesis, in units.
+    pub total_units_start: u128,
+    /// The same at the final canonical head (equal: conservation).
+    pub total_units_end: u128,
+    /// Mean over honest robots of (final balance - initial) in tokens.
+    pub honest_mean_gain: Option<f64>,
+    /// Mean over Byzantine robots of the same.
+    pub byzantine_mean_gain: Option<f64>,
+    /// Final balance of every robot, in tokens.
+    pub balances: Vec<f64>,
+    /// Units held by the contract (pool and carried remainders), in tokens.
+    pub contract_holdings: f64,
+}
+
+/// The node whose head ends the final canonical chain: greatest total difficulty, ties to the
+/// lowest id.
+pub fn best_node(ledger: &Ledger) -> RobotId {
+    (0..ledger.robots())
+        .max_by_key(|&r| {
+            let (hash, _) = ledger.head(r);
+            let td = ledger.block(&hash).map_or(0, |e| e.total_difficulty);
+            (td, std::cmp::Reverse(r))
+        })
+        .expect("a swarm has at least one robot")
+}
+
+/// Computes the contract and token sections from the final canonical chain.
+pub fn summarise(
+    config: &Config,
+    ledger: &Ledger,
+    metrics: &Metrics,
+    heldout: &[crate::data::Sample],
+    byzantine: &[bool],
+) -> (ContractSummary, TokenSummary) {
+    let shape = ModelShape::from_config(config);
+    let scale = config.contract.weight_scale;
+    let heldout = TrainData::new(&shape, heldout)
+        .ok()
+        .filter(|d| !d.is_empty());
+    let heldout_loss = |weights: &[i64]| -> f64 {
+        match &heldout {
+            Some(data) => learn::loss(&shape, &learn::from_fixed(weights, scale), data),
+            None => f64::NAN,
+        }
+    };
+    let best = best_node(ledger);
+    let chain = ledger.canonical_chain(best);
+    let mut s = ContractSummary {
+        rounds: 0,
+        round_times_s: vec![],
+        loss_by_round: vec![],
+        heldout_loss_by_round: vec![],
+        heldout_loss_initial: heldout_loss(&ledger.params().genesis_weights),
+        final_loss: None,
+        final_heldout_loss: None,
+        submissions: BTreeMap::new(),
+        aggregated_honest: 0,
+        aggregated_byzantine: 0,
+        skipped: metrics
+            .skipped
+            .iter()
+            .map(|(k, v)| (k.name().to_string(), *v))
+            .collect(),
+    };
+    let mut round_txs: Vec<TxHash> = Vec::new();
+    for hash in chain {
+        let entry = ledger.block(hash).expect("canonical blocks are stored");
+        for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
+            let is_submission = ledger
+                .tx(tx_hash)
+                .is_some_and(|t| matches!(t.tx.call, Call::SubmitModel { .. }));
+            if !is_submission {
+                continue;
+            }
+            *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;
+            if outcome.is_accepted() {
+                round_txs.push(*tx_hash);
+            }
+            if let Outcome::Aggregated { .. } = outcome {
+                let (mut weighted, mut samples) = (0.0f64, 0.0f64);
+                for tx in &round_txs {
+                    match metrics.trained.get(tx) {
+                        Some(record) if record.val_loss.is_finite() => {
+                            weighted += f64::from(record.train_samples) * record.val_loss;
+                            samples += f64::from(record.train_samples);
+                            s.aggregated_honest += 1;
+                        }
+                        Some(_) => s.aggregated_honest += 1,
+                        None => s.aggregated_byzantine += 1,
+                    }
+                }
+                round_txs.clear();
+                s.rounds += 1;
+                s.round_times_s
+                    .push(entry.block.header.timestamp_ms as f64 / 1000.0);
+                s.loss_by_round.push(if samples > 0.0 {
+                    weighted / samples
+                } else {
+                    f64::NAN
+                });
+                s.heldout_loss_by_round
+                    .push(heldout_loss(&entry.state.weights));
+            }
+        }
+    }
+    s.final_loss = s.loss_by_round.last().copied();
+    s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
+
+    let head = ledger.head_state(best);
+    let units = config.contract.token_units as f64;
+    let initial = (config.contract.initial_tokens * config.contract.token_units) as f64;
+    let gain = |want_byzantine: bool| -> Option<f64> {
+        let gains: Vec<f64> = head
+            .balances
+            .iter()
+            .zip(byzantine)
+            .filter(|(_, &b)| b == want_byzantine)
+            .map(|(&bal, _)| (bal as f64 - initial) / units)
+            .collect();
+        (!gains.is_empty()).then(|| gains.iter().sum::<f64>() / gains.len() as f64)
+    };
+    let tokens = TokenSummary {
+        total_units_start: ledger.params().total_units(),
+        total_units_end: head.total_units(),
+        honest_mean_gain: gain(false),
+        byzantine_mean_gain: gain(true),
+        balances: head.balances.iter().map(|&b| b as f64 / units).collect(),
+        contract_holdings: head.holdings_units as f64 / units,
+    };
+    (s, tokens)
+}
