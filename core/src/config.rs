@@ -268,9 +268,7 @@ impl Preset {
     /// One line on what the preset is for.
     pub fn description(self) -> &'static str {
         match self {
-            Preset::Paper => {
-                "the paper's system: 15 robots, 5 x 5 m, 2.5 m range, 5000 s, security on"
-            }
+            Preset::Paper => "the paper's system: 15 robots, 5 x 5 m, 2.5 m range, 5000 s, security on",
             Preset::Reference => {
                 "the reference implementation's values: 4 x 4 m, 2.0 m range, 4980 s, SGD 0.01"
             }
@@ -289,18 +287,12 @@ impl Preset {
 
     /// Looks a preset up by name.
     pub fn from_name(name: &str) -> Result<Preset, ConfigError> {
-        Preset::ALL
-            .iter()
-            .copied()
-            .find(|p| p.name() == name)
-            .ok_or_else(|| ConfigError::UnknownPreset {
+        Preset::ALL.iter().copied().find(|p| p.name() == name).ok_or_else(|| {
+            ConfigError::UnknownPreset {
                 name: name.to_string(),
-                allowed: Preset::ALL
-                    .iter()
-                    .map(|p| p.name())
-                    .collect::<Vec<_>>()
-                    .join(", "),
-            })
+                allowed: Preset::ALL.iter().map(|p| p.name()).collect::<Vec<_>>().join(", "),
+            }
+        })
     }
 
     /// The preset's full configuration.
@@ -354,10 +346,7 @@ impl Config {
     fn paper() -> Config {
         Config {
             preset: "paper".to_string(),
-            run: RunConfig {
-                duration_s: 5000.0,
-                tick_s: 0.1,
-            },
+            run: RunConfig { duration_s: 5000.0, tick_s: 0.1 },
             world: WorldConfig {
                 robots: 15,
                 arena_side_m: 5.0,
@@ -421,9 +410,7 @@ impl Config {
                 claimed_samples: 200,
                 faulty_range: 0.5,
             },
-            output: OutputConfig {
-                snapshot_every_blocks: 50,
-            },
+            output: OutputConfig { snapshot_every_blocks: 50 },
         }
     }
 
@@ -442,9 +429,7 @@ impl Config {
     pub fn reward_weights(&self) -> Vec<i64> {
         let q = self.quorum() as usize;
         let p = self.contract.penalised_ranks as usize;
-        (0..q)
-            .map(|rank| if rank + p < q { 1 } else { -1 })
-            .collect()
+        (0..q).map(|rank| if rank + p < q { 1 } else { -1 }).collect()
     }
 
     /// The full TOML text of this configuration.
@@ -489,12 +474,10 @@ impl Config {
             let source_name = file.map(|p| p.display().to_string()).unwrap_or_default();
             let mut base = toml::Value::try_from(&config).expect("Config serialises");
             merge(&mut base, toml::Value::Table(table), "", &source_name)?;
-            config = base
-                .try_into()
-                .map_err(|e: toml::de::Error| ConfigError::Parse {
-                    source_name,
-                    message: e.to_string(),
-                })?;
+            config = base.try_into().map_err(|e: toml::de::Error| ConfigError::Parse {
+                source_name,
+                message: e.to_string(),
+            })?;
             config.preset = preset.name().to_string();
         }
         for assignment in overrides {
@@ -508,12 +491,10 @@ impl Config {
     /// `[1, 1, -1]`); a bare word is taken as a string. The key must exist and the value must
     /// have the field's type.
     pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
-        let (key, raw) = assignment
-            .split_once('=')
-            .ok_or_else(|| ConfigError::Override {
-                assignment: assignment.to_string(),
-                message: "expected key.path=value, e.g. --set world.robots=30".to_string(),
-            })?;
+        let (key, raw) = assignment.split_once('=').ok_or_else(|| ConfigError::Override {
+            assignment: assignment.to_string(),
+            message: "expected key.path=value, e.g. --set world.robots=30".to_string(),
+        })?;
         let key = key.trim();
         let raw = raw.trim();
         let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
@@ -535,11 +516,7 @@ impl Config {
                     key: key.to_string(),
                     allowed: format!(
                         "{}: {}",
-                        if walked.is_empty() {
-                            "top-level keys"
-                        } else {
-                            walked.as_str()
-                        },
+                        if walked.is_empty() { "top-level keys" } else { walked.as_str() },
                         allowed.join(", ")
                     ),
                 });
@@ -556,13 +533,11 @@ impl Config {
             expected,
         })?;
         *slot = value;
-        let updated: Config =
-            root.try_into()
-                .map_err(|e: toml::de::Error| ConfigError::WrongType {
-                    key: key.to_string(),
-                    value: raw.to_string(),
-                    expected: e.message().to_string(),
-                })?;
+        let updated: Config = root.try_into().map_err(|e: toml::de::Error| ConfigError::WrongType {
+            key: key.to_string(),
+            value: raw.to_string(),
+            expected: e.message().to_string(),
+        })?;
         *self = updated;
         Ok(())
     }
@@ -610,85 +585,25 @@ impl Config {
         int("world.robots", c.world.robots.into(), 1, 10_000)?;
         range("world.arena_side_m", c.world.arena_side_m, 0.1, 10_000.0)?;
         int("world.cylinders", c.world.cylinders.into(), 0, 100_000)?;
-        range(
-            "world.cylinder_radius_m",
-            c.world.cylinder_radius_m,
-            0.001,
-            1000.0,
-        )?;
+        range("world.cylinder_radius_m", c.world.cylinder_radius_m, 0.001, 1000.0)?;
         int("world.boxes", c.world.boxes.into(), 0, 100_000)?;
         range("world.box_side_m", c.world.box_side_m, 0.001, 1000.0)?;
-        range(
-            "world.obstacle_spread_half_m",
-            c.world.obstacle_spread_half_m,
-            0.0,
-            5_000.0,
-        )?;
+        range("world.obstacle_spread_half_m", c.world.obstacle_spread_half_m, 0.0, 5_000.0)?;
         range("world.robot_radius_m", c.world.robot_radius_m, 0.001, 10.0)?;
         range("world.wheel_base_m", c.world.wheel_base_m, 0.001, 20.0)?;
-        range(
-            "world.cruise_speed_mps",
-            c.world.cruise_speed_mps,
-            0.0,
-            10.0,
-        )?;
-        int(
-            "world.proximity_sensors",
-            c.world.proximity_sensors.into(),
-            1,
-            64,
-        )?;
-        range(
-            "world.proximity_range_m",
-            c.world.proximity_range_m,
-            0.001,
-            10.0,
-        )?;
-        range(
-            "world.proximity_threshold",
-            c.world.proximity_threshold,
-            0.0,
-            1.0,
-        )?;
-        range(
-            "world.random_turn_rate_per_s",
-            c.world.random_turn_rate_per_s,
-            0.0,
-            100.0,
-        )?;
-        range(
-            "world.random_turn_max_s",
-            c.world.random_turn_max_s,
-            0.0,
-            1000.0,
-        )?;
+        range("world.cruise_speed_mps", c.world.cruise_speed_mps, 0.0, 10.0)?;
+        int("world.proximity_sensors", c.world.proximity_sensors.into(), 1, 64)?;
+        range("world.proximity_range_m", c.world.proximity_range_m, 0.001, 10.0)?;
+        range("world.proximity_threshold", c.world.proximity_threshold, 0.0, 1.0)?;
+        range("world.random_turn_rate_per_s", c.world.random_turn_rate_per_s, 0.0, 100.0)?;
+        range("world.random_turn_max_s", c.world.random_turn_max_s, 0.0, 1000.0)?;
         range("world.rab_range_m", c.world.rab_range_m, 0.0, 10_000.0)?;
         range("world.rab_noise_std_m", c.world.rab_noise_std_m, 0.0, 100.0)?;
         range("world.rab_packet_drop", c.world.rab_packet_drop, 0.0, 1.0)?;
-        range(
-            "world.peer_refresh_s",
-            c.world.peer_refresh_s,
-            c.run.tick_s,
-            1.0e6,
-        )?;
-        int(
-            "data.trajectory_ticks",
-            c.data.trajectory_ticks.into(),
-            2,
-            100_000,
-        )?;
-        int(
-            "data.input_waypoints",
-            c.data.input_waypoints.into(),
-            1,
-            10_000,
-        )?;
-        int(
-            "data.target_waypoints",
-            c.data.target_waypoints.into(),
-            1,
-            10_000,
-        )?;
+        range("world.peer_refresh_s", c.world.peer_refresh_s, c.run.tick_s, 1.0e6)?;
+        int("data.trajectory_ticks", c.data.trajectory_ticks.into(), 2, 100_000)?;
+        int("data.input_waypoints", c.data.input_waypoints.into(), 1, 10_000)?;
+        int("data.target_waypoints", c.data.target_waypoints.into(), 1, 10_000)?;
         if c.data.input_waypoints + c.data.target_waypoints > c.data.trajectory_ticks {
             return Err(ConfigError::OutOfRange {
                 key: "data.target_waypoints".to_string(),
@@ -700,12 +615,7 @@ impl Config {
             });
         }
         range("data.expiration_s", c.data.expiration_s, 0.0, 1.0e7)?;
-        int(
-            "data.heldout_samples",
-            c.data.heldout_samples.into(),
-            0,
-            1_000_000,
-        )?;
+        int("data.heldout_samples", c.data.heldout_samples.into(), 0, 1_000_000)?;
         int("learn.lstm_units", c.learn.lstm_units.into(), 1, 1024)?;
         range("learn.dropout", c.learn.dropout, 0.0, 0.99)?;
         range("learn.learning_rate", c.learn.learning_rate, 0.0, 10.0)?;
@@ -713,33 +623,13 @@ impl Config {
         int("learn.epochs", c.learn.epochs.into(), 0, 100_000)?;
         range("learn.train_fraction", c.learn.train_fraction, 0.01, 1.0)?;
         positive("learn.training_period_s", c.learn.training_period_s)?;
-        range(
-            "learn.training_duration_s",
-            c.learn.training_duration_s,
-            0.0,
-            1.0e6,
-        )?;
+        range("learn.training_duration_s", c.learn.training_duration_s, 0.0, 1.0e6)?;
         positive("ledger.block_period_s", c.ledger.block_period_s)?;
         range("ledger.wiggle_unit_s", c.ledger.wiggle_unit_s, 0.0, 1.0e6)?;
         range("ledger.packet_loss", c.ledger.packet_loss, 0.0, 1.0)?;
-        int(
-            "contract.stake_tokens",
-            c.contract.stake_tokens,
-            0,
-            c.contract.initial_tokens.max(1) * 1000,
-        )?;
-        int(
-            "contract.token_units",
-            c.contract.token_units,
-            1,
-            1_000_000_000_000,
-        )?;
-        int(
-            "contract.weight_scale",
-            c.contract.weight_scale,
-            1,
-            1_000_000_000_000,
-        )?;
+        int("contract.stake_tokens", c.contract.stake_tokens, 0, c.contract.initial_tokens.max(1) * 1000)?;
+        int("contract.token_units", c.contract.token_units, 1, 1_000_000_000_000)?;
+        int("contract.weight_scale", c.contract.weight_scale, 1, 1_000_000_000_000)?;
         let total = u128::from(c.world.robots)
             * u128::from(c.contract.initial_tokens)
             * u128::from(c.contract.token_units);
@@ -750,30 +640,15 @@ impl Config {
                 allowed: "robots * initial_tokens * token_units must fit in 2^62 units".to_string(),
             });
         }
-        range(
-            "contract.quorum_fraction",
-            c.contract.quorum_fraction,
-            0.0,
-            1.0,
-        )?;
-        range(
-            "contract.outlier_threshold",
-            c.contract.outlier_threshold,
-            0.0,
-            1.0e6,
-        )?;
+        range("contract.quorum_fraction", c.contract.quorum_fraction, 0.0, 1.0)?;
+        range("contract.outlier_threshold", c.contract.outlier_threshold, 0.0, 1.0e6)?;
         int(
             "contract.penalised_ranks",
             c.contract.penalised_ranks.into(),
             0,
             u64::from(c.quorum() - 1),
         )?;
-        int(
-            "byzantine.count",
-            c.byzantine.count.into(),
-            0,
-            c.world.robots.into(),
-        )?;
+        int("byzantine.count", c.byzantine.count.into(), 0, c.world.robots.into())?;
         if (c.byzantine.kind == ByzantineKind::None) != (c.byzantine.count == 0) {
             return Err(ConfigError::OutOfRange {
                 key: "byzantine.count".to_string(),
@@ -785,18 +660,8 @@ impl Config {
                 ),
             });
         }
-        int(
-            "byzantine.claimed_samples",
-            c.byzantine.claimed_samples.into(),
-            1,
-            1_000_000_000,
-        )?;
-        range(
-            "byzantine.faulty_range",
-            c.byzantine.faulty_range,
-            0.0,
-            1000.0,
-        )?;
+        int("byzantine.claimed_samples", c.byzantine.claimed_samples.into(), 1, 1_000_000_000)?;
+        range("byzantine.faulty_range", c.byzantine.faulty_range, 0.0, 1000.0)?;
         Ok(())
     }
 }
@@ -811,11 +676,7 @@ fn merge(
     match (base, patch) {
         (toml::Value::Table(b), toml::Value::Table(p)) => {
             for (k, v) in p {
-                let path = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
+                let path = if prefix.is_empty() { k.clone() } else { format!("{prefix}.{k}") };
                 match b.get_mut(&k) {
                     Some(slot) => merge(slot, v, &path, source_name)?,
                     None => {
@@ -825,11 +686,7 @@ fn merge(
                             key: format!("{path} (in {source_name})"),
                             allowed: format!(
                                 "{}: {}",
-                                if prefix.is_empty() {
-                                    "top-level keys"
-                                } else {
-                                    prefix
-                                },
+                                if prefix.is_empty() { "top-level keys" } else { prefix },
                                 allowed.join(", ")
                             ),
                         });
@@ -953,9 +810,7 @@ mod tests {
     fn every_preset_is_valid_and_round_trips_through_toml() {
         for preset in Preset::ALL {
             let config = preset.config();
-            config
-                .validate()
-                .unwrap_or_else(|e| panic!("{preset}: {e}"));
+            config.validate().unwrap_or_else(|e| panic!("{preset}: {e}"));
             let back: Config = toml::from_str(&config.to_toml()).unwrap();
             assert_eq!(back, config, "{preset}");
         }
@@ -964,10 +819,7 @@ mod tests {
     #[test]
     fn paper_quorum_is_seven() {
         assert_eq!(Preset::Paper.config().quorum(), 7);
-        assert_eq!(
-            Preset::Paper.config().reward_weights(),
-            vec![1, 1, 1, 1, 1, -1, -1]
-        );
+        assert_eq!(Preset::Paper.config().reward_weights(), vec![1, 1, 1, 1, 1, -1, -1]);
     }
 
     #[test]
@@ -975,11 +827,7 @@ mod tests {
         let c = Config::resolve(
             Some("smoke"),
             None,
-            &[
-                "world.rab_range_m=3".into(),
-                "byzantine.kind=faulty".into(),
-                "byzantine.count=2".into(),
-            ],
+            &["world.rab_range_m=3".into(), "byzantine.kind=faulty".into(), "byzantine.count=2".into()],
         )
         .unwrap();
         assert_eq!(c.world.rab_range_m, 3.0);
@@ -989,38 +837,22 @@ mod tests {
 
     fn check_err(overrides: &[&str], expect: &str) {
         let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
-        let err = Config::resolve(None, None, &overrides)
-            .unwrap_err()
-            .to_string();
+        let err = Config::resolve(None, None, &overrides).unwrap_err().to_string();
         assert!(err.contains(expect), "error {err:?} lacks {expect:?}");
     }
 
     #[test]
     fn errors_name_the_key_the_value_and_what_is_allowed() {
-        check_err(
-            &["world.robtos=3"],
-            "unknown configuration key `world.robtos`",
-        );
+        check_err(&["world.robtos=3"], "unknown configuration key `world.robtos`");
         check_err(&["world.robtos=3"], "rab_range_m");
-        check_err(
-            &["world.robots=many"],
-            "`world.robots`: value `many` has the wrong type; expected an integer",
-        );
-        check_err(
-            &["world.robots=0"],
-            "`world.robots`: value 0 is out of range; allowed: an integer in [1, 10000]",
-        );
+        check_err(&["world.robots=many"], "`world.robots`: value `many` has the wrong type; expected an integer");
+        check_err(&["world.robots=0"], "`world.robots`: value 0 is out of range; allowed: an integer in [1, 10000]");
         check_err(&["learn.dropout=1.5"], "learn.dropout");
         check_err(&["byzantine.kind=evil"], "byzantine.kind");
         check_err(&["byzantine.kind=faulty"], "byzantine.count");
         check_err(&["noequals"], "expected key.path=value");
-        let err = Config::resolve(Some("papr"), None, &[])
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("unknown preset \"papr\"") && err.contains("e3-smart"),
-            "{err}"
-        );
+        let err = Config::resolve(Some("papr"), None, &[]).unwrap_err().to_string();
+        assert!(err.contains("unknown preset \"papr\"") && err.contains("e3-smart"), "{err}");
     }
 
     #[test]
@@ -1030,24 +862,14 @@ mod tests {
         let good = dir.join("good.toml");
         std::fs::write(&good, "preset = \"reference\"\n[world]\nrobots = 20\n").unwrap();
         let c = Config::resolve(None, Some(&good), &[]).unwrap();
-        assert_eq!(
-            (c.world.robots, c.world.rab_range_m, c.preset.as_str()),
-            (20, 2.0, "reference")
-        );
+        assert_eq!((c.world.robots, c.world.rab_range_m, c.preset.as_str()), (20, 2.0, "reference"));
         let bad = dir.join("bad.toml");
         std::fs::write(&bad, "[world]\nrobots = 20\nspeed = 3\n").unwrap();
-        let err = Config::resolve(None, Some(&bad), &[])
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("world.speed") && err.contains("bad.toml"),
-            "{err}"
-        );
+        let err = Config::resolve(None, Some(&bad), &[]).unwrap_err().to_string();
+        assert!(err.contains("world.speed") && err.contains("bad.toml"), "{err}");
         let broken = dir.join("broken.toml");
         std::fs::write(&broken, "[world\nrobots = 20\n").unwrap();
-        let err = Config::resolve(None, Some(&broken), &[])
-            .unwrap_err()
-            .to_string();
+        let err = Config::resolve(None, Some(&broken), &[]).unwrap_err().to_string();
         assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
     }

@@ -114,10 +114,9 @@ impl ContractState {
         let _ = (params, value_units);
         match call {
             Call::Transfer { to, amount_units } => {
-                let (Some(&from_balance), true) = (
-                    self.balances.get(sender as usize),
-                    (*to as usize) < self.balances.len(),
-                ) else {
+                let (Some(&from_balance), true) =
+                    (self.balances.get(sender as usize), (*to as usize) < self.balances.len())
+                else {
                     return Outcome::Malformed(format!("no account {sender} or {to}"));
                 };
                 if from_balance < *amount_units {

@@ -51,9 +51,7 @@ pub struct Rng {
 
 /// The stream of `purpose` for `robot` in the run seeded with `seed`.
 pub fn stream(seed: u64, purpose: Purpose, robot: u32) -> Rng {
-    Rng {
-        inner: Pcg64::from_seed(derive_bytes(seed, purpose, robot)),
-    }
+    Rng { inner: Pcg64::from_seed(derive_bytes(seed, purpose, robot)) }
 }
 
 /// 32 bytes derived from (seed, purpose, robot) with blake3's key derivation; used for stream

@@ -9,9 +9,7 @@ pub type RobotId = u32;
 
 /// Simulated time in integer milliseconds since the start of the run. Nothing in swarmfl reads
 /// the wall clock; all time is this.
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
-)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
 #[serde(transparent)]
 pub struct SimTime(pub u64);
 
@@ -51,9 +49,7 @@ impl Digest {
 
     /// Parses 64 hex characters.
     pub fn from_hex(s: &str) -> Option<Digest> {
-        blake3::Hash::from_hex(s)
-            .ok()
-            .map(|h| Digest(*h.as_bytes()))
+        blake3::Hash::from_hex(s).ok().map(|h| Digest(*h.as_bytes()))
     }
 
     /// The first 8 bytes as hex, for humans.
@@ -95,19 +91,12 @@ impl<'de> Deserialize<'de> for Digest {
                 f.write_str("32 bytes")
             }
             fn visit_bytes<E: serde::de::Error>(self, v: &[u8]) -> Result<Digest, E> {
-                <[u8; 32]>::try_from(v)
-                    .map(Digest)
-                    .map_err(|_| E::invalid_length(v.len(), &self))
+                <[u8; 32]>::try_from(v).map(Digest).map_err(|_| E::invalid_length(v.len(), &self))
             }
-            fn visit_seq<A: serde::de::SeqAccess<'de>>(
-                self,
-                mut seq: A,
-            ) -> Result<Digest, A::Error> {
+            fn visit_seq<A: serde::de::SeqAccess<'de>>(self, mut seq: A) -> Result<Digest, A::Error> {
                 let mut out = [0u8; 32];
                 for (i, b) in out.iter_mut().enumerate() {
-                    *b = seq
-                        .next_element()?
-                        .ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
+                    *b = seq.next_element()?.ok_or_else(|| serde::de::Error::invalid_length(i, &self))?;
                 }
                 Ok(Digest(out))
             }

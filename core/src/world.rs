@@ -104,20 +104,14 @@ impl World {
 
     /// Folds one tick.
     pub fn apply(&mut self, event: &TickEvent) {
-        assert_eq!(
-            event.commands.len(),
-            self.poses.len(),
-            "one command per robot"
-        );
+        assert_eq!(event.commands.len(), self.poses.len(), "one command per robot");
         let dt = self.tick_ms as f64 / 1000.0;
         for (pose, cmd) in self.poses.iter_mut().zip(&event.commands) {
             let v = 0.5 * (f64::from(cmd.left) + f64::from(cmd.right));
             let w = (f64::from(cmd.right) - f64::from(cmd.left)) / 0.053;
             pose.theta += w * dt;
-            pose.x = (pose.x + v * libm::cos(pose.theta) * dt)
-                .clamp(-self.half_side_m, self.half_side_m);
-            pose.y = (pose.y + v * libm::sin(pose.theta) * dt)
-                .clamp(-self.half_side_m, self.half_side_m);
+            pose.x = (pose.x + v * libm::cos(pose.theta) * dt).clamp(-self.half_side_m, self.half_side_m);
+            pose.y = (pose.y + v * libm::sin(pose.theta) * dt).clamp(-self.half_side_m, self.half_side_m);
         }
         self.tick += 1;
         if self.tick % 5 == 0 {
@@ -129,11 +123,9 @@ impl World {
         let n = self.poses.len();
         for i in 0..n {
             self.peers[i] = (0..n)
-                .filter(|&j| {
-                    j != i && {
-                        let (a, b) = (self.poses[i], self.poses[j]);
-                        (a.x - b.x).powi(2) + (a.y - b.y).powi(2) <= self.range_m * self.range_m
-                    }
+                .filter(|&j| j != i && {
+                    let (a, b) = (self.poses[i], self.poses[j]);
+                    (a.x - b.x).powi(2) + (a.y - b.y).powi(2) <= self.range_m * self.range_m
                 })
                 .map(|j| j as RobotId)
                 .collect();
@@ -203,15 +195,9 @@ impl Controllers {
                 .iter()
                 .map(|p| {
                     if p.x.abs() > edge || p.y.abs() > edge {
-                        WheelCommand {
-                            left: -self.speed,
-                            right: self.speed,
-                        }
+                        WheelCommand { left: -self.speed, right: self.speed }
                     } else {
-                        WheelCommand {
-                            left: self.speed,
-                            right: self.speed,
-                        }
+                        WheelCommand { left: self.speed, right: self.speed }
                     }
                 })
                 .collect(),

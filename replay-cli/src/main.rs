@@ -38,14 +38,8 @@ enum BenchTarget {
 fn main() -> std::process::ExitCode {
     let cli = Cli::parse();
     let result = match cli.command {
-        Some(Command::Bench {
-            target: BenchTarget::World,
-            json,
-        }) => bench_world::run(json),
-        Some(Command::Bench {
-            target: BenchTarget::Train,
-            json,
-        }) => bench_train::run(json),
+        Some(Command::Bench { target: BenchTarget::World, json }) => bench_world::run(json),
+        Some(Command::Bench { target: BenchTarget::Train, json }) => bench_train::run(json),
         None => Ok(()),
     };
     match result {
