@@ -23,15 +23,21 @@ use std::sync::Arc;
 use crate::byzantine;
 use crate::config::{ByzantineKind, Config};
 use crate::contract::{Call, ContractParams};
+use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Record};
-use crate::learn::{self, ModelShape, TrainData, TrainJob};
+use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
     self, ContractSummary, LearnAction, LearnReport, Metrics, SkipReason, TokenSummary,
 };
 use crate::rng::{self, Purpose};
 use crate::types::{Digest, RobotId, SimTime};
-use crate::world::{Controllers, World, WorldError, WorldStats};
+use crate::world::{Controllers, TickEvent, World, WorldError, WorldStats};
+
+/// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
+/// window in which honest trainings are speculated in parallel. A performance knob only: the
+/// records do not depend on it (a test runs with 0, with this and with a wider window).
+pub const DEFAULT_LOOKAHEAD_MS: u64 = 20_000;
 
 /// Why a run could not start.
 #[derive(Debug, thiserror::Error)]
@@ -300,9 +306,22 @@ impl RunSummary {
 
 /// A robot's decision for one learning phase, before its transaction is made.
 enum Plan {
-    Train { job: usize, base_round: u64 },
-    Forge { weights: Vec<f32>, base_round: u64 },
-    Skip { reason: SkipReason, base_round: u64 },
+    Ready {
+        outcome: TrainOutcome,
+        base_round: u64,
+    },
+    Train {
+        job: usize,
+        base_round: u64,
+    },
+    Forge {
+        weights: Vec<f32>,
+        base_round: u64,
+    },
+    Skip {
+        reason: SkipReason,
+        base_round: u64,
+    },
 }
 
 /// A submission waiting for its training to finish (`learn.training_duration_s`).
@@ -346,13 +365,35 @@ impl Learners {
     }
 }
 
+/// A copy of the world that runs ahead of the reduced state. The world does not depend on the
+/// ledger or on learning, so the controllers decide on the copy; their tick events wait in a
+/// queue for the reduced state, and the copy captures the data set of every honest learning
+/// phase when it falls due. Those data sets (exactly the ones the reduced world holds then)
+/// let the driver train several robots at once, speculatively, from the shared model each one
+/// sees now; a speculated result is used only if the robot's model is still the same when its
+/// phase comes. Trainings are pure functions of (model, data, seed, robot, phase), so the
+/// records cannot depend on the window.
+struct LookAhead {
+    world: World,
+    controllers: Controllers,
+    ticks: VecDeque<TickEvent>,
+    next_tick: u64,
+    window_ticks: u64,
+    next_due_ms: Vec<u64>,
+    phases: Vec<u64>,
+    /// Data sets of upcoming honest phases, by (due time, robot): (phase, samples).
+    upcoming: BTreeMap<(u64, RobotId), (u64, Vec<Sample>)>,
+    /// Speculated trainings by (robot, phase): (digest of the start model, outcome).
+    speculated: BTreeMap<(RobotId, u64), (Digest, TrainOutcome)>,
+}
+
 /// The driver of one run: an iterator over its records.
 pub struct Sim {
     config: Config,
     seed: u64,
     state: State,
-    controllers: Controllers,
     network: Network,
+    ahead: LookAhead,
     learners: Learners,
     tick_ms: u64,
     total_ticks: u64,
@@ -365,14 +406,32 @@ pub struct Sim {
 impl Sim {
     /// A run of `config` seeded with `seed`, at time 0.
     pub fn new(config: Config, seed: u64) -> Result<Sim, SimError> {
+        Sim::with_lookahead(config, seed, DEFAULT_LOOKAHEAD_MS)
+    }
+
+    /// A run whose speculative training window is `lookahead_ms` (0: each robot trains when
+    /// due, alone). The records are the same for every window.
+    pub fn with_lookahead(config: Config, seed: u64, lookahead_ms: u64) -> Result<Sim, SimError> {
         let state = State::genesis(&config, seed)?;
         let tick_ms = (config.run.tick_s * 1000.0).round() as u64;
         assert!(tick_ms > 0, "validated config has tick_s >= 1 ms");
+        let learners = Learners::new(&config, seed);
+        let ahead = LookAhead {
+            world: state.world.clone(),
+            controllers: Controllers::new(&config, seed),
+            ticks: VecDeque::new(),
+            next_tick: 0,
+            window_ticks: lookahead_ms.div_ceil(tick_ms),
+            next_due_ms: learners.next_due_ms.clone(),
+            phases: vec![0; config.world.robots as usize],
+            upcoming: BTreeMap::new(),
+            speculated: BTreeMap::new(),
+        };
         Ok(Sim {
             total_ticks: config.ticks(),
-            controllers: Controllers::new(&config, seed),
             network: Network::new(&config, seed),
-            learners: Learners::new(&config, seed),
+            ahead,
+            learners,
             config,
             seed,
             state,
@@ -441,7 +500,12 @@ impl Sim {
         }
         let time = SimTime(self.next_tick * self.tick_ms);
         self.switch(Part::World);
-        let tick = self.controllers.decide(&self.state.world);
+        self.run_ahead();
+        let tick = self
+            .ahead
+            .ticks
+            .pop_front()
+            .expect("the look-ahead world is ahead");
         self.emit(time, Event::Tick(tick));
         self.next_tick += 1;
         let now = SimTime(self.next_tick * self.tick_ms);
@@ -469,8 +533,32 @@ impl Sim {
         self.release_submissions(now);
     }
 
-    /// Every robot whose learning phase is due by `now` trains (in parallel) or forges, and
-    /// queues its submission.
+    /// Advances the look-ahead world to the window's end (at least one tick past the state).
+    fn run_ahead(&mut self) {
+        let until = (self.next_tick + 1 + self.ahead.window_ticks).min(self.total_ticks);
+        while self.ahead.next_tick < until {
+            let a = &mut self.ahead;
+            let tick = a.controllers.decide(&a.world);
+            a.world.apply(&tick);
+            a.ticks.push_back(tick);
+            a.next_tick += 1;
+            let now_ms = a.next_tick * self.tick_ms;
+            for r in 0..self.config.world.robots {
+                let i = r as usize;
+                while a.next_due_ms[i] <= now_ms {
+                    if !self.learners.byzantine[i] {
+                        a.upcoming
+                            .insert((a.next_due_ms[i], r), (a.phases[i], a.world.dataset(r)));
+                    }
+                    a.phases[i] += 1;
+                    a.next_due_ms[i] += self.learners.period_ms;
+                }
+            }
+        }
+    }
+
+    /// Every robot whose learning phase is due by `now` trains (in parallel, with the
+    /// speculative trainings of the window) or forges, and queues its submission.
     fn learning_phase(&mut self, now: SimTime) {
         let due: Vec<RobotId> = (0..self.config.world.robots)
             .filter(|&r| self.learners.next_due_ms[r as usize] <= now.0)
@@ -478,18 +566,23 @@ impl Sim {
         if due.is_empty() {
             return;
         }
-        let cfg = &self.config;
-        let scale = cfg.contract.weight_scale;
+        let scale = self.config.contract.weight_scale;
+        let min_train = self.config.learn.min_train_samples.max(1) as usize;
         let mut jobs = Vec::new();
         let mut plans = Vec::with_capacity(due.len());
         for &r in &due {
             let i = r as usize;
             let phase = self.learners.phases[i];
+            let due_ms = self.learners.next_due_ms[i];
             self.learners.phases[i] += 1;
             self.learners.next_due_ms[i] += self.learners.period_ms;
+            let captured = self.ahead.upcoming.remove(&(due_ms, r));
+            let speculated = self.ahead.speculated.remove(&(r, phase));
             let view = self.state.ledger.head_state(r);
             let base_round = view.round;
-            let plan = if cfg.contract.security && view.balances[i] < self.learners.stake_units {
+            let plan = if self.config.contract.security
+                && view.balances[i] < self.learners.stake_units
+            {
                 Plan::Skip {
                     reason: SkipReason::InsufficientStake,
                     base_round,
@@ -500,6 +593,7 @@ impl Sim {
                     base_round,
                 }
             } else if self.learners.byzantine[i] {
+                let b = &self.config.byzantine;
                 let shared = learn::from_fixed(&view.weights, scale);
                 let previous = view
                     .previous_weights
@@ -507,11 +601,11 @@ impl Sim {
                     .map(|w| learn::from_fixed(w, scale));
                 let mut rng = rng::substream(self.seed, Purpose::Byzantine, r, phase);
                 let weights = byzantine::forge(
-                    cfg.byzantine.kind,
-                    cfg.byzantine.variant,
+                    b.kind,
+                    b.variant,
                     &shared,
                     previous.as_deref(),
-                    cfg.byzantine.faulty_range,
+                    b.faulty_range,
                     &mut rng,
                 );
                 Plan::Forge {
@@ -519,13 +613,33 @@ impl Sim {
                     base_round,
                 }
             } else {
-                let samples = self.state.world.dataset(r);
-                let train = learn::split_point(samples.len(), cfg.learn.train_fraction);
-                match TrainData::new(&self.learners.shape, &samples) {
-                    Ok(data) if train >= cfg.learn.min_train_samples.max(1) as usize => {
+                let samples = match captured {
+                    Some((captured_phase, samples)) => {
+                        debug_assert_eq!(captured_phase, phase);
+                        debug_assert!(
+                            samples == self.state.world.dataset(r),
+                            "the look-ahead world diverged"
+                        );
+                        samples
+                    }
+                    None => self.state.world.dataset(r),
+                };
+                let data = TrainData::new(&self.learners.shape, &samples).ok();
+                let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
+                    >= min_train;
+                match (data, speculated) {
+                    (Some(_), Some((digest, outcome)))
+                        if trainable && digest == view.weights_digest =>
+                    {
+                        Plan::Ready {
+                            outcome,
+                            base_round,
+                        }
+                    }
+                    (Some(data), _) if trainable => {
                         jobs.push(TrainJob {
                             shape: self.learners.shape.clone(),
-                            cfg: cfg.learn.clone(),
+                            cfg: self.config.learn.clone(),
                             start: learn::from_fixed(&view.weights, scale),
                             data,
                             dropout: rng::substream(self.seed, Purpose::Dropout, r, phase),
@@ -543,101 +657,148 @@ impl Sim {
             };
             plans.push((r, plan));
         }
-        let outcomes = learn::train_many(jobs);
+        let due_jobs = jobs.len();
+        let speculative = if due_jobs > 0 {
+            self.speculative_jobs(now, &mut jobs)
+        } else {
+            Vec::new()
+        };
+        let mut outcomes = learn::train_many(jobs);
+        for (key, digest) in speculative.into_iter().rev() {
+            let outcome = outcomes.pop().expect("one outcome per job");
+            self.ahead.speculated.insert(key, (digest, outcome));
+        }
+        debug_assert_eq!(outcomes.len(), due_jobs);
         let submit_at = now.0 + self.learners.duration_ms;
         for (r, plan) in plans {
-            let (report, tx) = match plan {
-                Plan::Skip { reason, base_round } => (
-                    LearnReport {
-                        robot: r,
-                        base_round,
-                        action: LearnAction::Skipped { reason },
-                    },
-                    None,
-                ),
+            let (base_round, action, submission) = match plan {
+                Plan::Skip { reason, base_round } => {
+                    (base_round, LearnAction::Skipped { reason }, None)
+                }
                 Plan::Forge {
                     weights,
                     base_round,
-                } => match learn::to_fixed(&weights, scale) {
-                    Ok(fixed) => {
-                        let claimed = cfg.byzantine.claimed_samples;
-                        let tx = self.state.ledger.make_tx(
-                            r,
-                            self.learners.stake_units,
-                            Call::SubmitModel {
-                                weights: Arc::from(fixed),
-                                samples: u64::from(claimed),
-                            },
-                        );
-                        let action = LearnAction::Forged {
-                            tx: tx.hash_and_size().0,
-                            claimed_samples: claimed,
-                        };
-                        (
-                            LearnReport {
-                                robot: r,
-                                base_round,
-                                action,
-                            },
-                            Some(tx),
-                        )
-                    }
-                    Err(_) => (
-                        LearnReport {
-                            robot: r,
-                            base_round,
-                            action: LearnAction::Skipped {
-                                reason: SkipReason::NonFiniteModel,
-                            },
-                        },
-                        None,
-                    ),
-                },
-                Plan::Train { job, base_round } => {
-                    let outcome = &outcomes[job];
-                    match learn::to_fixed(&outcome.weights, scale) {
+                } => {
+                    let claimed = self.config.byzantine.claimed_samples;
+                    match learn::to_fixed(&weights, scale) {
                         Ok(fixed) => {
-                            let tx = self.state.ledger.make_tx(
-                                r,
-                                self.learners.stake_units,
-                                Call::SubmitModel {
-                                    weights: Arc::from(fixed),
-                                    samples: u64::from(outcome.train_samples),
-                                },
-                            );
-                            let action = LearnAction::Trained {
+                            let tx = self.submission(r, fixed, u64::from(claimed));
+                            let action = LearnAction::Forged {
                                 tx: tx.hash_and_size().0,
-                                train_samples: outcome.train_samples,
-                                val_samples: outcome.val_samples,
-                                val_loss: outcome.val_loss,
-                                final_train_loss: outcome.final_train_loss,
+                                claimed_samples: claimed,
                             };
-                            (
-                                LearnReport {
-                                    robot: r,
-                                    base_round,
-                                    action,
-                                },
-                                Some(tx),
-                            )
+                            (base_round, action, Some(tx))
                         }
                         Err(_) => (
-                            LearnReport {
-                                robot: r,
-                                base_round,
-                                action: LearnAction::Skipped {
-                                    reason: SkipReason::NonFiniteModel,
-                                },
+                            base_round,
+                            LearnAction::Skipped {
+                                reason: SkipReason::NonFiniteModel,
                             },
                             None,
                         ),
                     }
                 }
+                Plan::Train { job, base_round } => {
+                    let (action, tx) = self.trained(r, &outcomes[job]);
+                    (base_round, action, tx)
+                }
+                Plan::Ready {
+                    outcome,
+                    base_round,
+                } => {
+                    let (action, tx) = self.trained(r, &outcome);
+                    (base_round, action, tx)
+                }
             };
-            self.learners
-                .pending
-                .insert((submit_at, r), Pending { report, tx });
+            let report = LearnReport {
+                robot: r,
+                base_round,
+                action,
+            };
+            self.learners.pending.insert(
+                (submit_at, r),
+                Pending {
+                    report,
+                    tx: submission,
+                },
+            );
         }
+    }
+
+    /// The signed submission of `weights` claiming `samples`, from `robot`'s own node.
+    fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> Tx {
+        let call = Call::SubmitModel {
+            weights: Arc::from(weights),
+            samples,
+        };
+        self.state
+            .ledger
+            .make_tx(robot, self.learners.stake_units, call)
+    }
+
+    /// The report and submission of an honest training.
+    fn trained(&self, robot: RobotId, outcome: &TrainOutcome) -> (LearnAction, Option<Tx>) {
+        match learn::to_fixed(&outcome.weights, self.config.contract.weight_scale) {
+            Ok(fixed) => {
+                let tx = self.submission(robot, fixed, u64::from(outcome.train_samples));
+                let action = LearnAction::Trained {
+                    tx: tx.hash_and_size().0,
+                    train_samples: outcome.train_samples,
+                    val_samples: outcome.val_samples,
+                    val_loss: outcome.val_loss,
+                    final_train_loss: outcome.final_train_loss,
+                };
+                (action, Some(tx))
+            }
+            Err(_) => (
+                LearnAction::Skipped {
+                    reason: SkipReason::NonFiniteModel,
+                },
+                None,
+            ),
+        }
+    }
+
+    /// Adds to `jobs` the honest phases due within the look-ahead window that are not yet
+    /// speculated from their robot's current model; returns their keys and start digests in
+    /// job order.
+    fn speculative_jobs(
+        &self,
+        now: SimTime,
+        jobs: &mut Vec<TrainJob>,
+    ) -> Vec<((RobotId, u64), Digest)> {
+        let horizon = now.0 + self.ahead.window_ticks * self.tick_ms;
+        let scale = self.config.contract.weight_scale;
+        let min_train = self.config.learn.min_train_samples.max(1) as usize;
+        let mut keys = Vec::new();
+        for (&(due_ms, r), (phase, samples)) in
+            self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
+        {
+            debug_assert!(due_ms > now.0, "due phases were taken out");
+            let view = self.state.ledger.head_state(r);
+            let unchanged = self
+                .ahead
+                .speculated
+                .get(&(r, *phase))
+                .is_some_and(|(digest, _)| *digest == view.weights_digest);
+            let trainable =
+                learn::split_point(samples.len(), self.config.learn.train_fraction) >= min_train;
+            if unchanged || !trainable || view.has_submitted(r) {
+                continue;
+            }
+            let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
+                continue;
+            };
+            jobs.push(TrainJob {
+                shape: self.learners.shape.clone(),
+                cfg: self.config.learn.clone(),
+                start: learn::from_fixed(&view.weights, scale),
+                data,
+                dropout: rng::substream(self.seed, Purpose::Dropout, r, *phase),
+            });
+            keys.push(((r, *phase), view.weights_digest));
+        }
+        keys
     }
 
     /// Emits the reports and submissions whose training has finished by `now`, in time then
@@ -695,6 +856,20 @@ mod tests {
                 ..
             }))
         ));
+    }
+
+    #[test]
+    fn the_speculation_window_does_not_change_a_single_record() {
+        let mut config = short_config();
+        config.run.duration_s = 250.0;
+        let plain: Vec<Record> = Sim::with_lookahead(config.clone(), 5, 0).unwrap().collect();
+        let wide: Vec<Record> = Sim::with_lookahead(config.clone(), 5, 60_000)
+            .unwrap()
+            .collect();
+        let default: Vec<Record> = Sim::new(config, 5).unwrap().collect();
+        assert!(plain.iter().any(|r| r.kind() == "learn"), "the run trains");
+        assert_eq!(plain, wide);
+        assert_eq!(plain, default);
     }
 
     #[test]

@@ -140,6 +140,8 @@ pub fn run(json: bool) -> anyhow::Result<()> {
         "flop_per_train_sample_pass": flop_train,
         "flop_per_eval_sample_pass": flop_eval,
         "gflop_per_s": gflops,
+        "gflop_per_s_cpu_time": total_flop as f64 / (auto_cpu_ms / 1e3) / 1e9,
+        "flop_per_training": total_flop,
         "baseline_kernel_gflop_per_s": base_gflops,
         "val_loss": val_loss,
     });

@@ -161,6 +161,10 @@ pub(crate) struct Workspace {
 
 impl Workspace {
     pub(crate) fn new(shape: &ModelShape) -> Workspace {
+        assert!(
+            shape.units >= 1 && shape.input_steps >= 1 && shape.output_steps >= 1,
+            "model sizes must be positive (Config::validate checks them): {shape:?}"
+        );
         let (t, h, g, r1, o) = (
             shape.steps_in(),
             shape.units(),

@@ -37,7 +37,8 @@ use kernels::{Workspace, GROUP};
 /// Coordinates per waypoint (x, y).
 const POINT_DIMS: usize = 2;
 
-/// The sizes of the model; everything else (offsets, weight count) derives from them.
+/// The sizes of the model; everything else (offsets, weight count) derives from them. All three
+/// are at least 1 (as `Config::validate` ensures); training asserts it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ModelShape {
     /// LSTM units H.
