@@ -13,54 +13,30 @@ use swarmfl_core::config::Preset;
 use swarmfl_core::data::Sample;
 use swarmfl_core::learn::{self, Kernel, ModelShape, TrainData};
 use swarmfl_core::rng::{stream, Purpose};
-use swarmfl_core::SimTime;
+use swarmfl_core::world::{Controllers, World};
 
 /// Timed repetitions of the training.
 const REPETITIONS: usize = 15;
 /// Samples in the workload (80 % train, 20 % validate).
 const SAMPLES: usize = 300;
 
-/// SYNTHETIC trajectories standing in for the world module's (to be replaced by real simulated
-/// trajectories once `world` lands): a robot moving at 0.025 m/s in a 5 x 5 m arena, sampled
-/// every 0.1 s, turning at random (a turn starts with probability 0.1 per second and lasts up to
-/// 3 s at up to +-1 rad/s), bouncing off the walls; 300 samples of 80 waypoints, oldest first.
-pub fn bench_workload() -> Vec<Sample> {
-    let mut rng = stream(2026, Purpose::Controller, 0);
-    let (speed_mps, tick_s, half_m) = (0.025, 0.1, 2.5 - 0.035);
-    let mut samples = Vec::with_capacity(SAMPLES);
-    for s in 0..SAMPLES {
-        let mut x = rng.range(-half_m, half_m);
-        let mut y = rng.range(-half_m, half_m);
-        let mut heading = rng.range(-std::f64::consts::PI, std::f64::consts::PI);
-        let (mut turn_left_s, mut turn_rate) = (0.0, 0.0);
-        let mut points = Vec::with_capacity(80);
-        for _ in 0..80 {
-            points.push([x as f32, y as f32]);
-            if turn_left_s <= 0.0 && rng.chance(0.1 * tick_s) {
-                turn_left_s = rng.range(0.0, 3.0);
-                turn_rate = rng.range(-1.0, 1.0);
-            }
-            if turn_left_s > 0.0 {
-                heading += turn_rate * tick_s;
-                turn_left_s -= tick_s;
-            }
-            x += speed_mps * tick_s * libm::cos(heading);
-            y += speed_mps * tick_s * libm::sin(heading);
-            if x.abs() > half_m {
-                x = x.clamp(-half_m, half_m);
-                heading = std::f64::consts::PI - heading;
-            }
-            if y.abs() > half_m {
-                y = y.clamp(-half_m, half_m);
-                heading = -heading;
-            }
+/// REAL simulated trajectories: the `reference` preset's world (seed 2026) is simulated until a
+/// robot's data set holds [`SAMPLES`] samples; its oldest [`SAMPLES`] are the workload (what that
+/// robot would train on then). Deterministic: the same samples every time.
+pub fn bench_workload() -> anyhow::Result<Vec<Sample>> {
+    let config = Preset::Reference.config();
+    let seed = 2026;
+    let mut world = World::new(&config, seed)?;
+    let mut controllers = Controllers::new(&config, seed);
+    for _ in 0..config.ticks() {
+        world.apply(&controllers.decide(&world));
+        if let Some(robot) = (0..config.world.robots).find(|&r| world.dataset_len(r) >= SAMPLES) {
+            let mut samples = world.dataset(robot);
+            samples.truncate(SAMPLES);
+            return Ok(samples);
         }
-        samples.push(Sample {
-            time: SimTime(s as u64 * 10_000),
-            points,
-        });
     }
-    samples
+    anyhow::bail!("no robot collected {SAMPLES} samples in a reference run")
 }
 
 /// CPU time of the calling thread in milliseconds (immune to other processes sharing the
@@ -107,7 +83,7 @@ fn median_ms(
 pub fn run(json: bool) -> anyhow::Result<()> {
     let config = Preset::Reference.config();
     let shape = ModelShape::from_config(&config);
-    let data = TrainData::new(&shape, &bench_workload())?;
+    let data = TrainData::new(&shape, &bench_workload()?)?;
     let start = learn::init_weights(&shape, &mut stream(1, Purpose::ModelInit, 0));
     let cfg = &config.learn;
     let n_train = learn::split_point(data.len(), cfg.train_fraction) as u64;
@@ -124,7 +100,7 @@ pub fn run(json: bool) -> anyhow::Result<()> {
     let gflops = total_flop as f64 / (auto_ms / 1e3) / 1e9;
     let base_gflops = total_flop as f64 / (base_ms / 1e3) / 1e9;
     let report = serde_json::json!({
-        "workload": "synthetic trajectories (bench_workload), 240 train + 60 validation samples, 20 epochs, batch 20",
+        "workload": "real simulated trajectories (reference preset world, seed 2026: the first robot to hold 300 samples), 240 train + 60 validation samples, 20 epochs, batch 20",
         "learning_rate": cfg.learning_rate,
         "repetitions": REPETITIONS,
         "threads": 1,
