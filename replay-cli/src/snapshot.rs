@@ -20,7 +20,6 @@ pub enum RobotMark {
     /// An honest robot.
     Honest,
     /// A Byzantine robot.
-    #[allow(dead_code)]
     Byzantine,
 }
 
