@@ -549,7 +549,7 @@ impl Config {
         for part in key.split('.') {
             let table = slot.as_table_mut().ok_or_else(|| ConfigError::UnknownKey {
                 key: key.to_string(),
-                allowed: String::new(),
+                allowed: format!("`{walked}` is a value, not a table; set `{walked}` itself"),
             })?;
             if !table.contains_key(part) {
                 let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
@@ -1046,6 +1046,10 @@ mod tests {
         check_err(&["byzantine.kind=evil"], "byzantine.kind");
         check_err(&["byzantine.kind=faulty"], "byzantine.count");
         check_err(&["noequals"], "expected key.path=value");
+        check_err(
+            &["world.robots.x=1"],
+            "unknown configuration key `world.robots.x`; `world.robots` is a value, not a table",
+        );
         check_err(
             &["preset=../../etc"],
             "`preset`: value \"../../etc\" is out of range; allowed: one of paper, reference",

@@ -648,7 +648,7 @@ impl<R: Read> LogReader<R> {
                     "bytes follow the footer".to_string(),
                 ));
             }
-            self.chain = chain;
+            // The chain stays at the final hash (the footer's tag folds the footer itself).
             self.offset += FRAME_OVERHEAD + u64::from(len);
             self.footer = Some(footer);
             return Ok(None);
@@ -737,6 +737,9 @@ mod tests {
         let (records, end) = read_all(&bytes);
         assert_eq!(records.len(), 25);
         assert_eq!(end.unwrap(), footer);
+        let mut reader = LogReader::new(&bytes[..], "mem").unwrap();
+        while reader.next_record().unwrap().is_some() {}
+        assert_eq!(reader.chain_hash(), footer.final_hash, "after the footer");
         assert_eq!(records[9].kind(), "checkpoint");
         assert_eq!(records[3].time(), SimTime(300));
     }
