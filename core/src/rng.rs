@@ -56,6 +56,23 @@ pub fn stream(seed: u64, purpose: Purpose, robot: u32) -> Rng {
     }
 }
 
+/// The `index`-th independent stream of `purpose` for `robot` (e.g. one per local training), so
+/// that an event's randomness depends only on (seed, purpose, robot, index) and not on how many
+/// draws earlier events made.
+pub fn substream(seed: u64, purpose: Purpose, robot: u32, index: u64) -> Rng {
+    let mut material = [0u8; 24];
+    material[..8].copy_from_slice(&seed.to_le_bytes());
+    material[8..12].copy_from_slice(&(purpose as u32).to_le_bytes());
+    material[12..16].copy_from_slice(&robot.to_le_bytes());
+    material[16..].copy_from_slice(&index.to_le_bytes());
+    Rng {
+        inner: Pcg64::from_seed(blake3::derive_key(
+            "swarmfl 2026-11 rng substream v1",
+            &material,
+        )),
+    }
+}
+
 /// 32 bytes derived from (seed, purpose, robot) with blake3's key derivation; used for stream
 /// seeds and for signing keys.
 pub fn derive_bytes(seed: u64, purpose: Purpose, robot: u32) -> [u8; 32] {
@@ -143,6 +160,15 @@ mod tests {
         for (i, (ra, rb)) in a.iter_mut().zip(b.iter_mut()).enumerate().skip(1) {
             assert_eq!(draws(ra, 100), draws(rb, 100), "stream {i} shifted");
         }
+    }
+
+    #[test]
+    fn substreams_are_independent_of_each_other_and_of_streams() {
+        let a = draws(&mut substream(1, Purpose::Dropout, 2, 0), 4);
+        assert_eq!(a, draws(&mut substream(1, Purpose::Dropout, 2, 0), 4));
+        assert_ne!(a, draws(&mut substream(1, Purpose::Dropout, 2, 1), 4));
+        assert_ne!(a, draws(&mut substream(1, Purpose::Dropout, 3, 0), 4));
+        assert_ne!(a, draws(&mut stream(1, Purpose::Dropout, 2), 4));
     }
 
     #[test]

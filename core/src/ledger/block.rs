@@ -1,0 +1,144 @@
+//! Blocks: a header (parent hash, height, timestamp, signer, difficulty, transaction root,
+//! signature) and the ordered list of its transactions.
+//!
+//! A block's id ([`BlockHash`]) is blake3 of its full encoded header, signature included (so a
+//! forgery is a different item); the signer signs [`BlockHeader::signing_hash`], blake3 of the
+//! encoded header without the signature. The transaction root is blake3 over the concatenated
+//! transaction ids, so the header commits to the body.
+
+use serde::{Deserialize, Serialize};
+
+use super::keys::Sig;
+use super::tx::{Tx, TxHash};
+use crate::types::{Digest, RobotId};
+
+/// The id of a block: blake3 of its encoded header.
+pub type BlockHash = Digest;
+
+/// Most transactions one block may hold; a block with more is malformed. The swarm produces
+/// at most a few transactions per block period, so this bound is never reached by honest nodes.
+pub const MAX_BLOCK_TXS: usize = 1024;
+
+/// The signer field of the genesis block, which nobody signs.
+pub const GENESIS_SIGNER: RobotId = RobotId::MAX;
+
+/// A block header.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct BlockHeader {
+    /// The parent's id (for genesis: the digest of the contract parameters, so that the genesis
+    /// id commits to them).
+    pub parent: BlockHash,
+    /// Distance from genesis (genesis is 0).
+    pub height: u64,
+    /// Simulated time of sealing, in milliseconds.
+    pub timestamp_ms: u64,
+    /// The sealing robot ([`GENESIS_SIGNER`] for genesis).
+    pub signer: RobotId,
+    /// Clique difficulty: 2 in turn, 1 out of turn (0 for genesis).
+    pub difficulty: u64,
+    /// blake3 over the concatenated ids of the block's transactions.
+    pub tx_root: Digest,
+    /// The signer's ed25519 signature of [`BlockHeader::signing_hash`].
+    pub signature: Sig,
+}
+
+#[derive(Serialize)]
+struct UnsignedHeader<'a> {
+    parent: &'a BlockHash,
+    height: u64,
+    timestamp_ms: u64,
+    signer: RobotId,
+    difficulty: u64,
+    tx_root: &'a Digest,
+}
+
+impl BlockHeader {
+    /// The digest the signer signs.
+    pub fn signing_hash(&self) -> Digest {
+        let body = UnsignedHeader {
+            parent: &self.parent,
+            height: self.height,
+            timestamp_ms: self.timestamp_ms,
+            signer: self.signer,
+            difficulty: self.difficulty,
+            tx_root: &self.tx_root,
+        };
+        Digest::of(&rmp_serde::to_vec(&body).expect("a header always encodes"))
+    }
+
+    /// The block id and the encoded header size in bytes.
+    pub fn hash_and_size(&self) -> (BlockHash, u32) {
+        let bytes = rmp_serde::to_vec(self).expect("a header always encodes");
+        (Digest::of(&bytes), bytes.len() as u32)
+    }
+}
+
+/// The transaction root of an ordered list of transaction ids.
+pub fn tx_root(txs: &[TxHash]) -> Digest {
+    let mut hasher = blake3::Hasher::new();
+    for h in txs {
+        hasher.update(&h.0);
+    }
+    hasher.finalize().into()
+}
+
+/// A block as stored: its header and the ids of its transactions, in execution order. The
+/// transaction bodies live once in the ledger's shared storage.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Block {
+    /// The header.
+    pub header: BlockHeader,
+    /// Transaction ids, in execution order.
+    pub txs: Vec<TxHash>,
+}
+
+/// A block with its transaction bodies: what travels between nodes when the content is not in
+/// the shared storage yet (an injected, possibly forged block).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct WireBlock {
+    /// The header.
+    pub header: BlockHeader,
+    /// The transactions, in execution order.
+    pub txs: Vec<Tx>,
+}
+
+/// An item travelling between nodes in full (see [`super::LedgerEvent::Inject`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum WireItem {
+    /// A transaction.
+    Tx(Tx),
+    /// A block with its transactions.
+    Block(WireBlock),
+}
+
+impl WireItem {
+    /// The canonical encoding.
+    pub fn encode(&self) -> Vec<u8> {
+        rmp_serde::to_vec(self).expect("a wire item always encodes")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_id_covers_the_signature_and_the_root_covers_the_order() {
+        let h = BlockHeader {
+            parent: Digest::of(b"p"),
+            height: 3,
+            timestamp_ms: 30_000,
+            signer: 3,
+            difficulty: 2,
+            tx_root: tx_root(&[]),
+            signature: Sig::ZERO,
+        };
+        let mut signed = h.clone();
+        signed.signature = Sig([7; 64]);
+        assert_ne!(h.hash_and_size().0, signed.hash_and_size().0);
+        assert_eq!(h.signing_hash(), signed.signing_hash());
+        let (a, b) = (Digest::of(b"a"), Digest::of(b"b"));
+        assert_ne!(tx_root(&[a, b]), tx_root(&[b, a]));
+        assert_ne!(tx_root(&[a]), tx_root(&[]));
+    }
+}

@@ -1,0 +1,345 @@
+//! The ledger's figures for `summary.json` ([`LedgerStats`]), folded from the same events as
+//! the state (the [`Tracker`] is part of the reduced state, so replays reproduce it).
+//!
+//! Definitions:
+//! - *canonical height*: the height of a node's head; reported as the maximum and minimum over
+//!   nodes at the end.
+//! - *forks seen*: over the whole block tree, the valid blocks that have an earlier valid
+//!   sibling (sum over parents of children - 1): how many times the chain branched.
+//! - *reorgs*: head changes, over all nodes, that removed at least one block from a node's
+//!   canonical chain; *deepest reorg*: the most blocks removed at once.
+//! - *propagation delay*: for each submitted transaction, the time from its submission until
+//!   every node knows it (by gossip or inside a block), in simulated seconds; transactions
+//!   that never reach every node are counted apart. *Inclusion delay*: from submission until
+//!   the transaction first enters the canonical chain of its sender's own node.
+//! - *bytes per submission*: the encoded size (rmp-serde, signature included) of each
+//!   `submitModel` transaction, as a mean; the same for all transactions.
+//! - *chain bytes per node*: the sum of the encoded sizes (header plus transactions) of the
+//!   blocks of a node's canonical chain; mean and max over nodes, sampled every
+//!   [`SAMPLE_PERIOD_MS`] of simulated time and at the end. *Stored bytes*: the same over
+//!   every block a node holds, side branches included (what a node's disk would hold).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::node::{Node, RejectReason};
+use super::tx::{Tx, TxHash};
+use super::{BlockEntry, BlockHash, Ledger};
+use crate::contract::Call;
+use crate::types::SimTime;
+
+/// Period of the chain-size samples, in simulated milliseconds (100 s).
+pub const SAMPLE_PERIOD_MS: u64 = 100_000;
+
+/// Median and 95th percentile of a set of delays.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct DelayStats {
+    /// How many delays.
+    pub count: u64,
+    /// Median in simulated seconds (nearest rank; 0 when there are none).
+    pub median_s: f64,
+    /// 95th percentile in simulated seconds (nearest rank).
+    pub p95_s: f64,
+    /// Largest, in simulated seconds.
+    pub max_s: f64,
+}
+
+impl DelayStats {
+    /// The figures of `delays_ms` (in any order).
+    pub fn of(mut delays_ms: Vec<u64>) -> DelayStats {
+        delays_ms.sort_unstable();
+        let n = delays_ms.len();
+        if n == 0 {
+            return DelayStats::default();
+        }
+        let rank =
+            |q: f64| delays_ms[((q * n as f64).ceil() as usize).clamp(1, n) - 1] as f64 / 1000.0;
+        DelayStats {
+            count: n as u64,
+            median_s: rank(0.5),
+            p95_s: rank(0.95),
+            max_s: delays_ms[n - 1] as f64 / 1000.0,
+        }
+    }
+}
+
+/// One sample of the chain size per node.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ChainBytesSample {
+    /// Simulated time in seconds.
+    pub time_s: f64,
+    /// Mean over nodes of the canonical chain's size in bytes.
+    pub mean_bytes: f64,
+    /// Largest canonical chain, in bytes.
+    pub max_bytes: u64,
+    /// Highest canonical head.
+    pub max_height: u64,
+    /// Mean over nodes of the bytes of every block held (side branches included).
+    pub stored_mean_bytes: f64,
+    /// Most bytes of blocks held by one node.
+    pub stored_max_bytes: u64,
+}
+
+/// The ledger section of `summary.json`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct LedgerStats {
+    /// Highest canonical head over nodes.
+    pub canonical_height: u64,
+    /// Lowest canonical head over nodes.
+    pub canonical_height_min: u64,
+    /// Nodes whose head is the most common head.
+    pub nodes_on_common_head: u32,
+    /// Valid blocks sealed (genesis excluded), on any branch.
+    pub blocks_sealed: u64,
+    /// Branchings of the block tree (see the module doc).
+    pub forks_seen: u64,
+    /// Reorganisations over all nodes.
+    pub reorgs: u64,
+    /// Most blocks removed by one reorganisation.
+    pub deepest_reorg: u64,
+    /// Transactions submitted.
+    pub submissions: u64,
+    /// Submission until every node knows it.
+    pub propagation: DelayStats,
+    /// Submitted transactions that had not reached every node at the end.
+    pub not_propagated: u64,
+    /// Submission until inclusion in the sender's own canonical chain.
+    pub inclusion: DelayStats,
+    /// Mean encoded size of a `submitModel` transaction, in bytes (0 if none).
+    pub bytes_per_submission: f64,
+    /// Mean encoded size of any submitted transaction, in bytes.
+    pub bytes_per_tx: f64,
+    /// Mean over nodes of the canonical chain's size at the end, in bytes.
+    pub chain_bytes_mean: f64,
+    /// Largest canonical chain at the end, in bytes.
+    pub chain_bytes_max: u64,
+    /// Mean over nodes of the bytes of every block held at the end (side branches included).
+    pub stored_bytes_mean: f64,
+    /// Most bytes of blocks held by one node at the end.
+    pub stored_bytes_max: u64,
+    /// Chain size over time.
+    pub chain_bytes_samples: Vec<ChainBytesSample>,
+    /// Gossip messages sent.
+    pub messages_sent: u64,
+    /// Gossip messages lost.
+    pub messages_lost: u64,
+    /// Gossip bytes sent (lost ones included).
+    pub gossip_bytes: u64,
+    /// Rejections over all nodes, by reason.
+    pub rejections: BTreeMap<String, u64>,
+}
+
+#[derive(Clone, Debug)]
+struct Submission {
+    at: SimTime,
+    size_bytes: u32,
+    is_model: bool,
+    seen_by: u32,
+    all_seen_at: Option<SimTime>,
+    included_own_at: Option<SimTime>,
+}
+
+/// The running figures (part of the ledger's reduced state).
+#[derive(Clone, Debug)]
+pub(crate) struct Tracker {
+    robots: u32,
+    submissions: BTreeMap<TxHash, Submission>,
+    samples: Vec<ChainBytesSample>,
+    next_sample_ms: u64,
+    reorgs: u64,
+    deepest_reorg: u64,
+    messages: u64,
+    lost: u64,
+    gossip_bytes: u64,
+    rejections: BTreeMap<&'static str, u64>,
+}
+
+impl Tracker {
+    pub(crate) fn new(robots: u32) -> Tracker {
+        Tracker {
+            robots,
+            submissions: BTreeMap::new(),
+            samples: Vec::new(),
+            next_sample_ms: SAMPLE_PERIOD_MS,
+            reorgs: 0,
+            deepest_reorg: 0,
+            messages: 0,
+            lost: 0,
+            gossip_bytes: 0,
+            rejections: BTreeMap::new(),
+        }
+    }
+
+    pub(crate) fn on_submit(&mut self, hash: TxHash, tx: &Tx, size_bytes: u32, at: SimTime) {
+        self.submissions.entry(hash).or_insert(Submission {
+            at,
+            size_bytes,
+            is_model: matches!(tx.call, Call::SubmitModel { .. }),
+            seen_by: 0,
+            all_seen_at: None,
+            included_own_at: None,
+        });
+    }
+
+    /// A node saw the transaction for the first time.
+    pub(crate) fn on_seen(&mut self, hash: &TxHash, at: SimTime) {
+        if let Some(s) = self.submissions.get_mut(hash) {
+            s.seen_by += 1;
+            assert!(s.seen_by <= self.robots, "a node saw a transaction twice");
+            if s.seen_by == self.robots {
+                s.all_seen_at = Some(at);
+            }
+        }
+    }
+
+    pub(crate) fn on_included_own(&mut self, hash: &TxHash, at: SimTime) {
+        if let Some(s) = self.submissions.get_mut(hash) {
+            s.included_own_at.get_or_insert(at);
+        }
+    }
+
+    pub(crate) fn on_reorg(&mut self, depth: u64) {
+        self.reorgs += 1;
+        self.deepest_reorg = self.deepest_reorg.max(depth);
+    }
+
+    pub(crate) fn on_send(&mut self, bytes: u64, lost: bool) {
+        self.messages += 1;
+        self.lost += u64::from(lost);
+        self.gossip_bytes += bytes;
+    }
+
+    pub(crate) fn on_reject(&mut self, reason: &RejectReason) {
+        *self.rejections.entry(reason.kind()).or_insert(0) += 1;
+    }
+
+    /// Takes the samples due before time `at` (the state then is the state after every event
+    /// earlier than the sample time).
+    pub(crate) fn sample_until(
+        &mut self,
+        at: SimTime,
+        nodes: &[Node],
+        blocks: &BTreeMap<BlockHash, BlockEntry>,
+    ) {
+        while self.next_sample_ms <= at.0 {
+            let sample = sample(self.next_sample_ms, nodes, blocks);
+            self.samples.push(sample);
+            self.next_sample_ms += SAMPLE_PERIOD_MS;
+        }
+    }
+}
+
+fn sample(
+    time_ms: u64,
+    nodes: &[Node],
+    blocks: &BTreeMap<BlockHash, BlockEntry>,
+) -> ChainBytesSample {
+    let sizes: Vec<u64> = nodes.iter().map(|n| blocks[&n.head].chain_bytes).collect();
+    ChainBytesSample {
+        time_s: time_ms as f64 / 1000.0,
+        mean_bytes: sizes.iter().sum::<u64>() as f64 / sizes.len().max(1) as f64,
+        max_bytes: sizes.iter().copied().max().unwrap_or(0),
+        max_height: nodes
+            .iter()
+            .map(|n| n.canonical.len() as u64 - 1)
+            .max()
+            .unwrap_or(0),
+        stored_mean_bytes: nodes.iter().map(|n| n.stored_bytes).sum::<u64>() as f64
+            / nodes.len().max(1) as f64,
+        stored_max_bytes: nodes.iter().map(|n| n.stored_bytes).max().unwrap_or(0),
+    }
+}
+
+/// The figures of a ledger now.
+pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
+    let t = &ledger.metrics;
+    let heights: Vec<u64> = ledger
+        .nodes
+        .iter()
+        .map(|n| n.canonical.len() as u64 - 1)
+        .collect();
+    let mut head_counts: BTreeMap<BlockHash, u32> = BTreeMap::new();
+    for n in &ledger.nodes {
+        *head_counts.entry(n.head).or_insert(0) += 1;
+    }
+    let last = sample(ledger.now.0, &ledger.nodes, &ledger.blocks);
+    let subs: Vec<&Submission> = t.submissions.values().collect();
+    let mean = |v: Vec<u32>| {
+        if v.is_empty() {
+            0.0
+        } else {
+            v.iter().map(|&b| f64::from(b)).sum::<f64>() / v.len() as f64
+        }
+    };
+    let mut samples = t.samples.clone();
+    if samples.last().map(|s| s.time_s) != Some(last.time_s) {
+        samples.push(last.clone());
+    }
+    LedgerStats {
+        canonical_height: heights.iter().copied().max().unwrap_or(0),
+        canonical_height_min: heights.iter().copied().min().unwrap_or(0),
+        nodes_on_common_head: head_counts.values().copied().max().unwrap_or(0),
+        blocks_sealed: ledger.blocks.len() as u64 - 1,
+        forks_seen: ledger
+            .blocks
+            .values()
+            .map(|e| u64::from(e.children.saturating_sub(1)))
+            .sum(),
+        reorgs: t.reorgs,
+        deepest_reorg: t.deepest_reorg,
+        submissions: subs.len() as u64,
+        propagation: DelayStats::of(
+            subs.iter()
+                .filter_map(|s| s.all_seen_at.map(|a| a.0 - s.at.0))
+                .collect(),
+        ),
+        not_propagated: subs.iter().filter(|s| s.all_seen_at.is_none()).count() as u64,
+        inclusion: DelayStats::of(
+            subs.iter()
+                .filter_map(|s| s.included_own_at.map(|a| a.0 - s.at.0))
+                .collect(),
+        ),
+        bytes_per_submission: mean(
+            subs.iter()
+                .filter(|s| s.is_model)
+                .map(|s| s.size_bytes)
+                .collect(),
+        ),
+        bytes_per_tx: mean(subs.iter().map(|s| s.size_bytes).collect()),
+        chain_bytes_mean: last.mean_bytes,
+        chain_bytes_max: last.max_bytes,
+        stored_bytes_mean: last.stored_mean_bytes,
+        stored_bytes_max: last.stored_max_bytes,
+        chain_bytes_samples: samples,
+        messages_sent: t.messages,
+        messages_lost: t.lost,
+        gossip_bytes: t.gossip_bytes,
+        rejections: t
+            .rejections
+            .iter()
+            .map(|(k, v)| ((*k).to_string(), *v))
+            .collect(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn check(delays: &[u64], expect: (u64, f64, f64)) {
+        let s = DelayStats::of(delays.to_vec());
+        assert_eq!((s.count, s.median_s, s.p95_s), expect, "{delays:?}");
+    }
+
+    #[test]
+    fn delay_percentiles_use_the_nearest_rank() {
+        check(&[], (0, 0.0, 0.0));
+        check(&[1500], (1, 1.5, 1.5));
+        check(&[3000, 1000, 2000], (3, 2.0, 3.0));
+        check(
+            &(1..=100).map(|i| i * 1000).collect::<Vec<_>>(),
+            (100, 50.0, 95.0),
+        );
+    }
+}

@@ -1,0 +1,1227 @@
+//! One Clique-style proof-of-authority node per robot, gossiping over the radio graph
+//! (SPEC.md section 3).
+//!
+//! [`Ledger`] is the reduced state of every node of the swarm, folded from [`LedgerEvent`]s by
+//! [`Ledger::apply`], a pure reducer: the same events give the same state, bit for bit.
+//! [`network::Network`] is the driver side: it decides, from the ledger's state, the peer sets
+//! and its own seeded randomness, which event comes next (sealings, gossip sends, deliveries).
+//!
+//! Fork choice: the greatest total difficulty; a tie keeps the current head, except that a
+//! node which may not seal on its head (Clique's recent-signer rule) moves to an equally heavy
+//! known block on which it may: without that exception equally heavy branches can deadlock
+//! (see `Ledger::unstick`).
+//!
+//! Storage is shared: a block or transaction is stored once, by id, whatever the number of
+//! nodes that know it; each node holds only ids. The contract state after a block is a pure
+//! function of the block's chain, so it is computed once, when the block is first validated,
+//! and kept with the block: a reorganisation costs no re-execution at all (the states of the
+//! new branch were computed when its blocks arrived), and every node reads the same state.
+//! Validation results (signatures, header rules, execution) are cached by id for the same
+//! reason. This is an optimisation only: a node's outcome for an item is the same as if it
+//! verified the item itself, since those results depend on the item and its ancestors alone;
+//! the node-dependent checks (parent known by the node, nonce against the node's chain, block
+//! from the future) are never cached.
+
+pub mod block;
+pub mod keys;
+pub mod metrics;
+pub mod network;
+pub mod node;
+pub mod synthetic;
+pub mod tx;
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
+
+use serde::{Deserialize, Serialize};
+
+pub use block::{Block, BlockHash, BlockHeader, WireBlock, WireItem};
+pub use keys::{Keys, Sig};
+pub use metrics::LedgerStats;
+pub use network::Network;
+pub use node::{Node, RejectReason, Rejection};
+pub use tx::{Tx, TxHash};
+
+use crate::config::Config;
+use crate::contract::{Call, ContractParams, ContractState, Outcome};
+use crate::types::{Digest, RobotId, SimTime};
+
+/// A pending transaction may be at most this many nonces ahead of the sender's next expected
+/// nonce; further ahead it is refused as out of order ([`RejectReason::NonceGap`]). Bounds the
+/// mempool against a flood of future transactions.
+pub const MAX_NONCE_GAP: u64 = 64;
+
+/// A block or a transaction, by id.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+pub enum ItemRef {
+    /// A block.
+    Block(BlockHash),
+    /// A transaction.
+    Tx(TxHash),
+}
+
+/// One step of the ledger. Content is logged once: a submitted transaction carries its body;
+/// a sealing names its parent and transactions (the reducer rebuilds and signs the exact
+/// block); gossip names items by id. Times come with the event (see [`Ledger::apply`]).
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum LedgerEvent {
+    /// A robot submits a transaction: it enters the sender's own node.
+    Submit {
+        /// The signed transaction.
+        tx: Tx,
+    },
+    /// `node` seals a block on its head `parent` holding `txs` in this order, at the event's
+    /// time. Difficulty, height and signature follow from the rules and the node's key.
+    Seal {
+        /// The sealing node.
+        node: RobotId,
+        /// Its head (checked).
+        parent: BlockHash,
+        /// Transaction ids, in execution order; the node must know them.
+        txs: Vec<TxHash>,
+    },
+    /// `from` sends `items` to `to` in one message; a `lost` message never arrives. Messages
+    /// are numbered by the order of their `Send` events, from 0.
+    Send {
+        /// Sender.
+        from: RobotId,
+        /// Receiver.
+        to: RobotId,
+        /// Blocks (ancestors first) then transactions.
+        items: Vec<ItemRef>,
+        /// The radio lost it.
+        lost: bool,
+    },
+    /// Message number `message` arrives at its receiver.
+    Deliver {
+        /// The message's number.
+        message: u64,
+    },
+    /// Foreign bytes (a [`WireItem`] encoding, possibly forged or garbage) arrive at `node`
+    /// from outside the honest gossip: Byzantine input and fault injection.
+    Inject {
+        /// The receiving node.
+        node: RobotId,
+        /// The encoded item.
+        bytes: Vec<u8>,
+    },
+}
+
+impl LedgerEvent {
+    /// The position of the event's kind in the order of simultaneous events.
+    pub fn kind_rank(&self) -> u8 {
+        match self {
+            LedgerEvent::Deliver { .. } => 0,
+            LedgerEvent::Inject { .. } => 1,
+            LedgerEvent::Submit { .. } => 2,
+            LedgerEvent::Seal { .. } => 3,
+            LedgerEvent::Send { .. } => 4,
+        }
+    }
+}
+
+/// An event the reducer cannot apply: the log is inconsistent (never a rejected item, which
+/// is a recorded [`Rejection`]). The state is unchanged when this is returned.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum LedgerError {
+    /// A node id out of range.
+    #[error("unknown node {node}: the swarm has nodes 0..{robots}")]
+    UnknownNode {
+        /// The id.
+        node: RobotId,
+        /// Number of nodes.
+        robots: u32,
+    },
+    /// Events must come in time order.
+    #[error(
+        "event at {at} comes after an event at {now}: ledger events must be applied in time order"
+    )]
+    TimeWentBack {
+        /// The event's time.
+        at: SimTime,
+        /// The last applied time.
+        now: SimTime,
+    },
+    /// A sealing not on the sealer's head.
+    #[error("node {node} seals on {parent:?} but its head is {head:?}")]
+    SealNotOnHead {
+        /// The node.
+        node: RobotId,
+        /// The parent named by the event.
+        parent: BlockHash,
+        /// The node's head.
+        head: BlockHash,
+    },
+    /// A sealing that breaks the rules (the network never emits one).
+    #[error("node {node} may not seal this block: {reason}")]
+    InvalidSeal {
+        /// The node.
+        node: RobotId,
+        /// Why.
+        reason: RejectReason,
+    },
+    /// An item the acting node does not know (a sealed transaction, a sent item).
+    #[error("node {node} does not know {item:?}")]
+    UnknownItem {
+        /// The node.
+        node: RobotId,
+        /// The item.
+        item: ItemRef,
+    },
+    /// A delivery of a message that was never sent, was lost, or was already delivered.
+    #[error("message {message} is not in flight")]
+    UnknownMessage {
+        /// The number.
+        message: u64,
+    },
+    /// A message from a node to itself, or without items.
+    #[error("bad message from {from} to {to}: {why}")]
+    BadMessage {
+        /// Sender.
+        from: RobotId,
+        /// Receiver.
+        to: RobotId,
+        /// What is wrong.
+        why: String,
+    },
+}
+
+/// What applying an event did (for the driver and for tests).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Applied {
+    /// Items accepted by the acting or receiving node.
+    pub accepted: u32,
+    /// Items refused (each recorded at the node).
+    pub rejected: u32,
+    /// Items the node already knew.
+    pub duplicates: u32,
+    /// Nodes whose head changed.
+    pub head_changes: u32,
+}
+
+/// A valid block in the shared storage, with everything derived from its chain.
+#[derive(Clone, Debug)]
+pub struct BlockEntry {
+    /// The block.
+    pub block: Arc<Block>,
+    /// Its encoded size: header plus transactions, in bytes.
+    pub size_bytes: u64,
+    /// Sum of the difficulties from genesis.
+    pub total_difficulty: u64,
+    /// Sum of the sizes of the blocks from genesis to this one.
+    pub chain_bytes: u64,
+    /// The contract state after the block.
+    pub state: ContractState,
+    /// Each sender's next nonce after the block.
+    pub next_nonce: Arc<[u64]>,
+    /// The outcome of each transaction, in block order.
+    pub receipts: Arc<[Outcome]>,
+    /// Valid children seen so far (for the fork count).
+    pub children: u32,
+}
+
+/// A transaction in the shared storage.
+#[derive(Clone, Debug)]
+pub struct TxEntry {
+    /// The transaction.
+    pub tx: Arc<Tx>,
+    /// Its encoded size in bytes.
+    pub size_bytes: u32,
+    /// The checks that depend only on the transaction (sender id, size, signature), done once.
+    pub intrinsic: Result<(), RejectReason>,
+}
+
+/// A message in flight.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct Flight {
+    from: RobotId,
+    to: RobotId,
+    items: Vec<ItemRef>,
+}
+
+/// The reduced state of every node of the swarm, with shared storage.
+#[derive(Clone, Debug)]
+pub struct Ledger {
+    params: ContractParams,
+    keys: Keys,
+    robots: u32,
+    period_ms: u64,
+    genesis: BlockHash,
+    blocks: BTreeMap<BlockHash, BlockEntry>,
+    invalid_blocks: BTreeMap<BlockHash, RejectReason>,
+    txs: BTreeMap<TxHash, TxEntry>,
+    nodes: Vec<Node>,
+    flights: BTreeMap<u64, Flight>,
+    messages_sent: u64,
+    now: SimTime,
+    metrics: metrics::Tracker,
+}
+
+impl Ledger {
+    /// Every node at genesis. Keys derive from `seed`; the genesis block commits to `params`.
+    pub fn new(config: &Config, seed: u64, params: ContractParams) -> Ledger {
+        let robots = config.world.robots;
+        assert_eq!(
+            params.robots, robots,
+            "contract parameters and config disagree on robots"
+        );
+        let period_ms = (config.ledger.block_period_s * 1000.0).round() as u64;
+        let header = BlockHeader {
+            parent: Digest::of(&rmp_serde::to_vec(&params).expect("parameters encode")),
+            height: 0,
+            timestamp_ms: 0,
+            signer: block::GENESIS_SIGNER,
+            difficulty: 0,
+            tx_root: block::tx_root(&[]),
+            signature: Sig::ZERO,
+        };
+        let (genesis, size) = header.hash_and_size();
+        let entry = BlockEntry {
+            block: Arc::new(Block {
+                header,
+                txs: Vec::new(),
+            }),
+            size_bytes: u64::from(size),
+            total_difficulty: 0,
+            chain_bytes: u64::from(size),
+            state: ContractState::genesis(&params),
+            next_nonce: vec![0u64; robots as usize].into(),
+            receipts: Arc::from(Vec::new()),
+            children: 0,
+        };
+        Ledger {
+            keys: Keys::new(seed, robots),
+            robots,
+            period_ms,
+            genesis,
+            blocks: BTreeMap::from([(genesis, entry)]),
+            invalid_blocks: BTreeMap::new(),
+            txs: BTreeMap::new(),
+            nodes: (0..robots).map(|_| Node::new(genesis)).collect(),
+            flights: BTreeMap::new(),
+            messages_sent: 0,
+            now: SimTime(0),
+            metrics: metrics::Tracker::new(robots),
+            params,
+        }
+    }
+
+    // ----- queries -------------------------------------------------------------------------
+
+    /// Number of nodes.
+    pub fn robots(&self) -> u32 {
+        self.robots
+    }
+
+    /// The contract parameters.
+    pub fn params(&self) -> &ContractParams {
+        &self.params
+    }
+
+    /// The keys of the swarm (the driver signs with them in [`Ledger::make_tx`]).
+    pub fn keys(&self) -> &Keys {
+        &self.keys
+    }
+
+    /// The genesis block's id.
+    pub fn genesis(&self) -> BlockHash {
+        self.genesis
+    }
+
+    /// The block period in milliseconds.
+    pub fn period_ms(&self) -> u64 {
+        self.period_ms
+    }
+
+    /// Time of the last applied event.
+    pub fn now(&self) -> SimTime {
+        self.now
+    }
+
+    /// A node (panics on an id out of range: ids come from the driver, not from input).
+    pub fn node(&self, node: RobotId) -> &Node {
+        &self.nodes[node as usize]
+    }
+
+    /// The node's head: id and height.
+    pub fn head(&self, node: RobotId) -> (BlockHash, u64) {
+        let n = self.node(node);
+        (n.head, n.canonical.len() as u64 - 1)
+    }
+
+    /// When the node's head last changed.
+    pub fn head_since(&self, node: RobotId) -> SimTime {
+        self.node(node).head_since
+    }
+
+    /// The contract state at the node's head.
+    pub fn head_state(&self, node: RobotId) -> &ContractState {
+        &self.blocks[&self.node(node).head].state
+    }
+
+    /// The node's canonical chain, genesis first.
+    pub fn canonical_chain(&self, node: RobotId) -> &[BlockHash] {
+        &self.node(node).canonical
+    }
+
+    /// A valid block by id.
+    pub fn block(&self, hash: &BlockHash) -> Option<&BlockEntry> {
+        self.blocks.get(hash)
+    }
+
+    /// Every valid block, by id.
+    pub fn blocks(&self) -> impl Iterator<Item = (&BlockHash, &BlockEntry)> {
+        self.blocks.iter()
+    }
+
+    /// A stored transaction by id.
+    pub fn tx(&self, hash: &TxHash) -> Option<&TxEntry> {
+        self.txs.get(hash)
+    }
+
+    /// The contract state after a valid block (e.g. `canonical_chain(node)[height]`).
+    pub fn state_after(&self, hash: &BlockHash) -> Option<&ContractState> {
+        self.blocks.get(hash).map(|e| &e.state)
+    }
+
+    /// The receipts (one outcome per transaction) of a valid block.
+    pub fn receipts(&self, hash: &BlockHash) -> Option<&[Outcome]> {
+        self.blocks.get(hash).map(|e| &e.receipts[..])
+    }
+
+    /// Whether the node has the block in its tree.
+    pub fn knows_block(&self, node: RobotId, hash: &BlockHash) -> bool {
+        self.node(node).known_blocks.contains(hash)
+    }
+
+    /// Whether the node has seen the transaction (whatever became of it).
+    pub fn knows_tx(&self, node: RobotId, hash: &TxHash) -> bool {
+        self.node(node).known_txs.contains(hash)
+    }
+
+    /// The node's pending transactions, in arrival order.
+    pub fn mempool(&self, node: RobotId) -> Vec<TxHash> {
+        let mut v: Vec<(u64, TxHash)> = self
+            .node(node)
+            .mempool
+            .iter()
+            .map(|(h, a)| (*a, *h))
+            .collect();
+        v.sort_unstable();
+        v.into_iter().map(|(_, h)| h).collect()
+    }
+
+    /// The change counter of the node's knowledge.
+    pub fn node_version(&self, node: RobotId) -> u64 {
+        self.node(node).version
+    }
+
+    /// Messages sent so far (the next message's number).
+    pub fn messages_sent(&self) -> u64 {
+        self.messages_sent
+    }
+
+    /// The messages in flight, in number order: (number, sender, receiver, items).
+    pub fn messages_in_flight(&self) -> Vec<(u64, RobotId, RobotId, &[ItemRef])> {
+        self.flights
+            .iter()
+            .map(|(seq, f)| (*seq, f.from, f.to, &f.items[..]))
+            .collect()
+    }
+
+    /// Encoded bytes of an item as it travels (a block with all its transactions).
+    pub fn item_bytes(&self, item: &ItemRef) -> u64 {
+        match item {
+            ItemRef::Block(h) => self.blocks.get(h).map_or(0, |e| e.size_bytes),
+            ItemRef::Tx(h) => self.txs.get(h).map_or(0, |e| u64::from(e.size_bytes)),
+        }
+    }
+
+    /// Clique's recent-signer rule: whether `signer` sealed one of the last floor(N/2) blocks
+    /// of the chain ending at `parent` (so that it may not seal a child of `parent`).
+    pub fn signed_recently(&self, parent: &BlockHash, signer: RobotId) -> bool {
+        let limit = self.robots / 2;
+        let mut cursor = *parent;
+        for _ in 0..limit {
+            let Some(entry) = self.blocks.get(&cursor) else {
+                return false;
+            };
+            let header = &entry.block.header;
+            if header.height == 0 {
+                return false;
+            }
+            if header.signer == signer {
+                return true;
+            }
+            cursor = header.parent;
+        }
+        false
+    }
+
+    /// The difficulty a block at `height` sealed by `signer` must have: 2 in turn (height mod
+    /// N == signer), 1 otherwise.
+    pub fn expected_difficulty(&self, height: u64, signer: RobotId) -> u64 {
+        if height % u64::from(self.robots) == u64::from(signer) {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// The node's pending transactions that a block on its head may include, in execution
+    /// order: per sender the run of consecutive nonces from the next expected one (a duplicate
+    /// nonce: the lowest id), senders interleaved by arrival at the node. At most
+    /// [`block::MAX_BLOCK_TXS`].
+    pub fn sealable_txs(&self, node: RobotId) -> Vec<TxHash> {
+        let n = self.node(node);
+        let next = &self.blocks[&n.head].next_nonce;
+        let mut by_sender: BTreeMap<RobotId, BTreeMap<(u64, TxHash), u64>> = BTreeMap::new();
+        for (hash, arrival) in &n.mempool {
+            let tx = &self.txs[hash].tx;
+            by_sender
+                .entry(tx.sender)
+                .or_default()
+                .insert((tx.nonce, *hash), *arrival);
+        }
+        let mut runs: Vec<std::collections::VecDeque<(u64, TxHash)>> = Vec::new();
+        for (sender, pending) in by_sender {
+            let mut expected = next[sender as usize];
+            let mut run = std::collections::VecDeque::new();
+            for ((nonce, hash), arrival) in pending {
+                if nonce == expected {
+                    run.push_back((arrival, hash));
+                    expected += 1;
+                } else if nonce > expected {
+                    break;
+                }
+            }
+            if !run.is_empty() {
+                runs.push(run);
+            }
+        }
+        let mut out = Vec::new();
+        while out.len() < block::MAX_BLOCK_TXS {
+            let best = runs
+                .iter()
+                .enumerate()
+                .filter_map(|(i, r)| r.front().map(|f| (f.0, i)))
+                .min();
+            let Some((_, i)) = best else { break };
+            out.push(runs[i].pop_front().expect("front exists").1);
+        }
+        out
+    }
+
+    /// A transaction from `robot`, signed with its key, with the next nonce in the robot's own
+    /// node's view (its chain, then its pending transactions). Driver-side helper: the
+    /// transaction enters the ledger with a [`LedgerEvent::Submit`].
+    pub fn make_tx(&self, robot: RobotId, value_units: u64, call: Call) -> Tx {
+        let n = self.node(robot);
+        let mut nonce = self.blocks[&n.head].next_nonce[robot as usize];
+        let mut pending: Vec<u64> = n
+            .mempool
+            .keys()
+            .map(|h| &self.txs[h].tx)
+            .filter(|tx| tx.sender == robot)
+            .map(|tx| tx.nonce)
+            .collect();
+        pending.sort_unstable();
+        for p in pending {
+            if p == nonce {
+                nonce += 1;
+            }
+        }
+        Tx::signed(&self.keys, robot, nonce, value_units, call)
+    }
+
+    /// A cheap digest of a node's view (head, mempool, counters).
+    pub fn node_digest(&self, node: RobotId) -> Digest {
+        self.node(node).digest(node)
+    }
+
+    /// A digest of the whole ledger: every node's view, the messages in flight, the time.
+    pub fn digest(&self) -> Digest {
+        let mut h = blake3::Hasher::new();
+        h.update(&self.now.0.to_le_bytes());
+        h.update(&self.messages_sent.to_le_bytes());
+        h.update(&(self.blocks.len() as u64).to_le_bytes());
+        h.update(&(self.txs.len() as u64).to_le_bytes());
+        for (seq, f) in &self.flights {
+            h.update(&seq.to_le_bytes());
+            h.update(&f.from.to_le_bytes());
+            h.update(&f.to.to_le_bytes());
+        }
+        for i in 0..self.robots {
+            h.update(&self.node_digest(i).0);
+        }
+        h.finalize().into()
+    }
+
+    /// The ledger's figures for `summary.json`.
+    pub fn stats(&self) -> LedgerStats {
+        metrics::stats(self)
+    }
+
+    // ----- the reducer ---------------------------------------------------------------------
+
+    /// Folds one event at time `at`. A refused item is recorded at its node and is not an
+    /// error; an event that cannot happen (unknown node, delivery of a message not in flight,
+    /// a sealing against the rules) is an error and leaves the state unchanged.
+    pub fn apply(&mut self, at: SimTime, event: &LedgerEvent) -> Result<Applied, LedgerError> {
+        if at < self.now {
+            return Err(LedgerError::TimeWentBack { at, now: self.now });
+        }
+        self.check_event(event)?;
+        // A sealing is built and validated before anything changes.
+        let sealed = match event {
+            LedgerEvent::Seal { node, txs, .. } => {
+                Some(self.build_seal(*node, txs, at).map_err(|reason| {
+                    LedgerError::InvalidSeal {
+                        node: *node,
+                        reason,
+                    }
+                })?)
+            }
+            _ => None,
+        };
+        self.metrics.sample_until(at, &self.nodes, &self.blocks);
+        self.now = at;
+        let mut applied = Applied::default();
+        match event {
+            LedgerEvent::Submit { tx } => {
+                let hash = self.store_tx(tx);
+                self.metrics
+                    .on_submit(hash, tx, self.txs[&hash].size_bytes, at);
+                self.receive_tx(tx.sender, hash, at, &mut applied);
+            }
+            LedgerEvent::Seal { node, .. } => {
+                let (hash, entry) = sealed.expect("built above");
+                self.insert_valid(hash, entry);
+                self.accept_block(*node, hash, at, &mut applied);
+            }
+            LedgerEvent::Send {
+                from,
+                to,
+                items,
+                lost,
+            } => {
+                let seq = self.messages_sent;
+                self.messages_sent += 1;
+                let bytes: u64 = items.iter().map(|i| self.item_bytes(i)).sum();
+                self.metrics.on_send(bytes, *lost);
+                if !lost {
+                    self.flights.insert(
+                        seq,
+                        Flight {
+                            from: *from,
+                            to: *to,
+                            items: items.clone(),
+                        },
+                    );
+                }
+            }
+            LedgerEvent::Deliver { message } => {
+                let flight = self
+                    .flights
+                    .remove(message)
+                    .expect("checked in check_event");
+                for item in &flight.items {
+                    match item {
+                        ItemRef::Block(h) => self.receive_block(flight.to, *h, at, &mut applied),
+                        ItemRef::Tx(h) => self.receive_tx(flight.to, *h, at, &mut applied),
+                    }
+                }
+                self.nodes[flight.to as usize].version += 1;
+            }
+            LedgerEvent::Inject { node, bytes } => self.inject(*node, bytes, at, &mut applied),
+        }
+        Ok(applied)
+    }
+
+    /// Every check that can make an event an error, before anything changes.
+    fn check_event(&self, event: &LedgerEvent) -> Result<(), LedgerError> {
+        let node_ok = |node: RobotId| {
+            if node < self.robots {
+                Ok(())
+            } else {
+                Err(LedgerError::UnknownNode {
+                    node,
+                    robots: self.robots,
+                })
+            }
+        };
+        match event {
+            LedgerEvent::Submit { tx } => node_ok(tx.sender),
+            LedgerEvent::Seal { node, parent, txs } => {
+                node_ok(*node)?;
+                let n = self.node(*node);
+                if *parent != n.head {
+                    return Err(LedgerError::SealNotOnHead {
+                        node: *node,
+                        parent: *parent,
+                        head: n.head,
+                    });
+                }
+                for h in txs {
+                    if !n.known_txs.contains(h) || !self.txs.contains_key(h) {
+                        return Err(LedgerError::UnknownItem {
+                            node: *node,
+                            item: ItemRef::Tx(*h),
+                        });
+                    }
+                }
+                Ok(())
+            }
+            LedgerEvent::Send {
+                from, to, items, ..
+            } => {
+                node_ok(*from)?;
+                node_ok(*to)?;
+                if from == to || items.is_empty() {
+                    return Err(LedgerError::BadMessage {
+                        from: *from,
+                        to: *to,
+                        why: "a message goes to another node and carries at least one item".into(),
+                    });
+                }
+                let n = self.node(*from);
+                for item in items {
+                    let known = match item {
+                        ItemRef::Block(h) => n.known_blocks.contains(h),
+                        ItemRef::Tx(h) => n.known_txs.contains(h) && self.txs.contains_key(h),
+                    };
+                    if !known {
+                        return Err(LedgerError::UnknownItem {
+                            node: *from,
+                            item: *item,
+                        });
+                    }
+                }
+                Ok(())
+            }
+            LedgerEvent::Deliver { message } => {
+                if self.flights.contains_key(message) {
+                    Ok(())
+                } else {
+                    Err(LedgerError::UnknownMessage { message: *message })
+                }
+            }
+            LedgerEvent::Inject { node, .. } => node_ok(*node),
+        }
+    }
+
+    /// Stores a transaction (once) with its intrinsic checks; returns its id.
+    fn store_tx(&mut self, tx: &Tx) -> TxHash {
+        let bytes = tx.encode();
+        let hash = Digest::of(&bytes);
+        if !self.txs.contains_key(&hash) {
+            let intrinsic = if tx.sender >= self.robots {
+                Err(RejectReason::UnknownSender(tx.sender))
+            } else if bytes.len() > tx::MAX_TX_BYTES {
+                Err(RejectReason::Malformed(format!(
+                    "{} bytes, more than the {} allowed",
+                    bytes.len(),
+                    tx::MAX_TX_BYTES
+                )))
+            } else if !tx.signature_ok(&self.keys) {
+                Err(RejectReason::BadSignature)
+            } else {
+                Ok(())
+            };
+            let entry = TxEntry {
+                tx: Arc::new(tx.clone()),
+                size_bytes: bytes.len() as u32,
+                intrinsic,
+            };
+            self.txs.insert(hash, entry);
+        }
+        hash
+    }
+
+    fn reject(
+        &mut self,
+        node: RobotId,
+        item: Option<ItemRef>,
+        reason: RejectReason,
+        at: SimTime,
+        applied: &mut Applied,
+    ) {
+        self.metrics.on_reject(&reason);
+        let n = &mut self.nodes[node as usize];
+        n.rejections.push(Rejection { at, item, reason });
+        n.version += 1;
+        applied.rejected += 1;
+    }
+
+    /// A node learns of a stored transaction.
+    fn receive_tx(&mut self, node: RobotId, hash: TxHash, at: SimTime, applied: &mut Applied) {
+        let n = &mut self.nodes[node as usize];
+        if !n.known_txs.insert(hash) {
+            applied.duplicates += 1;
+            return;
+        }
+        n.version += 1;
+        self.metrics.on_seen(&hash, at);
+        let entry = &self.txs[&hash];
+        if let Err(reason) = &entry.intrinsic {
+            let reason = reason.clone();
+            return self.reject(node, Some(ItemRef::Tx(hash)), reason, at, applied);
+        }
+        let (sender, nonce) = (entry.tx.sender, entry.tx.nonce);
+        let n = &mut self.nodes[node as usize];
+        let expected = self.blocks[&n.head].next_nonce[sender as usize];
+        if nonce < expected {
+            return self.reject(
+                node,
+                Some(ItemRef::Tx(hash)),
+                RejectReason::ReplayedNonce { nonce, expected },
+                at,
+                applied,
+            );
+        }
+        if nonce > expected + MAX_NONCE_GAP {
+            return self.reject(
+                node,
+                Some(ItemRef::Tx(hash)),
+                RejectReason::NonceGap { nonce, expected },
+                at,
+                applied,
+            );
+        }
+        n.mempool.insert(hash, n.arrivals);
+        n.arrivals += 1;
+        applied.accepted += 1;
+    }
+
+    /// Validates a block against its parent: header rules, signature, transactions (each
+    /// stored, intrinsically valid, with the next nonce of its sender) and execution. Pure.
+    fn validate(&self, header: &BlockHeader, txs: &[TxHash]) -> Result<BlockEntry, RejectReason> {
+        let parent = self
+            .blocks
+            .get(&header.parent)
+            .ok_or(RejectReason::UnknownParent(header.parent))?;
+        let ph = &parent.block.header;
+        if header.signer >= self.robots {
+            return Err(RejectReason::UnauthorisedSigner(header.signer));
+        }
+        if header.height != ph.height + 1 {
+            return Err(RejectReason::BadHeight {
+                got: header.height,
+                expected: ph.height + 1,
+            });
+        }
+        let earliest_ms = ph.timestamp_ms + self.period_ms;
+        if header.timestamp_ms < earliest_ms {
+            return Err(RejectReason::TooEarly {
+                got_ms: header.timestamp_ms,
+                earliest_ms,
+            });
+        }
+        let expected = self.expected_difficulty(header.height, header.signer);
+        if header.difficulty != expected {
+            return Err(RejectReason::BadDifficulty {
+                got: header.difficulty,
+                expected,
+            });
+        }
+        if self.signed_recently(&header.parent, header.signer) {
+            return Err(RejectReason::RecentSigner(header.signer));
+        }
+        if header.tx_root != block::tx_root(txs) {
+            return Err(RejectReason::BadTxRoot);
+        }
+        if txs.len() > block::MAX_BLOCK_TXS {
+            return Err(RejectReason::Malformed(format!(
+                "{} transactions, more than the {} allowed",
+                txs.len(),
+                block::MAX_BLOCK_TXS
+            )));
+        }
+        if !self
+            .keys
+            .verify(header.signer, &header.signing_hash(), &header.signature)
+        {
+            return Err(RejectReason::BadSignature);
+        }
+        let mut state = parent.state.clone();
+        let mut next_nonce = parent.next_nonce.to_vec();
+        let mut receipts = Vec::with_capacity(txs.len());
+        let mut size_bytes = u64::from(header.hash_and_size().1);
+        for (index, hash) in txs.iter().enumerate() {
+            let bad = |reason| RejectReason::BadTx {
+                index: index as u32,
+                reason: Box::new(reason),
+            };
+            let entry = self
+                .txs
+                .get(hash)
+                .ok_or_else(|| bad(RejectReason::Malformed("unknown transaction".into())))?;
+            entry.intrinsic.clone().map_err(bad)?;
+            let tx = &entry.tx;
+            let expected = next_nonce[tx.sender as usize];
+            if tx.nonce < expected {
+                return Err(bad(RejectReason::ReplayedNonce {
+                    nonce: tx.nonce,
+                    expected,
+                }));
+            }
+            if tx.nonce > expected {
+                return Err(bad(RejectReason::NonceGap {
+                    nonce: tx.nonce,
+                    expected,
+                }));
+            }
+            next_nonce[tx.sender as usize] += 1;
+            receipts.push(state.execute(&self.params, tx.sender, tx.value_units, &tx.call));
+            size_bytes += u64::from(entry.size_bytes);
+        }
+        Ok(BlockEntry {
+            block: Arc::new(Block {
+                header: header.clone(),
+                txs: txs.to_vec(),
+            }),
+            size_bytes,
+            total_difficulty: parent.total_difficulty + header.difficulty,
+            chain_bytes: parent.chain_bytes + size_bytes,
+            state,
+            next_nonce: next_nonce.into(),
+            receipts: receipts.into(),
+            children: 0,
+        })
+    }
+
+    /// The block `node` seals on its head at `at` with `txs`, validated.
+    fn build_seal(
+        &self,
+        node: RobotId,
+        txs: &[TxHash],
+        at: SimTime,
+    ) -> Result<(BlockHash, BlockEntry), RejectReason> {
+        let n = self.node(node);
+        let height = n.canonical.len() as u64;
+        let mut header = BlockHeader {
+            parent: n.head,
+            height,
+            timestamp_ms: at.0,
+            signer: node,
+            difficulty: self.expected_difficulty(height, node),
+            tx_root: block::tx_root(txs),
+            signature: Sig::ZERO,
+        };
+        header.signature = self.keys.sign(node, &header.signing_hash());
+        let entry = self.validate(&header, txs)?;
+        Ok((header.hash_and_size().0, entry))
+    }
+
+    fn insert_valid(&mut self, hash: BlockHash, entry: BlockEntry) {
+        if self.blocks.contains_key(&hash) {
+            return;
+        }
+        let parent = entry.block.header.parent;
+        self.blocks.insert(hash, entry);
+        self.blocks
+            .get_mut(&parent)
+            .expect("a valid block's parent is stored")
+            .children += 1;
+    }
+
+    /// A node receives a stored valid block by id (gossip).
+    fn receive_block(
+        &mut self,
+        node: RobotId,
+        hash: BlockHash,
+        at: SimTime,
+        applied: &mut Applied,
+    ) {
+        let n = &self.nodes[node as usize];
+        if n.known_blocks.contains(&hash) {
+            applied.duplicates += 1;
+            return;
+        }
+        let header = &self.blocks[&hash].block.header;
+        if !n.known_blocks.contains(&header.parent) {
+            let reason = RejectReason::UnknownParent(header.parent);
+            return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+        }
+        if header.timestamp_ms > at.0 {
+            let reason = RejectReason::FutureBlock {
+                got_ms: header.timestamp_ms,
+                now_ms: at.0,
+            };
+            return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+        }
+        self.accept_block(node, hash, at, applied);
+    }
+
+    /// Foreign bytes arrive at a node.
+    fn inject(&mut self, node: RobotId, bytes: &[u8], at: SimTime, applied: &mut Applied) {
+        let item: WireItem = match rmp_serde::from_slice(bytes) {
+            Ok(item) => item,
+            Err(e) => {
+                return self.reject(
+                    node,
+                    None,
+                    RejectReason::Undecodable(e.to_string()),
+                    at,
+                    applied,
+                )
+            }
+        };
+        match item {
+            WireItem::Tx(tx) => {
+                let hash = self.store_tx(&tx);
+                self.receive_tx(node, hash, at, applied);
+            }
+            WireItem::Block(wire) => {
+                let (hash, _) = wire.header.hash_and_size();
+                if self.nodes[node as usize].known_blocks.contains(&hash) {
+                    applied.duplicates += 1;
+                    return;
+                }
+                if let Some(reason) = self.invalid_blocks.get(&hash) {
+                    let reason = reason.clone();
+                    return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+                }
+                if !self.blocks.contains_key(&hash) {
+                    if !self.nodes[node as usize]
+                        .known_blocks
+                        .contains(&wire.header.parent)
+                    {
+                        let reason = RejectReason::UnknownParent(wire.header.parent);
+                        return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+                    }
+                    let tx_hashes: Vec<TxHash> =
+                        wire.txs.iter().map(|tx| self.store_tx(tx)).collect();
+                    match self.validate(&wire.header, &tx_hashes) {
+                        Ok(entry) => self.insert_valid(hash, entry),
+                        Err(reason) => {
+                            // A body that does not match the header's root says nothing about
+                            // the header (whose id is the block's): never cached, so that a
+                            // forged body cannot poison the honest block's id.
+                            if reason.is_intrinsic() {
+                                self.invalid_blocks.insert(hash, reason.clone());
+                            }
+                            return self.reject(
+                                node,
+                                Some(ItemRef::Block(hash)),
+                                reason,
+                                at,
+                                applied,
+                            );
+                        }
+                    }
+                }
+                self.receive_block(node, hash, at, applied);
+            }
+        }
+    }
+
+    /// Adds a valid block whose parent the node knows to the node's tree; fork choice.
+    fn accept_block(&mut self, node: RobotId, hash: BlockHash, at: SimTime, applied: &mut Applied) {
+        let entry = &self.blocks[&hash];
+        let header = entry.block.header.clone();
+        let td = entry.total_difficulty;
+        let size_bytes = entry.size_bytes;
+        let tx_ids = entry.block.txs.clone();
+        let n = &mut self.nodes[node as usize];
+        assert!(
+            n.known_blocks.contains(&header.parent),
+            "accepting a block whose parent is unknown"
+        );
+        n.known_blocks.insert(hash);
+        n.stored_bytes += size_bytes;
+        n.version += 1;
+        applied.accepted += 1;
+        for tx in &tx_ids {
+            if self.nodes[node as usize].known_txs.insert(*tx) {
+                self.metrics.on_seen(tx, at);
+            }
+        }
+        let n = &mut self.nodes[node as usize];
+        if header.parent != n.head {
+            n.side_blocks += 1;
+        }
+        n.by_td.entry(td).or_default().push(hash);
+        // Fork choice: the greatest total difficulty; a tie keeps the current head...
+        if td > self.blocks[&n.head].total_difficulty {
+            self.set_head(node, hash, at);
+            applied.head_changes += 1;
+        }
+        // ...unless the node may not seal on it (see `unstick`).
+        if self.unstick(node, at) {
+            applied.head_changes += 1;
+        }
+    }
+
+    /// Liveness under Clique's recent-signer rule. A node that may not seal on its head moves
+    /// to an equally heavy known block on which it may (the lowest id if several). Without
+    /// this, equally heavy branches whose every node signed recently on its own branch
+    /// deadlock forever under "ties keep the head" (geth's Clique has the same hole: it breaks
+    /// ties by lower height, then by a coin flip); the property test found such a deadlock
+    /// with 4 robots. With it, some node can always seal, so connected nodes converge. The
+    /// rule changes nothing while a node may seal on its head. Returns whether the head moved.
+    fn unstick(&mut self, node: RobotId, at: SimTime) -> bool {
+        let n = &self.nodes[node as usize];
+        if !self.signed_recently(&n.head, node) {
+            return false;
+        }
+        let td = self.blocks[&n.head].total_difficulty;
+        let better = n.by_td.get(&td).and_then(|same| {
+            same.iter()
+                .filter(|h| **h != n.head && !self.signed_recently(h, node))
+                .min()
+                .copied()
+        });
+        match better {
+            Some(b) => {
+                self.set_head(node, b, at);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// Moves the node's head to `new_head`: canonical chain, reorg figures, mempool.
+    fn set_head(&mut self, node: RobotId, new_head: BlockHash, at: SimTime) {
+        // The branch from the new head down to the first block of the old canonical chain.
+        let mut branch = Vec::new();
+        let mut cursor = new_head;
+        loop {
+            let h = self.blocks[&cursor].block.header.height as usize;
+            let canonical = &self.nodes[node as usize].canonical;
+            if h < canonical.len() && canonical[h] == cursor {
+                break;
+            }
+            branch.push(cursor);
+            cursor = self.blocks[&cursor].block.header.parent;
+        }
+        let ancestor_height = self.blocks[&cursor].block.header.height as usize;
+        let n = &mut self.nodes[node as usize];
+        let abandoned: Vec<BlockHash> = n.canonical.split_off(ancestor_height + 1);
+        let depth = abandoned.len() as u64;
+        if depth > 0 {
+            n.reorgs += 1;
+            n.deepest_reorg = n.deepest_reorg.max(depth);
+            self.metrics.on_reorg(depth);
+        }
+        n.canonical.extend(branch.iter().rev());
+        n.head = new_head;
+        n.head_since = at;
+        n.version += 1;
+        // Transactions of abandoned blocks return to the mempool; then the mempool keeps only
+        // what is still pending on the new chain.
+        for b in &abandoned {
+            for tx in &self.blocks[b].block.txs {
+                let n = &mut self.nodes[node as usize];
+                if !n.mempool.contains_key(tx) {
+                    n.mempool.insert(*tx, n.arrivals);
+                    n.arrivals += 1;
+                }
+            }
+        }
+        let next = self.blocks[&new_head].next_nonce.clone();
+        let txs = &self.txs;
+        self.nodes[node as usize].mempool.retain(|h, _| {
+            let tx = &txs[h].tx;
+            tx.nonce >= next[tx.sender as usize]
+        });
+        for b in branch.iter().rev() {
+            for tx in &self.blocks[b].block.txs {
+                if self.txs[tx].tx.sender == node {
+                    self.metrics.on_included_own(tx, at);
+                }
+            }
+        }
+    }
+
+    // ----- checks --------------------------------------------------------------------------
+
+    /// Re-derives the contract state of a chain (genesis first) from scratch, without any
+    /// cache: every transaction executed again in order.
+    pub fn replay_state(&self, chain: &[BlockHash]) -> Result<ContractState, String> {
+        let mut state = ContractState::genesis(&self.params);
+        for (i, hash) in chain.iter().enumerate() {
+            let entry = self
+                .blocks
+                .get(hash)
+                .ok_or_else(|| format!("block {i} ({hash:?}) is not stored"))?;
+            for tx in &entry.block.txs {
+                let tx = &self
+                    .txs
+                    .get(tx)
+                    .ok_or_else(|| format!("transaction {tx:?} is not stored"))?
+                    .tx;
+                state.execute(&self.params, tx.sender, tx.value_units, &tx.call);
+            }
+        }
+        Ok(state)
+    }
+
+    /// Checks a node's canonical chain from scratch: linkage, every Clique rule, every
+    /// signature (verified again, not from the cache), nonces, transaction roots, and the
+    /// contract state after every block against a fresh re-execution.
+    pub fn check_chain(&self, node: RobotId) -> Result<(), String> {
+        let chain = self.canonical_chain(node);
+        if chain.first() != Some(&self.genesis) {
+            return Err("the chain does not start at genesis".into());
+        }
+        if chain.last() != Some(&self.node(node).head) {
+            return Err("the chain does not end at the head".into());
+        }
+        let mut state = ContractState::genesis(&self.params);
+        let mut nonces = vec![0u64; self.robots as usize];
+        let mut td = 0u64;
+        let mut recent: Vec<RobotId> = Vec::new();
+        for (height, pair) in chain.windows(2).enumerate() {
+            let height = height as u64 + 1;
+            let (parent, child) = (&self.blocks[&pair[0]], &self.blocks[&pair[1]]);
+            let h = &child.block.header;
+            let fail = |what: &str| Err(format!("node {node}, height {height}: {what}"));
+            if h.parent != pair[0] || h.height != height || h.hash_and_size().0 != pair[1] {
+                return fail("broken linkage");
+            }
+            if h.signer >= self.robots
+                || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature)
+            {
+                return fail("bad signer or signature");
+            }
+            if h.timestamp_ms < parent.block.header.timestamp_ms + self.period_ms {
+                return fail("sealed before the period elapsed");
+            }
+            if h.difficulty != self.expected_difficulty(height, h.signer) {
+                return fail("wrong difficulty");
+            }
+            let window = (self.robots / 2) as usize;
+            if recent.iter().rev().take(window).any(|&s| s == h.signer) {
+                return fail("recent signer sealed again");
+            }
+            recent.push(h.signer);
+            if h.tx_root != block::tx_root(&child.block.txs) {
+                return fail("transaction root mismatch");
+            }
+            for tx in &child.block.txs {
+                let tx = &self.txs[tx].tx;
+                if !tx.signature_ok(&self.keys) || tx.nonce != nonces[tx.sender as usize] {
+                    return fail("bad transaction signature or nonce");
+                }
+                nonces[tx.sender as usize] += 1;
+                state.execute(&self.params, tx.sender, tx.value_units, &tx.call);
+            }
+            td += h.difficulty;
+            if td != child.total_difficulty || state.digest() != child.state.digest() {
+                return fail("total difficulty or contract state differs from a fresh replay");
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The set of every node's known block ids (tests and metrics).
+pub fn known_block_union(ledger: &Ledger) -> BTreeSet<BlockHash> {
+    (0..ledger.robots())
+        .flat_map(|i| ledger.node(i).known_blocks.iter().copied())
+        .collect()
+}
+
+#[cfg(test)]
+mod tests;

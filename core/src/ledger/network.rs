@@ -1,0 +1,344 @@
+//! The driver side of the ledger: which event comes next.
+//!
+//! [`Network`] is not part of the reduced state; it decides, from the [`Ledger`]'s state, the
+//! peer sets and its own seeded randomness, the next sealing, gossip send or delivery, and
+//! returns it as a [`LedgerEvent`] for the driver to log and apply. Replaying a log needs no
+//! `Network`.
+//!
+//! Timing (all in integer simulated milliseconds, independent of how often the network is
+//! polled):
+//! - *Sealing*: a node may seal on its head at head.timestamp + period (in turn) or that plus a
+//!   delay (out of turn), but not before its head was adopted, and not at all while Clique's
+//!   recent-signer rule forbids it. The out-of-turn delay is uniform in
+//!   [0, (N/2 + 1) * wiggle_unit) and is a pure function of (seed, node, parent): keyed blake3
+//!   with the key `rng::derive_bytes(seed, Purpose::Sealing, node)`. Being a function of the
+//!   parent rather than a position in a stream, it cannot depend on polling or on how many
+//!   heads the node went through.
+//! - *Gossip*: every `run.tick_s` (the gossip round), for each node `a` in id order and each
+//!   peer `b` in ascending order: if `a`'s head is heavier than `b`'s and unknown to `b`, `a`
+//!   sends the blocks of its canonical chain that `b` lacks (ancestors first; also for an
+//!   equally heavy head when `b` may not seal on its own but may on `a`'s); and `a` sends
+//!   the pending transactions `b` has not seen (in `a`'s arrival order). Items already in
+//!   flight to `b` are not sent again (so `b` fetches each item from one peer at a time). All
+//!   of it goes in one message per (a, b) and round; nothing is sent (and nothing logged) when
+//!   there is nothing to send. Packet loss is drawn per message from `a`'s
+//!   `Purpose::Network` stream, in send order.
+//! - *Delivery*: a message arrives `ceil(bytes * 1000 / bandwidth)` ms after its link is free
+//!   (FIFO per directed link), at least 1 ms after it is sent; with unlimited bandwidth, 1 ms
+//!   after it is sent, so one hop per gossip round.
+//! - Simultaneous events come in the order (time, kind, node): deliveries, sealings, sends
+//!   (see [`LedgerEvent::kind_rank`]).
+
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
+
+use super::{BlockHash, ItemRef, Ledger, LedgerEvent};
+use crate::config::Config;
+use crate::rng::{self, Purpose, Rng};
+use crate::types::{RobotId, SimTime};
+
+/// A message waiting for its delivery time.
+#[derive(Clone, Debug)]
+struct Pending {
+    items: Vec<ItemRef>,
+}
+
+/// The driver-side scheduler of sealings, gossip and deliveries.
+#[derive(Clone, Debug)]
+pub struct Network {
+    seed: u64,
+    robots: u32,
+    gossip_ms: u64,
+    wiggle_max_ms: u64,
+    bandwidth_bytes_per_s: u64,
+    packet_loss: f64,
+    loss_rngs: Vec<Rng>,
+    next_gossip: SimTime,
+    /// Sends of the current gossip round, to be returned at `batch_time`.
+    batch: VecDeque<LedgerEvent>,
+    batch_time: SimTime,
+    /// Messages in flight by (delivery time, receiver, number).
+    flights: BTreeMap<(SimTime, RobotId, u64), Pending>,
+    in_flight: BTreeSet<(RobotId, ItemRef)>,
+    link_free: BTreeMap<(RobotId, RobotId), SimTime>,
+    /// Per ordered pair, the (sender, receiver) knowledge versions last found with nothing
+    /// to send: unchanged versions mean still nothing to send.
+    idle: Vec<Option<(u64, u64)>>,
+    /// Per node, the sealing time computed for (head, head_since).
+    seal_cache: Vec<Option<(BlockHash, SimTime, Option<SimTime>)>>,
+    /// The number the last returned send will get once applied.
+    awaiting_send: Option<u64>,
+}
+
+impl Network {
+    /// The network of a run.
+    pub fn new(config: &Config, seed: u64) -> Network {
+        let robots = config.world.robots;
+        let l = &config.ledger;
+        Network {
+            seed,
+            robots,
+            gossip_ms: ((config.run.tick_s * 1000.0).round() as u64).max(1),
+            wiggle_max_ms: (f64::from(robots / 2 + 1) * l.wiggle_unit_s * 1000.0).round() as u64,
+            bandwidth_bytes_per_s: l.bandwidth_bytes_per_s,
+            packet_loss: l.packet_loss,
+            loss_rngs: (0..robots)
+                .map(|r| rng::stream(seed, Purpose::Network, r))
+                .collect(),
+            next_gossip: SimTime(0),
+            batch: VecDeque::new(),
+            batch_time: SimTime(0),
+            flights: BTreeMap::new(),
+            in_flight: BTreeSet::new(),
+            link_free: BTreeMap::new(),
+            idle: vec![None; (robots as usize) * (robots as usize)],
+            seal_cache: vec![None; robots as usize],
+            awaiting_send: None,
+        }
+    }
+
+    /// A network that takes over a ledger replayed up to some time (a forked run): gossip
+    /// resumes at the first round at or after the ledger's time, and the messages in flight
+    /// are delivered 1 ms after it. The loss streams and the link queues start afresh, so the
+    /// continuation is deterministic but is not the one the original network would have
+    /// produced.
+    pub fn resume(config: &Config, seed: u64, ledger: &Ledger) -> Network {
+        let mut net = Network::new(config, seed);
+        let now = ledger.now().0;
+        net.next_gossip = SimTime(now.div_ceil(net.gossip_ms) * net.gossip_ms);
+        for (seq, _, to, items) in ledger.messages_in_flight() {
+            for item in items {
+                net.in_flight.insert((to, *item));
+            }
+            net.flights.insert(
+                (SimTime(now + 1), to, seq),
+                Pending {
+                    items: items.to_vec(),
+                },
+            );
+        }
+        net
+    }
+
+    /// The out-of-turn sealing delay of `node` on `parent`, in ms.
+    pub fn sealing_delay_ms(&self, node: RobotId, parent: &BlockHash) -> u64 {
+        if self.wiggle_max_ms == 0 {
+            return 0;
+        }
+        let key = rng::derive_bytes(self.seed, Purpose::Sealing, node);
+        let h = blake3::keyed_hash(&key, &parent.0);
+        let x = u64::from_le_bytes(h.as_bytes()[..8].try_into().expect("8 bytes"));
+        ((u128::from(x) * u128::from(self.wiggle_max_ms)) >> 64) as u64
+    }
+
+    /// When `node` will seal on its current head, if it may.
+    pub fn seal_time(&mut self, ledger: &Ledger, node: RobotId) -> Option<SimTime> {
+        let (head, height) = ledger.head(node);
+        let since = ledger.head_since(node);
+        if let Some((h, s, t)) = self.seal_cache[node as usize] {
+            if h == head && s == since {
+                return t;
+            }
+        }
+        let t = if ledger.signed_recently(&head, node) {
+            None
+        } else {
+            let parent_ms = ledger
+                .block(&head)
+                .expect("the head is stored")
+                .block
+                .header
+                .timestamp_ms;
+            let base = parent_ms + ledger.period_ms();
+            let delay = if ledger.expected_difficulty(height + 1, node) == 2 {
+                0
+            } else {
+                self.sealing_delay_ms(node, &head)
+            };
+            Some(SimTime(base + delay).max(since))
+        };
+        self.seal_cache[node as usize] = Some((head, since, t));
+        t
+    }
+
+    /// The next event due at or before `until`, or None. `peers[a]` lists the robots `a` can
+    /// reach now (the world's peer sets; missing entries mean none). The driver must apply
+    /// every returned event to `ledger` before asking again.
+    pub fn next_event(
+        &mut self,
+        ledger: &Ledger,
+        until: SimTime,
+        peers: &[Vec<RobotId>],
+    ) -> Option<(SimTime, LedgerEvent)> {
+        if let Some(seq) = self.awaiting_send.take() {
+            assert!(
+                ledger.messages_sent() > seq,
+                "the driver did not apply the last Send before polling"
+            );
+        }
+        assert_eq!(
+            ledger.robots(),
+            self.robots,
+            "network and ledger disagree on robots"
+        );
+        loop {
+            // Candidates as (time, kind rank, node).
+            let delivery = self.flights.keys().next().map(|&(t, to, _)| (t, 0u8, to));
+            let mut seal: Option<(SimTime, u8, RobotId)> = None;
+            for node in 0..self.robots {
+                if let Some(t) = self.seal_time(ledger, node) {
+                    if seal.is_none_or(|s| (t, 3, node) < s) {
+                        seal = Some((t, 3, node));
+                    }
+                }
+            }
+            let gossip_time = if self.batch.is_empty() {
+                self.next_gossip
+            } else {
+                self.batch_time
+            };
+            let gossip = Some((gossip_time, 4u8, 0));
+            let best = [delivery, seal, gossip]
+                .into_iter()
+                .flatten()
+                .min()
+                .expect("gossip is always a candidate");
+            if best.0 > until {
+                return None;
+            }
+            match best.1 {
+                0 => {
+                    let (key, pending) = self.flights.pop_first().expect("a delivery is due");
+                    for item in &pending.items {
+                        self.in_flight.remove(&(key.1, *item));
+                    }
+                    return Some((key.0, LedgerEvent::Deliver { message: key.2 }));
+                }
+                3 => {
+                    let node = best.2;
+                    let (parent, _) = ledger.head(node);
+                    let txs = ledger.sealable_txs(node);
+                    return Some((best.0, LedgerEvent::Seal { node, parent, txs }));
+                }
+                _ => {
+                    if self.batch.is_empty() {
+                        self.batch_time = self.next_gossip;
+                        self.next_gossip = SimTime(self.next_gossip.0 + self.gossip_ms);
+                        self.gossip_round(ledger, peers);
+                        if self.batch.is_empty() {
+                            continue;
+                        }
+                    }
+                    let event = self.batch.pop_front().expect("the batch is not empty");
+                    self.register_send(ledger, &event);
+                    return Some((self.batch_time, event));
+                }
+            }
+        }
+    }
+
+    /// Schedules the delivery of a send being returned now.
+    fn register_send(&mut self, ledger: &Ledger, event: &LedgerEvent) {
+        let LedgerEvent::Send {
+            from,
+            to,
+            items,
+            lost,
+        } = event
+        else {
+            unreachable!("the gossip batch holds sends only")
+        };
+        let seq = ledger.messages_sent();
+        self.awaiting_send = Some(seq);
+        let bytes: u64 = items.iter().map(|i| ledger.item_bytes(i)).sum();
+        let airtime_ms = if self.bandwidth_bytes_per_s == 0 {
+            1
+        } else {
+            (bytes * 1000).div_ceil(self.bandwidth_bytes_per_s).max(1)
+        };
+        let link = self.link_free.entry((*from, *to)).or_insert(SimTime(0));
+        let start = (*link).max(self.batch_time);
+        let due = SimTime(start.0 + airtime_ms);
+        *link = due;
+        if !lost {
+            self.flights.insert(
+                (due, *to, seq),
+                Pending {
+                    items: items.clone(),
+                },
+            );
+        }
+    }
+
+    /// Computes the sends of one gossip round at `batch_time`.
+    fn gossip_round(&mut self, ledger: &Ledger, peers: &[Vec<RobotId>]) {
+        let n = self.robots as usize;
+        for a in 0..self.robots {
+            let Some(list) = peers.get(a as usize) else {
+                continue;
+            };
+            let mut list: Vec<RobotId> = list
+                .iter()
+                .copied()
+                .filter(|&b| b != a && b < self.robots)
+                .collect();
+            list.sort_unstable();
+            list.dedup();
+            for b in list {
+                let versions = (ledger.node_version(a), ledger.node_version(b));
+                let slot = a as usize * n + b as usize;
+                if self.idle[slot] == Some(versions) {
+                    continue;
+                }
+                let items = self.items_to_send(ledger, a, b);
+                if items.is_empty() {
+                    self.idle[slot] = Some(versions);
+                    continue;
+                }
+                self.idle[slot] = None;
+                let lost = self.loss_rngs[a as usize].chance(self.packet_loss);
+                if !lost {
+                    for item in &items {
+                        self.in_flight.insert((b, *item));
+                    }
+                }
+                self.batch.push_back(LedgerEvent::Send {
+                    from: a,
+                    to: b,
+                    items,
+                    lost,
+                });
+            }
+        }
+    }
+
+    /// What `a` has for `b`: missing blocks of a heavier chain, then unseen transactions.
+    fn items_to_send(&self, ledger: &Ledger, a: RobotId, b: RobotId) -> Vec<ItemRef> {
+        let mut items = Vec::new();
+        let (head_a, _) = ledger.head(a);
+        let (head_b, _) = ledger.head(b);
+        let td = |h: &BlockHash| ledger.block(h).expect("heads are stored").total_difficulty;
+        // `b` fetches a heavier chain, or an equally heavy one when it may not seal on its own
+        // head but may on `a`'s (see the liveness rule of fork choice in `Ledger`).
+        let wanted = td(&head_a) > td(&head_b)
+            || (td(&head_a) == td(&head_b)
+                && ledger.signed_recently(&head_b, b)
+                && !ledger.signed_recently(&head_a, b));
+        if wanted && !ledger.knows_block(b, &head_a) {
+            for hash in ledger.canonical_chain(a).iter().rev() {
+                if ledger.knows_block(b, hash) {
+                    break;
+                }
+                if !self.in_flight.contains(&(b, ItemRef::Block(*hash))) {
+                    items.push(ItemRef::Block(*hash));
+                }
+            }
+            items.reverse();
+        }
+        for tx in ledger.mempool(a) {
+            if !ledger.knows_tx(b, &tx) && !self.in_flight.contains(&(b, ItemRef::Tx(tx))) {
+                items.push(ItemRef::Tx(tx));
+            }
+        }
+        items
+    }
+}

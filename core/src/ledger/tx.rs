@@ -1,0 +1,126 @@
+//! Transactions: sender, nonce, value, call, signature.
+//!
+//! A transaction's *id* ([`TxHash`]) is the blake3 hash of its full signed encoding
+//! (rmp-serde), as Ethereum's transaction hash covers the signature: a forgery that copies an
+//! honest body with another signature is a different item and can never shadow the honest one
+//! in content-addressed storage. The signature covers [`Tx::signing_hash`], the blake3 hash of
+//! the encoding of the unsigned body.
+
+use serde::{Deserialize, Serialize};
+
+use super::keys::{Keys, Sig};
+use crate::contract::Call;
+use crate::types::{Digest, RobotId};
+
+/// The id of a transaction: blake3 of its signed encoding.
+pub type TxHash = Digest;
+
+/// Largest encoded transaction a node accepts, in bytes: a 2848-weight submission encodes to
+/// about 14 KB; anything beyond this bound is malformed.
+pub const MAX_TX_BYTES: usize = 1 << 20;
+
+/// A signed transaction.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Tx {
+    /// The sending account (a robot id).
+    pub sender: RobotId,
+    /// The sender's transaction counter: its n-th transaction has nonce n (0-based).
+    pub nonce: u64,
+    /// Units transferred to the contract with the call (the stake).
+    pub value_units: u64,
+    /// The contract call.
+    pub call: Call,
+    /// The sender's ed25519 signature of [`Tx::signing_hash`].
+    pub signature: Sig,
+}
+
+/// The signed part of a transaction, borrowed.
+#[derive(Serialize)]
+struct UnsignedTx<'a> {
+    sender: RobotId,
+    nonce: u64,
+    value_units: u64,
+    call: &'a Call,
+}
+
+impl Tx {
+    /// A transaction signed by `sender`'s key.
+    pub fn signed(keys: &Keys, sender: RobotId, nonce: u64, value_units: u64, call: Call) -> Tx {
+        let mut tx = Tx {
+            sender,
+            nonce,
+            value_units,
+            call,
+            signature: Sig::ZERO,
+        };
+        tx.signature = keys.sign(sender, &tx.signing_hash());
+        tx
+    }
+
+    /// The digest the sender signs: blake3 of the encoded unsigned body.
+    pub fn signing_hash(&self) -> Digest {
+        let body = UnsignedTx {
+            sender: self.sender,
+            nonce: self.nonce,
+            value_units: self.value_units,
+            call: &self.call,
+        };
+        Digest::of(&rmp_serde::to_vec(&body).expect("a transaction body always encodes"))
+    }
+
+    /// The canonical encoding (what travels and what the chain stores).
+    pub fn encode(&self) -> Vec<u8> {
+        rmp_serde::to_vec(self).expect("a transaction always encodes")
+    }
+
+    /// Decodes a transaction; the error says what is wrong with the bytes.
+    pub fn decode(bytes: &[u8]) -> Result<Tx, String> {
+        rmp_serde::from_slice(bytes).map_err(|e| format!("undecodable transaction: {e}"))
+    }
+
+    /// The id and encoded size of this transaction.
+    pub fn hash_and_size(&self) -> (TxHash, u32) {
+        let bytes = self.encode();
+        (Digest::of(&bytes), bytes.len() as u32)
+    }
+
+    /// Whether the signature is the sender's (false for an unknown sender).
+    pub fn signature_ok(&self, keys: &Keys) -> bool {
+        keys.verify(self.sender, &self.signing_hash(), &self.signature)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hashes_cover_the_signature_and_signatures_cover_the_body() {
+        let keys = Keys::new(1, 3);
+        let tx = Tx::signed(
+            &keys,
+            1,
+            0,
+            5,
+            Call::Transfer {
+                to: 2,
+                amount_units: 7,
+            },
+        );
+        assert!(tx.signature_ok(&keys));
+        let mut forged = tx.clone();
+        forged.signature = Sig::ZERO;
+        assert!(!forged.signature_ok(&keys));
+        assert_ne!(forged.hash_and_size().0, tx.hash_and_size().0);
+        let mut altered = tx.clone();
+        altered.value_units = 6;
+        assert!(!altered.signature_ok(&keys));
+        let mut impostor = tx.clone();
+        impostor.sender = 0;
+        assert!(!impostor.signature_ok(&keys));
+        impostor.sender = 99;
+        assert!(!impostor.signature_ok(&keys));
+        assert_eq!(Tx::decode(&tx.encode()).unwrap(), tx);
+        assert!(Tx::decode(&tx.encode()[..10]).is_err());
+    }
+}
