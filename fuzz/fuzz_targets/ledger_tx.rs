@@ -31,6 +31,8 @@ fn template() -> &'static Ledger {
     LEDGER.get_or_init(|| {
         let mut config = Preset::Smoke.config();
         config.world.robots = ROBOTS;
+        config.contract.penalised_ranks = 1;
+        config.validate().expect("a valid small swarm");
         let params = ContractParams::from_config(&config, Arc::from(vec![0i64; 8]));
         Ledger::new(&config, 7, params)
     })
