@@ -17,10 +17,14 @@ fn accepted(config: &Config) {
     let text = config.to_toml();
     let back = Config::from_toml_str(&text, SOURCE);
     if config.validate().is_ok() {
-        let back = back.unwrap_or_else(|e| panic!("a valid config does not parse back: {e}\n{text}"));
+        let back =
+            back.unwrap_or_else(|e| panic!("a valid config does not parse back: {e}\n{text}"));
         // Floats print in TOML as they parse, so the round trip is exact (NaN aside).
         if back.to_toml() != text {
-            panic!("round trip changed the config:\n{text}\n---\n{}", back.to_toml());
+            panic!(
+                "round trip changed the config:\n{text}\n---\n{}",
+                back.to_toml()
+            );
         }
     }
 }
@@ -57,10 +61,15 @@ fuzz_target!(|data: &[u8]| {
                     let message = e.to_string();
                     let key = line.split_once('=').map(|(k, _)| k.trim());
                     let named = match key {
-                        Some(k) => message.contains(k) || matches!(e, ConfigError::UnknownKey { .. }),
+                        Some(k) => {
+                            message.contains(k) || matches!(e, ConfigError::UnknownKey { .. })
+                        }
                         None => message.contains(line),
                     };
-                    assert!(named, "error for `{line}` names neither the key nor the argument: {message}");
+                    assert!(
+                        named,
+                        "error for `{line}` names neither the key nor the argument: {message}"
+                    );
                 }
             }
         }

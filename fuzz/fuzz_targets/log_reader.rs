@@ -35,7 +35,10 @@ fn read_all(bytes: &[u8]) -> (Vec<Record>, Option<LogError>) {
             }
             Err(e) => {
                 let message = e.to_string();
-                assert!(message.starts_with("fuzz"), "error does not name the file: {message}");
+                assert!(
+                    message.starts_with("fuzz"),
+                    "error does not name the file: {message}"
+                );
                 if let Some(index) = e.record_index() {
                     assert_eq!(index, records.len() as u64, "{message}");
                 }
@@ -43,7 +46,10 @@ fn read_all(bytes: &[u8]) -> (Vec<Record>, Option<LogError>) {
             }
         }
     }
-    panic!("the reader returned more frames than {} bytes can hold", bytes.len());
+    panic!(
+        "the reader returned more frames than {} bytes can hold",
+        bytes.len()
+    );
 }
 
 fn u32_at(bytes: &[u8], at: usize) -> u32 {
@@ -107,7 +113,10 @@ impl Bytes<'_> {
 
 fn damaged(data: &[u8]) {
     let mut input = Bytes(data);
-    let header = Header::new(input.u64(), format!("preset = \"smoke\"\nrun = {}\n", input.u8()));
+    let header = Header::new(
+        input.u64(),
+        format!("preset = \"smoke\"\nrun = {}\n", input.u8()),
+    );
     let mut writer = LogWriter::new(Vec::new(), "fuzz", &header).expect("writes to memory");
     let mut written = Vec::new();
     for _ in 0..input.u8() % 24 {
@@ -123,7 +132,9 @@ fn damaged(data: &[u8]) {
                 _ => CheckpointCause::End,
             },
             world: Digest::of(&[input.u8()]),
-            nodes: (0..flags / 64).map(|i| Digest::of(&[i, input.u8()])).collect(),
+            nodes: (0..flags / 64)
+                .map(|i| Digest::of(&[i, input.u8()]))
+                .collect(),
             contract: Digest::of(&[input.u8(), 1]),
             metrics: Digest::default(),
         });
@@ -133,7 +144,10 @@ fn damaged(data: &[u8]) {
     let (footer, bytes) = writer.finish().expect("writes to memory");
     let (records, err) = read_all(&bytes);
     assert!(err.is_none(), "an intact log fails: {err:?}");
-    assert_eq!(records, written, "an intact log reads back different records");
+    assert_eq!(
+        records, written,
+        "an intact log reads back different records"
+    );
     assert_eq!(footer.records, written.len() as u64);
 
     let mut damaged = bytes.clone();
