@@ -467,15 +467,39 @@ impl Config {
         file: Option<&Path>,
         overrides: &[String],
     ) -> Result<Config, ConfigError> {
-        let mut file_table: Option<toml::Table> = None;
-        let mut preset_name = preset.map(str::to_string);
-        if let Some(path) = file {
-            let text = std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+        let text = match file {
+            Some(path) => Some(std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
                 path: path.display().to_string(),
                 message: e.to_string(),
-            })?;
-            let table: toml::Table = toml::from_str(&text).map_err(|e| ConfigError::Parse {
-                source_name: path.display().to_string(),
+            })?),
+            None => None,
+        };
+        let source_name = file.map(|p| p.display().to_string()).unwrap_or_default();
+        Config::resolve_text(
+            preset,
+            text.as_deref().map(|t| (t, source_name.as_str())),
+            overrides,
+        )
+    }
+
+    /// Parses the text of a configuration file (a partial TOML overlaid on its own `preset`, or
+    /// on `paper`) and validates it; `source_name` names the text in errors. This is
+    /// [`Config::resolve`] without the file system and without overrides.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Config, ConfigError> {
+        Config::resolve_text(None, Some((text, source_name)), &[])
+    }
+
+    /// [`Config::resolve`] on a file's text and name instead of its path.
+    fn resolve_text(
+        preset: Option<&str>,
+        file: Option<(&str, &str)>,
+        overrides: &[String],
+    ) -> Result<Config, ConfigError> {
+        let mut file_table: Option<(toml::Table, &str)> = None;
+        let mut preset_name = preset.map(str::to_string);
+        if let Some((text, source_name)) = file {
+            let table: toml::Table = toml::from_str(text).map_err(|e| ConfigError::Parse {
+                source_name: source_name.to_string(),
                 message: e.to_string(),
             })?;
             if preset_name.is_none() {
@@ -483,18 +507,17 @@ impl Config {
                     preset_name = Some(p.to_string());
                 }
             }
-            file_table = Some(table);
+            file_table = Some((table, source_name));
         }
         let preset = Preset::from_name(preset_name.as_deref().unwrap_or("paper"))?;
         let mut config = preset.config();
-        if let Some(table) = file_table {
-            let source_name = file.map(|p| p.display().to_string()).unwrap_or_default();
+        if let Some((table, source_name)) = file_table {
             let mut base = toml::Value::try_from(&config).expect("Config serialises");
-            merge(&mut base, toml::Value::Table(table), "", &source_name)?;
+            merge(&mut base, toml::Value::Table(table), "", source_name)?;
             config = base
                 .try_into()
                 .map_err(|e: toml::de::Error| ConfigError::Parse {
-                    source_name,
+                    source_name: source_name.to_string(),
                     message: e.to_string(),
                 })?;
             config.preset = preset.name().to_string();
@@ -528,7 +551,7 @@ impl Config {
         for part in key.split('.') {
             let table = slot.as_table_mut().ok_or_else(|| ConfigError::UnknownKey {
                 key: key.to_string(),
-                allowed: String::new(),
+                allowed: format!("`{walked}` is a value, not a table; set `{walked}` itself"),
             })?;
             if !table.contains_key(part) {
                 let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
@@ -606,6 +629,15 @@ impl Config {
             }
         }
         let c = self;
+        // The preset names output folders (`runs/<preset>-seed<seed>`), so it must be one of
+        // the known names, never a path.
+        if Preset::from_name(&c.preset).is_err() {
+            return Err(ConfigError::OutOfRange {
+                key: "preset".to_string(),
+                value: format!("{:?}", c.preset),
+                allowed: format!("one of {}", Preset::ALL.map(Preset::name).join(", ")),
+            });
+        }
         positive("run.duration_s", c.run.duration_s)?;
         range("run.duration_s", c.run.duration_s, 0.0, 1.0e7)?;
         range("run.tick_s", c.run.tick_s, 0.001, 10.0)?;
@@ -1016,6 +1048,14 @@ mod tests {
         check_err(&["byzantine.kind=evil"], "byzantine.kind");
         check_err(&["byzantine.kind=faulty"], "byzantine.count");
         check_err(&["noequals"], "expected key.path=value");
+        check_err(
+            &["world.robots.x=1"],
+            "unknown configuration key `world.robots.x`; `world.robots` is a value, not a table",
+        );
+        check_err(
+            &["preset=../../etc"],
+            "`preset`: value \"../../etc\" is out of range; allowed: one of paper, reference",
+        );
         let err = Config::resolve(Some("papr"), None, &[])
             .unwrap_err()
             .to_string();
@@ -1052,5 +1092,27 @@ mod tests {
             .to_string();
         assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn text_parses_like_a_file_and_names_its_source() {
+        let c =
+            Config::from_toml_str("preset = \"smoke\"\n[world]\nrobots = 12\n", "mine").unwrap();
+        assert_eq!((c.world.robots, c.preset.as_str()), (12, "smoke"));
+        let paper = Config::from_toml_str("", "empty").unwrap();
+        assert_eq!(paper, Preset::Paper.config());
+        for (text, expect) in [
+            ("[world\n", "invalid configuration in mine"),
+            ("[world]\nrobots = \"x\"\n", "`world.robots (in mine)`"),
+            ("preset = 3\n", "`preset (in mine)`"),
+            ("preset = \"nope\"\n", "unknown preset \"nope\""),
+            (
+                "[world]\nrobots = 0\n",
+                "`world.robots`: value 0 is out of range",
+            ),
+        ] {
+            let err = Config::from_toml_str(text, "mine").unwrap_err().to_string();
+            assert!(err.contains(expect), "{text:?}: {err:?} lacks {expect:?}");
+        }
     }
 }

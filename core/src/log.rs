@@ -401,6 +401,15 @@ impl LogReader<BufReader<File>> {
     }
 }
 
+/// Replaces `buf` with the next `len` bytes of `input`, or with fewer if the input ends first.
+/// The buffer grows with the bytes actually read, so a damaged length field on a short file
+/// fails fast instead of allocating the whole claimed length up front.
+fn read_exact_or_less<R: Read>(input: &mut R, len: u64, buf: &mut Vec<u8>) -> std::io::Result<()> {
+    buf.clear();
+    input.take(len).read_to_end(buf)?;
+    Ok(())
+}
+
 /// Reads until `buf` is full or the input ends; returns the bytes read.
 fn read_full<R: Read>(input: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut filled = 0;
@@ -453,9 +462,10 @@ impl<R: Read> LogReader<R> {
                 message: format!("header length {header_len} is absurd"),
             });
         }
-        let mut header_bytes = vec![0u8; header_len as usize + 8];
-        let got = read_full(&mut input, &mut header_bytes).map_err(io)?;
-        if got < header_bytes.len() {
+        let mut header_bytes = Vec::new();
+        read_exact_or_less(&mut input, u64::from(header_len) + 8, &mut header_bytes).map_err(io)?;
+        let got = header_bytes.len();
+        if got < header_len as usize + 8 {
             return Err(LogError::Header {
                 path: name.to_string(),
                 offset: 16,
@@ -590,11 +600,13 @@ impl<R: Read> LogReader<R> {
                 format!("frame length {len} exceeds the maximum {MAX_PAYLOAD_BYTES}"),
             ));
         }
-        self.payload.resize(len as usize, 0);
-        let got = read_full(&mut self.input, &mut self.payload).map_err(|e| LogError::Io {
-            path: self.path.clone(),
-            message: e.to_string(),
+        read_exact_or_less(&mut self.input, u64::from(len), &mut self.payload).map_err(|e| {
+            LogError::Io {
+                path: self.path.clone(),
+                message: e.to_string(),
+            }
         })?;
+        let got = self.payload.len();
         if got < len as usize {
             return Err(self.truncated(
                 frame_offset,
@@ -636,7 +648,7 @@ impl<R: Read> LogReader<R> {
                     "bytes follow the footer".to_string(),
                 ));
             }
-            self.chain = chain;
+            // The chain stays at the final hash (the footer's tag folds the footer itself).
             self.offset += FRAME_OVERHEAD + u64::from(len);
             self.footer = Some(footer);
             return Ok(None);
@@ -725,6 +737,9 @@ mod tests {
         let (records, end) = read_all(&bytes);
         assert_eq!(records.len(), 25);
         assert_eq!(end.unwrap(), footer);
+        let mut reader = LogReader::new(&bytes[..], "mem").unwrap();
+        while reader.next_record().unwrap().is_some() {}
+        assert_eq!(reader.chain_hash(), footer.final_hash, "after the footer");
         assert_eq!(records[9].kind(), "checkpoint");
         assert_eq!(records[3].time(), SimTime(300));
     }
@@ -790,6 +805,38 @@ mod tests {
                 );
             }
         }
+    }
+
+    #[test]
+    fn a_huge_length_on_a_short_file_fails_without_allocating_it() {
+        let (bytes, _) = sample_log(3);
+        let header_end = LogReader::new(&bytes[..], "mem").unwrap().offset() as usize;
+        let mut damaged = bytes[..header_end + 13].to_vec();
+        damaged[header_end + 1..header_end + 5].copy_from_slice(&MAX_PAYLOAD_BYTES.to_le_bytes());
+        let mut reader = LogReader::new(&damaged[..], "mem").unwrap();
+        let err = reader.next_record().unwrap_err();
+        assert!(matches!(err, LogError::Truncated { index: 0, .. }), "{err}");
+        assert!(
+            err.to_string().contains("(0 of 268435456 payload bytes)"),
+            "{err}"
+        );
+        assert!(
+            reader.payload.capacity() < 1 << 20,
+            "{}",
+            reader.payload.capacity()
+        );
+
+        let mut header = bytes[..16].to_vec();
+        header[12..16].copy_from_slice(&MAX_PAYLOAD_BYTES.to_le_bytes());
+        header.extend_from_slice(&[0x90; 40]);
+        let err = LogReader::new(&header[..], "mem")
+            .err()
+            .unwrap()
+            .to_string();
+        assert!(
+            err.contains("ends inside the header (40 of 268435464 bytes)"),
+            "{err}"
+        );
     }
 
     #[test]
