@@ -22,7 +22,7 @@ enum Spec {
     },
     Tick {
         time_ms: u64,
-        commands: Vec<(f32, f32)>,
+        commands: Vec<(i16, i16)>,
     },
 }
 
@@ -55,7 +55,10 @@ fn record(spec: &Spec) -> Record {
             event: Event::Tick(TickEvent {
                 commands: commands
                     .iter()
-                    .map(|&(left, right)| WheelCommand { left, right })
+                    .map(|&(left_mmps, right_mmps)| WheelCommand {
+                        left_mmps,
+                        right_mmps,
+                    })
                     .collect(),
             }),
         },
@@ -74,7 +77,7 @@ fn spec() -> impl Strategy<Value = Spec> {
                 salt,
             }
         ),
-        1 => (any::<u64>(), prop::collection::vec((-1.0f32..1.0, -1.0f32..1.0), 0..20))
+        1 => (any::<u64>(), prop::collection::vec((any::<i16>(), any::<i16>()), 0..20))
             .prop_map(|(time_ms, commands)| Spec::Tick { time_ms, commands }),
     ]
 }

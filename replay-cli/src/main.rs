@@ -183,10 +183,17 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
             }
             let (state, config, seed) = replay::state_at_time(&log, SimTime::from_secs(time))?;
-            let marks: Vec<snapshot::RobotMark> = swarmfl_core::byzantine::byzantine_robots(&config, seed)
-                .into_iter()
-                .map(|b| if b { snapshot::RobotMark::Byzantine } else { snapshot::RobotMark::Honest })
-                .collect();
+            let marks: Vec<snapshot::RobotMark> =
+                swarmfl_core::byzantine::byzantine_robots(&config, seed)
+                    .into_iter()
+                    .map(|b| {
+                        if b {
+                            snapshot::RobotMark::Byzantine
+                        } else {
+                            snapshot::RobotMark::Honest
+                        }
+                    })
+                    .collect();
             let title = format!("{} at t = {}", log.display(), state.world.time());
             snapshot::draw(&state.world, &marks, &title, &out)?;
             println!("wrote {} (t = {})", out.display(), state.world.time());
