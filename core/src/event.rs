@@ -80,6 +80,9 @@ pub struct Checkpoint {
     pub time: SimTime,
     /// Why the checkpoint was taken.
     pub cause: CheckpointCause,
+    /// Digest of the run's fixed parameters: the contract's (stake, quorum, threshold, rewards,
+    /// genesis model) and the genesis block they are committed to.
+    pub params: Digest,
     /// Digest of the world (poses, sensors, data sets).
     pub world: Digest,
     /// Digest of each node's ledger state (head and mempool), in robot order.
@@ -104,11 +107,20 @@ pub enum CheckpointCause {
     Periodic,
     /// The end of the run.
     End,
+    /// The state at time 0, before any event.
+    Genesis,
 }
 
 impl Checkpoint {
     /// Names the first component whose digest differs from `other`'s, or `None` if equal.
     pub fn first_difference(&self, other: &Checkpoint) -> Option<String> {
+        if self.params != other.params {
+            return Some(
+                "the run's fixed parameters (contract parameters or genesis model; the code that \
+                 derives them from the configuration changed)"
+                    .to_string(),
+            );
+        }
         if self.world != other.world {
             return Some("world".to_string());
         }

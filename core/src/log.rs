@@ -691,6 +691,7 @@ mod tests {
                     nodes: vec![],
                     contract: Digest::default(),
                     metrics: Digest::default(),
+                    params: Digest::default(),
                 })
             } else {
                 Record::Event {

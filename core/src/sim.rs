@@ -89,6 +89,8 @@ pub struct State {
     pub ledger: Ledger,
     /// What the robots measured.
     pub metrics: Metrics,
+    /// Digest of the fixed parameters (contract parameters and genesis block).
+    pub params: Digest,
 }
 
 /// The fixed-point genesis model of the run `(config, seed)` (Keras initialisation).
@@ -105,10 +107,15 @@ impl State {
     pub fn genesis(config: &Config, seed: u64) -> Result<State, SimError> {
         let world = World::new(config, seed)?;
         let params = ContractParams::from_config(config, genesis_weights(config, seed)?);
+        let mut digest = blake3::Hasher::new();
+        digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
+        let ledger = Ledger::new(config, seed, params);
+        digest.update(&ledger.genesis().0);
         Ok(State {
             world,
-            ledger: Ledger::new(config, seed, params),
+            ledger,
             metrics: Metrics::default(),
+            params: digest.finalize().into(),
         })
     }
 
@@ -155,6 +162,7 @@ impl State {
         Checkpoint {
             time,
             cause,
+            params: self.params,
             world: self.world.digest(),
             nodes: (0..robots).map(|r| self.ledger.node_digest(r)).collect(),
             contract: contract.finalize().into(),
@@ -399,6 +407,7 @@ pub struct Sim {
     total_ticks: u64,
     next_tick: u64,
     queue: VecDeque<Record>,
+    genesis_checked: bool,
     finished: bool,
     profiler: Option<Box<dyn Profiler>>,
 }
@@ -438,6 +447,7 @@ impl Sim {
             tick_ms,
             next_tick: 0,
             queue: VecDeque::new(),
+            genesis_checked: false,
             finished: false,
             profiler: None,
         })
@@ -492,6 +502,11 @@ impl Sim {
 
     /// Decides, folds and queues the records of the next tick.
     fn advance(&mut self) {
+        if !self.genesis_checked {
+            self.genesis_checked = true;
+            self.checkpoint(SimTime(0), CheckpointCause::Genesis);
+            return;
+        }
         if self.next_tick == self.total_ticks {
             let end = self.state.world.time();
             self.checkpoint(end, CheckpointCause::End);

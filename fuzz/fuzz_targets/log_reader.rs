@@ -137,6 +137,7 @@ fn damaged(data: &[u8]) {
                 .collect(),
             contract: Digest::of(&[input.u8(), 1]),
             metrics: Digest::default(),
+            params: Digest::default(),
         });
         writer.append(&record).expect("writes to memory");
         written.push(record);

@@ -2,6 +2,7 @@
 
 mod bench_train;
 mod bench_world;
+mod fixtures;
 mod run;
 mod snapshot;
 
@@ -93,6 +94,15 @@ enum Command {
         #[arg(long)]
         resimulate: bool,
     },
+    /// Regression fixtures: `regenerate` re-makes fixtures/logs and fixtures/expected.toml
+    /// from fixtures/manifest.toml (after an intentional change; see CHANGELOG.md).
+    Fixtures {
+        /// What to do.
+        action: FixturesAction,
+        /// The fixtures folder.
+        #[arg(long, default_value = "fixtures")]
+        dir: PathBuf,
+    },
     /// List the presets.
     Presets,
     /// Print the fully resolved configuration as TOML.
@@ -108,6 +118,12 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+enum FixturesAction {
+    /// Re-run every fixture of the manifest and rewrite the expected hashes.
+    Regenerate,
 }
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
@@ -199,6 +215,10 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             println!("wrote {} (t = {})", out.display(), state.world.time());
         }
         Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
+        Command::Fixtures {
+            action: FixturesAction::Regenerate,
+            dir,
+        } => fixtures::regenerate(&dir)?,
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());
