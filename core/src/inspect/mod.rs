@@ -600,6 +600,45 @@ pub fn bisect(
     }))
 }
 
+/// How a predicate behaves over the whole final canonical chain.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize)]
+pub struct Profile {
+    /// The first block where it holds.
+    pub first: Option<u64>,
+    /// The first block from which it holds at every later block ("for good").
+    pub for_good_from: Option<u64>,
+    /// Whether it is monotone (false, then true for good).
+    pub monotone: bool,
+    /// How many times it turns from true to false.
+    pub relapses: u64,
+}
+
+/// Evaluates `predicate` at every block (cheap: the values are in memory once the log is
+/// folded) to tell whether a `--monotone` answer can be trusted.
+pub fn profile(values: &ChainValues<'_>, predicate: &Expr) -> Result<Profile, InspectError> {
+    let mut truth = Vec::with_capacity(values.len());
+    for h in 0..values.len() as u64 {
+        truth.push(
+            predicate
+                .holds(&values.at(h))
+                .map_err(|source| InspectError::Eval { block: h, source })?,
+        );
+    }
+    let first = truth.iter().position(|&t| t).map(|h| h as u64);
+    let for_good_from = match truth.iter().rposition(|&t| !t) {
+        None => Some(0),
+        Some(last_false) if last_false + 1 < truth.len() => Some(last_false as u64 + 1),
+        Some(_) => None,
+    };
+    let relapses = truth.windows(2).filter(|w| w[0] && !w[1]).count() as u64;
+    Ok(Profile {
+        first,
+        for_good_from,
+        monotone: relapses == 0,
+        relapses,
+    })
+}
+
 /// What `swarmfl inspect` shows about one block.
 #[derive(Clone, Debug, Serialize)]
 pub struct BlockReport {

@@ -202,6 +202,13 @@ fn blocks_are_found_inspected_and_bisected() {
             .map(|h| e.holds(&values.at(h)).unwrap())
             .collect();
         let monotone = truth.windows(2).all(|w| w[1] || !w[0]);
+        let prof = profile(&values, &e).unwrap();
+        assert_eq!(prof.monotone, monotone, "{src}");
+        assert_eq!(prof.first, truth.iter().position(|&t| t).map(|h| h as u64));
+        if let Some(g) = prof.for_good_from {
+            assert!(truth[g as usize..].iter().all(|&t| t));
+            assert!(g == 0 || !truth[g as usize - 1]);
+        }
         let scan = bisect(&values, &e, false).unwrap();
         let binary = bisect(&values, &e, true).unwrap();
         assert_eq!(
