@@ -170,6 +170,8 @@ Identifiers, at each block of the final canonical chain:
   heldout_loss      loss of the block's shared model on the held-out set
   byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
   honest_tokens     MEAN balance of the honest robots, tokens (NaN without any)
+  byzantine_wealth  byzantine_tokens plus the group's stakes in the current round, per robot
+  honest_wealth     honest_tokens plus the group's stakes in the current round, per robot
   byzantine_sum     total balance of the Byzantine robots, tokens
   honest_sum        total balance of the honest robots, tokens
   accepted          accepted submissions in the current round

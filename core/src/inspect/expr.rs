@@ -49,6 +49,14 @@ pub const IDENTS: &[(&str, &str)] = &[
         "mean balance of the honest robots, tokens (NaN without any)",
     ),
     (
+        "byzantine_wealth",
+        "byzantine_tokens plus the group's stakes in the current round, per robot",
+    ),
+    (
+        "honest_wealth",
+        "honest_tokens plus the group's stakes in the current round, per robot",
+    ),
+    (
         "byzantine_sum",
         "total balance of the Byzantine robots, tokens",
     ),
@@ -214,7 +222,10 @@ fn tokenize(src: &str) -> Result<Vec<(Tok, usize)>, ParseError> {
             while i < chars.len() && chars[i].is_ascii_digit() {
                 i += 1;
             }
-            if i < chars.len() && chars[i] == '.' && chars.get(i + 1).is_some_and(char::is_ascii_digit) {
+            if i < chars.len()
+                && chars[i] == '.'
+                && chars.get(i + 1).is_some_and(char::is_ascii_digit)
+            {
                 i += 1;
                 while i < chars.len() && chars[i].is_ascii_digit() {
                     i += 1;
@@ -309,7 +320,9 @@ impl Parser<'_> {
     ) -> Result<Expr, ParseError> {
         let mut left = next(self)?;
         loop {
-            let Some(&(_, op)) = ops.iter().find(|(s, _)| matches!(self.peek(), Tok::Op(o) if o == s))
+            let Some(&(_, op)) = ops
+                .iter()
+                .find(|(s, _)| matches!(self.peek(), Tok::Op(o) if o == s))
             else {
                 return Ok(left);
             };

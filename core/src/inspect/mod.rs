@@ -130,8 +130,14 @@ pub struct RunIndex {
     pub chain_bytes: Vec<ChainBytesRow>,
     /// The state right after the sealing of the block asked for in [`index_run`], with each
     /// robot's last learning report until then.
-    pub at_block: Option<(State, Vec<Option<(SimTime, LearnReport)>>)>,
+    pub at_block: Option<StateAtBlock>,
 }
+
+/// Each robot's last learning report so far, with its time.
+pub type LastLearning = Vec<Option<(SimTime, LearnReport)>>;
+
+/// The full state right after a block's sealing, with each robot's last learning report.
+pub type StateAtBlock = (State, LastLearning);
 
 struct Sealed {
     record: u64,
@@ -154,9 +160,8 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     let robots = config.world.robots;
     let mut sealed: BTreeMap<BlockHash, Sealed> = BTreeMap::new();
     let mut chain_bytes = Vec::new();
-    let mut learned: Vec<Option<(SimTime, LearnReport)>> = vec![None; robots as usize];
-    let mut candidates: BTreeMap<BlockHash, (State, Vec<Option<(SimTime, LearnReport)>>)> =
-        BTreeMap::new();
+    let mut learned: LastLearning = vec![None; robots as usize];
+    let mut candidates: BTreeMap<BlockHash, StateAtBlock> = BTreeMap::new();
     let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
     while let Some(record) = reader.next_record().map_err(ReplayError::from)? {
         let index = reader.index() - 1;
@@ -233,10 +238,13 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     let best = metrics::best_node(&state.ledger);
     let mut chain = Vec::new();
     for (height, hash) in state.ledger.canonical_chain(best).iter().enumerate() {
-        let entry = state.ledger.block(hash).ok_or_else(|| InspectError::Inconsistent {
-            path: name.clone(),
-            message: format!("canonical block {} is not stored", hash.short()),
-        })?;
+        let entry = state
+            .ledger
+            .block(hash)
+            .ok_or_else(|| InspectError::Inconsistent {
+                path: name.clone(),
+                message: format!("canonical block {} is not stored", hash.short()),
+            })?;
         let row = if height == 0 {
             BlockRow {
                 height: 0,
@@ -261,7 +269,10 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
                 node_heights: s.node_heights.clone(),
             }
         };
-        assert_eq!(entry.block.header.height, row.height, "heights follow the chain");
+        assert_eq!(
+            entry.block.header.height, row.height,
+            "heights follow the chain"
+        );
         chain.push(row);
     }
     let last = chain.len() as u64 - 1;
@@ -343,7 +354,9 @@ impl RunIndex {
         let mut out = Vec::new();
         let mut round_txs = Vec::new();
         for row in &self.chain {
-            let entry = ledger.block(&row.hash).expect("canonical blocks are stored");
+            let entry = ledger
+                .block(&row.hash)
+                .expect("canonical blocks are stored");
             for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
                 if outcome.is_accepted() {
                     round_txs.push(*tx_hash);
@@ -468,6 +481,21 @@ impl expr::Env for BlockValues<'_> {
             (index.tokens(units.iter().sum()), units.len())
         };
         let mean = |(sum, n): (f64, usize)| if n == 0 { f64::NAN } else { sum / n as f64 };
+        // Balance plus the stakes the group has in the current round (still in the pool).
+        let wealth = |byz: bool| -> f64 {
+            let staked: u64 = state
+                .submissions
+                .iter()
+                .filter(|s| index.byzantine.get(s.sender as usize) == Some(&byz))
+                .map(|s| s.stake_units)
+                .sum();
+            let (sum, n) = group(byz);
+            if n == 0 {
+                f64::NAN
+            } else {
+                (sum + index.tokens(staked)) / n as f64
+            }
+        };
         Ok(match name {
             "height" => row.height as f64,
             "time" => row.time.secs(),
@@ -475,17 +503,21 @@ impl expr::Env for BlockValues<'_> {
             "loss" => self.values.loss_at[self.height as usize],
             "heldout_loss" => {
                 let mut cache = self.values.heldout_cache.borrow_mut();
-                *cache.entry(state.round).or_insert_with(|| match &self.values.heldout {
-                    Some(data) => learn::loss(
-                        &self.values.shape,
-                        &learn::from_fixed(&state.weights, index.config.contract.weight_scale),
-                        data,
-                    ),
-                    None => f64::NAN,
-                })
+                *cache
+                    .entry(state.round)
+                    .or_insert_with(|| match &self.values.heldout {
+                        Some(data) => learn::loss(
+                            &self.values.shape,
+                            &learn::from_fixed(&state.weights, index.config.contract.weight_scale),
+                            data,
+                        ),
+                        None => f64::NAN,
+                    })
             }
             "byzantine_tokens" => mean(group(true)),
             "honest_tokens" => mean(group(false)),
+            "byzantine_wealth" => wealth(true),
+            "honest_wealth" => wealth(false),
             "byzantine_sum" => group(true).0,
             "honest_sum" => group(false).0,
             "accepted" => state.accepted_count() as f64,
@@ -840,7 +872,9 @@ pub fn block_report(
         .expect("the index was made for this block");
     let row = &index.chain[height as usize];
     let final_ledger = &index.final_state.ledger;
-    let entry = final_ledger.block(&row.hash).expect("canonical blocks are stored");
+    let entry = final_ledger
+        .block(&row.hash)
+        .expect("canonical blocks are stored");
     let header = &entry.block.header;
     let byz = |r: RobotId| index.byzantine.get(r as usize).copied().unwrap_or(false);
     let txs = entry
@@ -856,10 +890,9 @@ pub fn block_report(
                     t.value_units,
                     match &t.call {
                         Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
-                        Call::Transfer { to, amount_units } => format!(
-                            "transfer(to={to}, {} tokens)",
-                            index.tokens(*amount_units)
-                        ),
+                        Call::Transfer { to, amount_units } => {
+                            format!("transfer(to={to}, {} tokens)", index.tokens(*amount_units))
+                        }
                     },
                 ),
                 None => (RobotId::MAX, 0, "?".to_string()),

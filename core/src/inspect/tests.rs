@@ -37,7 +37,10 @@ fn check(src: &str, expect: Result<f64, usize>) {
     match (Expr::parse(src), expect) {
         (Ok(e), Ok(v)) => {
             let got = e.eval(&Fixed).unwrap();
-            assert!(got == v || (got.is_nan() && v.is_nan()), "{src}: {got} != {v}");
+            assert!(
+                got == v || (got.is_nan() && v.is_nan()),
+                "{src}: {got} != {v}"
+            );
         }
         (Err(e), Err(column)) => {
             assert_eq!(e.column, column, "{src}: {e}");
@@ -96,7 +99,10 @@ fn parse_errors_say_what_was_expected_and_show_the_column() {
     assert!(text.contains("column 10"), "{text}");
     assert!(text.ends_with("         ^"), "{text:?}");
     let e = Expr::parse("byzantine_token > 1").unwrap_err();
-    assert!(e.message.contains("byzantine_tokens"), "lists the identifiers: {e}");
+    assert!(
+        e.message.contains("byzantine_tokens"),
+        "lists the identifiers: {e}"
+    );
 }
 
 #[test]
@@ -161,14 +167,26 @@ fn blocks_are_found_inspected_and_bisected() {
     let (folded, _, _) = crate::replay::state_at_time(&path, index.chain[h as usize].time).unwrap();
     let sealed_at = index.chain[h as usize].time;
     assert!(state.world.time() >= sealed_at && state.world.time().0 < sealed_at.0 + 100);
-    assert_eq!(state.world.digest(), folded.world.digest(), "same tick, same world");
+    assert_eq!(
+        state.world.digest(),
+        folded.world.digest(),
+        "same tick, same world"
+    );
     let signer = report.block.signer.unwrap();
-    assert_eq!(report.nodes[signer as usize].height, h, "the signer's head is the block");
+    assert_eq!(
+        report.nodes[signer as usize].height, h,
+        "the signer's head is the block"
+    );
     assert!(report.nodes[signer as usize].on_final_chain);
     assert_eq!(report.robot.as_ref().unwrap().robot, 1);
     assert_eq!(report.contract.balances.len(), 15);
     assert_eq!(
-        report.contract.balances.iter().filter(|b| b.byzantine).count(),
+        report
+            .contract
+            .balances
+            .iter()
+            .filter(|b| b.byzantine)
+            .count(),
         3
     );
     let genesis = index_run(&path, Some(0)).unwrap();
@@ -183,7 +201,10 @@ fn blocks_are_found_inspected_and_bisected() {
     }
     assert!(matches!(
         block_report(&at, h, Some(15)),
-        Err(InspectError::NoRobot { robot: 15, robots: 15 })
+        Err(InspectError::NoRobot {
+            robot: 15,
+            robots: 15
+        })
     ));
 
     // Bisect: the scan and the binary search agree on monotone predicates.
@@ -194,6 +215,7 @@ fn blocks_are_found_inspected_and_bisected() {
         "round >= 1",
         "node[0].height >= 4",
         "byzantine_tokens > honest_tokens",
+        "byzantine_wealth > honest_wealth",
         "!(pool < 0)",
         "height > 100000",
     ] {
