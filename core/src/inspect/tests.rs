@@ -267,5 +267,22 @@ fn blocks_are_found_inspected_and_bisected() {
         assert_eq!(w[1].round, w[0].round + 1);
         assert!(w[1].block > w[0].block);
     }
+
+    // A log of another format version: a clear error naming both versions, no panic.
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[8..12].copy_from_slice(&(crate::log::FORMAT_VERSION + 1).to_le_bytes());
+    let other = path.with_file_name("other-version.swlog");
+    std::fs::write(&other, &bytes).unwrap();
+    let e = index_run(&other, Some(1))
+        .err()
+        .expect("another version is refused");
+    assert!(
+        matches!(
+            e,
+            InspectError::Replay(ReplayError::Log(crate::log::LogError::Version { .. }))
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("format version"), "{e}");
     std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }
