@@ -7,18 +7,63 @@ use swarmfl_core::inspect::{self, BlockReport, Expr, SubmissionInfo};
 use swarmfl_core::RobotId;
 
 /// Prints block `height` of the log (human-readable or JSON) and the time it took.
-pub fn inspect(log: &Path, height: u64, robot: Option<RobotId>, json: bool) -> anyhow::Result<()> {
+/// With `use_index`, a valid sidecar `LOG.idx` lets it fold only up to the block; without one,
+/// the whole log is folded and the sidecar written for next time.
+pub fn inspect(
+    log: &Path,
+    height: u64,
+    robot: Option<RobotId>,
+    json: bool,
+    use_index: bool,
+) -> anyhow::Result<()> {
     let start = Instant::now();
-    let index = inspect::index_run(log, Some(height))?;
-    let report = inspect::block_report(&index, height, robot)?;
+    let sidecar = if use_index {
+        inspect::read_sidecar(log)
+    } else {
+        None
+    };
+    let (report, last, how) = match &sidecar {
+        Some(sidecar) => (
+            inspect::block_report_indexed(log, sidecar, height, robot)?,
+            sidecar.blocks.len() as u64 - 1,
+            "folded up to the block, using the sidecar index",
+        ),
+        None => {
+            let index = inspect::index_run(log, Some(height))?;
+            let report = inspect::block_report(&index, height, robot)?;
+            let how = if !use_index {
+                "folded the whole log"
+            } else {
+                match index
+                    .sidecar(log)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|s| {
+                        let path = inspect::sidecar_path(log);
+                        std::fs::write(&path, serde_json::to_string(&s)?)?;
+                        Ok(path)
+                    }) {
+                    Ok(_) => "folded the whole log; wrote the sidecar index for next time",
+                    Err(e) => {
+                        eprintln!(
+                            "note: cannot write the sidecar index {}: {e:#}",
+                            inspect::sidecar_path(log).display()
+                        );
+                        "folded the whole log"
+                    }
+                }
+            };
+            (report, index.last_height(), how)
+        }
+    };
     let took_ms = start.elapsed().as_secs_f64() * 1000.0;
     if json {
         let mut value = serde_json::to_value(&report)?;
         value["inspect_ms"] = serde_json::json!(took_ms);
+        value["last_height"] = serde_json::json!(last);
         println!("{}", serde_json::to_string_pretty(&value)?);
     } else {
-        print_report(&report, index.last_height());
-        println!("inspect took {took_ms:.0} ms");
+        print_report(&report, last);
+        println!("inspect took {took_ms:.0} ms ({how})");
     }
     Ok(())
 }

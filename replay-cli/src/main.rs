@@ -109,6 +109,9 @@ enum Command {
         /// Print JSON.
         #[arg(long)]
         json: bool,
+        /// Ignore (and do not write) the sidecar index LOG.idx: fold the whole log.
+        #[arg(long)]
+        no_index: bool,
     },
     /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none).
     #[command(after_long_help = BISECT_HELP)]
@@ -279,7 +282,8 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             block,
             robot,
             json,
-        } => inspect::inspect(&log, block, robot, json)?,
+            no_index,
+        } => inspect::inspect(&log, block, robot, json, !no_index)?,
         Command::Bisect {
             log,
             until,

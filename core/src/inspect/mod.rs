@@ -57,7 +57,7 @@ use crate::log::LogReader;
 use crate::metrics::{self, LearnReport};
 use crate::replay::{header_config, ReplayError};
 use crate::sim::State;
-use crate::types::{RobotId, SimTime};
+use crate::types::{Digest, RobotId, SimTime};
 
 pub use expr::{EvalError, Expr, ParseError};
 
@@ -101,6 +101,192 @@ pub enum InspectError {
         /// What is wrong.
         source: EvalError,
     },
+}
+
+/// Folds one record into `state` (events) or checks it (checkpoints).
+fn fold_record(
+    state: &mut State,
+    learned: &mut LastLearning,
+    name: &str,
+    index: u64,
+    record: &Record,
+) -> Result<(), InspectError> {
+    match record {
+        Record::Event { time, event } => {
+            state
+                .apply(*time, event)
+                .map_err(|source| ReplayError::Apply {
+                    path: name.to_string(),
+                    index,
+                    kind: record.kind(),
+                    time: *time,
+                    source,
+                })?;
+            if let Event::Learn(report) = event {
+                if let Some(slot) = learned.get_mut(report.robot as usize) {
+                    *slot = Some((*time, report.clone()));
+                }
+            }
+        }
+        Record::Checkpoint(expected) => {
+            let actual = state.checkpoint(expected.time, expected.cause);
+            if let Some(component) = actual.first_difference(expected) {
+                return Err(ReplayError::Diverged {
+                    path: name.to_string(),
+                    index,
+                    kind: record.kind(),
+                    time: expected.time,
+                    component,
+                    detail: " between the log's checkpoint and the replayed state".to_string(),
+                }
+                .into());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The sidecar index of a log (`LOG.idx`, JSON): its final canonical chain with the record
+/// index of every block's sealing checkpoint, tied to the log by its size and the digest of its
+/// last 64 bytes (the footer, which holds the log's final hash). With it, `inspect` folds the
+/// log only up to the block instead of to the end.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
+pub struct Sidecar {
+    /// Sidecar format version ([`SIDECAR_VERSION`]).
+    pub version: u32,
+    /// Size of the log in bytes.
+    pub log_bytes: u64,
+    /// blake3 of the log's last 64 bytes, hex.
+    pub tail: String,
+    /// The final canonical chain: (height, block id, sealing checkpoint record; none for genesis).
+    pub blocks: Vec<(u64, Digest, Option<u64>)>,
+}
+
+/// Version of the [`Sidecar`] format.
+pub const SIDECAR_VERSION: u32 = 1;
+
+/// `LOG.idx` next to `LOG`.
+pub fn sidecar_path(log: &Path) -> std::path::PathBuf {
+    let mut name = log.as_os_str().to_os_string();
+    name.push(".idx");
+    std::path::PathBuf::from(name)
+}
+
+fn log_identity(path: &Path) -> Result<(u64, String), InspectError> {
+    use std::io::{Read, Seek, SeekFrom};
+    let io = |e: std::io::Error| {
+        InspectError::Replay(ReplayError::Log(crate::log::LogError::Io {
+            path: path.display().to_string(),
+            message: e.to_string(),
+        }))
+    };
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    file.seek(SeekFrom::Start(len.saturating_sub(64)))
+        .map_err(io)?;
+    let mut tail = Vec::new();
+    file.read_to_end(&mut tail).map_err(io)?;
+    Ok((len, blake3::hash(&tail).to_hex().to_string()))
+}
+
+impl RunIndex {
+    /// The sidecar index of this run.
+    pub fn sidecar(&self, log: &Path) -> Result<Sidecar, InspectError> {
+        let (log_bytes, tail) = log_identity(log)?;
+        Ok(Sidecar {
+            version: SIDECAR_VERSION,
+            log_bytes,
+            tail,
+            blocks: self
+                .chain
+                .iter()
+                .map(|r| (r.height, r.hash, r.record))
+                .collect(),
+        })
+    }
+}
+
+/// Reads `LOG.idx` if it exists and belongs to this very log; `None` otherwise (absent, stale,
+/// another version or unreadable: the caller then folds the whole log and rewrites it).
+pub fn read_sidecar(log: &Path) -> Option<Sidecar> {
+    let text = std::fs::read_to_string(sidecar_path(log)).ok()?;
+    let sidecar: Sidecar = serde_json::from_str(&text).ok()?;
+    let (log_bytes, tail) = log_identity(log).ok()?;
+    let fits = sidecar.version == SIDECAR_VERSION
+        && sidecar.log_bytes == log_bytes
+        && sidecar.tail == tail
+        && !sidecar.blocks.is_empty()
+        && sidecar
+            .blocks
+            .iter()
+            .enumerate()
+            .all(|(i, b)| b.0 == i as u64 && (i == 0) == b.2.is_none());
+    fits.then_some(sidecar)
+}
+
+/// The report of block `height` using a sidecar index: folds the log only up to the block's
+/// sealing checkpoint.
+pub fn block_report_indexed(
+    log: &Path,
+    sidecar: &Sidecar,
+    height: u64,
+    robot: Option<RobotId>,
+) -> Result<BlockReport, InspectError> {
+    let name = log.display().to_string();
+    let last = sidecar.blocks.len() as u64 - 1;
+    if height > last {
+        return Err(InspectError::BlockPastEnd {
+            path: name,
+            block: height,
+            last,
+        });
+    }
+    let mut reader = LogReader::open(log).map_err(ReplayError::from)?;
+    let config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
+    let mut learned: LastLearning = vec![None; config.world.robots as usize];
+    let (_, hash, record) = sidecar.blocks[height as usize];
+    let mut time = SimTime(0);
+    if let Some(stop) = record {
+        loop {
+            let Some(rec) = reader.next_record().map_err(ReplayError::from)? else {
+                return Err(InspectError::Inconsistent {
+                    path: name,
+                    message: format!("the log ends before record {stop} named by its index"),
+                });
+            };
+            let index = reader.index() - 1;
+            fold_record(&mut state, &mut learned, &name, index, &rec)?;
+            if index == stop {
+                time = rec.time();
+                break;
+            }
+        }
+    }
+    let canonical = sidecar.blocks.iter().map(|b| b.1).collect();
+    let row = BlockRow {
+        height,
+        hash,
+        time,
+        record,
+        node_heights: Vec::new(),
+    };
+    report_at(
+        &ReportInput {
+            path: &name,
+            config: &config,
+            byzantine: &byzantine::byzantine_robots(&config, seed),
+            canonical: &canonical,
+            row: &row,
+            state: &state,
+            learned: &learned,
+        },
+        robot,
+    )
 }
 
 /// One block of the final canonical chain, as seen while folding.
@@ -182,68 +368,40 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
     while let Some(record) = reader.next_record().map_err(ReplayError::from)? {
         let index = reader.index() - 1;
-        match &record {
-            Record::Event { time, event } => {
-                state
-                    .apply(*time, event)
-                    .map_err(|source| ReplayError::Apply {
-                        path: name.clone(),
-                        index,
-                        kind: record.kind(),
-                        time: *time,
-                        source,
-                    })?;
-                if let Event::Learn(report) = event {
-                    learned[report.robot as usize] = Some((*time, report.clone()));
+        fold_record(&mut state, &mut learned, &name, index, &record)?;
+        if let Record::Checkpoint(expected) = &record {
+            if let CheckpointCause::Block { node, height } = expected.cause {
+                if node >= robots {
+                    return Err(inconsistent(&name, index, "names a node out of the swarm"));
                 }
-            }
-            Record::Checkpoint(expected) => {
-                let actual = state.checkpoint(expected.time, expected.cause);
-                if let Some(component) = actual.first_difference(expected) {
-                    return Err(ReplayError::Diverged {
-                        path: name,
-                        index,
-                        kind: record.kind(),
-                        time: expected.time,
-                        component,
-                        detail: " between the log's checkpoint and the replayed state".to_string(),
-                    }
-                    .into());
-                }
-                if let CheckpointCause::Block { node, height } = expected.cause {
-                    if node >= robots {
-                        return Err(inconsistent(&name, index, "names a node out of the swarm"));
-                    }
-                    let (hash, head_height) = state.ledger.head(node);
-                    if head_height != height {
-                        return Err(inconsistent(
+                let (hash, head_height) = state.ledger.head(node);
+                if head_height != height {
+                    return Err(inconsistent(
                             &name,
                             index,
                             &format!("says node {node} sealed height {height}, but its head is at {head_height}"),
                         ));
-                    }
-                    let node_heights: Vec<u64> =
-                        (0..robots).map(|r| state.ledger.head(r).1).collect();
-                    chain_bytes.push(ChainBytesRow {
+                }
+                let node_heights: Vec<u64> = (0..robots).map(|r| state.ledger.head(r).1).collect();
+                chain_bytes.push(ChainBytesRow {
+                    time: expected.time,
+                    bytes: (0..robots)
+                        .map(|r| {
+                            let head = state.ledger.head(r).0;
+                            state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
+                        })
+                        .collect(),
+                });
+                sealed.insert(
+                    hash,
+                    Sealed {
+                        record: index,
                         time: expected.time,
-                        bytes: (0..robots)
-                            .map(|r| {
-                                let head = state.ledger.head(r).0;
-                                state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
-                            })
-                            .collect(),
-                    });
-                    sealed.insert(
-                        hash,
-                        Sealed {
-                            record: index,
-                            time: expected.time,
-                            node_heights,
-                        },
-                    );
-                    if want == Some(height) {
-                        candidates.insert(hash, (state.clone(), learned.clone()));
-                    }
+                        node_heights,
+                    },
+                );
+                if want == Some(height) {
+                    candidates.insert(hash, (state.clone(), learned.clone()));
                 }
             }
         }
@@ -877,23 +1035,65 @@ pub fn block_report(
     height: u64,
     robot: Option<RobotId>,
 ) -> Result<BlockReport, InspectError> {
-    let robots = index.config.world.robots;
+    let (state, learned) = index
+        .at_block
+        .as_ref()
+        .expect("the index was made for this block");
+    let canonical: std::collections::BTreeSet<BlockHash> =
+        index.chain.iter().map(|r| r.hash).collect();
+    report_at(
+        &ReportInput {
+            path: &index.path,
+            config: &index.config,
+            byzantine: &index.byzantine,
+            canonical: &canonical,
+            row: &index.chain[height as usize],
+            state,
+            learned,
+        },
+        robot,
+    )
+}
+
+/// Everything a block report is made from.
+struct ReportInput<'a> {
+    path: &'a str,
+    config: &'a Config,
+    byzantine: &'a [bool],
+    canonical: &'a std::collections::BTreeSet<BlockHash>,
+    row: &'a BlockRow,
+    state: &'a State,
+    learned: &'a LastLearning,
+}
+
+fn report_at(input: &ReportInput<'_>, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
+    let ReportInput {
+        path,
+        config,
+        byzantine,
+        canonical,
+        row,
+        state,
+        learned,
+    } = *input;
+    let robots = config.world.robots;
     if let Some(r) = robot {
         if r >= robots {
             return Err(InspectError::NoRobot { robot: r, robots });
         }
     }
-    let (state, learned) = index
-        .at_block
-        .as_ref()
-        .expect("the index was made for this block");
-    let row = &index.chain[height as usize];
-    let final_ledger = &index.final_state.ledger;
+    let height = row.height;
+    let tokens = |units: u64| units as f64 / config.contract.token_units as f64;
+    // The block was sealed by then, so the state's own ledger has it and its transactions.
+    let final_ledger = &state.ledger;
     let entry = final_ledger
         .block(&row.hash)
-        .expect("canonical blocks are stored");
+        .ok_or_else(|| InspectError::Inconsistent {
+            path: path.to_string(),
+            message: format!("block {} is not known at its sealing", row.hash.short()),
+        })?;
     let header = &entry.block.header;
-    let byz = |r: RobotId| index.byzantine.get(r as usize).copied().unwrap_or(false);
+    let byz = |r: RobotId| byzantine.get(r as usize).copied().unwrap_or(false);
     let txs = entry
         .block
         .txs
@@ -908,7 +1108,7 @@ pub fn block_report(
                     match &t.call {
                         Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
                         Call::Transfer { to, amount_units } => {
-                            format!("transfer(to={to}, {} tokens)", index.tokens(*amount_units))
+                            format!("transfer(to={to}, {} tokens)", tokens(*amount_units))
                         }
                     },
                 ),
@@ -919,7 +1119,7 @@ pub fn block_report(
                 sender,
                 byzantine: byz(sender),
                 call,
-                value_tokens: index.tokens(value),
+                value_tokens: tokens(value),
                 outcome: outcome.name().to_string(),
                 detail: outcome_detail(outcome),
             }
@@ -930,7 +1130,7 @@ pub fn block_report(
         byzantine: byz(s.sender),
         samples: s.samples,
         distance_units: s.distance_units,
-        stake_tokens: index.tokens(s.stake_units),
+        stake_tokens: tokens(s.stake_units),
         verdict: match s.verdict {
             Verdict::Accepted => "accepted",
             Verdict::Outlier => "outlier",
@@ -947,26 +1147,24 @@ pub fn block_report(
             .enumerate()
             .map(|(r, &u)| BalanceInfo {
                 robot: r as RobotId,
-                tokens: index.tokens(u),
+                tokens: tokens(u),
                 byzantine: byz(r as RobotId),
             })
             .collect(),
-        pool_tokens: index.tokens(cs.holdings_units),
+        pool_tokens: tokens(cs.holdings_units),
         submissions: cs.submissions.iter().map(submission).collect(),
         last_round: cs.last_round.as_ref().map(|s| RoundInfo {
             round: s.round,
             submissions: s.submissions.iter().map(submission).collect(),
-            pool_tokens: index.tokens(s.pool_units),
-            carried_tokens: index.tokens(s.carried_units),
+            pool_tokens: tokens(s.pool_units),
+            carried_tokens: tokens(s.carried_units),
             payouts: s
                 .payouts
                 .iter()
-                .map(|p| (p.robot, p.rank, p.reward_weight, index.tokens(p.units)))
+                .map(|p| (p.robot, p.rank, p.reward_weight, tokens(p.units)))
                 .collect(),
         }),
     };
-    let canonical: std::collections::BTreeSet<BlockHash> =
-        index.chain.iter().map(|r| r.hash).collect();
     let node_info = |r: RobotId| {
         let (head, h) = state.ledger.head(r);
         NodeInfo {
@@ -995,7 +1193,7 @@ pub fn block_report(
             byzantine: byz(r),
             node: node_info(r),
             round: own.round,
-            balance_tokens: index.tokens(own.balances[r as usize]),
+            balance_tokens: tokens(own.balances[r as usize]),
             world: robot_info(r),
             peers: state.world.peers(r).to_vec(),
             last_learning: learned[r as usize]
@@ -1004,7 +1202,7 @@ pub fn block_report(
         }
     });
     Ok(BlockReport {
-        log: index.path.clone(),
+        log: path.to_string(),
         block: BlockInfo {
             height,
             hash: row.hash.to_hex(),

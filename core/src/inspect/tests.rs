@@ -189,6 +189,27 @@ fn blocks_are_found_inspected_and_bisected() {
             .count(),
         3
     );
+    // The sidecar index gives the same report by folding only up to the block.
+    assert!(read_sidecar(&path).is_none(), "no sidecar yet");
+    let sidecar = at.sidecar(&path).unwrap();
+    std::fs::write(
+        sidecar_path(&path),
+        serde_json::to_string(&sidecar).unwrap(),
+    )
+    .unwrap();
+    let sidecar = read_sidecar(&path).expect("a fresh sidecar fits its log");
+    for (height, robot) in [(h, Some(1)), (0, None), (last, Some(14))] {
+        let full = index_run(&path, Some(height)).unwrap();
+        let a = serde_json::to_string(&block_report(&full, height, robot).unwrap()).unwrap();
+        let b =
+            serde_json::to_string(&block_report_indexed(&path, &sidecar, height, robot).unwrap())
+                .unwrap();
+        assert_eq!(a, b, "block {height}");
+    }
+    assert!(matches!(
+        block_report_indexed(&path, &sidecar, last + 1, None),
+        Err(InspectError::BlockPastEnd { .. })
+    ));
     let genesis = index_run(&path, Some(0)).unwrap();
     assert_eq!(block_report(&genesis, 0, None).unwrap().block.signer, None);
 
@@ -272,6 +293,21 @@ fn blocks_are_found_inspected_and_bisected() {
     let mut bytes = std::fs::read(&path).unwrap();
     bytes[8..12].copy_from_slice(&(crate::log::FORMAT_VERSION + 1).to_le_bytes());
     let other = path.with_file_name("other-version.swlog");
+    std::fs::write(&other, &bytes).unwrap();
+    std::fs::write(
+        sidecar_path(&other),
+        serde_json::to_string(&sidecar).unwrap(),
+    )
+    .unwrap();
+    assert!(read_sidecar(&other).is_some(), "same size and footer");
+    assert!(block_report_indexed(&other, &sidecar, 1, None).is_err());
+    let mut cut = bytes.clone();
+    cut.pop();
+    std::fs::write(&other, &cut).unwrap();
+    assert!(
+        read_sidecar(&other).is_none(),
+        "a changed log makes its sidecar stale"
+    );
     std::fs::write(&other, &bytes).unwrap();
     let e = index_run(&other, Some(1))
         .err()
