@@ -129,7 +129,10 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
-    /// Write CSV tables of a run: rounds.csv, balances.csv, chain_bytes.csv, trajectories.csv.
+    /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
+    /// accepted, outliers), balances.csv (every robot's balance after every block of the final
+    /// canonical chain), chain_bytes.csv (every node's chain size at every sealing) and
+    /// trajectories.csv (the samples of every robot's data set at the end of the run).
     Export {
         /// The log (run.swlog).
         log: PathBuf,

@@ -19,22 +19,25 @@
 //! [`crate::ledger::BlockEntry`] of the final ledger carries it, which is what `bisect` and
 //! `export` read (node head heights come from the index).
 //!
-//! # Why no snapshots (measured)
+//! # Sidecar index instead of snapshots (measured)
+//!
+//! The final canonical chain (which block *is* height H) is only known at the end of the log,
+//! so a first lookup needs the whole fold; `swarmfl inspect` then writes the sidecar index `LOG.idx` ([`Sidecar`]:
+//! the final canonical chain with every block's sealing-checkpoint record index, tied to the log
+//! by its size and footer); later lookups ([`block_report_indexed`]) fold only up to the block.
 //!
 //! On the 5000 s `paper` log (85 102 records, 677 sealed blocks, 495 canonical, 15 robots),
-//! release build, a shared 2-core machine: `swarmfl replay` 0.60 s; `swarmfl inspect --block H`
-//! 0.55 to 0.8 s for any H (one fold + report); `swarmfl bisect` 0.52 to 0.7 s (the fold, then
-//! microseconds of evaluation; `heldout_loss` adds ~1 ms per distinct round evaluated);
-//! `swarmfl export` 0.86 s. Snapshots in the log could at best cut the fold to the part after the
-//! nearest snapshot, but the final canonical chain (which block *is* height H) is only known at
-//! the end of the log, so a lookup needs either the whole fold or a stored index of that chain.
-//! At this scale the whole fold is below the 1 s target, so neither is written. For much longer
-//! runs, what would be needed: (1) a sidecar index (`LOG.idx`: the final canonical chain with
-//! each block's sealing-checkpoint record index and byte offset, keyed by the log's final hash),
-//! so a lookup folds only up to the block; (2) serde for `Ledger` and `World` (not derived today:
-//! the ledger shares blocks and transactions through `Arc`s and the world holds its random
-//! streams) to store full snapshots every K blocks, plus `LogReader` seeking to a byte offset.
+//! release build, on a shared and busy 2-core machine: `swarmfl replay` 0.60 s;
+//! `inspect --block H` without the index 0.55 to 0.97 s for any H (whole fold + report), with
+//! the index 6 ms (H = 0), 0.2 s (H = 100), 0.4 s (H = 300), 0.7 s (H = 495);
+//! `bisect` 0.52 to 0.7 s (the whole fold, then microseconds of evaluation; `heldout_loss` adds
+//! about 1 ms per distinct round evaluated); `export` 0.86 s.
 //!
+//! Full-state snapshots every K blocks would bound the fold to K blocks' worth of records, but
+//! need serde for `Ledger` and `World` (not derived today: the ledger shares blocks and
+//! transactions through `Arc`s, the world holds its random streams) and `LogReader` seeking to
+//! a byte offset. At this scale the fold is below the 1 s target, so they are not written.
+
 //! The predicate language of `bisect` is in [`expr`] (grammar in its module docs).
 
 pub mod expr;
