@@ -2,7 +2,9 @@
 
 mod bench_train;
 mod bench_world;
+mod export;
 mod fixtures;
+mod inspect;
 mod run;
 mod snapshot;
 
@@ -103,6 +105,51 @@ enum Command {
         #[arg(long, default_value = "fixtures")]
         dir: PathBuf,
     },
+    /// Show block H of the final canonical chain: the block, the contract state after it, every
+    /// node's head and the world at that moment (and the time it took).
+    Inspect {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Height on the final canonical chain (the best node's chain at the end; 0 = genesis).
+        #[arg(long)]
+        block: u64,
+        /// Narrow to one robot's view too (its node, balance, data, last learning phase).
+        #[arg(long)]
+        robot: Option<u32>,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+        /// Ignore (and do not write) the sidecar index LOG.idx: fold the whole log.
+        #[arg(long)]
+        no_index: bool,
+    },
+    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none).
+    #[command(after_long_help = BISECT_HELP)]
+    Bisect {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// The predicate, e.g. "byzantine_tokens > honest_tokens" (see --help for the grammar).
+        #[arg(long)]
+        until: String,
+        /// Declare the predicate monotone (false, then true for good): binary search with
+        /// O(log n) evaluations instead of a scan.
+        #[arg(long)]
+        monotone: bool,
+        /// Print JSON.
+        #[arg(long)]
+        json: bool,
+    },
+    /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
+    /// accepted, outliers), balances.csv (every robot's balance after every block of the final
+    /// canonical chain), chain_bytes.csv (every node's chain size at every sealing) and
+    /// trajectories.csv (the samples of every robot's data set at the end of the run).
+    Export {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Output directory (created).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// List the presets.
     Presets,
     /// Print the fully resolved configuration as TOML.
@@ -119,6 +166,40 @@ enum Command {
         json: bool,
     },
 }
+
+const BISECT_HELP: &str = "\
+The predicate language (values are f64; comparisons and logic give 1 or 0; anything compared
+with NaN is false; a value is true when non-zero and not NaN):
+  expr    := or
+  or      := and ( \"||\" and )*
+  and     := cmp ( \"&&\" cmp )*
+  cmp     := sum ( ( < | <= | > | >= | == | != ) sum )?      (comparisons do not chain)
+  sum     := product ( ( + | - ) product )*
+  product := unary ( ( * | / ) unary )*
+  unary   := ( ! | - ) unary | primary
+  primary := NUMBER | IDENT | balance[INT] | node[INT].height | ( expr )
+Identifiers, at each block of the final canonical chain:
+  height            the block's height
+  time              its timestamp, simulated s
+  round             the contract's round (model version) after the block
+  loss              paper metric of the last round closed up to the block (NaN before)
+  heldout_loss      loss of the block's shared model on the held-out set
+  byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
+  honest_tokens     MEAN balance of the honest robots, tokens (NaN without any)
+  byzantine_wealth  byzantine_tokens plus the group's stakes in the current round, per robot
+  honest_wealth     honest_tokens plus the group's stakes in the current round, per robot
+  byzantine_sum     total balance of the Byzantine robots, tokens
+  honest_sum        total balance of the honest robots, tokens
+  accepted          accepted submissions in the current round
+  outliers          outlier submissions in the current round
+  pool              tokens held by the contract (stakes and carried remainders)
+  robots            number of robots
+  balance[i]        robot i's balance after the block, tokens
+  node[i].height    height of node i's head right after the block was sealed
+Examples: \"byzantine_tokens > honest_tokens\", \"loss > 0.1\", \"round >= 50\",
+\"node[3].height + 5 < node[0].height\".
+Both modes first fold the whole log once (checking every checkpoint, ~0.6 s for a paper run) to
+learn the final canonical chain; the search then evaluates the per-block values in memory.";
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 enum FixturesAction {
@@ -219,6 +300,24 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             action: FixturesAction::Regenerate,
             dir,
         } => fixtures::regenerate(&dir)?,
+        Command::Inspect {
+            log,
+            block,
+            robot,
+            json,
+            no_index,
+        } => inspect::inspect(&log, block, robot, json, !no_index)?,
+        Command::Bisect {
+            log,
+            until,
+            monotone,
+            json,
+        } => {
+            if !inspect::bisect(&log, &until, monotone, json)? {
+                return Ok(ExitCode::from(EXIT_DIVERGED));
+            }
+        }
+        Command::Export { log, out } => export::export(&log, &out)?,
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());

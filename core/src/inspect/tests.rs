@@ -1,0 +1,324 @@
+use std::path::PathBuf;
+
+use super::expr::{Env, EvalError, Expr};
+use super::*;
+use crate::config::{ByzantineKind, Preset};
+use crate::log::{Header, LogWriter};
+use crate::sim::Sim;
+
+/// A fixed environment: `a = 2`, `b = 3`, `nan`-valued `loss`, `balance[i] = 10 i`,
+/// `node[i].height = 100 + i`, four robots.
+struct Fixed;
+
+impl Env for Fixed {
+    fn ident(&self, name: &str) -> Result<f64, EvalError> {
+        Ok(match name {
+            "height" => 2.0,
+            "round" => 3.0,
+            "loss" => f64::NAN,
+            "time" => 0.5,
+            _ => 0.0,
+        })
+    }
+    fn indexed(&self, _: &str, i: u32) -> Result<f64, EvalError> {
+        if i < 4 {
+            Ok(10.0 * f64::from(i))
+        } else {
+            Err(EvalError(format!("no robot {i}")))
+        }
+    }
+    fn node(&self, i: u32, _: &str) -> Result<f64, EvalError> {
+        Ok(100.0 + f64::from(i))
+    }
+}
+
+/// `expect` is `Ok(value)` or `Err(column)` of the parse error.
+fn check(src: &str, expect: Result<f64, usize>) {
+    match (Expr::parse(src), expect) {
+        (Ok(e), Ok(v)) => {
+            let got = e.eval(&Fixed).unwrap();
+            assert!(
+                got == v || (got.is_nan() && v.is_nan()),
+                "{src}: {got} != {v}"
+            );
+        }
+        (Err(e), Err(column)) => {
+            assert_eq!(e.column, column, "{src}: {e}");
+            assert!(e.message.contains("expected"), "{src}: {e}");
+        }
+        (got, want) => panic!("{src}: got {got:?}, want {want:?}"),
+    }
+}
+
+#[test]
+fn expressions_parse_and_evaluate() {
+    check("1 + 2 * 3", Ok(7.0));
+    check("(1 + 2) * 3", Ok(9.0));
+    check("10 - 4 - 3", Ok(3.0));
+    check("8 / 4 / 2", Ok(1.0));
+    check("-height + 1", Ok(-1.0));
+    check("round >= 3", Ok(1.0));
+    check("round > 3", Ok(0.0));
+    check("height == 2 && round != 2", Ok(1.0));
+    check("height < 1 || round <= 3", Ok(1.0));
+    check("!(height < 1)", Ok(1.0));
+    check("!!round", Ok(1.0));
+    check("loss > 0.1", Ok(0.0));
+    check("loss <= 0.1", Ok(0.0));
+    check("!(loss > 0.1)", Ok(1.0));
+    check("balance[3] - balance[1]", Ok(20.0));
+    check("node[3].height + 5 < node[0].height", Ok(0.0));
+    check("node[0].height + 5 > node[3].height", Ok(1.0));
+    check("1.5e2 + time", Ok(150.5));
+    check("2e-1 * 10", Ok(2.0));
+    check("1 / 0 > 1000", Ok(1.0));
+    // Errors: the column of the offending token, and what was expected.
+    check("", Err(1));
+    check("height >", Err(9));
+    check("height > > 2", Err(10));
+    check("(height", Err(8));
+    check("height )", Err(8));
+    check("heigth > 2", Err(1));
+    check("1 < 2 < 3", Err(7));
+    check("balance > 2", Err(9));
+    check("balance[x]", Err(9));
+    check("balance[1.5]", Err(9));
+    check("node[1]", Err(8));
+    check("node[1].weight", Err(9));
+    check("round = 3", Err(7));
+    check("round & 3", Err(7));
+    check("1e", Err(3));
+    check("height[0]", Err(1));
+}
+
+#[test]
+fn parse_errors_say_what_was_expected_and_show_the_column() {
+    let e = Expr::parse("round >= ").unwrap_err();
+    assert!(e.message.contains("found the end of the expression"), "{e}");
+    let text = e.to_string();
+    assert!(text.contains("column 10"), "{text}");
+    assert!(text.ends_with("         ^"), "{text:?}");
+    let e = Expr::parse("byzantine_token > 1").unwrap_err();
+    assert!(
+        e.message.contains("byzantine_tokens"),
+        "lists the identifiers: {e}"
+    );
+}
+
+#[test]
+fn eval_errors_name_the_robot() {
+    let e = Expr::parse("balance[7] > 1").unwrap();
+    assert!(e.eval(&Fixed).is_err());
+    let leaves = Expr::parse("round > 1 && balance[2] > round")
+        .unwrap()
+        .leaves(&Fixed);
+    assert_eq!(
+        leaves,
+        vec![("round".to_string(), 3.0), ("balance[2]".to_string(), 20.0)]
+    );
+}
+
+/// A short run with security on and three smart robots, written to a temporary log.
+fn short_run(name: &str) -> PathBuf {
+    let mut config = Preset::Smoke.config();
+    config.run.duration_s = 200.0;
+    config.contract.security = true;
+    config.byzantine.kind = ByzantineKind::Smart;
+    config.byzantine.count = 3;
+    config.validate().unwrap();
+    let dir = std::env::temp_dir().join(format!("swarmfl-inspect-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.swlog");
+    let header = Header::new(2, config.to_toml());
+    let mut writer = LogWriter::create(&path, &header).unwrap();
+    for record in Sim::new(config, 2).unwrap() {
+        writer.append(&record).unwrap();
+    }
+    writer.finish().unwrap();
+    path
+}
+
+#[test]
+fn blocks_are_found_inspected_and_bisected() {
+    let path = short_run("blocks");
+    let index = index_run(&path, None).unwrap();
+    let last = index.last_height();
+    assert!(last >= 5, "the run seals blocks: {last}");
+    // The chain is the best node's, row h is at height h, records and times increase.
+    let best = metrics::best_node(&index.final_state.ledger);
+    let chain = index.final_state.ledger.canonical_chain(best);
+    assert_eq!(chain.len(), index.chain.len());
+    for (h, row) in index.chain.iter().enumerate() {
+        assert_eq!((row.height, row.hash), (h as u64, chain[h]));
+        if h > 1 {
+            assert!(row.record > index.chain[h - 1].record);
+            assert!(row.time >= index.chain[h - 1].time);
+        }
+    }
+
+    // Inspecting a block: the state kept is the one right after its sealing, i.e. the same
+    // state as folding the log up to its checkpoint.
+    let h = last / 2;
+    let at = index_run(&path, Some(h)).unwrap();
+    let report = block_report(&at, h, Some(1)).unwrap();
+    assert_eq!(report.block.height, h);
+    assert_eq!(report.block.hash, index.chain[h as usize].hash.to_hex());
+    let (state, _) = at.at_block.as_ref().unwrap();
+    let (folded, _, _) = crate::replay::state_at_time(&path, index.chain[h as usize].time).unwrap();
+    let sealed_at = index.chain[h as usize].time;
+    assert!(state.world.time() >= sealed_at && state.world.time().0 < sealed_at.0 + 100);
+    assert_eq!(
+        state.world.digest(),
+        folded.world.digest(),
+        "same tick, same world"
+    );
+    let signer = report.block.signer.unwrap();
+    assert_eq!(
+        report.nodes[signer as usize].height, h,
+        "the signer's head is the block"
+    );
+    assert!(report.nodes[signer as usize].on_final_chain);
+    assert_eq!(report.robot.as_ref().unwrap().robot, 1);
+    assert_eq!(report.contract.balances.len(), 15);
+    assert_eq!(
+        report
+            .contract
+            .balances
+            .iter()
+            .filter(|b| b.byzantine)
+            .count(),
+        3
+    );
+    // The sidecar index gives the same report by folding only up to the block.
+    assert!(read_sidecar(&path).is_none(), "no sidecar yet");
+    let sidecar = at.sidecar(&path).unwrap();
+    std::fs::write(
+        sidecar_path(&path),
+        serde_json::to_string(&sidecar).unwrap(),
+    )
+    .unwrap();
+    let sidecar = read_sidecar(&path).expect("a fresh sidecar fits its log");
+    for (height, robot) in [(h, Some(1)), (0, None), (last, Some(14))] {
+        let full = index_run(&path, Some(height)).unwrap();
+        let a = serde_json::to_string(&block_report(&full, height, robot).unwrap()).unwrap();
+        let b =
+            serde_json::to_string(&block_report_indexed(&path, &sidecar, height, robot).unwrap())
+                .unwrap();
+        assert_eq!(a, b, "block {height}");
+    }
+    assert!(matches!(
+        block_report_indexed(&path, &sidecar, last + 1, None),
+        Err(InspectError::BlockPastEnd { .. })
+    ));
+    let genesis = index_run(&path, Some(0)).unwrap();
+    assert_eq!(block_report(&genesis, 0, None).unwrap().block.signer, None);
+
+    // Errors: past the end names the last height; a robot out of the swarm.
+    match index_run(&path, Some(last + 1)) {
+        Err(InspectError::BlockPastEnd { block, last: l, .. }) => {
+            assert_eq!((block, l), (last + 1, last))
+        }
+        other => panic!("expected BlockPastEnd, got {:?}", other.err()),
+    }
+    assert!(matches!(
+        block_report(&at, h, Some(15)),
+        Err(InspectError::NoRobot {
+            robot: 15,
+            robots: 15
+        })
+    ));
+
+    // Bisect: the scan and the binary search agree on monotone predicates.
+    let values = index.values();
+    for src in [
+        "height >= 3",
+        "time > 100",
+        "round >= 1",
+        "node[0].height >= 4",
+        "byzantine_tokens > honest_tokens",
+        "byzantine_wealth > honest_wealth",
+        "!(pool < 0)",
+        "height > 100000",
+    ] {
+        let e = Expr::parse(src).unwrap();
+        let truth: Vec<bool> = (0..values.len() as u64)
+            .map(|h| e.holds(&values.at(h)).unwrap())
+            .collect();
+        let monotone = truth.windows(2).all(|w| w[1] || !w[0]);
+        let prof = profile(&values, &e).unwrap();
+        assert_eq!(prof.monotone, monotone, "{src}");
+        assert_eq!(prof.first, truth.iter().position(|&t| t).map(|h| h as u64));
+        if let Some(g) = prof.for_good_from {
+            assert!(truth[g as usize..].iter().all(|&t| t));
+            assert!(g == 0 || !truth[g as usize - 1]);
+        }
+        let scan = bisect(&values, &e, false).unwrap();
+        let binary = bisect(&values, &e, true).unwrap();
+        assert_eq!(
+            scan.as_ref().map(|h| h.height),
+            truth.iter().position(|&t| t).map(|h| h as u64),
+            "{src}"
+        );
+        if monotone {
+            assert_eq!(
+                scan.as_ref().map(|h| h.height),
+                binary.as_ref().map(|h| h.height),
+                "{src}"
+            );
+            if let (Some(s), Some(b)) = (&scan, &binary) {
+                assert!(b.evaluations <= 2 + 64 - (values.len() as u64).leading_zeros() as u64);
+                assert_eq!(s.values, b.values, "{src}");
+            }
+        } else if let Some(b) = &binary {
+            // Not monotone here: the binary search still lands on a change to true.
+            let h = b.height as usize;
+            assert!(truth[h] && (h == 0 || !truth[h - 1]), "{src}");
+        }
+    }
+    let hit = bisect(&values, &Expr::parse("height >= 3").unwrap(), false)
+        .unwrap()
+        .unwrap();
+    assert_eq!((hit.height, hit.evaluations), (3, 4));
+    assert_eq!(hit.values, vec![("height".to_string(), 3.0)]);
+    assert!(bisect(&values, &Expr::parse("balance[99] > 0").unwrap(), false).is_err());
+
+    // The rounds of the chain close in order.
+    let rounds = index.rounds();
+    for w in rounds.windows(2) {
+        assert_eq!(w[1].round, w[0].round + 1);
+        assert!(w[1].block > w[0].block);
+    }
+
+    // A log of another format version: a clear error naming both versions, no panic.
+    let mut bytes = std::fs::read(&path).unwrap();
+    bytes[8..12].copy_from_slice(&(crate::log::FORMAT_VERSION + 1).to_le_bytes());
+    let other = path.with_file_name("other-version.swlog");
+    std::fs::write(&other, &bytes).unwrap();
+    std::fs::write(
+        sidecar_path(&other),
+        serde_json::to_string(&sidecar).unwrap(),
+    )
+    .unwrap();
+    assert!(read_sidecar(&other).is_some(), "same size and footer");
+    assert!(block_report_indexed(&other, &sidecar, 1, None).is_err());
+    let mut cut = bytes.clone();
+    cut.pop();
+    std::fs::write(&other, &cut).unwrap();
+    assert!(
+        read_sidecar(&other).is_none(),
+        "a changed log makes its sidecar stale"
+    );
+    std::fs::write(&other, &bytes).unwrap();
+    let e = index_run(&other, Some(1))
+        .err()
+        .expect("another version is refused");
+    assert!(
+        matches!(
+            e,
+            InspectError::Replay(ReplayError::Log(crate::log::LogError::Version { .. }))
+        ),
+        "{e}"
+    );
+    assert!(e.to_string().contains("format version"), "{e}");
+    std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
+}

@@ -1,0 +1,309 @@
+//! `swarmfl inspect` and `swarmfl bisect`: a run at one block of its final canonical chain.
+
+use std::path::Path;
+use std::time::Instant;
+
+use swarmfl_core::inspect::{self, BlockReport, Expr, SubmissionInfo};
+use swarmfl_core::RobotId;
+
+/// Prints block `height` of the log (human-readable or JSON) and the time it took.
+/// With `use_index`, a valid sidecar `LOG.idx` lets it fold only up to the block; without one,
+/// the whole log is folded and the sidecar written for next time.
+pub fn inspect(
+    log: &Path,
+    height: u64,
+    robot: Option<RobotId>,
+    json: bool,
+    use_index: bool,
+) -> anyhow::Result<()> {
+    let start = Instant::now();
+    let sidecar = if use_index {
+        inspect::read_sidecar(log)
+    } else {
+        None
+    };
+    let (report, last, how) = match &sidecar {
+        Some(sidecar) => (
+            inspect::block_report_indexed(log, sidecar, height, robot)?,
+            sidecar.blocks.len() as u64 - 1,
+            "folded up to the block, using the sidecar index",
+        ),
+        None => {
+            let index = inspect::index_run(log, Some(height))?;
+            let report = inspect::block_report(&index, height, robot)?;
+            let how = if !use_index {
+                "folded the whole log"
+            } else {
+                match index
+                    .sidecar(log)
+                    .map_err(anyhow::Error::from)
+                    .and_then(|s| {
+                        let path = inspect::sidecar_path(log);
+                        std::fs::write(&path, serde_json::to_string(&s)?)?;
+                        Ok(path)
+                    }) {
+                    Ok(_) => "folded the whole log; wrote the sidecar index for next time",
+                    Err(e) => {
+                        eprintln!(
+                            "note: cannot write the sidecar index {}: {e:#}",
+                            inspect::sidecar_path(log).display()
+                        );
+                        "folded the whole log"
+                    }
+                }
+            };
+            (report, index.last_height(), how)
+        }
+    };
+    let took_ms = start.elapsed().as_secs_f64() * 1000.0;
+    if json {
+        let mut value = serde_json::to_value(&report)?;
+        value["inspect_ms"] = serde_json::json!(took_ms);
+        value["last_height"] = serde_json::json!(last);
+        println!("{}", serde_json::to_string_pretty(&value)?);
+    } else {
+        print_report(&report, last);
+        println!("inspect took {took_ms:.0} ms ({how})");
+    }
+    Ok(())
+}
+
+fn short(hex: &str) -> &str {
+    &hex[..hex.len().min(12)]
+}
+
+fn mark(byzantine: bool) -> &'static str {
+    if byzantine {
+        "byzantine"
+    } else {
+        "honest"
+    }
+}
+
+fn print_submissions(subs: &[SubmissionInfo]) {
+    for s in subs {
+        println!(
+            "    robot {:>3} ({:<9}) n={:<5} distance {:>12}  stake {:.3}  {}",
+            s.sender,
+            mark(s.byzantine),
+            s.samples,
+            s.distance_units,
+            s.stake_tokens,
+            s.verdict
+        );
+    }
+}
+
+fn print_report(r: &BlockReport, last: u64) {
+    let b = &r.block;
+    println!(
+        "block {} of {} (final canonical chain of {})",
+        b.height, last, r.log
+    );
+    println!("  hash        {}", b.hash);
+    println!("  parent      {}", b.parent);
+    println!("  time        {:.3} s", b.time_s);
+    match b.signer {
+        Some(s) => println!("  signer      robot {s}"),
+        None => println!("  signer      none (genesis)"),
+    }
+    println!(
+        "  difficulty  {} (total {}), chain size {} bytes, sealing checkpoint record {}",
+        b.difficulty,
+        b.total_difficulty,
+        b.chain_bytes,
+        b.record.map_or("-".to_string(), |i| i.to_string())
+    );
+    println!("  transactions: {}", b.txs.len());
+    for t in &b.txs {
+        println!(
+            "    {} robot {:>3} ({:<9}) {:<22} value {:.3} -> {} {}",
+            short(&t.hash),
+            t.sender,
+            mark(t.byzantine),
+            t.call,
+            t.value_tokens,
+            t.outcome,
+            t.detail
+        );
+    }
+    let c = &r.contract;
+    println!("contract after the block");
+    println!("  round {}  model {}", c.round, short(&c.model_digest));
+    println!("  pool (contract holdings) {:.3} tokens", c.pool_tokens);
+    println!("  balances (tokens):");
+    for chunk in c.balances.chunks(5) {
+        let line: Vec<String> = chunk
+            .iter()
+            .map(|x| {
+                format!(
+                    "{:>3}{} {:>9.3}",
+                    x.robot,
+                    if x.byzantine { "*" } else { " " },
+                    x.tokens
+                )
+            })
+            .collect();
+        println!("   {}", line.join("  "));
+    }
+    println!("   (* = Byzantine)");
+    println!(
+        "  this round's counted submissions: {}",
+        c.submissions.len()
+    );
+    print_submissions(&c.submissions);
+    match &c.last_round {
+        None => println!("  no round closed yet"),
+        Some(l) => {
+            println!(
+                "  last closed round {}: pool {:.3} tokens, carried {:.3}, {} submissions",
+                l.round,
+                l.pool_tokens,
+                l.carried_tokens,
+                l.submissions.len()
+            );
+            print_submissions(&l.submissions);
+            for (robot, rank, weight, tokens) in &l.payouts {
+                println!(
+                    "    payout rank {rank:>2}: robot {robot:>3} (weight {weight:+}) {tokens:.3} tokens"
+                );
+            }
+        }
+    }
+    println!("nodes right after the sealing");
+    for n in &r.nodes {
+        println!(
+            "  node {:>3}: head {} height {:>5}{}",
+            n.node,
+            short(&n.head),
+            n.height,
+            if n.on_final_chain {
+                ""
+            } else {
+                "  (off the final chain)"
+            }
+        );
+    }
+    println!("world at t = {:.3} s", r.world.time_s);
+    for w in &r.world.robots {
+        println!(
+            "  robot {:>3} ({:<9}) at ({:6.3}, {:6.3}) heading {:6.3} rad, {:>2} peers, {:>4} samples",
+            w.robot,
+            mark(w.byzantine),
+            w.x,
+            w.y,
+            w.theta,
+            w.peers,
+            w.dataset
+        );
+    }
+    if let Some(v) = &r.robot {
+        println!("robot {} ({}) view", v.robot, mark(v.byzantine));
+        println!(
+            "  its node's head {} at height {} ({}), round {}, its balance {:.3} tokens",
+            short(&v.node.head),
+            v.node.height,
+            if v.node.on_final_chain {
+                "on the final chain"
+            } else {
+                "off the final chain"
+            },
+            v.round,
+            v.balance_tokens
+        );
+        println!(
+            "  at ({:.3}, {:.3}), {} samples, peers {:?}",
+            v.world.x, v.world.y, v.world.dataset, v.peers
+        );
+        match &v.last_learning {
+            Some((t, what)) => println!("  last learning phase at {t:.3} s: {what}"),
+            None => println!("  no learning phase yet"),
+        }
+    }
+}
+
+/// Prints the first block where `expr` holds.
+pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Result<bool> {
+    let predicate = Expr::parse(expr)?;
+    let start = Instant::now();
+    let index = inspect::index_run(log, None)?;
+    let fold_ms = start.elapsed().as_secs_f64() * 1000.0;
+    let values = index.values();
+    let search = Instant::now();
+    let hit = inspect::bisect(&values, &predicate, monotone)?;
+    let search_ms = search.elapsed().as_secs_f64() * 1000.0;
+    // Every block's values are in memory: checking the whole chain costs microseconds and
+    // tells whether the binary search's premise holds.
+    let profile = inspect::profile(&values, &predicate)?;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "expression": expr,
+                "monotone": monotone,
+                "hit": hit,
+                "profile": profile,
+                "last_height": index.last_height(),
+                "fold_ms": fold_ms,
+                "search_ms": search_ms,
+            }))?
+        );
+    } else {
+        match &hit {
+            Some(h) => {
+                println!(
+                    "first block where `{expr}` holds{}: height {} at t = {:.3} s",
+                    if monotone {
+                        " (binary search, monotone)"
+                    } else {
+                        " (scan)"
+                    },
+                    h.height,
+                    h.time_s
+                );
+                for (name, value) in &h.values {
+                    println!("  {name} = {value}");
+                }
+                println!(
+                    "{} evaluations; fold {fold_ms:.0} ms, search {search_ms:.1} ms",
+                    h.evaluations
+                );
+            }
+            None => println!(
+                "`{expr}` holds at no block of the final canonical chain (heights 0..={}){}",
+                index.last_height(),
+                if monotone {
+                    "; with --monotone only the last block is tested"
+                } else {
+                    ""
+                }
+            ),
+        }
+        if profile.monotone {
+            println!("the predicate is monotone over the chain: scan and --monotone agree");
+        } else {
+            println!(
+                "warning: the predicate is NOT monotone over the chain (it turns false again {} times): first true at {}, true for good from {}{}",
+                profile.relapses,
+                describe(&index, profile.first),
+                describe(&index, profile.for_good_from),
+                if monotone {
+                    "; the binary search's answer is only a change to true"
+                } else {
+                    ""
+                }
+            );
+        }
+    }
+    Ok(hit.is_some())
+}
+
+fn describe(index: &inspect::RunIndex, height: Option<u64>) -> String {
+    match height {
+        Some(h) => format!(
+            "block {h} (t = {:.3} s)",
+            index.chain[h as usize].time.secs()
+        ),
+        None => "no block".to_string(),
+    }
+}
