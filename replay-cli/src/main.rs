@@ -5,8 +5,10 @@ mod bench_world;
 mod export;
 mod fixtures;
 mod inspect;
+mod report;
 mod run;
 mod snapshot;
+mod sweep;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -150,6 +152,41 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
+    #[command(long_about = SWEEP_HELP)]
+    Sweep {
+        /// The experiment: e1-expiration, e1-faulty, e2-faulty, e2-malicious or e3-smart.
+        experiment: String,
+        /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
+        #[arg(long)]
+        out: PathBuf,
+        /// Runs (seeds 1..=N) per point; default the paper's (5, 10, 20, 20, 18).
+        #[arg(long)]
+        runs: Option<u32>,
+        /// Runs in parallel; default the number of cores.
+        #[arg(long)]
+        jobs: Option<usize>,
+        /// Run only shard I of N: the tasks whose index modulo N is I.
+        #[arg(long, value_name = "I/N")]
+        shard: Option<String>,
+        /// The shard count when the index comes from JOB_COMPLETION_INDEX (or SWARMFL_SHARDS).
+        #[arg(long)]
+        shards: Option<u32>,
+        /// Overrides for every task, `key.path=value` (e.g. `--set run.duration_s=600`).
+        #[arg(long = "set", value_name = "KEY=VALUE")]
+        overrides: Vec<String>,
+        /// Keep each run's log in DIR/<experiment>/<point>/seed<N>/ (default: deleted).
+        #[arg(long)]
+        keep_logs: bool,
+    },
+    /// Merge a sweep's results: means and 95 % CIs, the paper's figures (SVG, PNG), report.md.
+    Report {
+        /// The results directory of one or more sweeps (shards merged by copying into it).
+        dir: PathBuf,
+        /// Report directory.
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// List the presets.
     Presets,
     /// Print the fully resolved configuration as TOML.
@@ -214,6 +251,25 @@ enum BenchTarget {
     /// One local training of the reference workload.
     Train,
 }
+
+/// The long help of `swarmfl sweep`: the task list and sharding.
+const SWEEP_HELP: &str = "Run one of the paper's experiments (SPEC.md section 7), or a shard of it.
+
+Experiments, points and default runs (seeds 1..=runs):
+  e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs
+  e1-faulty      faulty-1 (security off, 1 faulty robot, expiration 750 s)            10 runs
+  e2-faulty      byzantine-0..7 (byzantine.count; kind none for 0)                    20 runs
+  e2-malicious   byzantine-0..7                                                        20 runs
+  e3-smart       byzantine-0..7                                                        18 runs
+
+Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
+order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,
+else SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN (MIN 0 if unset) of SLURM_ARRAY_TASK_COUNT
+(or --shards N), else JOB_COMPLETION_INDEX of --shards N or SWARMFL_SHARDS; else all tasks.
+
+Each task writes DIR/<experiment>/<point>/seed<N>.json (the run's summary plus a `sweep`
+section) atomically; existing, parseable result files are skipped, so re-running the same
+command resumes a sweep and retries failed tasks.";
 
 /// Exit code for a run that is not bit-exact (divergence or damaged log).
 const EXIT_DIVERGED: u8 = 1;
@@ -318,6 +374,51 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             }
         }
         Command::Export { log, out } => export::export(&log, &out)?,
+        Command::Sweep {
+            experiment,
+            out,
+            runs,
+            jobs,
+            shard,
+            shards,
+            overrides,
+            keep_logs,
+        } => {
+            let shard = sweep::Shard::resolve(shard.as_deref(), shards, |k| std::env::var(k).ok())?;
+            let outcome = sweep::sweep(&sweep::SweepOptions {
+                experiment,
+                out,
+                runs,
+                jobs,
+                shard,
+                overrides,
+                keep_logs,
+            })?;
+            println!(
+                "sweep: {} tasks in shard, {} ran, {} already done, {} failed, {:.1} s",
+                outcome.selected,
+                outcome.ran,
+                outcome.skipped,
+                outcome.failed.len(),
+                outcome.wall_s
+            );
+            if !outcome.failed.is_empty() {
+                for (task, error) in &outcome.failed {
+                    eprintln!(
+                        "task {} ({} seed {}): {error}",
+                        task.index, task.point, task.seed
+                    );
+                }
+                anyhow::bail!(
+                    "{} tasks failed; re-run the same command to retry them",
+                    outcome.failed.len()
+                );
+            }
+        }
+        Command::Report { dir, out } => {
+            let path = report::report(&dir, &out)?;
+            println!("wrote {}", path.display());
+        }
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());

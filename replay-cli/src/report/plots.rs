@@ -1,0 +1,382 @@
+//! The report's figures, drawn with plotters as SVG and PNG.
+//!
+//! Text (titles, axis labels, legends) uses the system's sans-serif font through plotters'
+//! `ttf` feature. If no font can be loaded, each figure is drawn again without any text rather
+//! than failing, and the report notes it.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+
+use super::{ExperimentStats, Figure, Stat};
+
+/// One labelled series of (x, statistic) points.
+struct Series {
+    label: String,
+    points: Vec<(f64, Stat)>,
+}
+
+/// Distinct colours, in series order.
+const COLOURS: [RGBColor; 8] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(44, 160, 44),
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+    RGBColor(227, 119, 194),
+    RGBColor(127, 127, 127),
+];
+
+/// What kind of plot.
+#[derive(Clone, Copy)]
+enum Kind {
+    /// Lines over time with confidence bands; log-scale y when `log_y`.
+    Time { log_y: bool },
+    /// Points with error bars versus the grid value.
+    Versus,
+}
+
+struct Plot<'a> {
+    title: String,
+    x_label: &'a str,
+    y_label: &'a str,
+    kind: Kind,
+    series: Vec<Series>,
+}
+
+/// Draws every figure the statistics allow into `out`, returning them (for report.md).
+pub fn draw_all(
+    stats: &[ExperimentStats],
+    out: &Path,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<Figure>> {
+    let mut figures = Vec::new();
+    let mut textless = Vec::new();
+    let baseline = stats
+        .iter()
+        .find(|e| e.name == "e1-expiration")
+        .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
+    for e in stats {
+        let mut emit = |stem: String, caption: String, plot: Plot| -> anyhow::Result<()> {
+            if plot.series.iter().all(|s| s.points.is_empty()) {
+                return Ok(());
+            }
+            if !draw(&plot, out, &stem)? {
+                textless.push(stem.clone());
+            }
+            figures.push(Figure {
+                experiment: e.name.clone(),
+                stem,
+                caption,
+            });
+            Ok(())
+        };
+        // Loss over time, one line per point.
+        let mut loss: Vec<Series> = e
+            .points
+            .iter()
+            .map(|p| Series {
+                label: label(&e.name, &p.point, p.x),
+                points: p.loss.clone(),
+            })
+            .collect();
+        if e.name == "e1-faulty" {
+            if let Some(b) = baseline {
+                loss.push(Series {
+                    label: "no Byzantine (e1-expiration 750 s)".into(),
+                    points: b.loss.clone(),
+                });
+            }
+        }
+        let what = match e.name.as_str() {
+            "e1-expiration" => "per data expiration time, no Byzantine robots, no security",
+            "e1-faulty" => "with one faulty robot, no security",
+            "e2-faulty" => "per number of faulty robots, security on",
+            "e2-malicious" => "per number of malicious robots, security on",
+            "e3-smart" => "per number of smart robots, security on",
+            _ => "per configuration",
+        };
+        emit(
+            format!("{}-loss", e.name),
+            format!(
+                "{}: average loss over time {what} (mean, 95 % CI band, log scale)",
+                e.name
+            ),
+            Plot {
+                title: format!("{}: average loss", e.name),
+                x_label: "time (s)",
+                y_label: "average loss",
+                kind: Kind::Time { log_y: true },
+                series: loss,
+            },
+        )?;
+        if e.points
+            .iter()
+            .any(|p| p.metrics.contains_key("honest_gain"))
+            && e.points.len() > 1
+        {
+            let pick = |key: &str| -> Vec<(f64, Stat)> {
+                e.points
+                    .iter()
+                    .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
+                    .collect()
+            };
+            emit(
+                format!("{}-tokens", e.name),
+                format!(
+                    "{}: tokens gained by honest and by Byzantine robots versus their number (mean, 95 % CI)",
+                    e.name
+                ),
+                Plot {
+                    title: format!("{}: tokens gained", e.name),
+                    x_label: &e.axis,
+                    y_label: "tokens gained per robot",
+                    kind: Kind::Versus,
+                    series: vec![
+                        Series {
+                            label: "honest robots".into(),
+                            points: pick("honest_gain"),
+                        },
+                        Series {
+                            label: "Byzantine robots".into(),
+                            points: pick("byzantine_gain"),
+                        },
+                    ],
+                },
+            )?;
+        }
+        emit(
+            format!("{}-chain", e.name),
+            format!(
+                "{}: blockchain size over time (mean over nodes, then runs; 95 % CI)",
+                e.name
+            ),
+            Plot {
+                title: format!("{}: chain size", e.name),
+                x_label: "time (s)",
+                y_label: "chain size (MB)",
+                kind: Kind::Time { log_y: false },
+                series: e
+                    .points
+                    .iter()
+                    .map(|p| Series {
+                        label: label(&e.name, &p.point, p.x),
+                        points: p.chain_mb.clone(),
+                    })
+                    .collect(),
+            },
+        )?;
+    }
+    if !textless.is_empty() {
+        notes.push(format!(
+            "no font could be loaded: {} drawn without titles, labels or legends",
+            textless.join(", ")
+        ));
+    }
+    Ok(figures)
+}
+
+fn label(experiment: &str, point: &str, x: f64) -> String {
+    if x.is_nan() {
+        return point.to_string();
+    }
+    match experiment {
+        "e1-expiration" => format!("expiration {x} s"),
+        "e1-faulty" => "1 faulty robot".to_string(),
+        _ => format!("{x} Byzantine"),
+    }
+}
+
+/// Draws `plot` as `stem.svg` and `stem.png`; returns whether the text could be drawn.
+fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
+    let svg = out.join(format!("{stem}.svg"));
+    let png = out.join(format!("{stem}.png"));
+    let mut with_text = true;
+    for pass in 0..2 {
+        let text = pass == 0;
+        let result = (|| -> Result<(), String> {
+            let root = SVGBackend::new(&svg, (900, 560)).into_drawing_area();
+            draw_on(&root, plot, text).map_err(|e| e.to_string())?;
+            root.present().map_err(|e| e.to_string())?;
+            let root = BitMapBackend::new(&png, (900, 560)).into_drawing_area();
+            draw_on(&root, plot, text).map_err(|e| e.to_string())?;
+            root.present().map_err(|e| e.to_string())
+        })();
+        match result {
+            Ok(()) => return Ok(with_text),
+            Err(e) if text => {
+                with_text = false;
+                let _ = e;
+            }
+            Err(e) => anyhow::bail!("cannot draw {stem}: {e}"),
+        }
+    }
+    Ok(with_text)
+}
+
+type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
+    let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
+    let mut ys = (f64::INFINITY, f64::NEG_INFINITY);
+    let positive = matches!(plot.kind, Kind::Time { log_y: true });
+    for s in &plot.series {
+        for (x, st) in &s.points {
+            xs = (xs.0.min(*x), xs.1.max(*x));
+            let ci = st.ci.unwrap_or(0.0);
+            for y in [st.mean - ci, st.mean + ci, st.mean] {
+                if y.is_finite() && (!positive || y > 0.0) {
+                    ys = (ys.0.min(y), ys.1.max(y));
+                }
+            }
+        }
+    }
+    if !xs.0.is_finite() {
+        xs = (0.0, 1.0);
+    }
+    if !ys.0.is_finite() {
+        ys = (if positive { 1e-3 } else { 0.0 }, 1.0);
+    }
+    if xs.1 <= xs.0 {
+        xs = (xs.0 - 0.5, xs.1 + 0.5);
+    }
+    if positive {
+        (xs.0, xs.1, ys.0 / 1.2, ys.1 * 1.2)
+    } else {
+        let pad = ((ys.1 - ys.0) * 0.08).max(1e-9);
+        (xs.0, xs.1, ys.0 - pad, ys.1 + pad)
+    }
+}
+
+/// Configures and draws the mesh: axis descriptions with text, no tick labels without.
+macro_rules! draw_mesh {
+    ($chart:expr, $plot:expr, $text:expr) => {{
+        let mut mesh = $chart.configure_mesh();
+        mesh.light_line_style(WHITE.mix(0.0));
+        if $text {
+            mesh.x_desc($plot.x_label).y_desc($plot.y_label);
+        } else {
+            mesh.x_labels(0).y_labels(0);
+        }
+        mesh.draw()?;
+    }};
+}
+
+fn draw_on<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    plot: &Plot,
+    text: bool,
+) -> DrawResult<DB> {
+    root.fill(&WHITE)?;
+    let (x0, x1, y0, y1) = bounds(plot);
+    let mut builder = ChartBuilder::on(root);
+    builder.margin(16);
+    if text {
+        builder
+            .caption(&plot.title, ("sans-serif", 22))
+            .x_label_area_size(40)
+            .y_label_area_size(70);
+    } else {
+        builder.x_label_area_size(10).y_label_area_size(10);
+    }
+    match plot.kind {
+        Kind::Time { log_y: true } => {
+            let mut chart = builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())?;
+            draw_mesh!(chart, plot, text);
+            draw_series(&mut chart, plot, text, y0)?;
+        }
+        Kind::Time { log_y: false } | Kind::Versus => {
+            let (x0, x1) = match plot.kind {
+                Kind::Versus => (x0 - 0.5, x1 + 0.5),
+                _ => (x0, x1),
+            };
+            let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1)?;
+            draw_mesh!(chart, plot, text);
+            draw_series(&mut chart, plot, text, y0)?;
+        }
+    }
+    Ok(())
+}
+
+fn draw_series<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    plot: &Plot,
+    text: bool,
+    y_floor: f64,
+) -> DrawResult<DB>
+where
+    DB: DrawingBackend + 'a,
+    X: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+    Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+{
+    let log_y = matches!(plot.kind, Kind::Time { log_y: true });
+    for (i, s) in plot.series.iter().enumerate() {
+        let colour = COLOURS[i % COLOURS.len()];
+        if s.points.is_empty() {
+            continue;
+        }
+        match plot.kind {
+            Kind::Time { .. } => {
+                let lo = |st: &Stat| {
+                    let v = st.mean - st.ci.unwrap_or(0.0);
+                    if log_y && v <= y_floor {
+                        y_floor
+                    } else {
+                        v
+                    }
+                };
+                let band: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .map(|(t, st)| (*t, st.mean + st.ci.unwrap_or(0.0)))
+                    .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
+                    .collect();
+                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.18))))?;
+                let line = chart.draw_series(LineSeries::new(
+                    s.points.iter().map(|(t, st)| (*t, st.mean)),
+                    colour.stroke_width(2),
+                ))?;
+                if text {
+                    line.label(s.label.clone()).legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                    });
+                }
+            }
+            Kind::Versus => {
+                let offset = (i as f64 - 0.5) * 0.08;
+                for (x, st) in &s.points {
+                    if let Some(ci) = st.ci {
+                        chart.draw_series(std::iter::once(PathElement::new(
+                            vec![(x + offset, st.mean - ci), (x + offset, st.mean + ci)],
+                            colour.stroke_width(2),
+                        )))?;
+                    }
+                }
+                chart.draw_series(LineSeries::new(
+                    s.points.iter().map(|(x, st)| (x + offset, st.mean)),
+                    colour.mix(0.5).stroke_width(1),
+                ))?;
+                let dots = chart.draw_series(
+                    s.points
+                        .iter()
+                        .map(|(x, st)| Circle::new((x + offset, st.mean), 4, colour.filled())),
+                )?;
+                if text {
+                    dots.label(s.label.clone())
+                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+                }
+            }
+        }
+    }
+    if text {
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK.mix(0.4))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()?;
+    }
+    Ok(())
+}

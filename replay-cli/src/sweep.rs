@@ -1,0 +1,626 @@
+//! `swarmfl sweep`: the paper's experiments (SPEC.md section 7) as a fixed task list of
+//! (configuration point, seed) pairs, run locally in parallel or one shard at a time under a
+//! cluster scheduler.
+//!
+//! The task list of an experiment with points `p = 0..P` (in the order [`experiment`] lists
+//! them) and `R` runs is point-major: task `i = p * R + (seed - 1)`, seeds `1..=R`. A shard
+//! `I/N` runs the tasks with `i % N == I`, so shards `0/N .. (N-1)/N` cover every task exactly
+//! once whatever `N` is. Each task writes one result file
+//! `DIR/<experiment>/<point>/seed<N>.json` (the run's summary JSON plus a `sweep` section naming
+//! the task), atomically (temporary file + rename); a task whose result file exists and parses is
+//! skipped, so a re-run resumes an interrupted sweep and a retried task simply overwrites.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+use anyhow::Context;
+use indicatif::{ProgressBar, ProgressStyle};
+use swarmfl_core::config::Config;
+
+use crate::run;
+
+/// The experiments, in the order `swarmfl sweep --help` lists them.
+pub const EXPERIMENTS: [&str; 5] = [
+    "e1-expiration",
+    "e1-faulty",
+    "e2-faulty",
+    "e2-malicious",
+    "e3-smart",
+];
+
+/// One configuration point of an experiment's grid.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Point {
+    /// The point's name: a directory name (e.g. `expiration-750`, `byzantine-3`).
+    pub name: String,
+    /// The grid value (expiration in s, or number of Byzantine robots), for plotting.
+    pub x: f64,
+    /// The configuration overrides that make this point from the experiment's preset.
+    pub overrides: Vec<String>,
+}
+
+/// One experiment: a preset, its grid of points and the paper's number of runs per point.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Experiment {
+    /// The experiment's id, also its preset's name.
+    pub name: &'static str,
+    /// What the grid varies, for axis labels (`data expiration (s)`, `Byzantine robots`).
+    pub axis: &'static str,
+    /// The grid, in task order.
+    pub points: Vec<Point>,
+    /// The paper's runs per point.
+    pub runs: u32,
+}
+
+/// Looks an experiment up by id (SPEC.md section 7).
+pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
+    let byzantine_grid = || {
+        (0..=7u32)
+            .map(|count| Point {
+                name: format!("byzantine-{count}"),
+                x: f64::from(count),
+                overrides: if count == 0 {
+                    // Validation requires kind none with count 0.
+                    vec!["byzantine.count=0".into(), "byzantine.kind=none".into()]
+                } else {
+                    vec![format!("byzantine.count={count}")]
+                },
+            })
+            .collect()
+    };
+    Ok(match name {
+        "e1-expiration" => Experiment {
+            name: "e1-expiration",
+            axis: "data expiration (s)",
+            points: [250u32, 500, 750, 1000, 1250]
+                .iter()
+                .map(|&s| Point {
+                    name: format!("expiration-{s}"),
+                    x: f64::from(s),
+                    overrides: vec![format!("data.expiration_s={s}.0")],
+                })
+                .collect(),
+            runs: 5,
+        },
+        "e1-faulty" => Experiment {
+            name: "e1-faulty",
+            axis: "faulty robots",
+            points: vec![Point {
+                name: "faulty-1".into(),
+                x: 1.0,
+                overrides: Vec::new(),
+            }],
+            runs: 10,
+        },
+        "e2-faulty" => Experiment {
+            name: "e2-faulty",
+            axis: "faulty robots",
+            points: byzantine_grid(),
+            runs: 20,
+        },
+        "e2-malicious" => Experiment {
+            name: "e2-malicious",
+            axis: "malicious robots",
+            points: byzantine_grid(),
+            runs: 20,
+        },
+        "e3-smart" => Experiment {
+            name: "e3-smart",
+            axis: "smart robots",
+            points: byzantine_grid(),
+            runs: 18,
+        },
+        other => anyhow::bail!(
+            "unknown experiment {other:?}; the experiments are {}",
+            EXPERIMENTS.join(", ")
+        ),
+    })
+}
+
+/// One task: a configuration point and a seed.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Task {
+    /// Position in the experiment's task list: `point_index * runs + (seed - 1)`.
+    pub index: usize,
+    /// The experiment's id (and preset).
+    pub experiment: &'static str,
+    /// Index of the point in the experiment's grid.
+    pub point_index: usize,
+    /// The point's name.
+    pub point: String,
+    /// The seed, `1..=runs`.
+    pub seed: u64,
+    /// All overrides: the point's, then the sweep's `--set` ones.
+    pub overrides: Vec<String>,
+}
+
+/// Expands an experiment into its task list (point-major, seeds `1..=runs`), with `extra`
+/// overrides appended to every task.
+pub fn tasks(exp: &Experiment, runs: u32, extra: &[String]) -> Vec<Task> {
+    let mut out = Vec::with_capacity(exp.points.len() * runs as usize);
+    for (p, point) in exp.points.iter().enumerate() {
+        for seed in 1..=u64::from(runs) {
+            let mut overrides = point.overrides.clone();
+            overrides.extend(extra.iter().cloned());
+            out.push(Task {
+                index: out.len(),
+                experiment: exp.name,
+                point_index: p,
+                point: point.name.clone(),
+                seed,
+                overrides,
+            });
+        }
+    }
+    assert!(out
+        .iter()
+        .all(|t| t.index == t.point_index * runs as usize + (t.seed as usize - 1)));
+    out
+}
+
+/// A share of the task list: the tasks whose index is `index` modulo `count`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Shard {
+    /// This shard, `0..count`.
+    pub index: u32,
+    /// The number of shards.
+    pub count: u32,
+}
+
+impl Shard {
+    /// The whole task list.
+    pub const ALL: Shard = Shard { index: 0, count: 1 };
+
+    /// Parses `I/N` (`0 <= I < N`).
+    pub fn parse(text: &str) -> anyhow::Result<Shard> {
+        let (i, n) = text
+            .split_once('/')
+            .with_context(|| format!("--shard {text:?}: expected I/N, e.g. --shard 0/3"))?;
+        let index: u32 = i
+            .trim()
+            .parse()
+            .with_context(|| format!("--shard {text:?}: I must be a non-negative integer"))?;
+        let count: u32 = n
+            .trim()
+            .parse()
+            .with_context(|| format!("--shard {text:?}: N must be a positive integer"))?;
+        Shard::new(index, count)
+    }
+
+    /// A checked shard.
+    pub fn new(index: u32, count: u32) -> anyhow::Result<Shard> {
+        anyhow::ensure!(count >= 1, "shard count must be at least 1, got {count}");
+        anyhow::ensure!(
+            index < count,
+            "shard index {index} is out of range: it must be below the shard count {count}"
+        );
+        Ok(Shard { index, count })
+    }
+
+    /// The shard to run: `--shard I/N` if given; otherwise from the scheduler's environment
+    /// (`get` reads a variable): a Slurm job array (`SLURM_ARRAY_TASK_ID` minus
+    /// `SLURM_ARRAY_TASK_MIN` (0 if unset) out of `SLURM_ARRAY_TASK_COUNT`), or a Kubernetes
+    /// indexed Job (`JOB_COMPLETION_INDEX` out of `--shards N` or `SWARMFL_SHARDS`); otherwise
+    /// every task.
+    pub fn resolve(
+        flag: Option<&str>,
+        shards: Option<u32>,
+        get: impl Fn(&str) -> Option<String>,
+    ) -> anyhow::Result<Shard> {
+        if let Some(text) = flag {
+            return Shard::parse(text);
+        }
+        let number = |name: &str| -> anyhow::Result<Option<u32>> {
+            get(name)
+                .filter(|v| !v.trim().is_empty())
+                .map(|v| {
+                    v.trim().parse::<u32>().with_context(|| {
+                        format!("environment variable {name}={v:?} is not a non-negative integer")
+                    })
+                })
+                .transpose()
+        };
+        if let Some(id) = number("SLURM_ARRAY_TASK_ID")? {
+            let min = number("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+            let count = match shards {
+                Some(n) => n,
+                None => number("SLURM_ARRAY_TASK_COUNT")?.context(
+                    "SLURM_ARRAY_TASK_ID is set but SLURM_ARRAY_TASK_COUNT is not; pass --shards N",
+                )?,
+            };
+            let index = id.checked_sub(min).with_context(|| {
+                format!("SLURM_ARRAY_TASK_ID {id} is below SLURM_ARRAY_TASK_MIN {min}")
+            })?;
+            return Shard::new(index, count);
+        }
+        if let Some(index) = number("JOB_COMPLETION_INDEX")? {
+            let count = match shards {
+                Some(n) => n,
+                None => number("SWARMFL_SHARDS")?.context(
+                    "JOB_COMPLETION_INDEX is set but the shard count is not: pass --shards N or \
+                     set SWARMFL_SHARDS to the Job's completions",
+                )?,
+            };
+            return Shard::new(index, count);
+        }
+        match shards {
+            Some(n) if n != 1 => anyhow::bail!(
+                "--shards {n} needs a shard index: --shard I/{n}, SLURM_ARRAY_TASK_ID or \
+                 JOB_COMPLETION_INDEX"
+            ),
+            _ => Ok(Shard::ALL),
+        }
+    }
+
+    /// Whether task `index` belongs to this shard.
+    pub fn owns(self, index: usize) -> bool {
+        index % self.count as usize == self.index as usize
+    }
+}
+
+/// The result file of a task: `DIR/<experiment>/<point>/seed<N>.json`.
+pub fn result_path(dir: &Path, experiment: &str, point: &str, seed: u64) -> PathBuf {
+    dir.join(experiment)
+        .join(point)
+        .join(format!("seed{seed}.json"))
+}
+
+/// Whether a result file exists and parses as a summary (a JSON object with a `seed`).
+pub fn is_done(path: &Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+        .is_some_and(|v| v.get("seed").is_some_and(|s| s.is_u64()))
+}
+
+/// Writes `value` to `path` atomically: a temporary file in the same directory, then rename.
+pub fn write_atomic(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
+    let dir = path.parent().context("result path has no directory")?;
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let name = path
+        .file_name()
+        .context("result path has no file name")?
+        .to_string_lossy();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    std::fs::write(&tmp, serde_json::to_string_pretty(value)? + "\n")
+        .with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+    Ok(())
+}
+
+/// What `swarmfl sweep` was asked to do.
+#[derive(Clone, Debug)]
+pub struct SweepOptions {
+    /// The experiment's id.
+    pub experiment: String,
+    /// The results directory.
+    pub out: PathBuf,
+    /// Runs per point (default: the paper's).
+    pub runs: Option<u32>,
+    /// Parallel runs (default: the number of cores).
+    pub jobs: Option<usize>,
+    /// The share of the task list to run.
+    pub shard: Shard,
+    /// Extra overrides for every task.
+    pub overrides: Vec<String>,
+    /// Keep each run's full log in `DIR/<experiment>/<point>/seed<N>/`.
+    pub keep_logs: bool,
+}
+
+/// What a sweep did.
+#[derive(Debug, Default)]
+pub struct SweepOutcome {
+    /// Tasks in this shard.
+    pub selected: usize,
+    /// Tasks skipped because their result file was already there.
+    pub skipped: usize,
+    /// Tasks run now.
+    pub ran: usize,
+    /// Failed tasks with their error.
+    pub failed: Vec<(Task, String)>,
+    /// Wall-clock seconds of the whole sweep.
+    pub wall_s: f64,
+}
+
+/// Runs a sweep (or one shard of it).
+pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
+    let exp = experiment(&opts.experiment)?;
+    let runs = opts.runs.unwrap_or(exp.runs);
+    anyhow::ensure!(runs >= 1, "--runs must be at least 1");
+    let all = tasks(&exp, runs, &opts.overrides);
+    // Resolve every point's configuration up front: a bad --set fails before any run.
+    let mut configs = Vec::with_capacity(exp.points.len());
+    for point in &exp.points {
+        let mut overrides = point.overrides.clone();
+        overrides.extend(opts.overrides.iter().cloned());
+        let config = Config::resolve(Some(exp.name), None, &overrides)
+            .with_context(|| format!("{} point {}", exp.name, point.name))?;
+        configs.push(config);
+    }
+    let selected: Vec<Task> = all
+        .into_iter()
+        .filter(|t| opts.shard.owns(t.index))
+        .collect();
+    let started = Instant::now();
+    let mut outcome = SweepOutcome {
+        selected: selected.len(),
+        ..SweepOutcome::default()
+    };
+    let todo: Vec<Task> = selected
+        .into_iter()
+        .filter(|t| !is_done(&result_path(&opts.out, t.experiment, &t.point, t.seed)))
+        .collect();
+    outcome.skipped = outcome.selected - todo.len();
+    let jobs = opts
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .clamp(1, todo.len().max(1));
+    eprintln!(
+        "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
+        exp.name, outcome.selected, opts.shard.index, opts.shard.count, outcome.skipped, runs, jobs
+    );
+    let bar = std::io::stderr().is_terminal().then(|| {
+        let bar = ProgressBar::new(todo.len() as u64);
+        bar.set_style(
+            ProgressStyle::with_template(
+                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} tasks  {msg}  ETA {eta}",
+            )
+            .expect("valid template"),
+        );
+        bar
+    });
+    let next = AtomicUsize::new(0);
+    let done = AtomicUsize::new(0);
+    let failed = Mutex::new(Vec::new());
+    std::thread::scope(|scope| {
+        for _ in 0..jobs {
+            scope.spawn(|| loop {
+                let k = next.fetch_add(1, Ordering::SeqCst);
+                let Some(task) = todo.get(k) else { break };
+                let task_started = Instant::now();
+                let result = run_task(opts, task, configs[task.point_index].clone());
+                let finished = done.fetch_add(1, Ordering::SeqCst) + 1;
+                let line = match &result {
+                    Ok(()) => format!(
+                        "[{finished}/{}] {} {} seed {} done in {:.1} s",
+                        todo.len(),
+                        task.experiment,
+                        task.point,
+                        task.seed,
+                        task_started.elapsed().as_secs_f64()
+                    ),
+                    Err(e) => format!(
+                        "[{finished}/{}] {} {} seed {} FAILED: {e:#}",
+                        todo.len(),
+                        task.experiment,
+                        task.point,
+                        task.seed
+                    ),
+                };
+                match &bar {
+                    Some(bar) => {
+                        bar.inc(1);
+                        if result.is_err() {
+                            bar.println(&line);
+                        } else {
+                            bar.set_message(format!(
+                                "{} {} seed {}",
+                                task.experiment, task.point, task.seed
+                            ));
+                        }
+                    }
+                    None => eprintln!("{line}"),
+                }
+                if let Err(e) = result {
+                    failed
+                        .lock()
+                        .expect("no worker panics while holding the lock")
+                        .push((task.clone(), format!("{e:#}")));
+                }
+            });
+        }
+    });
+    if let Some(bar) = bar {
+        bar.finish_and_clear();
+    }
+    let mut failed = failed.into_inner().expect("workers finished");
+    failed.sort_by_key(|(t, _)| t.index);
+    outcome.ran = todo.len() - failed.len();
+    outcome.failed = failed;
+    outcome.wall_s = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+/// Runs one task and writes its result file.
+fn run_task(opts: &SweepOptions, task: &Task, config: Config) -> anyhow::Result<()> {
+    let result = result_path(&opts.out, task.experiment, &task.point, task.seed);
+    let run_dir = if opts.keep_logs {
+        result.with_extension("")
+    } else {
+        opts.out.join(".tmp").join(format!(
+            "{}-{}-seed{}-{}",
+            task.experiment,
+            task.point,
+            task.seed,
+            std::process::id()
+        ))
+    };
+    let outcome = run::run(config, task.seed, &run_dir, true);
+    if !opts.keep_logs {
+        // Best effort: a leftover temporary directory does not change any result.
+        let _ = std::fs::remove_dir_all(&run_dir);
+    }
+    let mut summary = outcome?.summary;
+    let map = summary
+        .as_object_mut()
+        .context("the run's summary is not a JSON object")?;
+    map.insert(
+        "sweep".into(),
+        serde_json::json!({
+            "experiment": task.experiment,
+            "point": task.point,
+            "seed": task.seed,
+            "task": task.index,
+            "overrides": task.overrides,
+        }),
+    );
+    write_atomic(&result, &summary)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn env(vars: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
+        let vars: Vec<(String, String)> = vars
+            .iter()
+            .map(|(k, v)| (k.to_string(), v.to_string()))
+            .collect();
+        move |name: &str| vars.iter().find(|(k, _)| k == name).map(|(_, v)| v.clone())
+    }
+
+    #[test]
+    fn task_lists_have_the_papers_sizes_and_point_major_order() {
+        let check = |name: &str, points: usize, runs: u32| {
+            let exp = experiment(name).unwrap();
+            assert_eq!(exp.points.len(), points, "{name}");
+            assert_eq!(exp.runs, runs, "{name}");
+            let list = tasks(&exp, exp.runs, &[]);
+            assert_eq!(list.len(), points * runs as usize, "{name}");
+            for (i, t) in list.iter().enumerate() {
+                assert_eq!(t.index, i);
+                assert_eq!(t.point_index, i / runs as usize);
+                assert_eq!(t.seed, (i % runs as usize) as u64 + 1);
+            }
+        };
+        check("e1-expiration", 5, 5);
+        check("e1-faulty", 1, 10);
+        check("e2-faulty", 8, 20);
+        check("e2-malicious", 8, 20);
+        check("e3-smart", 8, 18);
+        assert!(experiment("e4").is_err());
+    }
+
+    #[test]
+    fn every_point_resolves_to_a_valid_configuration() {
+        for name in EXPERIMENTS {
+            let exp = experiment(name).unwrap();
+            for point in &exp.points {
+                let config = Config::resolve(Some(name), None, &point.overrides)
+                    .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
+                if name == "e1-expiration" {
+                    assert_eq!(config.data.expiration_s, point.x);
+                } else {
+                    assert_eq!(f64::from(config.byzantine.count), point.x);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn shards_cover_every_task_exactly_once() {
+        for name in EXPERIMENTS {
+            let exp = experiment(name).unwrap();
+            for runs in [1u32, 3, exp.runs] {
+                let list = tasks(&exp, runs, &["run.duration_s=600".to_string()]);
+                for count in 1..=7u32 {
+                    let mut seen = vec![0u32; list.len()];
+                    for index in 0..count {
+                        let shard = Shard::new(index, count).unwrap();
+                        for t in list.iter().filter(|t| shard.owns(t.index)) {
+                            seen[t.index] += 1;
+                        }
+                    }
+                    assert!(seen.iter().all(|&n| n == 1), "{name} runs {runs} N {count}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn shards_come_from_the_flag_or_the_scheduler() {
+        let check = |flag: Option<&str>,
+                     shards: Option<u32>,
+                     vars: &[(&str, &str)],
+                     expect: Option<(u32, u32)>| {
+            let got = Shard::resolve(flag, shards, env(vars)).ok();
+            assert_eq!(
+                got.map(|s| (s.index, s.count)),
+                expect,
+                "{flag:?} {shards:?} {vars:?}"
+            );
+        };
+        check(None, None, &[], Some((0, 1)));
+        check(Some("1/3"), None, &[], Some((1, 3)));
+        check(Some("3/3"), None, &[], None);
+        check(Some("0/0"), None, &[], None);
+        check(Some("x"), None, &[], None);
+        check(
+            Some("2/3"),
+            None,
+            &[
+                ("SLURM_ARRAY_TASK_ID", "0"),
+                ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ],
+            Some((2, 3)),
+        );
+        check(
+            None,
+            None,
+            &[
+                ("SLURM_ARRAY_TASK_ID", "2"),
+                ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ],
+            Some((2, 3)),
+        );
+        check(
+            None,
+            None,
+            &[
+                ("SLURM_ARRAY_TASK_ID", "3"),
+                ("SLURM_ARRAY_TASK_MIN", "1"),
+                ("SLURM_ARRAY_TASK_COUNT", "3"),
+            ],
+            Some((2, 3)),
+        );
+        check(None, None, &[("SLURM_ARRAY_TASK_ID", "2")], None);
+        check(None, None, &[("JOB_COMPLETION_INDEX", "4")], None);
+        check(
+            None,
+            Some(5),
+            &[("JOB_COMPLETION_INDEX", "4")],
+            Some((4, 5)),
+        );
+        check(
+            None,
+            None,
+            &[("JOB_COMPLETION_INDEX", "1"), ("SWARMFL_SHARDS", "2")],
+            Some((1, 2)),
+        );
+        check(None, Some(2), &[], None);
+    }
+
+    #[test]
+    fn result_files_are_written_atomically_and_recognised() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-sweep-test-{}", std::process::id()));
+        let path = result_path(&dir, "e2-faulty", "byzantine-3", 7);
+        assert!(path.ends_with("e2-faulty/byzantine-3/seed7.json"));
+        assert!(!is_done(&path));
+        write_atomic(&path, &serde_json::json!({"seed": 7})).unwrap();
+        assert!(is_done(&path));
+        std::fs::write(&path, "{\"seed\": 7").unwrap();
+        assert!(!is_done(&path), "a truncated file is not a finished task");
+        write_atomic(&path, &serde_json::json!({"seed": 7, "x": 1})).unwrap();
+        assert!(is_done(&path));
+        let leftovers: Vec<_> = std::fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(leftovers.len(), 1, "no temporary file left: {leftovers:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
