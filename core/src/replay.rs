@@ -100,6 +100,43 @@ pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Confi
     Ok(config)
 }
 
+/// Folds one record of the log at `name` into `state`: an event through the reducers, a
+/// checkpoint compared with the state's digests. `index` is the record's index in the log.
+pub fn fold_record(
+    state: &mut State,
+    name: &str,
+    index: u64,
+    record: &Record,
+) -> Result<(), ReplayError> {
+    match record {
+        Record::Event { time, event } => {
+            state
+                .apply(*time, event)
+                .map_err(|source| ReplayError::Apply {
+                    path: name.to_string(),
+                    index,
+                    kind: record.kind(),
+                    time: *time,
+                    source,
+                })
+        }
+        Record::Checkpoint(expected) => match state
+            .checkpoint(expected.time, expected.cause)
+            .first_difference(expected)
+        {
+            None => Ok(()),
+            Some(component) => Err(ReplayError::Diverged {
+                path: name.to_string(),
+                index,
+                kind: record.kind(),
+                time: expected.time,
+                component,
+                detail: " between the log's checkpoint and the replayed state".to_string(),
+            }),
+        },
+    }
+}
+
 /// Folds every event of the log at `path` through the reducers and checks every checkpoint.
 pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
     let name = path.display().to_string();
@@ -113,34 +150,11 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     while let Some(record) = reader.next_record()? {
         let index = reader.index() - 1;
-        match &record {
-            Record::Event { time, event } => {
-                state
-                    .apply(*time, event)
-                    .map_err(|source| ReplayError::Apply {
-                        path: name.clone(),
-                        index,
-                        kind: record.kind(),
-                        time: *time,
-                        source,
-                    })?;
-            }
-            Record::Checkpoint(expected) => {
-                let actual = state.checkpoint(expected.time, expected.cause);
-                if let Some(component) = actual.first_difference(expected) {
-                    return Err(ReplayError::Diverged {
-                        path: name,
-                        index,
-                        kind: record.kind(),
-                        time: expected.time,
-                        component,
-                        detail: " between the log's checkpoint and the replayed state".to_string(),
-                    });
-                }
-                checkpoints += 1;
-                if matches!(expected.cause, crate::event::CheckpointCause::Block { .. }) {
-                    blocks += 1;
-                }
+        fold_record(&mut state, &name, index, &record)?;
+        if let Record::Checkpoint(c) = &record {
+            checkpoints += 1;
+            if matches!(c.cause, crate::event::CheckpointCause::Block { .. }) {
+                blocks += 1;
             }
         }
     }
@@ -285,35 +299,7 @@ pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64),
         let Some(record) = reader.next_record()? else {
             break;
         };
-        let index = reader.index() - 1;
-        match &record {
-            Record::Event { time, event } => {
-                state
-                    .apply(*time, event)
-                    .map_err(|source| ReplayError::Apply {
-                        path: name.clone(),
-                        index,
-                        kind: record.kind(),
-                        time: *time,
-                        source,
-                    })?;
-            }
-            Record::Checkpoint(expected) => {
-                if let Some(component) = state
-                    .checkpoint(expected.time, expected.cause)
-                    .first_difference(expected)
-                {
-                    return Err(ReplayError::Diverged {
-                        path: name,
-                        index,
-                        kind: record.kind(),
-                        time: expected.time,
-                        component,
-                        detail: " between the log's checkpoint and the replayed state".to_string(),
-                    });
-                }
-            }
-        }
+        fold_record(&mut state, &name, reader.index() - 1, &record)?;
     }
     Ok((state, config, seed))
 }

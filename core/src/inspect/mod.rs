@@ -58,7 +58,7 @@ use crate::learn::{self, ModelShape, TrainData};
 use crate::ledger::BlockHash;
 use crate::log::LogReader;
 use crate::metrics::{self, LearnReport};
-use crate::replay::{header_config, ReplayError};
+use crate::replay::{self, header_config, ReplayError};
 use crate::sim::State;
 use crate::types::{Digest, RobotId, SimTime};
 
@@ -114,36 +114,14 @@ fn fold_record(
     index: u64,
     record: &Record,
 ) -> Result<(), InspectError> {
-    match record {
-        Record::Event { time, event } => {
-            state
-                .apply(*time, event)
-                .map_err(|source| ReplayError::Apply {
-                    path: name.to_string(),
-                    index,
-                    kind: record.kind(),
-                    time: *time,
-                    source,
-                })?;
-            if let Event::Learn(report) = event {
-                if let Some(slot) = learned.get_mut(report.robot as usize) {
-                    *slot = Some((*time, report.clone()));
-                }
-            }
-        }
-        Record::Checkpoint(expected) => {
-            let actual = state.checkpoint(expected.time, expected.cause);
-            if let Some(component) = actual.first_difference(expected) {
-                return Err(ReplayError::Diverged {
-                    path: name.to_string(),
-                    index,
-                    kind: record.kind(),
-                    time: expected.time,
-                    component,
-                    detail: " between the log's checkpoint and the replayed state".to_string(),
-                }
-                .into());
-            }
+    replay::fold_record(state, name, index, record)?;
+    if let Record::Event {
+        time,
+        event: Event::Learn(report),
+    } = record
+    {
+        if let Some(slot) = learned.get_mut(report.robot as usize) {
+            *slot = Some((*time, report.clone()));
         }
     }
     Ok(())
