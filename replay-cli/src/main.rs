@@ -76,13 +76,17 @@ enum Command {
         #[arg(long)]
         resimulate: bool,
     },
-    /// Draw the arena, obstacles, robots and radio links at a simulated time (SVG or PNG).
+    /// Draw the arena, obstacles, robots (Byzantine ones marked) and radio links at a simulated
+    /// time or right after a block of the final canonical chain (SVG or PNG).
     Snapshot {
         /// The log (run.swlog).
         log: PathBuf,
         /// Simulated time in seconds (the state after the last tick at or before it).
+        #[arg(long, conflicts_with = "block", required_unless_present = "block")]
+        time: Option<f64>,
+        /// Height on the final canonical chain (the state right after its sealing).
         #[arg(long)]
-        time: f64,
+        block: Option<u64>,
         /// Output file: `.svg` or `.png`.
         #[arg(long)]
         out: PathBuf,
@@ -331,26 +335,12 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
                 report.final_hash
             );
         }
-        Command::Snapshot { log, time, out } => {
-            if !(time.is_finite() && time >= 0.0) {
-                anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
-            }
-            let (state, config, seed) = replay::state_at_time(&log, SimTime::from_secs(time))?;
-            let marks: Vec<snapshot::RobotMark> =
-                swarmfl_core::byzantine::byzantine_robots(&config, seed)
-                    .into_iter()
-                    .map(|b| {
-                        if b {
-                            snapshot::RobotMark::Byzantine
-                        } else {
-                            snapshot::RobotMark::Honest
-                        }
-                    })
-                    .collect();
-            let title = format!("{} at t = {}", log.display(), state.world.time());
-            snapshot::draw(&state.world, &marks, &title, &out)?;
-            println!("wrote {} (t = {})", out.display(), state.world.time());
-        }
+        Command::Snapshot {
+            log,
+            time,
+            block,
+            out,
+        } => snapshot_command(&log, time, block, &out)?,
         Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
         Command::Fixtures {
             action: FixturesAction::Regenerate,
@@ -510,4 +500,48 @@ fn diff(
             anyhow::bail!("--resimulate compares one log with a re-simulation; give only one log")
         }
     }
+}
+
+fn snapshot_command(
+    log: &std::path::Path,
+    time: Option<f64>,
+    block: Option<u64>,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    let (world, config, seed, title) = match (time, block) {
+        (_, Some(height)) => {
+            let index = swarmfl_core::inspect::index_run(log, Some(height))?;
+            let (state, _) = index
+                .at_block
+                .ok_or_else(|| anyhow::anyhow!("block {height} was not captured"))?;
+            let title = format!(
+                "{} after block {height} (t = {})",
+                log.display(),
+                state.world.time()
+            );
+            (state.world, index.config, index.seed, title)
+        }
+        (Some(time), None) => {
+            if !(time.is_finite() && time >= 0.0) {
+                anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
+            }
+            let (state, config, seed) = replay::state_at_time(log, SimTime::from_secs(time))?;
+            let title = format!("{} at t = {}", log.display(), state.world.time());
+            (state.world, config, seed, title)
+        }
+        (None, None) => anyhow::bail!("give --time SECONDS or --block HEIGHT"),
+    };
+    let marks: Vec<snapshot::RobotMark> = swarmfl_core::byzantine::byzantine_robots(&config, seed)
+        .into_iter()
+        .map(|b| {
+            if b {
+                snapshot::RobotMark::Byzantine
+            } else {
+                snapshot::RobotMark::Honest
+            }
+        })
+        .collect();
+    snapshot::draw(&world, &marks, &title, out)?;
+    println!("wrote {} ({title})", out.display());
+    Ok(())
 }
