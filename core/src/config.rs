@@ -5,6 +5,7 @@
 //! ([`Preset`]), optionally overlaid with a TOML file and with `key.path=value` overrides
 //! ([`Config::set`]); [`Config::validate`] then checks every range and names the offending key.
 
+use std::collections::BTreeMap;
 use std::fmt;
 use std::path::Path;
 
@@ -833,6 +834,98 @@ impl Config {
         )?;
         Ok(())
     }
+
+    /// Every leaf of the configuration as `dotted.key -> value as TOML text`, sorted by key.
+    pub fn flat_values(&self) -> BTreeMap<String, String> {
+        fn flatten(prefix: &str, value: &toml::Value, out: &mut BTreeMap<String, String>) {
+            match value {
+                toml::Value::Table(t) => {
+                    for (k, v) in t {
+                        let key = if prefix.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{prefix}.{k}")
+                        };
+                        flatten(&key, v, out);
+                    }
+                }
+                v => {
+                    out.insert(prefix.to_string(), v.to_string());
+                }
+            }
+        }
+        let mut out = BTreeMap::new();
+        flatten(
+            "",
+            &toml::Value::try_from(self).expect("Config serialises"),
+            &mut out,
+        );
+        out
+    }
+
+    /// The dotted keys whose values differ between `self` and `other`, sorted.
+    pub fn changed_keys(&self, other: &Config) -> Vec<String> {
+        let (a, b) = (self.flat_values(), other.flat_values());
+        let keys: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+        keys.into_iter()
+            .filter(|k| a.get(*k) != b.get(*k))
+            .cloned()
+            .collect()
+    }
+
+    /// Checks that `next` differs from `self` only in keys that may change in the middle of a
+    /// run ([`RECONFIGURABLE`]), and returns the changed keys.
+    pub fn check_reconfiguration(&self, next: &Config) -> Result<Vec<String>, ConfigError> {
+        let changed = self.changed_keys(next);
+        if let Some(key) = changed.iter().find(|k| !is_reconfigurable(k)) {
+            return Err(ConfigError::NotReconfigurable {
+                key: key.clone(),
+                allowed: RECONFIGURABLE.join(", "),
+            });
+        }
+        Ok(changed)
+    }
+}
+
+/// The configuration keys a fork may change in the middle of a run (a trailing `.*` stands for
+/// every key of that table). Everything else shapes the world, the model or the ledger from
+/// genesis on: change it with a new run instead.
+///
+/// - `run.duration_s`: the run ends at the new time (after the fork point).
+/// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
+/// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
+///   `penalised_ranks`: the contract's rules change for the blocks sealed after the fork point
+///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
+///   chain when it crosses the activation is restarted and its stakes refunded.
+/// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
+/// - `output.*`: presentation only.
+pub const RECONFIGURABLE: &[&str] = &[
+    "run.duration_s",
+    "learn.dropout",
+    "learn.learning_rate",
+    "learn.batch_size",
+    "learn.epochs",
+    "learn.train_fraction",
+    "learn.training_period_s",
+    "learn.training_duration_s",
+    "learn.min_train_samples",
+    "contract.security",
+    "contract.stake_tokens",
+    "contract.quorum_fraction",
+    "contract.outlier_threshold",
+    "contract.penalised_ranks",
+    "byzantine.*",
+    "output.*",
+];
+
+/// True when `key` may change in the middle of a run (see [`RECONFIGURABLE`]).
+pub fn is_reconfigurable(key: &str) -> bool {
+    RECONFIGURABLE
+        .iter()
+        .any(|pattern| match pattern.strip_suffix('*') {
+            Some(table) => key.starts_with(table),
+            None => key == *pattern,
+        })
 }
 
 /// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
@@ -961,6 +1054,14 @@ pub enum ConfigError {
         /// The value.
         value: String,
         /// What is allowed.
+        allowed: String,
+    },
+    /// A key that cannot change in the middle of a run (a fork's override).
+    #[error("configuration key `{key}` cannot change in the middle of a run (it shapes the world, the model or the ledger from genesis); keys a fork may change: {allowed}")]
+    NotReconfigurable {
+        /// The key.
+        key: String,
+        /// The keys that may change.
         allowed: String,
     },
     /// A `--set` argument that is not `key=value`.

@@ -38,30 +38,14 @@ pub struct Divergence {
 
 /// Lists the configuration keys whose values differ, as `key: a -> b`.
 pub fn config_differences(a: &Config, b: &Config) -> Vec<String> {
-    fn walk(prefix: &str, a: &toml::Value, b: &toml::Value, out: &mut Vec<String>) {
-        match (a, b) {
-            (toml::Value::Table(ta), toml::Value::Table(tb)) => {
-                for (k, va) in ta {
-                    let key = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    match tb.get(k) {
-                        Some(vb) => walk(&key, va, vb, out),
-                        None => out.push(format!("{key}: {va} -> (absent)")),
-                    }
-                }
-            }
-            _ if a != b => out.push(format!("{prefix}: {a} -> {b}")),
-            _ => {}
-        }
-    }
-    let va = toml::Value::try_from(a).expect("Config serialises");
-    let vb = toml::Value::try_from(b).expect("Config serialises");
-    let mut out = Vec::new();
-    walk("", &va, &vb, &mut out);
-    out
+    let (va, vb) = (a.flat_values(), b.flat_values());
+    a.changed_keys(b)
+        .into_iter()
+        .map(|key| {
+            let show = |v: Option<&String>| v.cloned().unwrap_or_else(|| "(absent)".to_string());
+            format!("{key}: {} -> {}", show(va.get(&key)), show(vb.get(&key)))
+        })
+        .collect()
 }
 
 /// Compares the logs at `a` and `b` record by record (the encoded bytes) and reports the
@@ -82,9 +66,9 @@ pub fn diff_logs(a: &Path, b: &Path) -> Result<DiffReport, ReplayError> {
     header_differences.extend(config_differences(&ca, &cb));
     if ra.header().parent != rb.header().parent {
         header_differences.push(format!(
-            "fork origin: {:?} -> {:?}",
-            ra.header().parent,
-            rb.header().parent
+            "fork origin: {} -> {}",
+            describe_origin(ra.header().parent.as_ref()),
+            describe_origin(rb.header().parent.as_ref())
         ));
     }
     let mut identical = 0u64;
@@ -138,4 +122,22 @@ pub fn diff_logs(a: &Path, b: &Path) -> Result<DiffReport, ReplayError> {
         divergence: None,
         final_hashes: (fa, fb),
     })
+}
+
+/// One line about where a run was forked from.
+fn describe_origin(origin: Option<&crate::log::ForkOrigin>) -> String {
+    let Some(o) = origin else {
+        return "none (a root run)".to_string();
+    };
+    let changes: Vec<String> = o
+        .reconfigurations
+        .iter()
+        .map(|r| format!("[{}] at t = {}", r.overrides.join(", "), SimTime(r.at_ms)))
+        .collect();
+    format!(
+        "forked from {} at block {}; reconfigurations: {}",
+        o.parent_final_hash,
+        o.height,
+        changes.join("; ")
+    )
 }

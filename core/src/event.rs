@@ -54,6 +54,21 @@ pub enum Event {
     Ledger(LedgerEvent),
     /// A robot's learning phase: what it trained or forged and what it measured.
     Learn(LearnReport),
+    /// The run's configuration changes here (a fork): the contract's rules for blocks sealed
+    /// after this time, and everything the agents decide from now on.
+    Reconfigure(Reconfiguration),
+}
+
+/// A change of configuration in the middle of a run, at the end of a tick.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Reconfiguration {
+    /// The end of the tick at which the new configuration takes over, ms (a multiple of the
+    /// tick). Blocks with a later timestamp run under the new contract rules.
+    pub at_ms: u64,
+    /// The `key=value` overrides, as given.
+    pub overrides: Vec<String>,
+    /// The whole resolved configuration from then on, as TOML text.
+    pub config_toml: String,
 }
 
 impl Event {
@@ -69,6 +84,7 @@ impl Event {
                 LedgerEvent::Inject { .. } => "inject",
             },
             Event::Learn(_) => "learn",
+            Event::Reconfigure(_) => "reconfigure",
         }
     }
 }
@@ -109,6 +125,8 @@ pub enum CheckpointCause {
     End,
     /// The state at time 0, before any event.
     Genesis,
+    /// Right after a reconfiguration (a fork point).
+    Reconfigure,
 }
 
 impl Checkpoint {

@@ -71,6 +71,10 @@ pub struct ForkOrigin {
     pub height: u64,
     /// Overrides applied at the fork.
     pub overrides: Vec<String>,
+    /// Every reconfiguration of the run since the header's configuration, oldest first: the
+    /// parent's own (when the parent is itself a fork) and then this fork's. Re-simulation
+    /// applies them at their times.
+    pub reconfigurations: Vec<crate::event::Reconfiguration>,
 }
 
 impl Header {
@@ -190,13 +194,40 @@ pub enum LogError {
         /// The last checkpoint before the damage.
         last_good_checkpoint: Option<GoodCheckpoint>,
     },
+    /// An intact record (its hash chain verifies) of a kind this build does not know: the log
+    /// was written by another build of the same format version that has more record kinds.
+    #[error("{path}: record {index} at byte offset {offset} is intact (its hash chain verifies) but this build cannot decode it ({message}); the log was written by swarmfl {crate_version}{commit}, which knows record kinds this build does not: read it with that build or a newer one", commit = commit_suffix(git_commit))]
+    UnknownRecord {
+        /// The file.
+        path: String,
+        /// Byte offset of the record's frame.
+        offset: u64,
+        /// Index of the record.
+        index: u64,
+        /// The decoder's message.
+        message: String,
+        /// The writer's crate version (from the header).
+        crate_version: String,
+        /// The writer's commit, when known.
+        git_commit: Option<String>,
+    },
+}
+
+/// The " commit abc" part of a build description, when the commit is known.
+fn commit_suffix(commit: &Option<String>) -> String {
+    commit
+        .as_ref()
+        .map(|c| format!(" (commit {c})"))
+        .unwrap_or_default()
 }
 
 impl LogError {
     /// The record index of the damage, for errors that have one.
     pub fn record_index(&self) -> Option<u64> {
         match self {
-            LogError::Truncated { index, .. } | LogError::Corrupt { index, .. } => Some(*index),
+            LogError::Truncated { index, .. }
+            | LogError::Corrupt { index, .. }
+            | LogError::UnknownRecord { index, .. } => Some(*index),
             _ => None,
         }
     }
@@ -206,6 +237,7 @@ impl LogError {
         match self {
             LogError::Truncated { offset, .. }
             | LogError::Corrupt { offset, .. }
+            | LogError::UnknownRecord { offset, .. }
             | LogError::Header { offset, .. } => Some(*offset),
             _ => None,
         }
@@ -653,8 +685,17 @@ impl<R: Read> LogReader<R> {
             self.footer = Some(footer);
             return Ok(None);
         }
-        let record: Record = rmp_serde::from_slice(&self.payload)
-            .map_err(|e| self.corrupt(frame_offset, format!("undecodable record: {e}")))?;
+        // The chain verified, so the bytes are the writer's: a record that does not decode is
+        // a kind this build does not know, not damage.
+        let record: Record =
+            rmp_serde::from_slice(&self.payload).map_err(|e| LogError::UnknownRecord {
+                path: self.path.clone(),
+                offset: frame_offset,
+                index: self.index,
+                message: e.to_string(),
+                crate_version: self.header.crate_version.clone(),
+                git_commit: self.header.git_commit.clone(),
+            })?;
         self.chain = chain;
         self.offset += FRAME_OVERHEAD + u64::from(len);
         if let Record::Checkpoint(c) = &record {
@@ -838,6 +879,34 @@ mod tests {
             err.contains("ends inside the header (40 of 268435464 bytes)"),
             "{err}"
         );
+    }
+
+    #[test]
+    fn an_intact_record_of_an_unknown_kind_names_the_writing_build() {
+        let mut header = Header::new(1, String::new());
+        header.crate_version = "9.9.9".to_string();
+        header.git_commit = Some("abc123".to_string());
+        let mut w = LogWriter::new(Vec::new(), "future.swlog", &header).unwrap();
+        let tick = Record::Event {
+            time: SimTime(0),
+            event: Event::Tick(TickEvent { commands: vec![] }),
+        };
+        w.append(&tick).unwrap();
+        // A record of a kind added by a later build: well-formed, chained, but unknown here.
+        let unknown = rmp_serde::to_vec(&("Teleport", 7u8)).unwrap();
+        w.write_frame(KIND_RECORD, &unknown).unwrap();
+        w.records += 1;
+        let (_, bytes) = w.finish().unwrap();
+        let (records, end) = read_all(&bytes);
+        assert_eq!(records.len(), 1);
+        let err = end.unwrap_err();
+        assert!(
+            matches!(err, LogError::UnknownRecord { index: 1, .. }),
+            "{err}"
+        );
+        let text = err.to_string();
+        assert!(text.contains("swarmfl 9.9.9 (commit abc123)"), "{text}");
+        assert!(text.contains("intact"), "{text}");
     }
 
     #[test]

@@ -5,7 +5,7 @@ use std::io::Read;
 use std::path::Path;
 
 use crate::config::{Config, ConfigError};
-use crate::event::Record;
+use crate::event::{Event, Record};
 use crate::log::{encode_record, Footer, LogError, LogReader};
 use crate::sim::{ApplyError, Sim, SimError, State};
 use crate::types::{Digest, SimTime};
@@ -79,7 +79,7 @@ pub struct ReplayReport {
     pub final_hash: Digest,
     /// The state rebuilt at the end.
     pub state: State,
-    /// The configuration of the run.
+    /// The configuration of the run at its end (after any reconfiguration).
     pub config: Config,
 }
 
@@ -98,6 +98,17 @@ pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Confi
         source,
     })?;
     Ok(config)
+}
+
+/// The configuration a record switches to, if it is a reconfiguration the reducers accepted.
+pub fn reconfigured(record: &Record) -> Option<Config> {
+    match record {
+        Record::Event {
+            event: Event::Reconfigure(change),
+            ..
+        } => crate::sim::parse_config(&change.config_toml).ok(),
+        _ => None,
+    }
 }
 
 /// Folds one record of the log at `name` into `state`: an event through the reducers, a
@@ -148,9 +159,13 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
         source,
     })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
+    let mut config = config;
     while let Some(record) = reader.next_record()? {
         let index = reader.index() - 1;
         fold_record(&mut state, &name, index, &record)?;
+        if let Some(next) = reconfigured(&record) {
+            config = next;
+        }
         if let Record::Checkpoint(c) = &record {
             checkpoints += 1;
             if matches!(c.cause, crate::event::CheckpointCause::Block { .. }) {
@@ -179,10 +194,17 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
     let mut reader = LogReader::open(path)?;
     let config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
-    let mut sim = Sim::new(config.clone(), seed).map_err(|source| ReplayError::Start {
-        path: name.clone(),
-        source,
-    })?;
+    let reconfigurations = reader
+        .header()
+        .parent
+        .as_ref()
+        .map(|p| p.reconfigurations.clone())
+        .unwrap_or_default();
+    let mut sim =
+        Sim::forked(config, seed, &reconfigurations).map_err(|source| ReplayError::Start {
+            path: name.clone(),
+            source,
+        })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     let mut buf = Vec::new();
     loop {
@@ -230,6 +252,7 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
         final_hash,
     } = reader.footer().expect("a finished reader has its footer");
     let state = sim.state().clone();
+    let config = sim.config().clone();
     Ok(ReplayReport {
         records,
         checkpoints,
@@ -295,11 +318,15 @@ pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64),
         path: name.clone(),
         source,
     })?;
+    let mut config = config;
     while state.world.time() < time {
         let Some(record) = reader.next_record()? else {
             break;
         };
         fold_record(&mut state, &name, reader.index() - 1, &record)?;
+        if let Some(next) = reconfigured(&record) {
+            config = next;
+        }
     }
     Ok((state, config, seed))
 }

@@ -24,7 +24,7 @@ use crate::byzantine;
 use crate::config::{ByzantineKind, Config};
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
-use crate::event::{Checkpoint, CheckpointCause, Event, Record};
+use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
 use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
@@ -48,6 +48,16 @@ pub enum SimError {
     /// The genesis model does not fit the on-chain fixed point.
     #[error("the initial model does not fit the fixed point: {0}")]
     Genesis(String),
+    /// A reconfiguration (fork) cannot be applied to this run.
+    #[error("reconfiguration {index} (at {at_ms} ms): {message}")]
+    Reconfiguration {
+        /// Its position in the list, from 0.
+        index: usize,
+        /// Its time.
+        at_ms: u64,
+        /// What is wrong.
+        message: String,
+    },
 }
 
 /// An event that the state cannot fold (only possible with a damaged or foreign log).
@@ -91,6 +101,17 @@ pub struct State {
     pub metrics: Metrics,
     /// Digest of the fixed parameters (contract parameters and genesis block).
     pub params: Digest,
+}
+
+/// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
+/// reconfiguration's).
+pub fn parse_config(text: &str) -> Result<Config, crate::config::ConfigError> {
+    let config: Config = toml::from_str(text).map_err(|e| crate::config::ConfigError::Parse {
+        source_name: "the recorded configuration".to_string(),
+        message: e.to_string(),
+    })?;
+    config.validate()?;
+    Ok(config)
 }
 
 /// The fixed-point genesis model of the run `(config, seed)` (Keras initialisation).
@@ -148,7 +169,41 @@ impl State {
                 }
                 self.metrics.apply(time, report);
             }
+            Event::Reconfigure(change) => self.reconfigure(time, change)?,
         }
+        Ok(())
+    }
+
+    /// Folds a reconfiguration: the contract's rules for the blocks sealed after `time`, and
+    /// the fixed-parameter digest that checkpoints pin.
+    fn reconfigure(&mut self, time: SimTime, change: &Reconfiguration) -> Result<(), ApplyError> {
+        if change.at_ms != time.0 || time != self.world.time() {
+            return Err(ApplyError::Invalid(format!(
+                "a reconfiguration for {} ms recorded at {time} when the world is at {}",
+                change.at_ms,
+                self.world.time()
+            )));
+        }
+        let config = parse_config(&change.config_toml)
+            .map_err(|e| ApplyError::Invalid(format!("reconfiguration: {e}")))?;
+        if config.world.robots != self.ledger.robots() {
+            return Err(ApplyError::Invalid(format!(
+                "a reconfiguration to {} robots in a swarm of {}",
+                config.world.robots,
+                self.ledger.robots()
+            )));
+        }
+        let params =
+            ContractParams::from_config(&config, self.ledger.params().genesis_weights.clone());
+        let encoded = rmp_serde::to_vec(&params).expect("contract parameters encode");
+        self.ledger
+            .reconfigure(time.0, params)
+            .map_err(ApplyError::Invalid)?;
+        let mut digest = blake3::Hasher::new();
+        digest.update(&self.params.0);
+        digest.update(&time.0.to_le_bytes());
+        digest.update(&encoded);
+        self.params = digest.finalize().into();
         Ok(())
     }
 
@@ -373,6 +428,18 @@ impl Learners {
     }
 }
 
+impl Learners {
+    /// Takes over a new configuration at a fork point: which robots are Byzantine, the
+    /// schedule's period and duration from the next phase on, and the stake.
+    fn reconfigure(&mut self, config: &Config, seed: u64) {
+        let fresh = Learners::new(config, seed);
+        self.byzantine = fresh.byzantine;
+        self.period_ms = fresh.period_ms;
+        self.duration_ms = fresh.duration_ms;
+        self.stake_units = fresh.stake_units;
+    }
+}
+
 /// A copy of the world that runs ahead of the reduced state. The world does not depend on the
 /// ledger or on learning, so the controllers decide on the copy; their tick events wait in a
 /// queue for the reduced state, and the copy captures the data set of every honest learning
@@ -410,6 +477,8 @@ pub struct Sim {
     genesis_checked: bool,
     finished: bool,
     profiler: Option<Box<dyn Profiler>>,
+    /// Reconfigurations still to come, in time order, with their parsed configurations.
+    reconfigurations: VecDeque<(Reconfiguration, Config)>,
 }
 
 impl Sim {
@@ -450,7 +519,61 @@ impl Sim {
             genesis_checked: false,
             finished: false,
             profiler: None,
+            reconfigurations: VecDeque::new(),
         })
+    }
+
+    /// A forked run: `config` seeded with `seed` from time 0, taking over each reconfiguration's
+    /// configuration at the end of its tick (oldest first). Each may change only the keys that
+    /// may change mid-run ([`crate::config::RECONFIGURABLE`]) and must come before the end of
+    /// the run it changes.
+    pub fn forked(
+        config: Config,
+        seed: u64,
+        reconfigurations: &[Reconfiguration],
+    ) -> Result<Sim, SimError> {
+        let mut sim = Sim::new(config, seed)?;
+        let mut current = sim.config.clone();
+        let mut last_ms = 0;
+        for (index, change) in reconfigurations.iter().enumerate() {
+            let fail = |message: String| SimError::Reconfiguration {
+                index,
+                at_ms: change.at_ms,
+                message,
+            };
+            if change.at_ms == 0 || change.at_ms % sim.tick_ms != 0 {
+                return Err(fail(format!(
+                    "must be at the end of a tick (a positive multiple of {} ms)",
+                    sim.tick_ms
+                )));
+            }
+            if change.at_ms < last_ms {
+                return Err(fail(format!(
+                    "comes before the previous one at {last_ms} ms"
+                )));
+            }
+            if change.at_ms >= current.ticks() * sim.tick_ms {
+                return Err(fail(format!(
+                    "the run it changes ends at {} ms",
+                    current.ticks() * sim.tick_ms
+                )));
+            }
+            let next = parse_config(&change.config_toml).map_err(|e| fail(e.to_string()))?;
+            current
+                .check_reconfiguration(&next)
+                .map_err(|e| fail(e.to_string()))?;
+            if next.ticks() * sim.tick_ms <= change.at_ms {
+                return Err(fail(format!(
+                    "run.duration_s = {} ends the run before the fork point",
+                    next.run.duration_s
+                )));
+            }
+            last_ms = change.at_ms;
+            sim.reconfigurations
+                .push_back((change.clone(), next.clone()));
+            current = next;
+        }
+        Ok(sim)
     }
 
     /// Attributes the driver's time to its parts.
@@ -546,6 +669,39 @@ impl Sim {
         self.switch(Part::Learning);
         self.learning_phase(now);
         self.release_submissions(now);
+        while self
+            .reconfigurations
+            .front()
+            .is_some_and(|(change, _)| change.at_ms == now.0)
+        {
+            let (change, config) = self.reconfigurations.pop_front().expect("checked");
+            self.reconfigure(now, change, config);
+        }
+    }
+
+    /// Takes over `config` at the end of the tick ending at `now`: the event (the contract's
+    /// rules for later blocks), the agents' new settings, a fresh speculation window (the
+    /// trainings speculated under the old settings are dropped) and a checkpoint.
+    fn reconfigure(&mut self, now: SimTime, change: Reconfiguration, config: Config) {
+        self.emit(now, Event::Reconfigure(change));
+        self.learners.reconfigure(&config, self.seed);
+        let a = &mut self.ahead;
+        a.speculated.clear();
+        a.upcoming.clear();
+        a.next_due_ms.clone_from(&self.learners.next_due_ms);
+        a.phases.clone_from(&self.learners.phases);
+        // Phases the look-ahead world has already passed are not captured: they read the
+        // reduced world's data set when due.
+        let ahead_ms = a.next_tick * self.tick_ms;
+        for (due, phase) in a.next_due_ms.iter_mut().zip(a.phases.iter_mut()) {
+            while *due <= ahead_ms {
+                *due += self.learners.period_ms;
+                *phase += 1;
+            }
+        }
+        self.total_ticks = config.ticks();
+        self.config = config;
+        self.checkpoint(now, CheckpointCause::Reconfigure);
     }
 
     /// Advances the look-ahead world to the window's end (at least one tick past the state).

@@ -138,7 +138,9 @@ proptest! {
                     }
                     ConfigError::OutOfRange { .. } => message.starts_with("configuration key `"),
                     ConfigError::UnknownPreset { name, .. } => message.contains(&format!("{name:?}")),
-                    ConfigError::Io { .. } | ConfigError::Override { .. } => false,
+                    ConfigError::Io { .. }
+                    | ConfigError::Override { .. }
+                    | ConfigError::NotReconfigurable { .. } => false,
                 };
                 prop_assert!(named, "{:?} gives an error naming neither file nor key: {}", text, message);
             }

@@ -3,7 +3,7 @@
 //! before the reported damage is the one written.
 
 use proptest::prelude::*;
-use swarmfl_core::event::{Checkpoint, CheckpointCause, Event, Record};
+use swarmfl_core::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
 use swarmfl_core::log::{Footer, ForkOrigin, Header, LogError, LogReader, LogWriter};
 use swarmfl_core::types::{Digest, SimTime};
 use swarmfl_core::world::{TickEvent, WheelCommand};
@@ -24,6 +24,11 @@ enum Spec {
         time_ms: u64,
         commands: Vec<(i16, i16)>,
     },
+    Reconfigure {
+        at_ms: u64,
+        overrides: Vec<String>,
+        config_toml: String,
+    },
 }
 
 fn record(spec: &Spec) -> Record {
@@ -37,12 +42,13 @@ fn record(spec: &Spec) -> Record {
             salt,
         } => Record::Checkpoint(Checkpoint {
             time: SimTime(*time_ms),
-            cause: match cause % 3 {
+            cause: match cause % 4 {
                 0 => CheckpointCause::Block {
                     node: *node,
                     height: *height,
                 },
                 1 => CheckpointCause::Periodic,
+                2 => CheckpointCause::Reconfigure,
                 _ => CheckpointCause::End,
             },
             world: Digest::of(&salt.to_le_bytes()),
@@ -63,6 +69,18 @@ fn record(spec: &Spec) -> Record {
                     .collect(),
             }),
         },
+        Spec::Reconfigure {
+            at_ms,
+            overrides,
+            config_toml,
+        } => Record::Event {
+            time: SimTime(*at_ms),
+            event: Event::Reconfigure(Reconfiguration {
+                at_ms: *at_ms,
+                overrides: overrides.clone(),
+                config_toml: config_toml.clone(),
+            }),
+        },
     }
 }
 
@@ -80,6 +98,9 @@ fn spec() -> impl Strategy<Value = Spec> {
         ),
         1 => (any::<u64>(), prop::collection::vec((any::<i16>(), any::<i16>()), 0..20))
             .prop_map(|(time_ms, commands)| Spec::Tick { time_ms, commands }),
+        1 => (any::<u64>(), prop::collection::vec(".{0,20}", 0..3), ".{0,80}").prop_map(
+            |(at_ms, overrides, config_toml)| Spec::Reconfigure { at_ms, overrides, config_toml }
+        ),
     ]
 }
 
@@ -91,14 +112,23 @@ fn header() -> impl Strategy<Value = Header> {
             any::<[u8; 32]>(),
             any::<u64>(),
             prop::collection::vec(".{0,20}", 0..3),
+            prop::collection::vec((any::<u64>(), ".{0,60}"), 0..3),
         )),
     )
         .prop_map(|(seed, config_toml, parent)| {
             let mut header = Header::new(seed, config_toml);
-            header.parent = parent.map(|(hash, height, overrides)| ForkOrigin {
+            header.parent = parent.map(|(hash, height, overrides, changes)| ForkOrigin {
                 parent_final_hash: Digest(hash),
                 height,
-                overrides,
+                overrides: overrides.clone(),
+                reconfigurations: changes
+                    .into_iter()
+                    .map(|(at_ms, config_toml)| Reconfiguration {
+                        at_ms,
+                        overrides: overrides.clone(),
+                        config_toml,
+                    })
+                    .collect(),
             });
             header
         })
@@ -233,6 +263,7 @@ proptest! {
                 prop_assert!(*offset as usize <= first.max(w.header_end), "flip at {} reported at {}", first, err);
             }
             LogError::Io { .. } => prop_assert!(false, "in-memory read fails with I/O: {}", err),
+            LogError::UnknownRecord { .. } => prop_assert!(false, "a flipped bit passed the hash chain: {}", err),
         }
     }
 

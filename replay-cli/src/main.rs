@@ -4,6 +4,7 @@ mod bench_train;
 mod bench_world;
 mod export;
 mod fixtures;
+mod fork;
 mod inspect;
 mod report;
 mod run;
@@ -145,6 +146,27 @@ enum Command {
         #[arg(long)]
         json: bool,
     },
+    /// Continue a run from block H of its final canonical chain under a changed configuration.
+    /// The fork's log records its parent's final hash, the height and the overrides, holds the
+    /// parent's records up to the fork point (re-simulated and checked byte for byte against
+    /// the parent) and replays on its own.
+    #[command(after_long_help = FORK_HELP)]
+    Fork {
+        /// The parent log (run.swlog).
+        log: PathBuf,
+        /// Height on the parent's final canonical chain (at least 1).
+        #[arg(long)]
+        at: u64,
+        /// Override a key from the fork point on (repeatable), e.g. --set contract.security=true.
+        #[arg(long = "set", value_name = "KEY=VALUE", required = true)]
+        overrides: Vec<String>,
+        /// Output directory (default: next to the parent, fork-at-H).
+        #[arg(long)]
+        out: Option<PathBuf>,
+        /// No progress bar and no summary.
+        #[arg(long)]
+        quiet: bool,
+    },
     /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
     /// accepted, outliers), balances.csv (every robot's balance after every block of the final
     /// canonical chain), chain_bytes.csv (every node's chain size at every sealing) and
@@ -257,6 +279,24 @@ enum BenchTarget {
 }
 
 /// The long help of `swarmfl sweep`: the task list and sharding.
+const FORK_HELP: &str =
+    "The fork point of block H is the end of the tick in which H was sealed: from there
+the robots use the new configuration, and the contract's new rules apply to the blocks sealed
+after it (activation by block timestamp; the round open on a chain when it crosses is restarted
+and its stakes refunded). Keys a fork may change:
+
+  run.duration_s                     the run ends at the new time
+  learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
+  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks
+  byzantine.*                        which robots misbehave, and how
+  output.*
+
+Example: what if security had been on from block 200?
+  swarmfl run --preset e2-faulty --set contract.security=false --seed 1 --out runs/nosec
+  swarmfl fork runs/nosec/run.swlog --at 200 --set contract.security=true --out runs/sec-at-200
+  swarmfl replay runs/sec-at-200/run.swlog            # bit-exact on its own
+  swarmfl diff runs/nosec/run.swlog runs/sec-at-200/run.swlog   # first divergence: the fork";
+
 const SWEEP_HELP: &str = "Run one of the paper's experiments (SPEC.md section 7), or a shard of it.
 
 Experiments, points and default runs (seeds 1..=runs):
@@ -281,6 +321,13 @@ const EXIT_DIVERGED: u8 = 1;
 const EXIT_ERROR: u8 = 2;
 
 fn main() -> ExitCode {
+    // Output piped into `head` and the like ends quietly, as other command-line tools do,
+    // instead of panicking on the broken pipe.
+    // SAFETY: called once at start-up, before any other thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     let cli = Cli::parse();
     match dispatch(cli.command) {
         Ok(code) => code,
@@ -363,6 +410,13 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
                 return Ok(ExitCode::from(EXIT_DIVERGED));
             }
         }
+        Command::Fork {
+            log,
+            at,
+            overrides,
+            out,
+            quiet,
+        } => fork::fork(&log, at, &overrides, out, quiet)?,
         Command::Export { log, out } => export::export(&log, &out)?,
         Command::Sweep {
             experiment,

@@ -7,6 +7,7 @@ use std::time::Instant;
 use anyhow::Context;
 use indicatif::{ProgressBar, ProgressStyle};
 use swarmfl_core::config::Config;
+use swarmfl_core::event::Record;
 use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
 
@@ -57,13 +58,26 @@ pub struct RunOutcome {
 
 /// Runs `config` with `seed`, writing the log and summary into `out`.
 pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result<RunOutcome> {
+    let header = Header::new(seed, config.to_toml());
+    let sim = Sim::new(config, seed)?;
+    write_run(&header, sim, out, quiet, |_| Ok(()))
+}
+
+/// Drives `sim` to its end, writing `out/run.swlog` (with `header`) and `out/summary.json`;
+/// `check` sees every record before it is written (a fork compares them with its parent's).
+pub fn write_run(
+    header: &Header,
+    mut sim: Sim,
+    out: &Path,
+    quiet: bool,
+    mut check: impl FnMut(&Record) -> anyhow::Result<()>,
+) -> anyhow::Result<RunOutcome> {
     std::fs::create_dir_all(out)
         .with_context(|| format!("cannot create output directory {}", out.display()))?;
     let log_path = out.join("run.swlog");
     let started = Instant::now();
-    let header = Header::new(seed, config.to_toml());
-    let mut writer = LogWriter::create(&log_path, &header)?;
-    let mut sim = Sim::new(config.clone(), seed)?;
+    let seed = sim.seed();
+    let mut writer = LogWriter::create(&log_path, header)?;
     let mut timing = Timing::default();
     sim.set_profiler(Box::new(timing.clone()));
     let (_, total_ms) = sim.progress();
@@ -80,6 +94,7 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     let mut last_update = Instant::now();
     while let Some(record) = sim.next() {
         timing.switch(Part::Log);
+        check(&record)?;
         writer.append(&record)?;
         if let Some(bar) = &bar {
             if last_update.elapsed().as_millis() >= 100 {
@@ -97,7 +112,7 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     let records = writer.records();
     let log_bytes = writer.bytes();
     let (footer, _) = writer.finish()?;
-    let core = RunSummary::new(&config, seed, sim.state(), records, footer.final_hash);
+    let core = RunSummary::new(sim.config(), seed, sim.state(), records, footer.final_hash);
     let wall_s = started.elapsed().as_secs_f64();
     let mut summary = serde_json::to_value(&core)?;
     let map = summary.as_object_mut().expect("summary is an object");

@@ -116,37 +116,43 @@ impl ContractParams {
     /// Asserts what the contract relies on; these come from a validated config, so a failure is
     /// a bug, not an input error.
     fn assert_valid(&self) {
-        assert!(self.quorum >= 1, "quorum must be at least 1");
-        assert!(
-            self.quorum <= self.robots,
-            "quorum {} exceeds robots {}",
-            self.quorum,
-            self.robots
-        );
-        assert_eq!(
-            self.reward_weights.len(),
-            self.quorum as usize,
-            "one reward weight per rank"
-        );
-        assert!(
-            self.reward_weights.iter().any(|&k| k > 0),
-            "at least one rewarded rank"
-        );
-        assert!(
-            self.total_units() <= u128::from(u64::MAX / 4),
-            "token supply must fit in 2^62"
-        );
+        if let Err(e) = self.check() {
+            panic!("invalid contract parameters: {e}");
+        }
+    }
+
+    /// Checks what the contract relies on (quorum, reward weights, supply, model size).
+    pub fn check(&self) -> Result<(), String> {
+        if self.quorum < 1 {
+            return Err("quorum must be at least 1".into());
+        }
+        if self.quorum > self.robots {
+            return Err(format!(
+                "quorum {} exceeds robots {}",
+                self.quorum, self.robots
+            ));
+        }
+        if self.reward_weights.len() != self.quorum as usize {
+            return Err("one reward weight per rank".into());
+        }
+        if !self.reward_weights.iter().any(|&k| k > 0) {
+            return Err("at least one rewarded rank".into());
+        }
+        if self.total_units() > u128::from(u64::MAX / 4) {
+            return Err("token supply must fit in 2^62".into());
+        }
         let n = self.genesis_weights.len();
-        assert!(
-            (1..=MAX_MODEL_LEN).contains(&n),
-            "model length {n} outside 1..=2^16"
-        );
-        assert!(
-            self.genesis_weights
-                .iter()
-                .all(|w| w.unsigned_abs() < MAX_WEIGHT_MAGNITUDE),
-            "genesis weights must fit int48"
-        );
+        if !(1..=MAX_MODEL_LEN).contains(&n) {
+            return Err(format!("model length {n} outside 1..=2^16"));
+        }
+        if !self
+            .genesis_weights
+            .iter()
+            .all(|w| w.unsigned_abs() < MAX_WEIGHT_MAGNITUDE)
+        {
+            return Err("genesis weights must fit int48".into());
+        }
+        Ok(())
     }
 }
 
@@ -372,6 +378,22 @@ impl ContractState {
             outcome.name()
         );
         outcome
+    }
+
+    /// Restarts the open round when the contract's rules change under it: every counted
+    /// submission of the round gets its stake back from the contract and may submit again;
+    /// the round number, the model and the carried remainder stay. Conserves tokens.
+    pub fn restart_round(&mut self) {
+        for s in std::mem::take(&mut self.submissions) {
+            self.holdings_units = self
+                .holdings_units
+                .checked_sub(s.stake_units)
+                .expect("the contract holds the open round's stakes");
+            let balance = &mut self.balances[s.sender as usize];
+            *balance = balance
+                .checked_add(s.stake_units)
+                .expect("conserved supply fits u64");
+        }
     }
 
     /// Sum of all balances plus the contract's holdings: constant for a run.

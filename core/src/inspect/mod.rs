@@ -223,7 +223,7 @@ pub fn block_report_indexed(
         });
     }
     let mut reader = LogReader::open(log).map_err(ReplayError::from)?;
-    let config = header_config(&reader, &name)?;
+    let mut config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
@@ -242,6 +242,9 @@ pub fn block_report_indexed(
             };
             let index = reader.index() - 1;
             fold_record(&mut state, &mut learned, &name, index, &rec)?;
+            if let Some(next) = replay::reconfigured(&rec) {
+                config = next;
+            }
             if index == stop {
                 time = rec.time();
                 break;
@@ -335,7 +338,7 @@ struct Sealed {
 pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectError> {
     let name = path.display().to_string();
     let mut reader = LogReader::open(path).map_err(ReplayError::from)?;
-    let config = header_config(&reader, &name)?;
+    let mut config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
@@ -350,6 +353,9 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     while let Some(record) = reader.next_record().map_err(ReplayError::from)? {
         let index = reader.index() - 1;
         fold_record(&mut state, &mut learned, &name, index, &record)?;
+        if let Some(next) = replay::reconfigured(&record) {
+            config = next;
+        }
         if let Record::Checkpoint(expected) = &record {
             if let CheckpointCause::Block { node, height } = expected.cause {
                 if node >= robots {

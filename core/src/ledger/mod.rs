@@ -239,10 +239,19 @@ struct Flight {
     items: Vec<ItemRef>,
 }
 
+/// The contract parameters for blocks sealed after a time.
+#[derive(Clone, Debug)]
+struct Epoch {
+    after_ms: u64,
+    params: ContractParams,
+}
+
 /// The reduced state of every node of the swarm, with shared storage.
 #[derive(Clone, Debug)]
 pub struct Ledger {
-    params: ContractParams,
+    /// The contract's rules, oldest first: the genesis parameters from time 0, then one entry
+    /// per reconfiguration, for the blocks whose timestamp is after its `after_ms`.
+    epochs: Vec<Epoch>,
     keys: Keys,
     robots: u32,
     period_ms: u64,
@@ -302,7 +311,10 @@ impl Ledger {
             messages_sent: 0,
             now: SimTime(0),
             metrics: metrics::Tracker::new(robots),
-            params,
+            epochs: vec![Epoch {
+                after_ms: 0,
+                params,
+            }],
         }
     }
 
@@ -313,9 +325,72 @@ impl Ledger {
         self.robots
     }
 
-    /// The contract parameters.
+    /// The contract parameters at genesis (supply and genesis model never change).
     pub fn params(&self) -> &ContractParams {
-        &self.params
+        &self.epochs[0].params
+    }
+
+    /// The index of the contract rules that a block with timestamp `timestamp_ms` runs under.
+    fn epoch_at(&self, timestamp_ms: u64) -> usize {
+        self.epochs
+            .iter()
+            .rposition(|e| e.after_ms < timestamp_ms)
+            .unwrap_or(0)
+    }
+
+    /// The contract parameters a block with timestamp `timestamp_ms` runs under.
+    pub fn params_at(&self, timestamp_ms: u64) -> &ContractParams {
+        &self.epochs[self.epoch_at(timestamp_ms)].params
+    }
+
+    /// The contract parameters of the blocks sealed from now on.
+    pub fn current_params(&self) -> &ContractParams {
+        &self.epochs.last().expect("the genesis epoch").params
+    }
+
+    /// Changes the contract's rules for every block whose timestamp is after `after_ms` (a
+    /// reconfiguration). Blocks already stored have timestamps up to the ledger's time, so the
+    /// change never re-executes one. Supply, accounts and the genesis model must not change.
+    pub fn reconfigure(&mut self, after_ms: u64, params: ContractParams) -> Result<(), String> {
+        if after_ms < self.now.0 {
+            return Err(format!(
+                "a reconfiguration after {after_ms} ms comes when the ledger is at {}",
+                self.now
+            ));
+        }
+        let last = self.epochs.last().expect("the genesis epoch");
+        if after_ms < last.after_ms {
+            return Err(format!(
+                "a reconfiguration after {after_ms} ms precedes the one after {} ms",
+                last.after_ms
+            ));
+        }
+        let genesis = &self.epochs[0].params;
+        if params.robots != genesis.robots
+            || params.initial_units != genesis.initial_units
+            || params.genesis_weights != genesis.genesis_weights
+        {
+            return Err(
+                "a reconfiguration cannot change the accounts, the supply or the genesis model"
+                    .to_string(),
+            );
+        }
+        params
+            .check()
+            .map_err(|e| format!("invalid contract parameters: {e}"))?;
+        self.epochs.push(Epoch { after_ms, params });
+        Ok(())
+    }
+
+    /// The contract state after the parent's, entering a block with timestamp `timestamp_ms`
+    /// whose parent has `parent_ms`: when the block is the chain's first under new rules, the
+    /// open round is restarted (its stakes refunded). Returns the rules to execute it with.
+    fn enter_block(&self, state: &mut ContractState, parent_ms: u64, timestamp_ms: u64) -> usize {
+        let epoch = self.epoch_at(timestamp_ms);
+        if epoch != self.epoch_at(parent_ms) {
+            state.restart_round();
+        }
+        epoch
     }
 
     /// The keys of the swarm (the driver signs with them in [`Ledger::make_tx`]).
@@ -844,6 +919,8 @@ impl Ledger {
             return Err(RejectReason::BadSignature);
         }
         let mut state = parent.state.clone();
+        let epoch = self.enter_block(&mut state, ph.timestamp_ms, header.timestamp_ms);
+        let params = &self.epochs[epoch].params;
         let mut next_nonce = parent.next_nonce.to_vec();
         let mut receipts = Vec::with_capacity(txs.len());
         let mut size_bytes = u64::from(header.hash_and_size().1);
@@ -872,7 +949,7 @@ impl Ledger {
                 }));
             }
             next_nonce[tx.sender as usize] += 1;
-            receipts.push(state.execute(&self.params, tx.sender, tx.value_units, &tx.call));
+            receipts.push(state.execute(params, tx.sender, tx.value_units, &tx.call));
             size_bytes += u64::from(entry.size_bytes);
         }
         Ok(BlockEntry {
@@ -1139,19 +1216,23 @@ impl Ledger {
     /// Re-derives the contract state of a chain (genesis first) from scratch, without any
     /// cache: every transaction executed again in order.
     pub fn replay_state(&self, chain: &[BlockHash]) -> Result<ContractState, String> {
-        let mut state = ContractState::genesis(&self.params);
+        let mut state = ContractState::genesis(self.params());
+        let mut parent_ms = 0;
         for (i, hash) in chain.iter().enumerate() {
             let entry = self
                 .blocks
                 .get(hash)
                 .ok_or_else(|| format!("block {i} ({hash:?}) is not stored"))?;
+            let timestamp_ms = entry.block.header.timestamp_ms;
+            let params = &self.epochs[self.enter_block(&mut state, parent_ms, timestamp_ms)].params;
+            parent_ms = timestamp_ms;
             for tx in &entry.block.txs {
                 let tx = &self
                     .txs
                     .get(tx)
                     .ok_or_else(|| format!("transaction {tx:?} is not stored"))?
                     .tx;
-                state.execute(&self.params, tx.sender, tx.value_units, &tx.call);
+                state.execute(params, tx.sender, tx.value_units, &tx.call);
             }
         }
         Ok(state)
@@ -1168,7 +1249,7 @@ impl Ledger {
         if chain.last() != Some(&self.node(node).head) {
             return Err("the chain does not end at the head".into());
         }
-        let mut state = ContractState::genesis(&self.params);
+        let mut state = ContractState::genesis(self.params());
         let mut nonces = vec![0u64; self.robots as usize];
         let mut td = 0u64;
         let mut recent: Vec<RobotId> = Vec::new();
@@ -1199,13 +1280,16 @@ impl Ledger {
             if h.tx_root != block::tx_root(&child.block.txs) {
                 return fail("transaction root mismatch");
             }
+            let epoch =
+                self.enter_block(&mut state, parent.block.header.timestamp_ms, h.timestamp_ms);
+            let params = &self.epochs[epoch].params;
             for tx in &child.block.txs {
                 let tx = &self.txs[tx].tx;
                 if !tx.signature_ok(&self.keys) || tx.nonce != nonces[tx.sender as usize] {
                     return fail("bad transaction signature or nonce");
                 }
                 nonces[tx.sender as usize] += 1;
-                state.execute(&self.params, tx.sender, tx.value_units, &tx.call);
+                state.execute(params, tx.sender, tx.value_units, &tx.call);
             }
             td += h.difficulty;
             if td != child.total_difficulty || state.digest() != child.state.digest() {

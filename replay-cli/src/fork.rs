@@ -1,0 +1,77 @@
+//! `swarmfl fork LOG --at H --set k=v [--out DIR]`: continue a run from block H under a changed
+//! configuration.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use swarmfl_core::fork::{self, PrefixCheck};
+use swarmfl_core::sim::Sim;
+
+use crate::run;
+
+/// Plans the fork, re-simulates the parent up to the fork point (checking every record against
+/// the parent's log), continues under the new configuration and writes `DIR/run.swlog` and
+/// `DIR/summary.json`.
+pub fn fork(
+    parent: &Path,
+    height: u64,
+    overrides: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+) -> anyhow::Result<()> {
+    let started = Instant::now();
+    let plan = fork::plan(parent, height, overrides)?;
+    let out = out.unwrap_or_else(|| {
+        parent
+            .parent()
+            .unwrap_or(Path::new("."))
+            .join(format!("fork-at-{height}"))
+    });
+    if !quiet {
+        eprintln!(
+            "fork of {} at block {} (sealed at t = {}, fork point t = {}): {}",
+            parent.display(),
+            height,
+            plan.sealed_at,
+            plan.at,
+            plan.changed
+                .iter()
+                .map(|k| format!("{k} = {}", value_of(&plan.config, k)))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
+    let mut check = PrefixCheck::open(parent, &plan)?;
+    let sim = Sim::forked(plan.root.clone(), plan.seed, &plan.reconfigurations)?;
+    let outcome = run::write_run(&plan.header, sim, &out, quiet, |record| {
+        check.check(record).map_err(anyhow::Error::from)
+    })?;
+    anyhow::ensure!(
+        check.done(),
+        "the fork never reached its reconfiguration (a bug: the plan's fork point is inside the run)"
+    );
+    if !quiet {
+        run::print_summary(&outcome);
+        println!(
+            "fork:       parent {} at block {} (fork point t = {}); {} records identical to the parent's; {:.1} s",
+            parent.display(),
+            height,
+            plan.at,
+            check.checked(),
+            started.elapsed().as_secs_f64()
+        );
+    }
+    Ok(())
+}
+
+/// The value of a dotted key in a configuration, as TOML text.
+fn value_of(config: &swarmfl_core::config::Config, key: &str) -> String {
+    let mut value = toml::Value::try_from(config).expect("Config serialises");
+    for part in key.split('.') {
+        match value.get(part) {
+            Some(v) => value = v.clone(),
+            None => return "?".to_string(),
+        }
+    }
+    value.to_string()
+}
