@@ -114,6 +114,51 @@ pub fn parse_config(text: &str) -> Result<Config, crate::config::ConfigError> {
     Ok(config)
 }
 
+/// The world's reducer: folds one tick (the world must be at `time`). Independent of the ledger
+/// and metrics, so a fold may run it on its own thread.
+pub fn apply_tick(world: &mut World, time: SimTime, tick: &TickEvent) -> Result<(), ApplyError> {
+    if time != world.time() {
+        return Err(ApplyError::Invalid(format!(
+            "tick at {time} but the world is at {}",
+            world.time()
+        )));
+    }
+    world
+        .try_apply(tick)
+        .map_err(|e| ApplyError::Invalid(e.to_string()))
+}
+
+/// The ledger's and the metrics' reducers: folds a ledger event or a learning report (any other
+/// event needs the whole [`State`]). Independent of the world.
+pub fn apply_ledger_side(
+    ledger: &mut Ledger,
+    metrics: &mut Metrics,
+    time: SimTime,
+    event: &Event,
+) -> Result<(), ApplyError> {
+    match event {
+        Event::Ledger(e) => ledger
+            .apply(time, e)
+            .map(|_| ())
+            .map_err(|e| ApplyError::Invalid(e.to_string())),
+        Event::Learn(report) => {
+            if report.robot >= ledger.robots() {
+                return Err(ApplyError::Invalid(format!(
+                    "learning report of robot {} in a swarm of {}",
+                    report.robot,
+                    ledger.robots()
+                )));
+            }
+            metrics.apply(time, report);
+            Ok(())
+        }
+        Event::Tick(_) | Event::Reconfigure(_) => Err(ApplyError::Invalid(format!(
+            "a {} event needs the whole state",
+            event.kind()
+        ))),
+    }
+}
+
 /// The fixed-point genesis model of the run `(config, seed)` (Keras initialisation).
 pub fn genesis_weights(config: &Config, seed: u64) -> Result<Arc<[i64]>, SimError> {
     let shape = ModelShape::from_config(config);
@@ -143,35 +188,12 @@ impl State {
     /// Folds one event (the reducer dispatch). Pure: no I/O, no clock, no globals.
     pub fn apply(&mut self, time: SimTime, event: &Event) -> Result<(), ApplyError> {
         match event {
-            Event::Tick(tick) => {
-                if time != self.world.time() {
-                    return Err(ApplyError::Invalid(format!(
-                        "tick at {time} but the world is at {}",
-                        self.world.time()
-                    )));
-                }
-                self.world
-                    .try_apply(tick)
-                    .map_err(|e| ApplyError::Invalid(e.to_string()))?;
+            Event::Tick(tick) => apply_tick(&mut self.world, time, tick),
+            Event::Reconfigure(change) => self.reconfigure(time, change),
+            Event::Ledger(_) | Event::Learn(_) => {
+                apply_ledger_side(&mut self.ledger, &mut self.metrics, time, event)
             }
-            Event::Ledger(e) => {
-                self.ledger
-                    .apply(time, e)
-                    .map_err(|e| ApplyError::Invalid(e.to_string()))?;
-            }
-            Event::Learn(report) => {
-                if report.robot >= self.ledger.robots() {
-                    return Err(ApplyError::Invalid(format!(
-                        "learning report of robot {} in a swarm of {}",
-                        report.robot,
-                        self.ledger.robots()
-                    )));
-                }
-                self.metrics.apply(time, report);
-            }
-            Event::Reconfigure(change) => self.reconfigure(time, change)?,
         }
-        Ok(())
     }
 
     /// Folds a reconfiguration: the contract's rules for the blocks sealed after `time`, and

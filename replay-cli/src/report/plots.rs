@@ -112,10 +112,19 @@ pub fn draw_all(
                 series: loss,
             },
         )?;
+        // Tokens versus the number of Byzantine robots: only where that is the grid (and
+        // where tokens move at all: no figure of zeros for the runs without security).
+        let tokens_move = e.points.iter().any(|p| {
+            ["honest_gain", "byzantine_gain"]
+                .iter()
+                .any(|k| p.metrics.get(*k).is_some_and(|s| s.mean != 0.0))
+        });
         if e.points
             .iter()
             .any(|p| p.metrics.contains_key("honest_gain"))
             && e.points.len() > 1
+            && e.name != "e1-expiration"
+            && tokens_move
         {
             let pick = |key: &str| -> Vec<(f64, Stat)> {
                 e.points
@@ -216,6 +225,50 @@ fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
     Ok(with_text)
 }
 
+/// The corner of the plot area with the fewest data points (means and interval ends) under
+/// where the legend goes, preferring upper right, upper left, lower right, lower left.
+fn legend_corner(plot: &Plot, log_y: bool) -> SeriesLabelPosition {
+    let (x0, x1, y0, y1) = bounds(plot);
+    let (x0, x1) = match plot.kind {
+        Kind::Versus => (x0 - 0.5, x1 + 0.5),
+        Kind::Time { .. } => (x0, x1),
+    };
+    let scale_y = |y: f64| {
+        if log_y {
+            (y.max(y0).ln() - y0.ln()) / (y1.ln() - y0.ln())
+        } else {
+            (y - y0) / (y1 - y0)
+        }
+    };
+    let mut counts = [0usize; 4];
+    for s in &plot.series {
+        for (x, st) in &s.points {
+            let ci = st.ci.unwrap_or(0.0);
+            for y in [st.mean, st.mean - ci, st.mean + ci] {
+                if !y.is_finite() {
+                    continue;
+                }
+                let (u, v) = ((x - x0) / (x1 - x0), scale_y(y));
+                let (left, right, top, bottom) = (u < 0.35, u > 0.65, v > 0.7, v < 0.3);
+                for (i, hit) in [right && top, left && top, right && bottom, left && bottom]
+                    .into_iter()
+                    .enumerate()
+                {
+                    counts[i] += usize::from(hit);
+                }
+            }
+        }
+    }
+    let best = (0..4).min_by_key(|&i| (counts[i], i)).unwrap_or(0);
+    [
+        SeriesLabelPosition::UpperRight,
+        SeriesLabelPosition::UpperLeft,
+        SeriesLabelPosition::LowerRight,
+        SeriesLabelPosition::LowerLeft,
+    ][best]
+        .clone()
+}
+
 type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
@@ -256,7 +309,10 @@ macro_rules! draw_mesh {
         let mut mesh = $chart.configure_mesh();
         mesh.light_line_style(WHITE.mix(0.0));
         if $text {
-            mesh.x_desc($plot.x_label).y_desc($plot.y_label);
+            // Times in whole seconds, robot counts as integers.
+            mesh.x_desc($plot.x_label)
+                .y_desc($plot.y_label)
+                .x_label_formatter(&|x: &f64| format!("{x:.0}"));
         } else {
             mesh.x_labels(0).y_labels(0);
         }
@@ -333,7 +389,9 @@ where
                     .map(|(t, st)| (*t, st.mean + st.ci.unwrap_or(0.0)))
                     .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
                     .collect();
-                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.18))))?;
+                // Many overlapping bands turn grey: lighter when there are many series.
+                let alpha = if plot.series.len() > 4 { 0.08 } else { 0.18 };
+                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(alpha))))?;
                 let line = chart.draw_series(LineSeries::new(
                     s.points.iter().map(|(t, st)| (*t, st.mean)),
                     colour.stroke_width(2),
@@ -375,7 +433,7 @@ where
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
-            .position(SeriesLabelPosition::UpperRight)
+            .position(legend_corner(plot, log_y))
             .draw()?;
     }
     Ok(())
