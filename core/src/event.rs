@@ -134,8 +134,8 @@ impl Checkpoint {
     pub fn first_difference(&self, other: &Checkpoint) -> Option<String> {
         if self.params != other.params {
             return Some(
-                "the run's fixed parameters (contract parameters or genesis model; the code that \
-                 derives them from the configuration changed)"
+                "the run's fixed parameters (contract parameters or genesis model: the seeds or \
+                 contract configurations differ, or the code that derives them changed)"
                     .to_string(),
             );
         }
