@@ -34,6 +34,19 @@ fn small(security: bool) -> Config {
     c
 }
 
+/// A scratch directory holding `parent.swlog`, a plain run of [`small`] (security on).
+fn plain_parent(name: &str, seed: u64) -> (PathBuf, PathBuf) {
+    let dir = scratch(name);
+    let config = small(true);
+    let parent = dir.join("parent.swlog");
+    write_log(
+        &parent,
+        &Header::new(seed, config.to_toml()),
+        Sim::new(config, seed).unwrap(),
+    );
+    (dir, parent)
+}
+
 fn write_log(path: &Path, header: &Header, records: impl Iterator<Item = Record>) {
     let mut w = LogWriter::create(path, header).unwrap();
     for r in records {
@@ -59,14 +72,7 @@ fn write_fork(parent: &Path, plan: &fork::ForkPlan, path: &Path) -> Result<u64, 
 
 #[test]
 fn a_fork_keeps_its_parents_history_and_replays_alone() {
-    let dir = scratch("replay");
-    let config = small(true);
-    let parent = dir.join("parent.swlog");
-    write_log(
-        &parent,
-        &Header::new(3, config.to_toml()),
-        Sim::new(config.clone(), 3).unwrap(),
-    );
+    let (dir, parent) = plain_parent("replay", 3);
     let parent_hash = replay::replay(&parent).unwrap().final_hash;
 
     let plan = fork::plan(&parent, 8, &["learn.learning_rate=0.01".into()]).unwrap();
@@ -116,14 +122,7 @@ fn a_fork_keeps_its_parents_history_and_replays_alone() {
 
 #[test]
 fn bad_fork_requests_are_named() {
-    let dir = scratch("errors");
-    let config = small(true);
-    let parent = dir.join("parent.swlog");
-    write_log(
-        &parent,
-        &Header::new(1, config.to_toml()),
-        Sim::new(config, 1).unwrap(),
-    );
+    let (dir, parent) = plain_parent("errors", 1);
     let err = |h: u64, o: &[&str]| {
         let o: Vec<String> = o.iter().map(|s| s.to_string()).collect();
         fork::plan(&parent, h, &o).unwrap_err()
