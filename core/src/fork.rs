@@ -176,8 +176,8 @@ pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan
     reconfigurations.retain(|r| r.at_ms <= at.0);
     let mut current = root.clone();
     for r in &reconfigurations {
-        current =
-            crate::sim::parse_config(&r.config_toml).map_err(|reason| ForkError::Override {
+        current = crate::sim::parse_config(&r.config_toml, "a reconfiguration of the parent")
+            .map_err(|reason| ForkError::Override {
                 path: name.clone(),
                 height,
                 reason,

@@ -85,19 +85,12 @@ pub struct ReplayReport {
 
 /// The configuration recorded in a log's header.
 pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Config, ReplayError> {
-    let config: Config =
-        toml::from_str(&reader.header().config_toml).map_err(|e| ReplayError::Config {
+    crate::sim::parse_config(&reader.header().config_toml, &format!("{path} (header)")).map_err(
+        |source| ReplayError::Config {
             path: path.to_string(),
-            source: ConfigError::Parse {
-                source_name: format!("{path} (header)"),
-                message: e.to_string(),
-            },
-        })?;
-    config.validate().map_err(|source| ReplayError::Config {
-        path: path.to_string(),
-        source,
-    })?;
-    Ok(config)
+            source,
+        },
+    )
 }
 
 /// The configuration a record switches to, if it is a reconfiguration the reducers accepted.
@@ -106,7 +99,7 @@ pub fn reconfigured(record: &Record) -> Option<Config> {
         Record::Event {
             event: Event::Reconfigure(change),
             ..
-        } => crate::sim::parse_config(&change.config_toml).ok(),
+        } => crate::sim::parse_config(&change.config_toml, "the reconfiguration").ok(),
         _ => None,
     }
 }

@@ -104,10 +104,10 @@ pub struct State {
 }
 
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
-/// reconfiguration's).
-pub fn parse_config(text: &str) -> Result<Config, crate::config::ConfigError> {
+/// reconfiguration's); `source_name` names it in errors.
+pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::config::ConfigError> {
     let config: Config = toml::from_str(text).map_err(|e| crate::config::ConfigError::Parse {
-        source_name: "the recorded configuration".to_string(),
+        source_name: source_name.to_string(),
         message: e.to_string(),
     })?;
     config.validate()?;
@@ -206,7 +206,7 @@ impl State {
                 self.world.time()
             )));
         }
-        let config = parse_config(&change.config_toml)
+        let config = parse_config(&change.config_toml, "the reconfiguration")
             .map_err(|e| ApplyError::Invalid(format!("reconfiguration: {e}")))?;
         if config.world.robots != self.ledger.robots() {
             return Err(ApplyError::Invalid(format!(
@@ -580,7 +580,8 @@ impl Sim {
                     current.ticks() * sim.tick_ms
                 )));
             }
-            let next = parse_config(&change.config_toml).map_err(|e| fail(e.to_string()))?;
+            let next = parse_config(&change.config_toml, "the reconfiguration")
+                .map_err(|e| fail(e.to_string()))?;
             current
                 .check_reconfiguration(&next)
                 .map_err(|e| fail(e.to_string()))?;

@@ -247,22 +247,18 @@ fn security_switched_on_under_an_open_round_restarts_it_and_conserves_tokens() {
         !before.submissions.is_empty(),
         "the chain crosses the fork point with a round open"
     );
-    let paid = chain[first_after..].iter().any(|h| {
-        ledger
-            .block(h)
-            .unwrap()
-            .receipts
-            .iter()
-            .any(|o| matches!(o, Outcome::Aggregated { payouts, .. } if !payouts.is_empty()))
-    });
-    assert!(paid, "rounds after the fork point are staked and paid out");
-    let paid_before = chain[..first_after].iter().any(|h| {
-        ledger
-            .block(h)
-            .unwrap()
-            .receipts
-            .iter()
-            .any(|o| matches!(o, Outcome::Aggregated { payouts, .. } if !payouts.is_empty()))
-    });
+    let pays_out =
+        |blocks: &[_]| {
+            blocks.iter().any(|h| {
+                ledger.block(h).unwrap().receipts.iter().any(
+                    |o| matches!(o, Outcome::Aggregated { payouts, .. } if !payouts.is_empty()),
+                )
+            })
+        };
+    assert!(
+        pays_out(&chain[first_after..]),
+        "rounds after the fork point are staked and paid out"
+    );
+    let paid_before = pays_out(&chain[..first_after]);
     assert!(!paid_before, "security was off before");
 }

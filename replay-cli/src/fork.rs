@@ -28,6 +28,7 @@ pub fn fork(
             .join(format!("fork-at-{height}"))
     });
     if !quiet {
+        let values = plan.config.flat_values();
         eprintln!(
             "fork of {} at block {} (sealed at t = {}, fork point t = {}): {}",
             parent.display(),
@@ -36,7 +37,7 @@ pub fn fork(
             plan.at,
             plan.changed
                 .iter()
-                .map(|k| format!("{k} = {}", value_of(&plan.config, k)))
+                .map(|k| format!("{k} = {}", values.get(k).map_or("?", String::as_str)))
                 .collect::<Vec<_>>()
                 .join(", ")
         );
@@ -62,16 +63,4 @@ pub fn fork(
         );
     }
     Ok(())
-}
-
-/// The value of a dotted key in a configuration, as TOML text.
-fn value_of(config: &swarmfl_core::config::Config, key: &str) -> String {
-    let mut value = toml::Value::try_from(config).expect("Config serialises");
-    for part in key.split('.') {
-        match value.get(part) {
-            Some(v) => value = v.clone(),
-            None => return "?".to_string(),
-        }
-    }
-    value.to_string()
 }
