@@ -1,4 +1,4 @@
-//! Byzantine robots (SPEC.md section 5): which robots they are and the weights they forge.
+//! Byzantine robots (docs/SPEC.md section 5): which robots they are and the weights they forge.
 //!
 //! Byzantine robots move and run nodes like everyone, but never train: at each training phase
 //! the driver calls [`forge`] instead of training and submits the result (converted to fixed
@@ -13,7 +13,7 @@
 //!   uniform in [0, 1) drawn per weight, always N draws. In round 0 there is no w(t-1): we take
 //!   `Delta = 0`, so the robot sends w(t) (the formula with w(t-1) = w(t)).
 //! - smart, reference: positive-only noise of the magnitude of one step, `w_i(t) + r_i Delta`
-//!   with `r_i` uniform in [0, 1) (our reading of SPEC.md: the paper's variation `2 r Delta`
+//!   with `r_i` uniform in [0, 1) (our reading of docs/SPEC.md: the paper's variation `2 r Delta`
 //!   has mean Delta and reaches 2 Delta, the reference's stays within one Delta above w(t)),
 //!   and w(t) unchanged, with no draws, before the first change (no w(t-1), or Delta == 0).
 //!

@@ -27,6 +27,7 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         "heldout_loss",
         "accepted",
         "outliers",
+        "mean_honest_distance",
     ])?;
     let rounds = index.rounds();
     for r in &rounds {
@@ -39,6 +40,7 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
             heldout.to_string(),
             r.accepted.to_string(),
             r.outliers.to_string(),
+            r.mean_honest_distance.to_string(),
         ])?;
     }
     w.flush()?;

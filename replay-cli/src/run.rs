@@ -165,6 +165,11 @@ pub fn print_summary(outcome: &RunOutcome) {
         loss(&c["final_heldout_loss"]),
         c["submissions"]
     );
+    println!(
+        "            mean honest distance {} (outlier threshold {})",
+        loss(&c["mean_honest_distance"]),
+        c["outlier_threshold"]
+    );
     let t = &s["tokens"];
     println!(
         "tokens:     honest mean gain {}, Byzantine mean gain {}, total units {} -> {}",

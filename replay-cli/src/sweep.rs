@@ -1,4 +1,4 @@
-//! `swarmfl sweep`: the paper's experiments (SPEC.md section 7) as a fixed task list of
+//! `swarmfl sweep`: the paper's experiments (docs/SPEC.md section 7) as a fixed task list of
 //! (configuration point, seed) pairs, run locally in parallel or one shard at a time under a
 //! cluster scheduler.
 //!
@@ -55,7 +55,7 @@ pub struct Experiment {
     pub runs: u32,
 }
 
-/// Looks an experiment up by id (SPEC.md section 7).
+/// Looks an experiment up by id (docs/SPEC.md section 7).
 pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
     let byzantine_grid = || {
         (0..=7u32)

@@ -1,4 +1,4 @@
-//! The federated-learning smart contract, executed by every node on its own chain (SPEC.md
+//! The federated-learning smart contract, executed by every node on its own chain (docs/SPEC.md
 //! section 4). Integer arithmetic only: weights are fixed point (`contract.weight_scale`),
 //! tokens are integer units (`contract.token_units` per token).
 //!

@@ -614,6 +614,10 @@ pub struct RoundRow {
     pub accepted: u64,
     /// Outlier submissions of the round.
     pub outliers: u64,
+    /// Mean absolute distance per weight between the round's accepted honest models and the
+    /// shared model they were checked against (NaN without one): how close honest robots come
+    /// to the outlier threshold.
+    pub mean_honest_distance: f64,
 }
 
 impl RunIndex {
@@ -664,7 +668,27 @@ impl RunIndex {
                             s.submissions.iter().filter(|x| x.verdict == v).count() as u64
                         })
                     };
+                    let per_weight = ledger.params().model_len() as f64
+                        * self.config.contract.weight_scale as f64;
+                    let honest: Vec<f64> = summary
+                        .map(|s| {
+                            s.submissions
+                                .iter()
+                                .filter(|x| {
+                                    x.verdict == Verdict::Accepted
+                                        && !self.byzantine.get(x.sender as usize).copied().unwrap_or(false)
+                                })
+                                .map(|x| x.distance_units as f64 / per_weight)
+                                .collect()
+                        })
+                        .unwrap_or_default();
+                    let mean_honest_distance = if honest.is_empty() {
+                        f64::NAN
+                    } else {
+                        honest.iter().sum::<f64>() / honest.len() as f64
+                    };
                     out.push(RoundRow {
+                        mean_honest_distance,
                         round: *round,
                         block: row.height,
                         time_s: row.time.secs(),

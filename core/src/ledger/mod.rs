@@ -1,5 +1,5 @@
 //! One Clique-style proof-of-authority node per robot, gossiping over the radio graph
-//! (SPEC.md section 3).
+//! (docs/SPEC.md section 3).
 //!
 //! [`Ledger`] is the reduced state of every node of the swarm, folded from [`LedgerEvent`]s by
 //! [`Ledger::apply`], a pure reducer: the same events give the same state, bit for bit.
