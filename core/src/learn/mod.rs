@@ -443,7 +443,10 @@ pub fn gradient(shape: &ModelShape, weights: &[f32], data: &TrainData) -> (Vec<f
         }
         ws.backward::<TILE_SAMPLES, LANES_BASELINE>(last - first);
     }
-    (ws.grad.to_vec(), sse / (data.len() * shape.outputs()) as f64)
+    (
+        ws.grad.to_vec(),
+        sse / (data.len() * shape.outputs()) as f64,
+    )
 }
 
 /// The groups of at most [`GROUP`] consecutive samples that cover `from..to`, in order.
@@ -508,7 +511,9 @@ fn dispatch_train(
     dropout: &mut Rng,
 ) -> f64 {
     match kernel.resolve() {
-        Resolved::Baseline => train_loop::<TILE_SAMPLES, LANES_BASELINE>(ws, weights, data, sgd, dropout),
+        Resolved::Baseline => {
+            train_loop::<TILE_SAMPLES, LANES_BASELINE>(ws, weights, data, sgd, dropout)
+        }
         // SAFETY: `resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
         Resolved::Avx2 => unsafe { train_avx2(ws, weights, data, sgd, dropout) },
@@ -560,7 +565,9 @@ fn train_loop<const S: usize, const L: usize>(
         while start < sgd.samples {
             let end = (start + sgd.batch).min(sgd.samples);
             let scale = grad_scale(end - start, outputs);
-            let w = weights.as_slice().expect("owned arrays have the standard layout");
+            let w = weights
+                .as_slice()
+                .expect("owned arrays have the standard layout");
             ws.transpose_weights(w);
             ws.grad.fill(0.0);
             for (first, last) in groups(start, end) {
