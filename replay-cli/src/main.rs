@@ -6,10 +6,12 @@ mod export;
 mod fixtures;
 mod fork;
 mod inspect;
+mod progress;
 mod report;
 mod run;
 mod snapshot;
 mod sweep;
+mod view;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -92,8 +94,21 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write one self-contained HTML file to watch a run in a browser (no network, no server):
+    /// the arena with robots, ids, Byzantine marks and radio links, animated with a scrubber
+    /// that also jumps by block height; each robot's tokens, the loss per round and the chain
+    /// with its forks and reorgs up to the time shown. `run.html#t=600` or `#block=40` opens
+    /// at that moment.
+    View {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Output file (e.g. run.html).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Compare two logs: header differences and the first diverging record (exit 1 if they
-    /// differ). With --resimulate, compare one log with a re-simulation under this build.
+    /// differ). With --resimulate, compare one log with a re-simulation under this build: exit
+    /// 0 identical, 1 diverged, 125 when the log cannot be read (`git bisect run` skips).
     Diff {
         /// The first log.
         a: PathBuf,
@@ -244,7 +259,9 @@ with NaN is false; a value is true when non-zero and not NaN):
 Identifiers, at each block of the final canonical chain:
   height            the block's height
   time              its timestamp, simulated s
-  round             the contract's round (model version) after the block
+  round             rounds closed up to the block: the number of the last closed round
+                    (rounds count from 1 everywhere: the run summary's r1, rounds.csv,
+                    inspect), also the shared model's version
   loss              paper metric of the last round closed up to the block (NaN before)
   heldout_loss      loss of the block's shared model on the held-out set
   byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
@@ -319,6 +336,8 @@ command resumes a sweep and retries failed tasks.";
 const EXIT_DIVERGED: u8 = 1;
 /// Exit code for bad arguments or input.
 const EXIT_ERROR: u8 = 2;
+/// Exit code of `diff --resimulate` when the log cannot be read: `git bisect run`'s "skip".
+const EXIT_CANNOT_TEST: u8 = 125;
 
 fn main() -> ExitCode {
     // Output piped into `head` and the like ends quietly, as other command-line tools do,
@@ -361,6 +380,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             let outcome = run::run(config, seed, &out, quiet)?;
             if !quiet {
                 run::print_summary(&outcome);
+                run::print_next(&outcome);
             }
         }
         Command::Replay { log, resimulate } => {
@@ -388,6 +408,18 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             block,
             out,
         } => snapshot_command(&log, time, block, &out)?,
+        Command::View { log, out } => {
+            let v = view::view(&log, &out)?;
+            println!(
+                "wrote {} ({:.1} MB: {} frames, one every {} s plus one per block of the final \
+                 chain; {} blocks of every node); open it in a browser",
+                out.display(),
+                v.bytes as f64 / 1.0e6,
+                v.frames,
+                v.frame_s,
+                v.blocks
+            );
+        }
         Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
         Command::Fixtures {
             action: FixturesAction::Regenerate,
@@ -509,7 +541,21 @@ fn diff(
                 println!("first divergence from the re-simulation: record {index} ({kind} at t = {time}): {component} differs{detail}");
                 Ok(ExitCode::from(EXIT_DIVERGED))
             }
-            Err(e) => Err(e.into()),
+            Err(e @ ReplayError::Apply { .. }) => {
+                println!("first divergence from the re-simulation: {e}");
+                Ok(ExitCode::from(EXIT_DIVERGED))
+            }
+            Err(e) => {
+                // The log cannot be read (damaged, foreign, or a header this build does not
+                // accept): nothing was compared, so this is not a divergence. 125 is
+                // `git bisect run`'s "cannot test this commit, skip it".
+                eprintln!("error: {e}");
+                eprintln!(
+                    "(exit {EXIT_CANNOT_TEST}: the log could not be compared; `git bisect run` \
+                     skips this commit)"
+                );
+                Ok(ExitCode::from(EXIT_CANNOT_TEST))
+            }
         },
         (Some(b), false) => {
             let report = swarmfl_core::diff::diff_logs(a, b)?;
@@ -565,6 +611,7 @@ fn snapshot_command(
     let (world, config, seed, title) = match (time, block) {
         (_, Some(height)) => {
             let index = swarmfl_core::inspect::index_run(log, Some(height))?;
+            inspect::warn_if_truncated(&index);
             let (state, _) = index
                 .at_block
                 .ok_or_else(|| anyhow::anyhow!("block {height} was not captured"))?;

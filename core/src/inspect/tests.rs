@@ -288,6 +288,15 @@ fn blocks_are_found_inspected_and_bisected() {
         assert_eq!(w[1].round, w[0].round + 1);
         assert!(w[1].block > w[0].block);
     }
+    // One numbering everywhere: the first round is round 1 (the summary's r1), and at the
+    // block that closes round k, bisect's `round` is k and `loss` is that round's loss.
+    assert_eq!(rounds.first().map(|r| r.round), Some(1), "{rounds:?}");
+    for r in &rounds {
+        let at = values.at(r.block);
+        assert_eq!(at.ident("round").unwrap(), r.round as f64);
+        let loss = at.ident("loss").unwrap();
+        assert!(loss == r.loss || (loss.is_nan() && r.loss.is_nan()));
+    }
 
     // A log of another format version: a clear error naming both versions, no panic.
     let mut bytes = std::fs::read(&path).unwrap();
