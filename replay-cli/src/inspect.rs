@@ -360,17 +360,17 @@ fn why_not(
                 return format!("`{name}` ranges over [{lo}, {hi}] on the chain");
             }
             let why = if name.starts_with("byzantine_") && byzantine == 0 {
-                " because this run has no Byzantine robots (byzantine.count = 0); run one with \
+                ": this run has no Byzantine robots (byzantine.count = 0); run one with \
                  e.g. --set byzantine.kind=malicious --set byzantine.count=3"
                     .to_string()
             } else if name.starts_with("honest_") && byzantine == index.byzantine.len() {
-                " because every robot of this run is Byzantine".to_string()
+                ": every robot of this run is Byzantine".to_string()
             } else if name == "loss" {
-                " because no round closed on the chain".to_string()
+                ": no round closed on the chain".to_string()
             } else {
                 String::new()
             };
-            format!("`{name}` is NaN at every block{why}, and a comparison with NaN is false")
+            format!("`{name}` is NaN at every block (a comparison with NaN is false){why}")
         })
         .collect()
 }

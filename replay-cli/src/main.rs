@@ -420,7 +420,9 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
                 v.blocks
             );
         }
-        Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
+        Command::Diff { a, b, resimulate } => {
+            return diff(&a, b.as_deref(), resimulate).map(ExitCode::from)
+        }
         Command::Fixtures {
             action: FixturesAction::Regenerate,
             dir,
@@ -516,11 +518,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn diff(
-    a: &std::path::Path,
-    b: Option<&std::path::Path>,
-    resimulate: bool,
-) -> anyhow::Result<ExitCode> {
+fn diff(a: &std::path::Path, b: Option<&std::path::Path>, resimulate: bool) -> anyhow::Result<u8> {
     match (b, resimulate) {
         (None, true) => match replay::resimulate(a) {
             Ok(report) => {
@@ -528,7 +526,7 @@ fn diff(
                     "identical: {} records re-simulated bit-exactly; final hash {}",
                     report.records, report.final_hash
                 );
-                Ok(ExitCode::SUCCESS)
+                Ok(0)
             }
             Err(ReplayError::Diverged {
                 index,
@@ -539,11 +537,11 @@ fn diff(
                 ..
             }) => {
                 println!("first divergence from the re-simulation: record {index} ({kind} at t = {time}): {component} differs{detail}");
-                Ok(ExitCode::from(EXIT_DIVERGED))
+                Ok(EXIT_DIVERGED)
             }
             Err(e @ ReplayError::Apply { .. }) => {
                 println!("first divergence from the re-simulation: {e}");
-                Ok(ExitCode::from(EXIT_DIVERGED))
+                Ok(EXIT_DIVERGED)
             }
             Err(e) => {
                 // The log cannot be read (damaged, foreign, or a header this build does not
@@ -554,7 +552,7 @@ fn diff(
                     "(exit {EXIT_CANNOT_TEST}: the log could not be compared; `git bisect run` \
                      skips this commit)"
                 );
-                Ok(ExitCode::from(EXIT_CANNOT_TEST))
+                Ok(EXIT_CANNOT_TEST)
             }
         },
         (Some(b), false) => {
@@ -576,9 +574,9 @@ fn diff(
                         report.final_hashes.1.short()
                     );
                     Ok(if report.final_hashes.0 == report.final_hashes.1 {
-                        ExitCode::SUCCESS
+                        0
                     } else {
-                        ExitCode::from(EXIT_DIVERGED)
+                        EXIT_DIVERGED
                     })
                 }
                 Some(d) => {
@@ -591,7 +589,7 @@ fn diff(
                         d.index, d.time, d.offsets.0, d.offsets.1, d.kinds.0, d.kinds.1
                     );
                     println!("  {}", d.explanation);
-                    Ok(ExitCode::from(EXIT_DIVERGED))
+                    Ok(EXIT_DIVERGED)
                 }
             }
         }
@@ -645,4 +643,44 @@ fn snapshot_command(
     snapshot::draw(&world, &marks, &title, out)?;
     println!("wrote {} ({title})", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diff_resimulate_exits_125_on_a_log_it_cannot_read_and_1_on_divergence() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-diff-exit-{}", std::process::id()));
+        let config = Config::resolve(
+            Some("smoke"),
+            None,
+            &["run.duration_s=30".into(), "world.robots=4".into()],
+        )
+        .unwrap();
+        let out = run::run(config.clone(), 1, &dir.join("a"), true).unwrap();
+        assert_eq!(diff(&out.log_path, None, true).unwrap(), 0);
+        // Truncated, foreign and missing logs: git bisect's "skip", never "bad".
+        let bytes = std::fs::read(&out.log_path).unwrap();
+        let cut = dir.join("cut.swlog");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        assert_eq!(diff(&cut, None, true).unwrap(), EXIT_CANNOT_TEST);
+        std::fs::write(&cut, b"not a log at all").unwrap();
+        assert_eq!(diff(&cut, None, true).unwrap(), EXIT_CANNOT_TEST);
+        assert_eq!(
+            diff(&dir.join("missing.swlog"), None, true).unwrap(),
+            EXIT_CANNOT_TEST
+        );
+        // A log whose header says seed 1 but whose records are seed 2's: it reads fine and
+        // the re-simulation diverges.
+        let header = swarmfl_core::log::Header::new(1, config.to_toml());
+        let wrong = dir.join("wrong.swlog");
+        let mut writer = swarmfl_core::log::LogWriter::create(&wrong, &header).unwrap();
+        for record in swarmfl_core::sim::Sim::new(config, 2).unwrap() {
+            writer.append(&record).unwrap();
+        }
+        writer.finish().unwrap();
+        assert_eq!(diff(&wrong, None, true).unwrap(), EXIT_DIVERGED);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

@@ -233,6 +233,22 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
         robots,
         config.run.duration_s
     );
+    // A block's frame may be taken after the frame of the tick's end: order by time (stable,
+    // so a block's frame follows a tick frame of the same time and wins at that time).
+    let mut order: Vec<usize> = (0..frames.t.len()).collect();
+    order.sort_by_key(|&k| frames.t[k]);
+    let pick = |v: &[String]| {
+        order
+            .iter()
+            .map(|&k| v[k].as_str())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let times = order
+        .iter()
+        .map(|&k| frames.t[k].to_string())
+        .collect::<Vec<_>>()
+        .join(",");
     let frame_count = frames.t.len();
     let data = format!(
         "{{\"title\":{},\"robots\":{robots},\"half\":{},\"radius\":{},\"range\":{},\
@@ -247,10 +263,10 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
         total_ticks * tick_ms,
         obstacles.join(","),
         byzantine.join(","),
-        frames.t.join(","),
-        frames.pose.join(","),
-        frames.links.join(","),
-        frames.heads.join(","),
+        times,
+        pick(&frames.pose),
+        pick(&frames.links),
+        pick(&frames.heads),
         serde_json::to_string(&index.truncated)?,
     );
     let html = TEMPLATE
@@ -287,7 +303,7 @@ fn html_escape(s: &str) -> String {
 /// The sampled frames, each field already JSON text.
 #[derive(Default)]
 struct Frames {
-    t: Vec<String>,
+    t: Vec<u64>,
     pose: Vec<String>,
     links: Vec<String>,
     heads: Vec<String>,
@@ -297,7 +313,7 @@ impl Frames {
     fn push(&mut self, state: &State, ids: &BTreeMap<Digest, u32>, time_ms: u64) {
         let world = &state.world;
         let n = world.poses().len();
-        self.t.push(time_ms.to_string());
+        self.t.push(time_ms);
         let mut pose = String::from("[");
         for (i, p) in world.poses().iter().enumerate() {
             let deg = p.theta.to_degrees().rem_euclid(360.0).round() as i64 % 360;
