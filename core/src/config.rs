@@ -526,6 +526,10 @@ impl Config {
         }
         let preset = Preset::from_name(preset_name.as_deref().unwrap_or("paper"))?;
         let mut config = preset.config();
+        let mut explicit = std::collections::BTreeSet::new();
+        if let Some((table, _)) = &file_table {
+            collect_keys("", table, &mut explicit);
+        }
         if let Some((table, source_name)) = file_table {
             let mut base = toml::Value::try_from(&config).expect("Config serialises");
             merge(&mut base, toml::Value::Table(table), "", source_name)?;
@@ -539,9 +543,44 @@ impl Config {
         }
         for assignment in overrides {
             config.set(assignment)?;
+            if let Some((key, _)) = assignment.split_once('=') {
+                explicit.insert(key.trim().to_string());
+            }
         }
-        config.validate()?;
+        config.derive(&explicit);
+        config.validate().map_err(|e| match e {
+            ConfigError::OutOfRange { ref key, .. }
+                if !explicit.is_empty() && !explicit.contains(key) =>
+            {
+                ConfigError::NotSetByYou {
+                    key: key.clone(),
+                    preset: config.preset.clone(),
+                    set: explicit.iter().cloned().collect::<Vec<_>>().join(", "),
+                    source: Box::new(e),
+                }
+            }
+            e => e,
+        })?;
         Ok(config)
+    }
+
+    /// Makes the values the user did not set follow the ones they did, where a preset's value
+    /// only suits the preset's swarm: `contract.penalised_ranks` is clamped to `quorum - 1` (a
+    /// swarm of 2..5 robots has a quorum of 1 or 2, so the paper's 2 of 7 cannot apply) and
+    /// `world.peer_refresh_s` is raised to `run.tick_s` (peers are refreshed at most once a
+    /// tick). `explicit` holds the dotted keys set by a file or an override: those are never
+    /// changed, so a contradiction among them is reported by [`Config::validate`] naming the
+    /// user's own key. A configuration that already validates is left as it is, so every
+    /// existing run keeps its records.
+    pub fn derive(&mut self, explicit: &std::collections::BTreeSet<String>) {
+        let set = |key: &str| explicit.contains(key);
+        if !set("contract.penalised_ranks") {
+            let max = self.quorum().saturating_sub(1);
+            self.contract.penalised_ranks = self.contract.penalised_ranks.min(max);
+        }
+        if !set("world.peer_refresh_s") && self.world.peer_refresh_s < self.run.tick_s {
+            self.world.peer_refresh_s = self.run.tick_s;
+        }
     }
 
     /// Applies one `key.path=value` override. The value is TOML (`0.5`, `true`, `"faulty"`,
@@ -1078,6 +1117,19 @@ pub enum ConfigError {
         /// The keys that may change.
         allowed: String,
     },
+    /// A value the user did not set (it comes from the preset) that conflicts with the values
+    /// they did set.
+    #[error("{source}; you did not set `{key}` (preset `{preset}` gives it), but it no longer fits what you set ({set}): set `{key}` too, or change those values")]
+    NotSetByYou {
+        /// The preset's key that is out of range.
+        key: String,
+        /// The preset it came from.
+        preset: String,
+        /// The keys the user set, comma-separated.
+        set: String,
+        /// The range error.
+        source: Box<ConfigError>,
+    },
     /// A `--set` argument that is not `key=value`.
     #[error("invalid override `{assignment}`: {message}")]
     Override {
@@ -1086,6 +1138,23 @@ pub enum ConfigError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Every dotted key of a value in a (partial) TOML table (`world.robots`, not `world`).
+fn collect_keys(prefix: &str, table: &toml::Table, out: &mut std::collections::BTreeSet<String>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(t) => collect_keys(&key, t, out),
+            _ => {
+                out.insert(key);
+            }
+        }
+    }
 }
 
 impl fmt::Display for Preset {
@@ -1207,6 +1276,42 @@ mod tests {
             .to_string();
         assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn small_swarms_and_long_ticks_derive_what_the_user_did_not_set() {
+        for robots in 1..=5u32 {
+            let c = Config::resolve(Some("smoke"), None, &[format!("world.robots={robots}")])
+                .unwrap_or_else(|e| panic!("{robots} robots: {e}"));
+            assert_eq!(
+                c.contract.penalised_ranks,
+                c.quorum() - 1,
+                "{robots} robots"
+            );
+            assert!(c.reward_weights()[0] == 1);
+        }
+        // The paper's swarm keeps the paper's ranks: derivation changes nothing that validates.
+        let paper = Config::resolve(None, None, &["world.robots=15".into()]).unwrap();
+        assert_eq!(paper, Preset::Paper.config());
+        let c = Config::resolve(Some("smoke"), None, &["run.tick_s=10".into()]).unwrap();
+        assert_eq!(c.world.peer_refresh_s, 10.0);
+        let c = Config::resolve(None, None, &["world.peer_refresh_s=2".into()]).unwrap();
+        assert_eq!(c.world.peer_refresh_s, 2.0);
+        // What the user set is never changed: the error names their own key.
+        check_err(
+            &["world.robots=5", "contract.penalised_ranks=2"],
+            "`contract.penalised_ranks`: value 2 is out of range",
+        );
+        check_err(
+            &["run.tick_s=1", "world.peer_refresh_s=0.5"],
+            "`world.peer_refresh_s`: value 0.5",
+        );
+        // A preset value that conflicts with the user's and cannot be derived names both.
+        check_err(
+            &["data.input_waypoints=80"],
+            "you did not set `data.target_waypoints` (preset `paper` gives it), but it no \
+             longer fits what you set (data.input_waypoints)",
+        );
     }
 
     #[test]
