@@ -20,6 +20,10 @@
 //! `Delta` is summed in `f64` in index order; noise is added in `f64` and rounded once to
 //! `f32`. No fused multiply-add, so results are the same on every platform.
 
+pub mod faulty;
+pub mod malicious;
+pub mod smart;
+
 use crate::config::{ByzantineKind, ByzantineVariant, Config};
 use crate::rng::{self, Purpose, Rng};
 
@@ -35,30 +39,10 @@ pub fn forge(
     rng: &mut Rng,
 ) -> Vec<f32> {
     match kind {
-        ByzantineKind::None | ByzantineKind::Malicious => shared.to_vec(),
-        ByzantineKind::Faulty => {
-            assert!(
-                faulty_range.is_finite() && faulty_range >= 0.0,
-                "faulty_range {faulty_range}"
-            );
-            (0..shared.len())
-                .map(|_| rng.range(-faulty_range, faulty_range) as f32)
-                .collect()
-        }
-        ByzantineKind::Smart => {
-            let step = previous.map_or(0.0, |p| delta(shared, p));
-            match variant {
-                ByzantineVariant::Paper => shared
-                    .iter()
-                    .map(|&w| (f64::from(w) + 2.0 * rng.uniform() * step) as f32)
-                    .collect(),
-                ByzantineVariant::Reference if step == 0.0 => shared.to_vec(),
-                ByzantineVariant::Reference => shared
-                    .iter()
-                    .map(|&w| (f64::from(w) + rng.uniform() * step) as f32)
-                    .collect(),
-            }
-        }
+        ByzantineKind::None => shared.to_vec(),
+        ByzantineKind::Malicious => malicious::forge(shared),
+        ByzantineKind::Faulty => faulty::forge(shared.len(), faulty_range, rng),
+        ByzantineKind::Smart => smart::forge(variant, shared, previous, rng),
     }
 }
 
