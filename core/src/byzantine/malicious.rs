@@ -4,3 +4,12 @@
 pub fn forge(shared: &[f32]) -> Vec<f32> {
     shared.to_vec()
 }
+
+/// The `malicious` agent. Parameter: `byzantine.claimed_samples`.
+pub struct Malicious;
+
+impl super::Attack for Malicious {
+    fn act(&self, view: &super::View, _rng: &mut crate::rng::Rng) -> super::Action {
+        super::submit(view, forge(&view.shared()))
+    }
+}

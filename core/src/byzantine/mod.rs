@@ -1,49 +1,204 @@
-//! Byzantine robots (SPEC.md section 5): which robots they are and the weights they forge.
+//! Byzantine robots: which robots they are ([`byzantine_robots`]) and the agents that decide
+//! what each one submits ([`Attack`], one file per `byzantine.kind`).
 //!
-//! Byzantine robots move and run nodes like everyone, but never train: at each training phase
-//! the driver calls [`forge`] instead of training and submits the result (converted to fixed
-//! point by the learning module) with `byzantine.claimed_samples` samples.
+//! Byzantine robots move and run nodes like everyone. At each of its learning phases the
+//! driver asks the robot's attack what to do, giving it a [`View`]: exactly what its own node
+//! knows (the contract state at its own chain's head, including the current round's
+//! submissions already sealed there, the public contract rules, its own trajectories) plus
+//! which robots are its accomplices. The attack answers with an [`Action`]: submit a model
+//! with a claimed sample count, train honestly on given samples and submit the result, or
+//! wait. A waiting robot is asked again at every tick with a fresh view until it acts or its
+//! next phase is due (then the phase is skipped, reason `waited`); this is how the attacks
+//! that read the honest models of the round wait for `byzantine.wait_for_honest` of them. The
+//! driver (`sim.rs`) never knows which attack runs.
 //!
-//! The formulas, for the shared model w(t) read from the robot's own chain and w(t-1) the model
-//! before the last aggregation (`None` in round 0):
-//! - faulty: every weight uniform in `[-faulty_range, faulty_range)` (both variants; the paper's
-//!   interval is TensorFlow's initialisation range, 0.5).
-//! - malicious: w(t) itself (both variants).
-//! - smart, paper: `w_i(t) + 2 r_i Delta`, `Delta = (1/N) sum_i |w_i(t) - w_i(t-1)|`, `r_i`
-//!   uniform in [0, 1) drawn per weight, always N draws. In round 0 there is no w(t-1): we take
-//!   `Delta = 0`, so the robot sends w(t) (the formula with w(t-1) = w(t)).
-//! - smart, reference: positive-only noise of the magnitude of one step, `w_i(t) + r_i Delta`
-//!   with `r_i` uniform in [0, 1) (our reading of SPEC.md: the paper's variation `2 r Delta`
-//!   has mean Delta and reaches 2 Delta, the reference's stays within one Delta above w(t)),
-//!   and w(t) unchanged, with no draws, before the first change (no w(t-1), or Delta == 0).
-//!
-//! `Delta` is summed in `f64` in index order; noise is added in `f64` and rounded once to
-//! `f32`. No fused multiply-add, so results are the same on every platform.
+//! The attacks (each file documents its formula, parameters and the information it uses):
+//! `faulty`, `malicious`, `smart` (the paper's, SPEC.md section 5), `sign-flip`, `gaussian`,
+//! `alie`, `ipm`, `min-max`, `mimic`, `inflate-samples`, `poison-data`, `collude`. Models are
+//! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
+//! driver converts them to fixed point as it does honest models.
 
+pub mod alie;
+pub mod collude;
 pub mod faulty;
+pub mod gaussian;
+pub mod inflate_samples;
+pub mod ipm;
 pub mod malicious;
+pub mod mimic;
+pub mod min_max;
+pub mod poison_data;
+pub mod sign_flip;
 pub mod smart;
 
-use crate::config::{ByzantineKind, ByzantineVariant, Config};
+use crate::config::{ByzantineConfig, ByzantineKind, Config};
+use crate::contract::{ContractParams, ContractState, Submission};
+use crate::data::Sample;
+use crate::learn;
 use crate::rng::{self, Purpose, Rng};
+use crate::types::RobotId;
+use crate::world::World;
 
-/// The weights a Byzantine robot of `kind` submits (before fixed point). `shared` is w(t),
-/// `previous` is w(t-1) (same length) or `None` before the first aggregation; `rng` is the
-/// robot's `Purpose::Byzantine` stream. `ByzantineKind::None` forges nothing: it returns w(t).
-pub fn forge(
-    kind: ByzantineKind,
-    variant: ByzantineVariant,
-    shared: &[f32],
-    previous: Option<&[f32]>,
-    faulty_range: f64,
-    rng: &mut Rng,
-) -> Vec<f32> {
-    match kind {
-        ByzantineKind::None => shared.to_vec(),
-        ByzantineKind::Malicious => malicious::forge(shared),
-        ByzantineKind::Faulty => faulty::forge(shared.len(), faulty_range, rng),
-        ByzantineKind::Smart => smart::forge(variant, shared, previous, rng),
+/// What a Byzantine robot knows when it decides: its own node's view, nothing more.
+pub struct View<'a> {
+    /// The robot.
+    pub robot: RobotId,
+    /// Simulated time of the decision, in ms.
+    pub now_ms: u64,
+    /// True when the robot's next learning phase is due: waiting now skips this phase.
+    pub last_chance: bool,
+    /// The contract state at the head of the robot's own chain.
+    pub chain: &'a ContractState,
+    /// The contract rules in force (public: every node executes them).
+    pub params: &'a ContractParams,
+    /// Fixed-point scale of on-chain weights.
+    pub weight_scale: u64,
+    /// Which robots are Byzantine: the coalition knows its members (index = robot id).
+    pub coalition: &'a [bool],
+    /// The world, to read this robot's own trajectories ([`View::own_dataset`]).
+    pub world: &'a World,
+    /// The attack's parameters.
+    pub config: &'a ByzantineConfig,
+    /// Input waypoints per sample (`data.input_waypoints`): the rest are targets.
+    pub input_waypoints: usize,
+}
+
+impl View<'_> {
+    /// w(t), the shared model at the head of its chain.
+    pub fn shared(&self) -> Vec<f32> {
+        learn::from_fixed(&self.chain.weights, self.weight_scale)
     }
+
+    /// w(t-1), the model before the last aggregation, if there was one.
+    pub fn previous(&self) -> Option<Vec<f32>> {
+        self.chain
+            .previous_weights
+            .as_ref()
+            .map(|w| learn::from_fixed(w, self.weight_scale))
+    }
+
+    /// The current round's submissions on its chain from robots outside the coalition, in
+    /// submission order (accepted and outliers: both are public).
+    pub fn honest_submissions(&self) -> Vec<&Submission> {
+        self.chain
+            .submissions
+            .iter()
+            .filter(|s| !self.coalition.get(s.sender as usize).copied().unwrap_or(false))
+            .collect()
+    }
+
+    /// The weights of [`View::honest_submissions`], as floats.
+    pub fn honest_models(&self) -> Vec<Vec<f32>> {
+        self.honest_submissions()
+            .iter()
+            .map(|s| learn::from_fixed(&s.weights, self.weight_scale))
+            .collect()
+    }
+
+    /// The outlier threshold as a mean absolute distance per weight (public contract rule).
+    pub fn threshold(&self) -> f64 {
+        self.params.outlier_threshold_units as f64 / self.weight_scale as f64
+    }
+
+    /// The robot's own current trajectories.
+    pub fn own_dataset(&self) -> Vec<Sample> {
+        self.world.dataset(self.robot)
+    }
+}
+
+/// What a Byzantine robot does now.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Action {
+    /// Nothing yet: ask again at the next tick (or skip the phase on the last chance).
+    Wait,
+    /// Submit these weights claiming `samples` training samples.
+    Submit {
+        /// The model (converted to fixed point by the driver).
+        weights: Vec<f32>,
+        /// The claimed sample count.
+        samples: u32,
+    },
+    /// Train honestly from w(t) on these samples and submit the result, claiming the training
+    /// samples.
+    Train {
+        /// The (possibly corrupted) trajectories.
+        samples: Vec<Sample>,
+    },
+}
+
+/// A Byzantine behaviour: an agent that sees its node's view and returns an action.
+pub trait Attack: Send + Sync {
+    /// The action for `view`; `rng` is the robot's `Purpose::Byzantine` substream of the
+    /// learning phase (restarted at each ask, so only the acting ask's draws count).
+    fn act(&self, view: &View, rng: &mut Rng) -> Action;
+}
+
+/// The agent of `kind`; `None` for honest robots.
+pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
+    Some(match kind {
+        ByzantineKind::None => return None,
+        ByzantineKind::Faulty => Box::new(faulty::Faulty),
+        ByzantineKind::Malicious => Box::new(malicious::Malicious),
+        ByzantineKind::Smart => Box::new(smart::Smart),
+        ByzantineKind::SignFlip => Box::new(sign_flip::SignFlip),
+        ByzantineKind::Gaussian => Box::new(gaussian::Gaussian),
+        ByzantineKind::Alie => Box::new(alie::Alie),
+        ByzantineKind::Ipm => Box::new(ipm::Ipm),
+        ByzantineKind::MinMax => Box::new(min_max::MinMax),
+        ByzantineKind::Mimic => Box::new(mimic::Mimic),
+        ByzantineKind::InflateSamples => Box::new(inflate_samples::InflateSamples),
+        ByzantineKind::PoisonData => Box::new(poison_data::PoisonData),
+        ByzantineKind::Collude => Box::new(collude::Collude),
+    })
+}
+
+/// Submits `weights` with the configured `byzantine.claimed_samples`.
+pub fn submit(view: &View, weights: Vec<f32>) -> Action {
+    Action::Submit {
+        weights,
+        samples: view.config.claimed_samples,
+    }
+}
+
+/// The honest models of the round once at least `need` are on the chain; `None` (wait)
+/// before.
+pub fn await_honest(view: &View, need: usize) -> Option<Vec<Vec<f32>>> {
+    if view.honest_submissions().len() < need.max(1) {
+        return None;
+    }
+    Some(view.honest_models())
+}
+
+/// Per-weight mean of `models` (non-empty, one length), in `f64`, summed in model order.
+pub fn mean(models: &[Vec<f32>]) -> Vec<f64> {
+    let n = models.len() as f64;
+    (0..models[0].len())
+        .map(|i| models.iter().map(|m| f64::from(m[i])).sum::<f64>() / n)
+        .collect()
+}
+
+/// Per-weight population standard deviation of `models` around `mean`, in `f64`.
+pub fn std_dev(models: &[Vec<f32>], mean: &[f64]) -> Vec<f64> {
+    let n = models.len() as f64;
+    mean.iter()
+        .enumerate()
+        .map(|(i, &mu)| {
+            let var = models
+                .iter()
+                .map(|m| {
+                    let d = f64::from(m[i]) - mu;
+                    d * d
+                })
+                .sum::<f64>()
+                / n;
+            var.sqrt()
+        })
+        .collect()
+}
+
+/// Rounds an `f64` model to `f32`.
+pub fn to_f32(model: &[f64]) -> Vec<f32> {
+    model.iter().map(|&w| w as f32).collect()
 }
 
 /// `Delta(w(t), w(t-1)) = (1/N) sum_i |w_i(t) - w_i(t-1)|`, in `f64`, summed in index order.
@@ -88,7 +243,7 @@ pub fn byzantine_robots(config: &Config, seed: u64) -> Vec<bool> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::Preset;
+    use crate::config::{ByzantineVariant, Preset};
 
     fn stream() -> Rng {
         rng::stream(42, Purpose::Byzantine, 3)
@@ -100,7 +255,13 @@ mod tests {
         shared: &[f32],
         previous: Option<&[f32]>,
     ) -> Vec<f32> {
-        forge(kind, variant, shared, previous, 0.5, &mut stream())
+        let mut rng = stream();
+        match kind {
+            ByzantineKind::Faulty => faulty::forge(shared.len(), 0.5, &mut rng),
+            ByzantineKind::Malicious => malicious::forge(shared),
+            ByzantineKind::Smart => smart::forge(variant, shared, previous, &mut rng),
+            _ => unreachable!("the classic kinds"),
+        }
     }
 
     #[test]
@@ -204,14 +365,7 @@ mod tests {
         );
         for previous in [None, Some(&shared[..])] {
             let mut rng = stream();
-            let w = forge(
-                ByzantineKind::Smart,
-                ByzantineVariant::Reference,
-                &shared,
-                previous,
-                0.5,
-                &mut rng,
-            );
+            let w = smart::forge(ByzantineVariant::Reference, &shared, previous, &mut rng);
             assert_eq!(w, shared);
             assert_eq!(rng, stream(), "no draws before the first change");
         }

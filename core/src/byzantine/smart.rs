@@ -34,3 +34,15 @@ pub fn forge(
             .collect(),
     }
 }
+
+/// The `smart` agent. Parameters: `byzantine.variant`, `byzantine.claimed_samples`.
+pub struct Smart;
+
+impl super::Attack for Smart {
+    fn act(&self, view: &super::View, rng: &mut Rng) -> super::Action {
+        let shared = view.shared();
+        let previous = view.previous();
+        let weights = forge(view.config.variant, &shared, previous.as_deref(), rng);
+        super::submit(view, weights)
+    }
+}
