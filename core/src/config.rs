@@ -981,7 +981,11 @@ impl Config {
                 max_f.into(),
             )
             .map_err(|e| match e {
-                ConfigError::OutOfRange { key, value, allowed } => ConfigError::OutOfRange {
+                ConfigError::OutOfRange {
+                    key,
+                    value,
+                    allowed,
+                } => ConfigError::OutOfRange {
                     key,
                     value,
                     allowed: format!(
@@ -1040,7 +1044,7 @@ impl Config {
             "byzantine.wait_for_honest",
             c.byzantine.wait_for_honest.into(),
             1,
-            c.world.robots.into(),
+            10_000,
         )?;
         range("byzantine.scale", c.byzantine.scale, 0.0, 1.0e6)?;
         range("byzantine.sigma", c.byzantine.sigma, 0.0, 1000.0)?;

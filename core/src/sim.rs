@@ -444,7 +444,9 @@ struct Learners {
     period_ms: u64,
     duration_ms: u64,
     stake_units: u64,
-    pending: BTreeMap<(u64, RobotId), Pending>,
+    /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
+    /// at the same time.
+    pending: BTreeMap<(u64, RobotId, u64), Pending>,
 }
 
 impl Learners {
@@ -801,7 +803,7 @@ impl Sim {
             self.learners.waiting.remove(&r);
             let last_chance = self.learners.next_due_ms[r as usize] <= now.0;
             match self.byzantine_plan(r, w, now, last_chance, &mut jobs) {
-                Some(plan) => plans.push((r, w.started_ms, plan)),
+                Some(plan) => plans.push((r, w.phase, w.started_ms, plan)),
                 None if last_chance => {
                     let base_round = self.state.ledger.head_state(r).round;
                     let report = LearnReport {
@@ -832,7 +834,7 @@ impl Sim {
                     started_ms: now.0,
                 };
                 match self.byzantine_plan(r, w, now, false, &mut jobs) {
-                    Some(plan) => plans.push((r, now.0, plan)),
+                    Some(plan) => plans.push((r, phase, now.0, plan)),
                     None => {
                         self.learners.waiting.insert(r, w);
                     }
@@ -886,7 +888,7 @@ impl Sim {
                     },
                 }
             };
-            plans.push((r, now.0, plan));
+            plans.push((r, phase, now.0, plan));
         }
         let due_jobs = jobs.len();
         let speculative = if due_jobs > 0 {
@@ -900,7 +902,7 @@ impl Sim {
             self.ahead.speculated.insert(key, (digest, outcome));
         }
         debug_assert_eq!(outcomes.len(), due_jobs);
-        for (r, started_ms, plan) in plans {
+        for (r, phase, started_ms, plan) in plans {
             // A phase's submission leaves a training duration after the phase began, or now
             // if a waiting attack decided later than that.
             let submit_at = (started_ms + self.learners.duration_ms).max(now.0);
@@ -912,25 +914,23 @@ impl Sim {
                     weights,
                     samples: claimed,
                     base_round,
-                } => {
-                    match learn::to_fixed(&weights, scale) {
-                        Ok(fixed) => {
-                            let tx = self.submission(r, fixed, u64::from(claimed));
-                            let action = LearnAction::Forged {
-                                tx: tx.hash_and_size().0,
-                                claimed_samples: claimed,
-                            };
-                            (base_round, action, Some(tx))
-                        }
-                        Err(_) => (
-                            base_round,
-                            LearnAction::Skipped {
-                                reason: SkipReason::NonFiniteModel,
-                            },
-                            None,
-                        ),
+                } => match learn::to_fixed(&weights, scale) {
+                    Ok(fixed) => {
+                        let tx = self.submission(r, fixed, u64::from(claimed));
+                        let action = LearnAction::Forged {
+                            tx: tx.hash_and_size().0,
+                            claimed_samples: claimed,
+                        };
+                        (base_round, action, Some(tx))
                     }
-                }
+                    Err(_) => (
+                        base_round,
+                        LearnAction::Skipped {
+                            reason: SkipReason::NonFiniteModel,
+                        },
+                        None,
+                    ),
+                },
                 Plan::Train { job, base_round } => {
                     let (action, tx) = self.trained(r, &outcomes[job]);
                     (base_round, action, tx)
@@ -970,7 +970,7 @@ impl Sim {
                 action,
             };
             self.learners.pending.insert(
-                (submit_at, r),
+                (submit_at, r, phase),
                 Pending {
                     report,
                     tx: submission,
@@ -1042,7 +1042,10 @@ impl Sim {
                         jobs.push(TrainJob {
                             shape: self.learners.shape.clone(),
                             cfg: self.config.learn.clone(),
-                            start: learn::from_fixed(&chain.weights, self.config.contract.weight_scale),
+                            start: learn::from_fixed(
+                                &chain.weights,
+                                self.config.contract.weight_scale,
+                            ),
                             data,
                             dropout: rng::substream(self.seed, Purpose::Dropout, robot, w.phase),
                         });
@@ -1140,7 +1143,7 @@ impl Sim {
     /// robot order.
     fn release_submissions(&mut self, now: SimTime) {
         while let Some(entry) = self.learners.pending.first_entry() {
-            let (at, _) = *entry.key();
+            let (at, _, _) = *entry.key();
             if at > now.0 {
                 break;
             }

@@ -31,7 +31,9 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
                     if let Event::Learn(r) = &event {
                         forged += usize::from(matches!(r.action, LearnAction::Forged { .. }));
                     }
-                    state.apply(time, &event).expect("the run's own events fold");
+                    state
+                        .apply(time, &event)
+                        .expect("the run's own events fold");
                 }
                 Record::Checkpoint(c) => {
                     assert_eq!(
@@ -45,7 +47,11 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
                 }
             }
         }
-        assert!(checkpoints > 10, "{}: {checkpoints} checkpoints", kind.name());
+        assert!(
+            checkpoints > 10,
+            "{}: {checkpoints} checkpoints",
+            kind.name()
+        );
         assert!(
             forged > 0,
             "{} vs {}: the Byzantine robots never submitted",

@@ -83,13 +83,16 @@ fn tx() -> impl Strategy<Value = Tx> {
             },
         },
     );
-    let transfer = (sender, 0..ROBOTS + 2, prop_oneof![0u64..30 * TOKEN, any::<u64>()]).prop_map(
-        |(sender, to, amount_units)| Tx {
+    let transfer = (
+        sender,
+        0..ROBOTS + 2,
+        prop_oneof![0u64..30 * TOKEN, any::<u64>()],
+    )
+        .prop_map(|(sender, to, amount_units)| Tx {
             sender,
             value_units: 0,
             call: Call::Transfer { to, amount_units },
-        },
-    );
+        });
     prop_oneof![8 => submit, 1 => transfer]
 }
 
@@ -107,7 +110,10 @@ fn run(rule: Rule, txs: &[Tx]) -> Result<u64, TestCaseError> {
             step
         );
         let staked: u64 = state.submissions.iter().map(|s| s.stake_units).sum();
-        prop_assert!(staked <= state.holdings_units, "the contract holds the stakes");
+        prop_assert!(
+            staked <= state.holdings_units,
+            "the contract holds the stakes"
+        );
         if let Outcome::Aggregated { payouts, .. } = &outcome {
             let last = state.last_round.as_deref().expect("recorded");
             let accepted: Vec<RobotId> = last
@@ -121,7 +127,10 @@ fn run(rule: Rule, txs: &[Tx]) -> Result<u64, TestCaseError> {
             prop_assert!(paid <= last.pool_units);
             prop_assert_eq!(last.pool_units - paid, last.carried_units);
             let mut robots: Vec<RobotId> = payouts.iter().map(|p| p.robot).collect();
-            prop_assert!(robots.iter().all(|r| accepted.contains(r)), "pays only accepted");
+            prop_assert!(
+                robots.iter().all(|r| accepted.contains(r)),
+                "pays only accepted"
+            );
             robots.sort_unstable();
             robots.dedup();
             prop_assert_eq!(robots.len(), payouts.len(), "pays each robot once");
@@ -136,7 +145,8 @@ fn run(rule: Rule, txs: &[Tx]) -> Result<u64, TestCaseError> {
                     .filter(|s| s.verdict == swarmfl_core::contract::Verdict::Accepted)
                     .map(|s| s.weights[i])
                     .chain(std::iter::once(before.weights[i]));
-                let (lo, hi) = column.fold((i64::MAX, i64::MIN), |(lo, hi), w| (lo.min(w), hi.max(w)));
+                let (lo, hi) =
+                    column.fold((i64::MAX, i64::MIN), |(lo, hi), w| (lo.min(w), hi.max(w)));
                 prop_assert!(
                     (lo..=hi).contains(&state.weights[i]),
                     "{}: weight {} = {} outside [{}, {}]",

@@ -18,7 +18,12 @@ pub struct Alie;
 pub fn forge(honest: &[Vec<f32>], z: f64) -> Vec<f32> {
     let mu = mean(honest);
     let sigma = std_dev(honest, &mu);
-    to_f32(&mu.iter().zip(&sigma).map(|(&m, &s)| m - z * s).collect::<Vec<f64>>())
+    to_f32(
+        &mu.iter()
+            .zip(&sigma)
+            .map(|(&m, &s)| m - z * s)
+            .collect::<Vec<f64>>(),
+    )
 }
 
 impl Attack for Alie {

@@ -36,6 +36,9 @@ mod tests {
         let var = d.iter().map(|x| (x - mean) * (x - mean)).sum::<f64>() / d.len() as f64;
         assert!(mean.abs() < 0.02, "mean {mean}");
         assert!((var.sqrt() - 0.5).abs() < 0.02, "std {}", var.sqrt());
-        assert_eq!(forge(&shared, 0.0, &mut rng::stream(1, Purpose::Byzantine, 0)), shared);
+        assert_eq!(
+            forge(&shared, 0.0, &mut rng::stream(1, Purpose::Byzantine, 0)),
+            shared
+        );
     }
 }

@@ -83,7 +83,13 @@ impl View<'_> {
         self.chain
             .submissions
             .iter()
-            .filter(|s| !self.coalition.get(s.sender as usize).copied().unwrap_or(false))
+            .filter(|s| {
+                !self
+                    .coalition
+                    .get(s.sender as usize)
+                    .copied()
+                    .unwrap_or(false)
+            })
             .collect()
     }
 

@@ -43,7 +43,10 @@ mod tests {
     #[test]
     fn reverses_the_last_step() {
         assert_eq!(forge(&[1.0, -2.0], Some(&[0.5, -1.0]), 2.0), vec![0.0, 0.0]);
-        assert_eq!(forge(&[1.0, -2.0], Some(&[0.5, -1.0]), 1.0), vec![0.5, -1.0]);
+        assert_eq!(
+            forge(&[1.0, -2.0], Some(&[0.5, -1.0]), 1.0),
+            vec![0.5, -1.0]
+        );
         assert_eq!(forge(&[1.0], None, 2.0), vec![1.0]);
     }
 }

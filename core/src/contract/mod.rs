@@ -637,8 +637,7 @@ impl ContractState {
             );
             let order = &aggregate.used;
             if rule == Rule::Paper {
-                let ranked_samples: Vec<u64> =
-                    order.iter().map(|&i| accepted[i].samples).collect();
+                let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
                 let units = payout::payouts(
                     pool_units,
                     params.stake_units,

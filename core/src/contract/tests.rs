@@ -766,7 +766,11 @@ fn paper_parameters_encode_without_the_rule() {
     let a = rmp_serde::to_vec(&p).unwrap();
     let b = rmp_serde::to_vec(&q).unwrap();
     assert!(b.len() > a.len());
-    assert_eq!(&b[1..a.len()], &a[1..], "the same fields, one more at the end");
+    assert_eq!(
+        &b[1..a.len()],
+        &a[1..],
+        "the same fields, one more at the end"
+    );
     let back: ContractParams = rmp_serde::from_slice(&a).unwrap();
     assert_eq!(back, p);
     let back: ContractParams = rmp_serde::from_slice(&b).unwrap();

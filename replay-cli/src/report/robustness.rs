@@ -41,7 +41,13 @@ pub fn cells(e: &ExperimentStats) -> Vec<Cell> {
         .iter()
         .filter_map(|p| {
             let point = grid.points.iter().find(|g| g.name == p.point)?;
-            let tag = |k: &str| point.tags.iter().find(|(t, _)| *t == k).map(|(_, v)| v.clone());
+            let tag = |k: &str| {
+                point
+                    .tags
+                    .iter()
+                    .find(|(t, _)| *t == k)
+                    .map(|(_, v)| v.clone())
+            };
             let mean = |k: &str| p.metrics.get(k).map(|s| s.mean);
             Some(Cell {
                 rule: tag("rule")?,
@@ -255,7 +261,11 @@ fn colour(map: &Heatmap, v: f64, lo: f64, hi: f64) -> RGBColor {
     } else {
         // Log scale: losses span orders of magnitude under attack.
         let (l, h) = (lo.max(1e-12).ln(), hi.max(1e-12).ln());
-        let t = if h > l { (v.max(1e-12).ln() - l) / (h - l) } else { 0.0 };
+        let t = if h > l {
+            (v.max(1e-12).ln() - l) / (h - l)
+        } else {
+            0.0
+        };
         mix(white, (178.0, 24.0, 43.0), t)
     }
 }
@@ -264,7 +274,10 @@ fn colour(map: &Heatmap, v: f64, lo: f64, hi: f64) -> RGBColor {
 fn draw(map: &Heatmap, out: &Path, stem: &str) -> anyhow::Result<bool> {
     let svg = out.join(format!("{stem}.svg"));
     let png = out.join(format!("{stem}.png"));
-    let size = (140 + 90 * map.cols.len() as u32, 120 + 40 * map.rows.len() as u32);
+    let size = (
+        140 + 90 * map.cols.len() as u32,
+        120 + 40 * map.rows.len() as u32,
+    );
     for text in [true, false] {
         let result = (|| -> Result<(), String> {
             let root = SVGBackend::new(&svg, size).into_drawing_area();
@@ -330,7 +343,10 @@ fn draw_on<DB: DrawingBackend>(
                 Some(v) => colour(map, *v, lo, hi).filled(),
                 None => RGBColor(220, 220, 220).filled(),
             };
-            chart.draw_series(std::iter::once(Rectangle::new([(x, y), (x + 1, y + 1)], fill)))?;
+            chart.draw_series(std::iter::once(Rectangle::new(
+                [(x, y), (x + 1, y + 1)],
+                fill,
+            )))?;
             chart.draw_series(std::iter::once(Rectangle::new(
                 [(x, y), (x + 1, y + 1)],
                 BLACK.mix(0.2).stroke_width(1),

@@ -39,7 +39,13 @@ mod tests {
         // q = 5, f = 1, m = 2. 1-D models 0, 1, 3, 10, 11:
         // scores 0: 1 + 9 = 10; 1: 1 + 4 = 5; 3: 4 + 9 = 13; 10: 1 + 49 = 50; 11: 1 + 64 = 65.
         let a = aggregate(
-            &inputs_of(&[(&[0], 1), (&[1], 1), (&[3], 1), (&[10], 1), (&[11], 1_000_000)]),
+            &inputs_of(&[
+                (&[0], 1),
+                (&[1], 1),
+                (&[3], 1),
+                (&[10], 1),
+                (&[11], 1_000_000),
+            ]),
             1,
         );
         assert_eq!(a.weights, vec![1]);
@@ -50,7 +56,13 @@ mod tests {
     fn ties_go_to_the_earlier_submission() {
         // Two identical pairs: every score is 0 + d; models 0 and 1 tie with 2 and 3.
         let a = aggregate(
-            &inputs_of(&[(&[5, 5], 1), (&[5, 5], 1), (&[7, 7], 1), (&[7, 7], 1), (&[6, 6], 1)]),
+            &inputs_of(&[
+                (&[5, 5], 1),
+                (&[5, 5], 1),
+                (&[7, 7], 1),
+                (&[7, 7], 1),
+                (&[6, 6], 1),
+            ]),
             1,
         );
         assert_eq!(a.weights, vec![5, 5]);

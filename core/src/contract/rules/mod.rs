@@ -189,7 +189,11 @@ pub fn isqrt(x: u128) -> u128 {
 
 /// `sum_i (a_i - b_i)^2`, exact: each term is below 2^96 and there are at most 2^16 of them.
 pub fn squared_distance(a: &[i64], b: &[i64]) -> u128 {
-    assert_eq!(a.len(), b.len(), "distance between models of different lengths");
+    assert_eq!(
+        a.len(),
+        b.len(),
+        "distance between models of different lengths"
+    );
     a.iter()
         .zip(b)
         .map(|(&x, &y)| {
@@ -258,7 +262,9 @@ pub fn krum_scores(models: &[&[i64]], m: usize) -> Vec<u128> {
         .map(|i| {
             let mut row: Vec<u128> = (0..n).filter(|&j| j != i).map(|j| d[i][j]).collect();
             row.sort_unstable();
-            row.iter().take(m).fold(0u128, |acc, &x| acc.saturating_add(x))
+            row.iter()
+                .take(m)
+                .fold(0u128, |acc, &x| acc.saturating_add(x))
         })
         .collect()
 }
