@@ -1327,6 +1327,34 @@ mod tests {
         }
     }
 
+    /// `contract.rule` is listed in every resolved configuration; a configuration written
+    /// before rules existed (no `rule`, no `assumed_f`) reads as `paper`, and
+    /// `security = false` still means `fedavg`.
+    #[test]
+    fn the_rule_is_listed_and_old_configurations_read() {
+        let paper = Preset::Paper.config();
+        assert!(paper.to_toml().contains("rule = \"paper\""));
+        assert_eq!(paper.flat_values()["contract.rule"], "\"paper\"");
+        let mut old: toml::Table = toml::from_str(&paper.to_toml()).unwrap();
+        let contract = old["contract"].as_table_mut().unwrap();
+        contract.remove("rule");
+        contract.remove("assumed_f");
+        contract.insert("security".into(), toml::Value::Boolean(false));
+        let text = toml::to_string(&old).unwrap();
+        let c = Config::from_toml_str(&text, "old.toml").unwrap();
+        assert_eq!(c.contract.rule, Rule::Paper);
+        assert_eq!(c.rule(), Rule::Fedavg);
+        let mut krum = Preset::Paper.config();
+        krum.set("contract.rule=krum").unwrap();
+        krum.validate().unwrap();
+        krum.set("contract.assumed_f=3").unwrap();
+        let e = krum.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("contract.assumed_f") && e.contains("krum"),
+            "{e}"
+        );
+    }
+
     #[test]
     fn paper_quorum_is_seven() {
         assert_eq!(Preset::Paper.config().quorum(), 7);

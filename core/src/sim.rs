@@ -779,7 +779,8 @@ impl Sim {
     }
 
     /// Every robot whose learning phase is due by `now` trains (in parallel, with the
-    /// speculative trainings of the window) or forges, and queues its submission.
+    /// speculative trainings of the window) or, if Byzantine, asks its attack; waiting attacks
+    /// are asked again. Queues the submissions.
     fn learning_phase(&mut self, now: SimTime) {
         // Byzantine robots waiting in an earlier phase are asked again first (robot order);
         // one whose next phase is due now has its last chance.
