@@ -11,6 +11,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::contract::rules::Rule;
+
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -168,6 +170,24 @@ pub struct ContractConfig {
     /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
     /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
     pub penalised_ranks: u32,
+    /// The aggregation rule (`fedavg`, `paper`, `krum`, `multi-krum`, `median`,
+    /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`; see `contract::rules`).
+    /// `security = false` means `fedavg` whatever this says (old configurations read as before).
+    #[serde(default = "default_rule")]
+    pub rule: Rule,
+    /// Byzantine submissions per round the robust rules assume (f): krum and multi-krum need
+    /// quorum >= 2f + 3, median, trimmed-mean, geomed and centered-clipping 2f + 1, bulyan
+    /// 4f + 3. Ignored by fedavg and paper.
+    #[serde(default = "default_assumed_f")]
+    pub assumed_f: u32,
+}
+
+fn default_rule() -> Rule {
+    Rule::Paper
+}
+
+fn default_assumed_f() -> u32 {
+    1
 }
 
 /// Which robots are Byzantine and how they behave.
@@ -184,11 +204,59 @@ pub struct ByzantineConfig {
     pub claimed_samples: u32,
     /// Faulty robots send weights uniform in [-this, this].
     pub faulty_range: f64,
+    /// How many honest submissions of the current round the attacks that read them (`alie`,
+    /// `ipm`, `min-max`, `mimic`, `inflate-samples`) wait to see on their own chain before
+    /// submitting (at least 1; `alie` and `min-max` use at least 2).
+    #[serde(default = "default_wait_for_honest")]
+    pub wait_for_honest: u32,
+    /// `sign-flip`: the submitted model is w(t) - scale * (w(t) - w(t-1)); `ipm`: the
+    /// submitted step is -scale times the honest mean step (inner-product manipulation's
+    /// epsilon).
+    #[serde(default = "default_attack_scale")]
+    pub scale: f64,
+    /// `gaussian`: standard deviation of the noise added to every weight of w(t).
+    #[serde(default = "default_sigma")]
+    pub sigma: f64,
+    /// `alie`: how many honest standard deviations each weight is moved from the honest mean.
+    #[serde(default = "default_alie_z")]
+    pub alie_z: f64,
+    /// `inflate-samples` and `collude`: the fraction of the outlier threshold
+    /// (`contract.outlier_threshold`, mean absolute distance) the forged model moves from w(t).
+    #[serde(default = "default_threshold_fraction")]
+    pub threshold_fraction: f64,
+    /// `inflate-samples`: the sample count claimed (the contract's limit is 2^32 - 1).
+    #[serde(default = "default_inflated_samples")]
+    pub inflated_samples: u32,
 }
 
-/// The behaviour of Byzantine robots (docs/SPEC.md section 5).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+fn default_wait_for_honest() -> u32 {
+    2
+}
+
+fn default_attack_scale() -> f64 {
+    1.0
+}
+
+fn default_sigma() -> f64 {
+    0.1
+}
+
+fn default_alie_z() -> f64 {
+    1.0
+}
+
+fn default_threshold_fraction() -> f64 {
+    0.99
+}
+
+fn default_inflated_samples() -> u32 {
+    u32::MAX
+}
+
+/// The behaviour of Byzantine robots (docs/SPEC.md section 5, and the attacks of `byzantine/`,
+/// each documented in its own file).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ByzantineKind {
     /// No Byzantine robots (the count must be 0).
     None,
@@ -198,6 +266,63 @@ pub enum ByzantineKind {
     Malicious,
     /// Follows the trend of the shared model to be ranked first.
     Smart,
+    /// Reverses the last aggregation step.
+    SignFlip,
+    /// Gaussian noise on the shared model.
+    Gaussian,
+    /// A little is enough: the honest mean moved by a few honest standard deviations.
+    Alie,
+    /// Inner-product manipulation: the negated honest mean step.
+    Ipm,
+    /// Min-max: as far from the honest mean as the honest models are from each other.
+    MinMax,
+    /// Copies an honest model of the round (over-represents one robot's data).
+    Mimic,
+    /// A model just inside the outlier threshold, against the honest direction, with a huge
+    /// claimed sample count.
+    InflateSamples,
+    /// Trains honestly on corrupted trajectories.
+    PoisonData,
+    /// The Byzantine robots agree on one model.
+    Collude,
+}
+
+impl ByzantineKind {
+    /// Every kind, `none` first.
+    pub const ALL: [ByzantineKind; 13] = [
+        ByzantineKind::None,
+        ByzantineKind::Faulty,
+        ByzantineKind::Malicious,
+        ByzantineKind::Smart,
+        ByzantineKind::SignFlip,
+        ByzantineKind::Gaussian,
+        ByzantineKind::Alie,
+        ByzantineKind::Ipm,
+        ByzantineKind::MinMax,
+        ByzantineKind::Mimic,
+        ByzantineKind::InflateSamples,
+        ByzantineKind::PoisonData,
+        ByzantineKind::Collude,
+    ];
+
+    /// The kind's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            ByzantineKind::None => "none",
+            ByzantineKind::Faulty => "faulty",
+            ByzantineKind::Malicious => "malicious",
+            ByzantineKind::Smart => "smart",
+            ByzantineKind::SignFlip => "sign-flip",
+            ByzantineKind::Gaussian => "gaussian",
+            ByzantineKind::Alie => "alie",
+            ByzantineKind::Ipm => "ipm",
+            ByzantineKind::MinMax => "min-max",
+            ByzantineKind::Mimic => "mimic",
+            ByzantineKind::InflateSamples => "inflate-samples",
+            ByzantineKind::PoisonData => "poison-data",
+            ByzantineKind::Collude => "collude",
+        }
+    }
 }
 
 /// Which formula a Byzantine behaviour follows.
@@ -240,11 +365,14 @@ pub enum Preset {
     E2Malicious,
     /// Experiment 3: security on, smart robots; sweep `byzantine.count` 0..7.
     E3Smart,
+    /// Experiment 4: aggregation rules against attacks, 2000 s at learning rate 0.01; sweep
+    /// `contract.rule` x `byzantine.kind` x `byzantine.count`.
+    E4Robustness,
 }
 
 impl Preset {
     /// Every preset, in the order `swarmfl presets` lists them.
-    pub const ALL: [Preset; 9] = [
+    pub const ALL: [Preset; 10] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
@@ -254,6 +382,7 @@ impl Preset {
         Preset::E2Faulty,
         Preset::E2Malicious,
         Preset::E3Smart,
+        Preset::E4Robustness,
     ];
 
     /// The preset's name as written on the command line.
@@ -268,6 +397,7 @@ impl Preset {
             Preset::E2Faulty => "e2-faulty",
             Preset::E2Malicious => "e2-malicious",
             Preset::E3Smart => "e3-smart",
+            Preset::E4Robustness => "e4-robustness",
         }
     }
 
@@ -293,6 +423,9 @@ impl Preset {
                 "Exp. 2: security on, malicious robots; sweep byzantine.count 0..7"
             }
             Preset::E3Smart => "Exp. 3: security on, smart robots; sweep byzantine.count 0..7",
+            Preset::E4Robustness => {
+                "Exp. 4: rules x attacks x Byzantine count, 2000 s, learning rate 0.01"
+            }
         }
     }
 
@@ -351,6 +484,12 @@ impl Preset {
             Preset::E3Smart => {
                 c.byzantine.kind = ByzantineKind::Smart;
                 c.byzantine.count = 1;
+            }
+            Preset::E4Robustness => {
+                // Short runs by default (the sweep has 225 points); --set run.duration_s=5000
+                // for the paper's length. At 0.001 the model barely moves in 2000 s.
+                c.run.duration_s = 2000.0;
+                c.learn.learning_rate = 0.01;
             }
         }
         c
@@ -428,6 +567,8 @@ impl Config {
                 quorum_fraction: 0.5,
                 outlier_threshold: 0.05,
                 penalised_ranks: 2,
+                rule: Rule::Paper,
+                assumed_f: 1,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -435,6 +576,12 @@ impl Config {
                 variant: ByzantineVariant::Paper,
                 claimed_samples: 200,
                 faulty_range: 0.5,
+                wait_for_honest: 2,
+                scale: 1.0,
+                sigma: 0.1,
+                alie_z: 1.0,
+                threshold_fraction: 0.99,
+                inflated_samples: u32::MAX,
             },
             output: OutputConfig {
                 snapshot_every_blocks: 50,
@@ -445,6 +592,16 @@ impl Config {
     /// Number of simulation ticks of the run.
     pub fn ticks(&self) -> u64 {
         (self.run.duration_s / self.run.tick_s).round() as u64
+    }
+
+    /// The aggregation rule in force: `fedavg` when `contract.security` is off, else
+    /// `contract.rule`.
+    pub fn rule(&self) -> Rule {
+        if self.contract.security {
+            self.contract.rule
+        } else {
+            Rule::Fedavg
+        }
     }
 
     /// The quorum: max(floor(q * N_r), 1).
@@ -856,6 +1013,57 @@ impl Config {
             0,
             u64::from(c.quorum() - 1),
         )?;
+        if !c.contract.security && !matches!(c.contract.rule, Rule::Paper | Rule::Fedavg) {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.rule".to_string(),
+                value: c.contract.rule.name().to_string(),
+                allowed: "fedavg or paper while contract.security = false (security off is \
+                          the fedavg rule); set contract.security = true to use another rule"
+                    .to_string(),
+            });
+        }
+        let rule = c.rule();
+        let max_f = (0..=c.quorum())
+            .take_while(|&f| rule.min_quorum(f) <= c.quorum())
+            .last();
+        match max_f {
+            Some(max_f) => int(
+                "contract.assumed_f",
+                c.contract.assumed_f.into(),
+                0,
+                max_f.into(),
+            )
+            .map_err(|e| match e {
+                ConfigError::OutOfRange {
+                    key,
+                    value,
+                    allowed,
+                } => ConfigError::OutOfRange {
+                    key,
+                    value,
+                    allowed: format!(
+                        "{allowed} for rule {} with quorum {} (it needs quorum >= {} with f = {})",
+                        rule.name(),
+                        c.quorum(),
+                        rule.min_quorum(c.contract.assumed_f),
+                        c.contract.assumed_f
+                    ),
+                },
+                e => e,
+            })?,
+            None => {
+                return Err(ConfigError::OutOfRange {
+                    key: "contract.rule".to_string(),
+                    value: rule.name().to_string(),
+                    allowed: format!(
+                        "a rule defined for quorum {} (it needs quorum >= {} even with f = 0); \
+                         raise contract.quorum_fraction",
+                        c.quorum(),
+                        rule.min_quorum(0)
+                    ),
+                })
+            }
+        }
         int(
             "byzantine.count",
             c.byzantine.count.into(),
@@ -884,6 +1092,27 @@ impl Config {
             c.byzantine.faulty_range,
             0.0,
             1000.0,
+        )?;
+        int(
+            "byzantine.wait_for_honest",
+            c.byzantine.wait_for_honest.into(),
+            1,
+            10_000,
+        )?;
+        range("byzantine.scale", c.byzantine.scale, 0.0, 1.0e6)?;
+        range("byzantine.sigma", c.byzantine.sigma, 0.0, 1000.0)?;
+        range("byzantine.alie_z", c.byzantine.alie_z, -1000.0, 1000.0)?;
+        range(
+            "byzantine.threshold_fraction",
+            c.byzantine.threshold_fraction,
+            0.0,
+            1000.0,
+        )?;
+        int(
+            "byzantine.inflated_samples",
+            c.byzantine.inflated_samples.into(),
+            1,
+            u32::MAX.into(),
         )?;
         Ok(())
     }
@@ -947,7 +1176,7 @@ impl Config {
 /// - `run.duration_s`: the run ends at the new time (after the fork point).
 /// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
 /// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
-///   `penalised_ranks`: the contract's rules change for the blocks sealed after the fork point
+///   `penalised_ranks`, `rule`, `assumed_f`: the contract's rules change for the blocks sealed after the fork point
 ///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
 ///   chain when it crosses the activation is restarted and its stakes refunded.
 /// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
@@ -967,6 +1196,8 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.quorum_fraction",
     "contract.outlier_threshold",
     "contract.penalised_ranks",
+    "contract.rule",
+    "contract.assumed_f",
     "byzantine.*",
     "output.*",
 ];
@@ -1177,6 +1408,34 @@ mod tests {
             let back: Config = toml::from_str(&config.to_toml()).unwrap();
             assert_eq!(back, config, "{preset}");
         }
+    }
+
+    /// `contract.rule` is listed in every resolved configuration; a configuration written
+    /// before rules existed (no `rule`, no `assumed_f`) reads as `paper`, and
+    /// `security = false` still means `fedavg`.
+    #[test]
+    fn the_rule_is_listed_and_old_configurations_read() {
+        let paper = Preset::Paper.config();
+        assert!(paper.to_toml().contains("rule = \"paper\""));
+        assert_eq!(paper.flat_values()["contract.rule"], "\"paper\"");
+        let mut old: toml::Table = toml::from_str(&paper.to_toml()).unwrap();
+        let contract = old["contract"].as_table_mut().unwrap();
+        contract.remove("rule");
+        contract.remove("assumed_f");
+        contract.insert("security".into(), toml::Value::Boolean(false));
+        let text = toml::to_string(&old).unwrap();
+        let c = Config::from_toml_str(&text, "old.toml").unwrap();
+        assert_eq!(c.contract.rule, Rule::Paper);
+        assert_eq!(c.rule(), Rule::Fedavg);
+        let mut krum = Preset::Paper.config();
+        krum.set("contract.rule=krum").unwrap();
+        krum.validate().unwrap();
+        krum.set("contract.assumed_f=3").unwrap();
+        let e = krum.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("contract.assumed_f") && e.contains("krum"),
+            "{e}"
+        );
     }
 
     #[test]

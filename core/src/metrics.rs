@@ -65,6 +65,9 @@ pub enum SkipReason {
     AlreadySubmitted,
     /// Training produced weights that are not finite or do not fit the fixed point.
     NonFiniteModel,
+    /// A Byzantine robot's attack waited (e.g. for honest models of the round) until its next
+    /// phase was due.
+    Waited,
 }
 
 impl SkipReason {
@@ -75,6 +78,7 @@ impl SkipReason {
             SkipReason::InsufficientStake => "insufficient_stake",
             SkipReason::AlreadySubmitted => "already_submitted",
             SkipReason::NonFiniteModel => "non_finite_model",
+            SkipReason::Waited => "waited",
         }
     }
 }

@@ -13,6 +13,7 @@
 //! times are kept apart in `timing.csv`.
 
 mod plots;
+mod robustness;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -501,7 +502,11 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
         }
     }
     std::fs::write(out.join("timing.csv"), timing)?;
-    let figures = plots::draw_all(&stats, out, &mut notes)?;
+    let mut figures = plots::draw_all(&stats, out, &mut notes)?;
+    figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
+    if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
+        std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
+    }
     let md = markdown(&stats, &figures, &notes, results.len());
     let path = out.join("report.md");
     std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
@@ -546,6 +551,15 @@ fn markdown(
                 md,
                 "![{}]({}.png)\n\n*{}* ([SVG]({}.svg))\n",
                 f.caption, f.stem, f.caption, f.stem
+            );
+        }
+        if e.name == robustness::EXPERIMENT {
+            let _ = writeln!(
+                md,
+                "Worst case: for each rule, the attack that leaves the highest final held-out \
+                 loss at each Byzantine count, and that loss as a multiple of the rule's clean \
+                 run (`e4-worst-case.csv`).\n\n{}",
+                robustness::worst_case(e).0
             );
         }
         let _ = writeln!(

@@ -16,19 +16,38 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::Context;
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{ByzantineKind, Config, Rule};
+use swarmfl_core::contract::rules::ALL_RULES;
 
 use crate::progress::Progress;
 use crate::run;
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 5] = [
+pub const EXPERIMENTS: [&str; 6] = [
     "e1-expiration",
     "e1-faulty",
     "e2-faulty",
     "e2-malicious",
     "e3-smart",
+    "e4-robustness",
 ];
+
+/// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
+/// 15: about 1.4 per 7-model round, near the rules' assumed f) and the largest minority (7 of
+/// 15: about 3.3 per round, beyond every rule's f at quorum 7). Three counts keep the grid at
+/// 9 + 9 x 12 x 2 = 225 points per seed (about 1.6 h of one core per seed at 2000 s);
+/// 0, 1, 3, 5, 7 would be 441.
+pub const E4_COUNTS: [u32; 3] = [0, 3, 7];
+
+/// The assumed Byzantine count `e4-robustness` gives each rule: 2 (a rule built for the
+/// expected 1.4 and a margin), except bulyan, whose maximum at quorum 7 is 1.
+pub fn e4_assumed_f(rule: Rule) -> u32 {
+    if rule == Rule::Bulyan {
+        1
+    } else {
+        2
+    }
+}
 
 /// One configuration point of an experiment's grid.
 #[derive(Clone, Debug, PartialEq)]
@@ -39,6 +58,8 @@ pub struct Point {
     pub x: f64,
     /// The configuration overrides that make this point from the experiment's preset.
     pub overrides: Vec<String>,
+    /// The point's coordinates on further axes, by axis name (e4: `rule`, `attack`).
+    pub tags: Vec<(&'static str, String)>,
 }
 
 /// One experiment: a preset, its grid of points and the paper's number of runs per point.
@@ -67,6 +88,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                 } else {
                     vec![format!("byzantine.count={count}")]
                 },
+                tags: Vec::new(),
             })
             .collect()
     };
@@ -80,6 +102,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                     name: format!("expiration-{s}"),
                     x: f64::from(s),
                     overrides: vec![format!("data.expiration_s={s}.0")],
+                    tags: Vec::new(),
                 })
                 .collect(),
             runs: 5,
@@ -91,6 +114,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                 name: "faulty-1".into(),
                 x: 1.0,
                 overrides: Vec::new(),
+                tags: Vec::new(),
             }],
             runs: 10,
         },
@@ -112,11 +136,52 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             points: byzantine_grid(),
             runs: 18,
         },
+        "e4-robustness" => Experiment {
+            name: "e4-robustness",
+            axis: "Byzantine robots",
+            points: e4_points(),
+            runs: 3,
+        },
         other => anyhow::bail!(
             "unknown experiment {other:?}; the experiments are {}",
             EXPERIMENTS.join(", ")
         ),
     })
+}
+
+/// The grid of `e4-robustness`, rule-major: per rule its clean point (no Byzantine robot),
+/// then every attack at every non-zero count of [`E4_COUNTS`]. Point names are
+/// `<rule>--<attack>--<count>` (`paper--none--0`, `krum--alie--3`).
+fn e4_points() -> Vec<Point> {
+    let mut points = Vec::new();
+    for rule in ALL_RULES {
+        let base = vec![
+            format!("contract.rule={}", rule.name()),
+            format!("contract.assumed_f={}", e4_assumed_f(rule)),
+        ];
+        for &count in &E4_COUNTS {
+            let kinds: Vec<ByzantineKind> = if count == 0 {
+                vec![ByzantineKind::None]
+            } else {
+                ByzantineKind::ALL[1..].to_vec()
+            };
+            for kind in kinds {
+                let mut overrides = base.clone();
+                overrides.push(format!("byzantine.kind={}", kind.name()));
+                overrides.push(format!("byzantine.count={count}"));
+                points.push(Point {
+                    name: format!("{}--{}--{count}", rule.name(), kind.name()),
+                    x: f64::from(count),
+                    overrides,
+                    tags: vec![
+                        ("rule", rule.name().to_string()),
+                        ("attack", kind.name().to_string()),
+                    ],
+                });
+            }
+        }
+    }
+    points
 }
 
 /// One task: a configuration point and a seed.

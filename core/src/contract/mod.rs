@@ -40,6 +40,7 @@
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
 pub mod payout;
+pub mod rules;
 
 #[cfg(test)]
 mod tests;
@@ -50,6 +51,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
 use crate::types::{Digest, RobotId};
+pub use rules::Rule;
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
@@ -80,22 +82,59 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
+    /// A robust aggregation rule and its assumed Byzantine count; `None` for the paper's two
+    /// rules (`fedavg` when `security` is off, `paper` when on). Left out of the encoding when
+    /// `None`, so the parameters' digest of `paper` and `fedavg` runs is the one they had
+    /// before rules could be chosen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<RobustRule>,
+}
+
+/// A robust rule of [`ContractParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RobustRule {
+    /// The rule (never `fedavg` or `paper`).
+    pub rule: Rule,
+    /// Byzantine submissions per round the rule assumes (`contract.assumed_f`).
+    pub assumed_f: u32,
 }
 
 impl ContractParams {
     /// The parameters of a run's contract.
     pub fn from_config(config: &Config, genesis_weights: Arc<[i64]>) -> ContractParams {
         let c = &config.contract;
+        let rule = config.rule();
         ContractParams {
             robots: config.world.robots,
             initial_units: c.initial_tokens * c.token_units,
             stake_units: c.stake_tokens * c.token_units,
-            security: c.security,
+            security: rule.stakes(),
             quorum: config.quorum(),
             outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
             reward_weights: config.reward_weights(),
             genesis_weights,
+            robust: match rule {
+                Rule::Fedavg | Rule::Paper => None,
+                rule => Some(RobustRule {
+                    rule,
+                    assumed_f: c.assumed_f,
+                }),
+            },
         }
+    }
+
+    /// The aggregation rule in force.
+    pub fn rule(&self) -> Rule {
+        match self.robust {
+            Some(r) => r.rule,
+            None if self.security => Rule::Paper,
+            None => Rule::Fedavg,
+        }
+    }
+
+    /// The assumed Byzantine count (0 for `fedavg` and `paper`, which ignore it).
+    pub fn assumed_f(&self) -> u32 {
+        self.robust.map_or(0, |r| r.assumed_f)
     }
 
     /// The units in existence: `robots * initial_units`, constant for a run.
@@ -134,6 +173,23 @@ impl ContractParams {
         }
         if self.reward_weights.len() != self.quorum as usize {
             return Err("one reward weight per rank".into());
+        }
+        if let Some(r) = self.robust {
+            if matches!(r.rule, Rule::Fedavg | Rule::Paper) || !self.security {
+                return Err(format!(
+                    "{} is not a robust rule with stakes",
+                    r.rule.name()
+                ));
+            }
+            let needed = r.rule.min_quorum(r.assumed_f);
+            if self.quorum < needed {
+                return Err(format!(
+                    "{} with assumed_f {} needs a quorum of at least {needed}, got {}",
+                    r.rule.name(),
+                    r.assumed_f,
+                    self.quorum
+                ));
+            }
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
@@ -496,7 +552,9 @@ impl ContractState {
         };
 
         let distance_units = payout::distance_units(weights, &self.weights);
-        let verdict = if params.security && u128::from(distance_units) > params.max_distance_units()
+        let verdict = if params.security
+            && params.rule().uses_threshold()
+            && u128::from(distance_units) > params.max_distance_units()
         {
             Verdict::Outlier
         } else {
@@ -551,11 +609,17 @@ impl ContractState {
             .collect();
         assert_eq!(accepted.len(), params.quorum as usize);
 
-        let models: Vec<(&[i64], u64)> = accepted
+        let rule = params.rule();
+        let inputs: Vec<rules::Input> = accepted
             .iter()
-            .map(|s| (&s.weights[..], s.samples))
+            .map(|s| rules::Input {
+                weights: &s.weights,
+                samples: s.samples,
+                distance_units: s.distance_units,
+            })
             .collect();
-        let new_weights: Arc<[i64]> = payout::fedavg(&models).into();
+        let aggregate = rule.aggregate(&self.weights, &inputs, params.assumed_f() as usize);
+        let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 
         let pool_units = self.holdings_units;
@@ -571,22 +635,33 @@ impl ContractState {
                     >= u128::from(params.quorum) * u128::from(params.stake_units),
                 "every accepted submission staked"
             );
-            let distances: Vec<u64> = accepted.iter().map(|s| s.distance_units).collect();
-            let order = payout::rank(&distances);
-            let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
-            let units = payout::payouts(
-                pool_units,
-                params.stake_units,
-                &ranked_samples,
-                &params.reward_weights,
-            );
-            for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
-                payouts.push(Payout {
-                    robot: accepted[i].sender,
-                    rank: rank as u32,
-                    reward_weight: params.reward_weights[rank],
-                    units,
-                });
+            let order = &aggregate.used;
+            if rule == Rule::Paper {
+                let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
+                let units = payout::payouts(
+                    pool_units,
+                    params.stake_units,
+                    &ranked_samples,
+                    &params.reward_weights,
+                );
+                for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: params.reward_weights[rank],
+                        units,
+                    });
+                }
+            } else {
+                let units = payout::equal_shares(pool_units, order.len());
+                for (rank, &i) in order.iter().enumerate() {
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: 1,
+                        units,
+                    });
+                }
             }
         }
         let paid: u64 = payouts.iter().map(|p| p.units).sum();

@@ -60,7 +60,11 @@ pub fn draw_all(
         .iter()
         .find(|e| e.name == "e1-expiration")
         .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
-    for e in stats {
+    // e4-robustness has 225 points: its figures are heatmaps (`robustness.rs`).
+    for e in stats
+        .iter()
+        .filter(|e| e.name != super::robustness::EXPERIMENT)
+    {
         let mut emit = |stem: String, caption: String, plot: Plot| -> anyhow::Result<()> {
             if plot.series.iter().all(|s| s.points.is_empty()) {
                 return Ok(());

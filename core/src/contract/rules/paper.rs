@@ -1,0 +1,43 @@
+//! `paper`: the paper's contract. Submissions farther than the outlier threshold from the
+//! shared model were already rejected on arrival (`contract.outlier_threshold`, see the
+//! contract's module doc); the accepted ones are averaged by sample-weighted FedAvg (as
+//! `fedavg`), and *all* of them are used, ranked by `|d_k - median(d)|` on their L1 distances
+//! ([`crate::contract::payout::rank`]); the reward rule then pays by rank with the paper's
+//! +1/-1 weights ([`crate::contract::payout::payouts`]). `f` is ignored: the threshold, not a
+//! count, is the defence.
+
+use super::{Aggregate, Input};
+use crate::contract::payout;
+
+/// FedAvg of the accepted inputs; all used, in the paper's rank order.
+pub fn aggregate(inputs: &[Input]) -> Aggregate {
+    let models: Vec<(&[i64], u64)> = inputs.iter().map(|s| (s.weights, s.samples)).collect();
+    let distances: Vec<u64> = inputs.iter().map(|s| s.distance_units).collect();
+    Aggregate {
+        weights: payout::fedavg(&models),
+        used: payout::rank(&distances),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn fedavg_and_rank_by_distance_to_the_median_distance() {
+        let models: [&[i64]; 3] = [&[0], &[6], &[3]];
+        let inputs: Vec<Input> = models
+            .iter()
+            .zip([(1, 50u64), (2, 10), (1, 30)])
+            .map(|(w, (n, d))| Input {
+                weights: w,
+                samples: n,
+                distance_units: d,
+            })
+            .collect();
+        let a = aggregate(&inputs);
+        // (0 + 12 + 3) / 4 = 3.75 -> 4; median distance 30: keys 20, 20, 0.
+        assert_eq!(a.weights, vec![4]);
+        assert_eq!(a.used, vec![2, 0, 1]);
+    }
+}
