@@ -487,9 +487,8 @@ impl Preset {
             }
             Preset::E4Robustness => {
                 // Short runs by default (the sweep has 225 points); --set run.duration_s=5000
-                // for the paper's length. At 0.001 the model barely moves in 2000 s.
+                // for the paper's length.
                 c.run.duration_s = 2000.0;
-                c.learn.learning_rate = 0.01;
             }
         }
         c
