@@ -20,6 +20,8 @@
 //! `Delta` is summed in `f64` in index order; noise is added in `f64` and rounded once to
 //! `f32`. No fused multiply-add, so results are the same on every platform.
 
+pub mod ledger;
+
 use crate::config::{ByzantineKind, ByzantineVariant, Config};
 use crate::rng::{self, Purpose, Rng};
 

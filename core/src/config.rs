@@ -11,6 +11,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::byzantine::ledger::LedgerBehaviour;
+use crate::faults::FaultsConfig;
+
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -31,6 +34,9 @@ pub struct Config {
     pub contract: ContractConfig,
     /// Byzantine robots (SPEC.md section 5).
     pub byzantine: ByzantineConfig,
+    /// Faults on the radio and the robots (none by default; beyond the paper).
+    #[serde(default)]
+    pub faults: FaultsConfig,
     /// Log and metrics settings (SPEC.md sections 6 and 8).
     pub output: OutputConfig,
 }
@@ -167,6 +173,11 @@ pub struct ContractConfig {
     /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
     /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
     pub penalised_ranks: u32,
+    /// A round that has not reached its quorum this many seconds (block time) after it opened
+    /// closes without aggregation and refunds the stakes of its accepted submissions; 0 = never.
+    /// Beyond the paper, whose contract has no deadline: off in every preset.
+    #[serde(default)]
+    pub round_timeout_s: f64,
 }
 
 /// Which robots are Byzantine and how they behave.
@@ -183,6 +194,10 @@ pub struct ByzantineConfig {
     pub claimed_samples: u32,
     /// Faulty robots send weights uniform in [-this, this].
     pub faulty_range: f64,
+    /// Misbehaviour of the same robots on the ledger (sealing, gossip, transactions),
+    /// orthogonal to `kind` (beyond the paper; `honest` by default).
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
 }
 
 /// The behaviour of Byzantine robots (SPEC.md section 5).
@@ -414,6 +429,7 @@ impl Config {
                 quorum_fraction: 0.5,
                 outlier_threshold: 0.05,
                 penalised_ranks: 2,
+                round_timeout_s: 0.0,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -421,7 +437,9 @@ impl Config {
                 variant: ByzantineVariant::Paper,
                 claimed_samples: 200,
                 faulty_range: 0.5,
+                ledger: LedgerBehaviour::Honest,
             },
+            faults: FaultsConfig::default(),
             output: OutputConfig {
                 snapshot_every_blocks: 50,
             },
@@ -809,15 +827,31 @@ impl Config {
             0,
             c.world.robots.into(),
         )?;
-        if (c.byzantine.kind == ByzantineKind::None) != (c.byzantine.count == 0) {
+        let misbehaves = c.byzantine.kind != ByzantineKind::None
+            || c.byzantine.ledger != LedgerBehaviour::Honest;
+        if misbehaves != (c.byzantine.count > 0) {
             return Err(ConfigError::OutOfRange {
                 key: "byzantine.count".to_string(),
                 value: c.byzantine.count.to_string(),
                 allowed: format!(
-                    "0 when byzantine.kind = \"none\", at least 1 otherwise (kind is {:?}); \
-                     set both, e.g. --set byzantine.kind=faulty --set byzantine.count=3",
-                    c.byzantine.kind
+                    "0 when byzantine.kind = \"none\" and byzantine.ledger = \"honest\", at \
+                     least 1 otherwise (kind is {:?}, ledger is {:?}); set both, e.g. \
+                     --set byzantine.kind=faulty --set byzantine.count=3",
+                    c.byzantine.kind, c.byzantine.ledger
                 ),
+            });
+        }
+        range(
+            "contract.round_timeout_s",
+            c.contract.round_timeout_s,
+            0.0,
+            1.0e9,
+        )?;
+        if let Err((key, value, allowed)) = c.faults.check(c.world.robots, c.run.duration_s) {
+            return Err(ConfigError::OutOfRange {
+                key,
+                value,
+                allowed,
             });
         }
         int(

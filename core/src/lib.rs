@@ -13,6 +13,7 @@ pub mod contract;
 pub mod data;
 pub mod diff;
 pub mod event;
+pub mod faults;
 pub mod fork;
 pub mod inspect;
 pub mod learn;

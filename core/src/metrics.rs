@@ -65,6 +65,8 @@ pub enum SkipReason {
     AlreadySubmitted,
     /// Training produced weights that are not finite or do not fit the fixed point.
     NonFiniteModel,
+    /// The robot is crashed (a fault): it neither trains nor submits.
+    Crashed,
 }
 
 impl SkipReason {
@@ -75,6 +77,7 @@ impl SkipReason {
             SkipReason::InsufficientStake => "insufficient_stake",
             SkipReason::AlreadySubmitted => "already_submitted",
             SkipReason::NonFiniteModel => "non_finite_model",
+            SkipReason::Crashed => "crashed",
         }
     }
 }

@@ -39,7 +39,8 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
-pub mod payout;
+mod deadline;
+mod payout;
 
 #[cfg(test)]
 mod tests;
@@ -80,6 +81,9 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
+    /// Round deadline in ms of block time (0 = none; see `deadline.rs`).
+    #[serde(default)]
+    pub round_timeout_ms: u64,
 }
 
 impl ContractParams {
@@ -95,6 +99,7 @@ impl ContractParams {
             outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
             reward_weights: config.reward_weights(),
             genesis_weights,
+            round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
         }
     }
 
@@ -312,6 +317,18 @@ pub struct ContractState {
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
     pub last_round: Option<Arc<RoundSummary>>,
+    /// Timestamp of the block being executed, ms (set by [`ContractState::enter_block`]).
+    #[serde(default)]
+    pub block_time_ms: u64,
+    /// When the open round opened (block time of the last aggregation or deadline), ms.
+    #[serde(default)]
+    pub round_opened_ms: u64,
+    /// Rounds closed by the deadline without aggregation.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Stake units refunded by deadlines, in all.
+    #[serde(default)]
+    pub timeout_refunded_units: u64,
 }
 
 impl ContractState {
@@ -328,6 +345,10 @@ impl ContractState {
             previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
+            block_time_ms: 0,
+            round_opened_ms: 0,
+            rounds_timed_out: 0,
+            timeout_refunded_units: 0,
         }
     }
 
@@ -433,6 +454,10 @@ impl ContractState {
                 h.update(&[0]);
             }
         }
+        h.update(&self.block_time_ms.to_le_bytes())
+            .update(&self.round_opened_ms.to_le_bytes())
+            .update(&self.rounds_timed_out.to_le_bytes())
+            .update(&self.timeout_refunded_units.to_le_bytes());
         Digest::from(h.finalize())
     }
 
@@ -614,6 +639,7 @@ impl ContractState {
         };
         self.last_round = Some(Arc::new(summary));
         self.round += 1;
+        self.round_opened_ms = self.block_time_ms;
         payouts
     }
 }
