@@ -8,6 +8,7 @@
 //! See ARCHITECTURE.md for the map and the invariants.
 
 pub mod byzantine;
+pub mod chaos;
 pub mod config;
 pub mod contract;
 pub mod data;

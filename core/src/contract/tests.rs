@@ -22,6 +22,7 @@ fn params(security: bool) -> ContractParams {
         outlier_threshold_units: 50_000_000,
         reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
         genesis_weights: vec![0i64; 4].into(),
+        round_timeout_ms: 0,
     }
 }
 

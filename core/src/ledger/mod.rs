@@ -1471,6 +1471,85 @@ impl Ledger {
         Ok(state)
     }
 
+    /// Checks one stored block against its parent from scratch, without any cache: linkage,
+    /// every Clique rule, the signatures (verified again), the byte and count limits, the
+    /// transaction root, the nonces, and the contract state after it against a fresh
+    /// execution of its transactions on the parent's state (which conserves tokens).
+    pub fn check_block(&self, hash: &BlockHash) -> Result<(), String> {
+        let entry = self
+            .blocks
+            .get(hash)
+            .ok_or_else(|| format!("block {hash:?} is not stored"))?;
+        let h = &entry.block.header;
+        if h.height == 0 {
+            return if *hash == self.genesis {
+                Ok(())
+            } else {
+                Err("a second genesis".into())
+            };
+        }
+        let fail = |what: &str| Err(format!("block {} at height {}: {what}", hash.short(), h.height));
+        let Some(parent) = self.blocks.get(&h.parent) else {
+            return fail("parent not stored");
+        };
+        let ph = &parent.block.header;
+        if h.height != ph.height + 1 || h.hash_and_size().0 != *hash {
+            return fail("broken linkage");
+        }
+        if h.signer >= self.robots || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature)
+        {
+            return fail("bad signer or signature");
+        }
+        if h.timestamp_ms < ph.timestamp_ms + self.period_ms {
+            return fail("sealed before the period elapsed");
+        }
+        if h.difficulty != self.expected_difficulty(h.height, h.signer) {
+            return fail("wrong difficulty");
+        }
+        let mut cursor = h.parent;
+        for _ in 0..self.robots / 2 {
+            let c = &self.blocks[&cursor].block.header;
+            if c.height == 0 {
+                break;
+            }
+            if c.signer == h.signer {
+                return fail("recent signer sealed again");
+            }
+            cursor = c.parent;
+        }
+        if h.tx_root != block::tx_root(&entry.block.txs) {
+            return fail("transaction root mismatch");
+        }
+        if entry.block.txs.len() > block::MAX_BLOCK_TXS || entry.size_bytes > MAX_BLOCK_BYTES {
+            return fail("over the block limits");
+        }
+        let mut state = parent.state.clone();
+        let epoch = self.enter_block(&mut state, ph.timestamp_ms, h.timestamp_ms);
+        let params = &self.epochs[epoch].params;
+        let mut nonces = parent.next_nonce.to_vec();
+        for tx in &entry.block.txs {
+            let Some(stored) = self.txs.get(tx) else {
+                return fail("transaction not stored");
+            };
+            let tx = &stored.tx;
+            if tx.sender >= self.robots
+                || !tx.signature_ok(&self.keys)
+                || tx.nonce != nonces[tx.sender as usize]
+            {
+                return fail("bad transaction signature or nonce");
+            }
+            nonces[tx.sender as usize] += 1;
+            state.execute(params, tx.sender, tx.value_units, &tx.call);
+        }
+        if state.digest() != entry.state.digest() || nonces[..] != entry.next_nonce[..] {
+            return fail("contract state differs from a fresh execution");
+        }
+        if entry.total_difficulty != parent.total_difficulty + h.difficulty {
+            return fail("total difficulty");
+        }
+        Ok(())
+    }
+
     /// Checks a node's canonical chain from scratch: linkage, every Clique rule, every
     /// signature (verified again, not from the cache), nonces, transaction roots, and the
     /// contract state after every block against a fresh re-execution.

@@ -247,3 +247,6 @@ pub(crate) fn every(now: SimTime, period_ms: u64, last: &mut u64) -> bool {
         false
     }
 }
+
+#[cfg(test)]
+mod tests;
