@@ -46,7 +46,6 @@ pub const LIVENESS_MS: u64 = 240_000;
 pub fn draw(seed: u64, duration_s: f64) -> Config {
     let mut rng = rng::stream(seed, Purpose::Faults, 0);
     let mut c = Preset::Smoke.config();
-    c.preset = "chaos".to_string();
     c.run.duration_s = duration_s;
     let robots = 5 + rng.below(11) as u32;
     c.world.robots = robots;
@@ -85,7 +84,11 @@ pub fn draw(seed: u64, duration_s: f64) -> Config {
             c.byzantine.ledger = LedgerBehaviour::ALL[1 + rng.below(6) as usize];
         }
     }
-    c.faults = FaultsConfig::draw(&mut rng::stream(seed, Purpose::Faults, 1), robots, duration_s);
+    c.faults = FaultsConfig::draw(
+        &mut rng::stream(seed, Purpose::Faults, 1),
+        robots,
+        duration_s,
+    );
     c
 }
 
@@ -175,14 +178,20 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
                 .enumerate()
                 .find(|(_, b)| u128::from(**b) > supply)
             {
-                violation = fail("no negative balance", format!("node {r}: account {a} holds {b}"));
+                violation = fail(
+                    "no negative balance",
+                    format!("node {r}: account {a} holds {b}"),
+                );
                 break;
             }
             let stakes: u64 = state.submissions.iter().map(|s| s.stake_units).sum();
             if state.holdings_units < stakes {
                 violation = fail(
                     "conservation",
-                    format!("node {r}: holdings {} < open stakes {stakes}", state.holdings_units),
+                    format!(
+                        "node {r}: holdings {} < open stakes {stakes}",
+                        state.holdings_units
+                    ),
                 );
                 break;
             }
@@ -192,7 +201,10 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
                 }
                 outcome.blocks_checked += 1;
                 if let Err(e) = ledger.check_block(hash) {
-                    violation = fail("validity", format!("node {r} accepted an invalid block: {e}"));
+                    violation = fail(
+                        "validity",
+                        format!("node {r} accepted an invalid block: {e}"),
+                    );
                     break 'nodes;
                 }
             }

@@ -486,6 +486,9 @@ mod tests {
             ..FaultsConfig::default()
         };
         let (key, value, _) = config.check(4, 10.0).unwrap_err();
-        assert_eq!((key.as_str(), value.as_str()), ("faults.crashes[0].robot", "9"));
+        assert_eq!(
+            (key.as_str(), value.as_str()),
+            ("faults.crashes[0].robot", "9")
+        );
     }
 }

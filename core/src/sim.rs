@@ -22,10 +22,10 @@ use std::sync::Arc;
 
 use crate::byzantine::{self, ledger::LedgerAgents};
 use crate::config::{ByzantineKind, Config, LedgerBehaviour};
-use crate::faults::FaultSchedule;
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
+use crate::faults::FaultSchedule;
 use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
@@ -704,9 +704,9 @@ impl Sim {
         }
         self.ledger_until(now, &peers);
         let faults = &self.faults;
-        let injections =
-            self.agents
-                .on_tick(&self.state.ledger, now, &peers, &|r| faults.is_down(r, now.0));
+        let injections = self.agents.on_tick(&self.state.ledger, now, &peers, &|r| {
+            faults.is_down(r, now.0)
+        });
         for event in injections {
             self.emit(now, Event::Ledger(event));
         }
@@ -842,8 +842,7 @@ impl Sim {
                     reason: SkipReason::Crashed,
                     base_round,
                 }
-            } else if self.config.contract.security
-                && view.balances[i] < self.learners.stake_units
+            } else if self.config.contract.security && view.balances[i] < self.learners.stake_units
             {
                 Plan::Skip {
                     reason: SkipReason::InsufficientStake,

@@ -104,8 +104,16 @@ mod tests {
         assert!(s.submissions.is_empty());
         assert_eq!(s.rounds_timed_out, 1);
         assert_eq!(s.round, 0, "no aggregation: the model keeps its version");
-        assert_eq!(s.timeout_refunded_units, 30 * TOKEN, "six accepted stakes back");
-        assert_eq!(s.holdings_units, 45 * TOKEN, "the nine outliers' stakes stay");
+        assert_eq!(
+            s.timeout_refunded_units,
+            30 * TOKEN,
+            "six accepted stakes back"
+        );
+        assert_eq!(
+            s.holdings_units,
+            45 * TOKEN,
+            "the nine outliers' stakes stay"
+        );
         for r in 9..15 {
             assert_eq!(s.balances[r], 21 * TOKEN);
         }

@@ -943,7 +943,10 @@ impl Ledger {
         let mut per_sender: BTreeMap<RobotId, Vec<(u64, TxHash)>> = BTreeMap::new();
         for h in n.mempool.keys() {
             let tx = &self.txs[h].tx;
-            per_sender.entry(tx.sender).or_default().push((tx.nonce, *h));
+            per_sender
+                .entry(tx.sender)
+                .or_default()
+                .push((tx.nonce, *h));
         }
         let mine = per_sender.get(&sender).map_or(&[][..], |v| &v[..]);
         let mut evict = None;
@@ -1488,7 +1491,13 @@ impl Ledger {
                 Err("a second genesis".into())
             };
         }
-        let fail = |what: &str| Err(format!("block {} at height {}: {what}", hash.short(), h.height));
+        let fail = |what: &str| {
+            Err(format!(
+                "block {} at height {}: {what}",
+                hash.short(),
+                h.height
+            ))
+        };
         let Some(parent) = self.blocks.get(&h.parent) else {
             return fail("parent not stored");
         };
@@ -1496,8 +1505,7 @@ impl Ledger {
         if h.height != ph.height + 1 || h.hash_and_size().0 != *hash {
             return fail("broken linkage");
         }
-        if h.signer >= self.robots || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature)
-        {
+        if h.signer >= self.robots || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature) {
             return fail("bad signer or signature");
         }
         if h.timestamp_ms < ph.timestamp_ms + self.period_ms {

@@ -131,10 +131,17 @@ mod tests {
         impostor.sender = 99;
         assert!(!impostor.signature_ok(&keys));
         let other_chain = keys.clone().for_chain(Digest::of(b"another run"));
-        assert!(!tx.signature_ok(&other_chain), "a replay into another chain");
+        assert!(
+            !tx.signature_ok(&other_chain),
+            "a replay into another chain"
+        );
         let there = Tx::signed(&other_chain, 1, 0, 5, tx.call.clone());
         assert!(there.signature_ok(&other_chain) && !there.signature_ok(&keys));
-        assert_eq!(there.encode().len(), tx.encode().len(), "the identity is not carried");
+        assert_eq!(
+            there.encode().len(),
+            tx.encode().len(),
+            "the identity is not carried"
+        );
         assert_eq!(Tx::decode(&tx.encode()).unwrap(), tx);
         assert!(Tx::decode(&tx.encode()[..10]).is_err());
     }

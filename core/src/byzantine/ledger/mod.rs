@@ -194,7 +194,12 @@ impl LedgerAgents {
     }
 }
 
-fn view<'a>(ledger: &'a Ledger, robot: RobotId, now: SimTime, peers: &'a [Vec<RobotId>]) -> View<'a> {
+fn view<'a>(
+    ledger: &'a Ledger,
+    robot: RobotId,
+    now: SimTime,
+    peers: &'a [Vec<RobotId>],
+) -> View<'a> {
     View {
         ledger,
         robot,

@@ -40,10 +40,17 @@ fn equivocation_is_detected_and_the_swarm_converges() {
     let (config, state) = run(LedgerBehaviour::Equivocate, 2, 300.0);
     let stats = state.ledger.stats();
     let sites: u64 = stats.equivocations.iter().map(|e| e.sites).sum();
-    assert!(sites > 0, "equivocations detected: {:?}", stats.equivocations);
+    assert!(
+        sites > 0,
+        "equivocations detected: {:?}",
+        stats.equivocations
+    );
     let byzantine = crate::byzantine::byzantine_robots(&config, 7);
     for e in &stats.equivocations {
-        assert!(byzantine[e.sealer as usize], "only Byzantine sealers equivocate");
+        assert!(
+            byzantine[e.sealer as usize],
+            "only Byzantine sealers equivocate"
+        );
         assert!(e.detected_by > 0);
     }
     honest_chains_check(&state, &config);
@@ -97,7 +104,11 @@ fn invalid_items_are_refused_before_body_work_and_not_stored() {
     let (config, state) = run(LedgerBehaviour::SpamInvalid, 1, 120.0);
     let stats = state.ledger.stats();
     for reason in ["undecodable", "bad_signature", "oversize"] {
-        assert!(rejected(&stats, reason) > 0, "{reason}: {:?}", stats.rejections);
+        assert!(
+            rejected(&stats, reason) > 0,
+            "{reason}: {:?}",
+            stats.rejections
+        );
     }
     assert!(
         rejected(&stats, "bad_tx") + rejected(&stats, "recent_signer") > 0,
@@ -119,10 +130,17 @@ fn invalid_items_are_refused_before_body_work_and_not_stored() {
 fn future_blocks_are_refused_and_not_stored() {
     let (config, state) = run(LedgerBehaviour::FutureTimestamp, 1, 120.0);
     let stats = state.ledger.stats();
-    assert!(rejected(&stats, "future_block") > 0, "{:?}", stats.rejections);
+    assert!(
+        rejected(&stats, "future_block") > 0,
+        "{:?}",
+        stats.rejections
+    );
     let now = state.ledger.now().0;
     for (_, entry) in state.ledger.blocks() {
-        assert!(entry.block.header.timestamp_ms <= now, "a future block was stored");
+        assert!(
+            entry.block.header.timestamp_ms <= now,
+            "a future block was stored"
+        );
     }
     honest_chains_check(&state, &config);
 }

@@ -33,7 +33,11 @@ impl WithholdPolicy {
         block: &BlockHash,
         now: SimTime,
     ) -> bool {
-        if !self.withholders.get(from as usize).copied().unwrap_or(false)
+        if !self
+            .withholders
+            .get(from as usize)
+            .copied()
+            .unwrap_or(false)
             || from % 2 == to % 2
         {
             return false;
