@@ -54,6 +54,8 @@ pub fn draw(seed: u64, duration_s: f64) -> Config {
     c.learn.training_period_s = 20.0 + rng.below(41) as f64;
     c.contract.security = rng.chance(0.8);
     c.contract.quorum_fraction = 0.3 + 0.3 * rng.uniform();
+    // The paper's two penalised ranks need a quorum of at least three.
+    c.contract.penalised_ranks = c.contract.penalised_ranks.min(c.quorum() - 1);
     c.contract.round_timeout_s = if rng.chance(0.5) {
         0.0
     } else {
