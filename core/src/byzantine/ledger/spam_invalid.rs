@@ -65,7 +65,8 @@ impl Behaviour for SpamInvalid {
             _ => {
                 // Models of 4096 weights (about 30 KB each) until past the wire limit.
                 let per_tx = 4096usize;
-                let count = MAX_WIRE_BYTES / (per_tx * 7) + 2;
+                // Weights below 2^32 encode in 5 bytes: about 20 KB a transaction.
+                let count = MAX_WIRE_BYTES / (per_tx * 5) + 4;
                 let txs: Vec<Tx> = (0..count as u64)
                     .map(|i| {
                         let weights: Arc<[i64]> = (0..per_tx as i64)
