@@ -12,6 +12,8 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub use crate::contract::rules::Rule;
+pub use crate::byzantine::ledger::LedgerBehaviour;
+use crate::faults::FaultsConfig;
 
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -33,6 +35,9 @@ pub struct Config {
     pub contract: ContractConfig,
     /// Byzantine robots (docs/SPEC.md section 5).
     pub byzantine: ByzantineConfig,
+    /// Faults on the radio and the robots (none by default; beyond the paper).
+    #[serde(default)]
+    pub faults: FaultsConfig,
     /// Log and metrics settings (docs/SPEC.md sections 6 and 8).
     pub output: OutputConfig,
 }
@@ -180,6 +185,11 @@ pub struct ContractConfig {
     /// 4f + 3. Ignored by fedavg and paper.
     #[serde(default = "default_assumed_f")]
     pub assumed_f: u32,
+    /// A round that has not reached its quorum this many seconds (block time) after it opened
+    /// closes without aggregation and refunds the stakes of its accepted submissions; 0 = never.
+    /// Beyond the paper, whose contract has no deadline: off in every preset.
+    #[serde(default)]
+    pub round_timeout_s: f64,
 }
 
 fn default_rule() -> Rule {
@@ -227,6 +237,10 @@ pub struct ByzantineConfig {
     /// `inflate-samples`: the sample count claimed (the contract's limit is 2^32 - 1).
     #[serde(default = "default_inflated_samples")]
     pub inflated_samples: u32,
+    /// Misbehaviour of the same robots on the ledger (sealing, gossip, transactions),
+    /// orthogonal to `kind` (beyond the paper; `honest` by default).
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
 }
 
 fn default_wait_for_honest() -> u32 {
@@ -568,6 +582,7 @@ impl Config {
                 penalised_ranks: 2,
                 rule: Rule::Paper,
                 assumed_f: 1,
+                round_timeout_s: 0.0,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -581,7 +596,9 @@ impl Config {
                 alie_z: 1.0,
                 threshold_fraction: 0.99,
                 inflated_samples: u32::MAX,
+                ledger: LedgerBehaviour::Honest,
             },
+            faults: FaultsConfig::default(),
             output: OutputConfig {
                 snapshot_every_blocks: 50,
             },
@@ -1069,15 +1086,31 @@ impl Config {
             0,
             c.world.robots.into(),
         )?;
-        if (c.byzantine.kind == ByzantineKind::None) != (c.byzantine.count == 0) {
+        let misbehaves = c.byzantine.kind != ByzantineKind::None
+            || c.byzantine.ledger != LedgerBehaviour::Honest;
+        if misbehaves != (c.byzantine.count > 0) {
             return Err(ConfigError::OutOfRange {
                 key: "byzantine.count".to_string(),
                 value: c.byzantine.count.to_string(),
                 allowed: format!(
-                    "0 when byzantine.kind = \"none\", at least 1 otherwise (kind is {:?}); \
-                     set both, e.g. --set byzantine.kind=faulty --set byzantine.count=3",
-                    c.byzantine.kind
+                    "0 when byzantine.kind = \"none\" and byzantine.ledger = \"honest\", at \
+                     least 1 otherwise (kind is {:?}, ledger is {:?}); set both, e.g. \
+                     --set byzantine.kind=faulty --set byzantine.count=3",
+                    c.byzantine.kind, c.byzantine.ledger
                 ),
+            });
+        }
+        range(
+            "contract.round_timeout_s",
+            c.contract.round_timeout_s,
+            0.0,
+            1.0e9,
+        )?;
+        if let Err((key, value, allowed)) = c.faults.check(c.world.robots, c.run.duration_s) {
+            return Err(ConfigError::OutOfRange {
+                key,
+                value,
+                allowed,
             });
         }
         int(

@@ -68,6 +68,8 @@ pub enum SkipReason {
     /// A Byzantine robot's attack waited (e.g. for honest models of the round) until its next
     /// phase was due.
     Waited,
+    /// The robot is crashed (a fault): it neither trains nor submits.
+    Crashed,
 }
 
 impl SkipReason {
@@ -79,6 +81,7 @@ impl SkipReason {
             SkipReason::AlreadySubmitted => "already_submitted",
             SkipReason::NonFiniteModel => "non_finite_model",
             SkipReason::Waited => "waited",
+            SkipReason::Crashed => "crashed",
         }
     }
 }

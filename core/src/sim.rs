@@ -20,11 +20,12 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
-use crate::byzantine;
-use crate::config::{ByzantineKind, Config};
+use crate::byzantine::{self, ledger::LedgerAgents};
+use crate::config::{ByzantineKind, Config, LedgerBehaviour};
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
+use crate::faults::FaultSchedule;
 use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
@@ -315,6 +316,9 @@ pub struct ByzantineSummary {
     pub count: u32,
     /// Their ids.
     pub robots: Vec<RobotId>,
+    /// Their behaviour on the ledger.
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
 }
 
 /// Figures of a run for `summary.json` (the CLI adds wall-clock figures).
@@ -380,6 +384,7 @@ impl RunSummary {
                 robots: (0..config.world.robots)
                     .filter(|&r| byzantine[r as usize])
                     .collect(),
+                ledger: config.byzantine.ledger,
             },
             world: state.world.stats(),
             ledger: LedgerSummary::new(state.ledger.stats()),
@@ -455,7 +460,12 @@ impl Learners {
         let robots = config.world.robots;
         Learners {
             shape: ModelShape::from_config(config),
-            byzantine: byzantine::byzantine_robots(config, seed),
+            // Robots that only attack the ledger train honestly.
+            byzantine: if config.byzantine.kind == ByzantineKind::None {
+                vec![false; robots as usize]
+            } else {
+                byzantine::byzantine_robots(config, seed)
+            },
             attack: byzantine::attack(config.byzantine.kind),
             waiting: BTreeMap::new(),
             next_due_ms: (0..robots)
@@ -479,6 +489,7 @@ impl Learners {
     /// schedule's period and duration from the next phase on, and the stake.
     fn reconfigure(&mut self, config: &Config, seed: u64) {
         let fresh = Learners::new(config, seed);
+        // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
         self.byzantine = fresh.byzantine;
         self.attack = fresh.attack;
         // A phase waited under the old attack ends unsubmitted, without a report.
@@ -528,6 +539,10 @@ pub struct Sim {
     profiler: Option<Box<dyn Profiler>>,
     /// Reconfigurations still to come, in time order, with their parsed configurations.
     reconfigurations: VecDeque<(Reconfiguration, Config)>,
+    /// The faults of the run (driver side).
+    faults: FaultSchedule,
+    /// The Byzantine robots' ledger misbehaviour.
+    agents: LedgerAgents,
 }
 
 impl Sim {
@@ -554,9 +569,14 @@ impl Sim {
             upcoming: BTreeMap::new(),
             speculated: BTreeMap::new(),
         };
+        let agents = LedgerAgents::new(&config, seed);
+        let mut network = Network::new(&config, seed);
+        network.set_withhold(agents.withhold_policy());
         Ok(Sim {
             total_ticks: config.ticks(),
-            network: Network::new(&config, seed),
+            network,
+            faults: FaultSchedule::new(&config.faults, config.world.robots),
+            agents,
             ahead,
             learners,
             config,
@@ -700,20 +720,22 @@ impl Sim {
         debug_assert_eq!(now, self.state.world.time());
 
         self.switch(Part::Ledger);
-        let peers: Vec<Vec<RobotId>> = (0..self.config.world.robots)
-            .map(|r| self.state.world.peers(r).to_vec())
-            .collect();
-        while let Some((at, event)) = self.network.next_event(&self.state.ledger, now, &peers) {
-            let sealed = match &event {
-                LedgerEvent::Seal { node, .. } => Some(*node),
-                _ => None,
-            };
-            self.emit(at, Event::Ledger(event));
-            if let Some(node) = sealed {
-                let height = self.state.ledger.head(node).1;
-                self.checkpoint(at, CheckpointCause::Block { node, height });
-                self.switch(Part::Ledger);
-            }
+        let peers = self.peers(now);
+        for (restart_ms, robot) in self.faults.restart_times(time.0, now.0) {
+            self.ledger_until(SimTime(restart_ms - 1), &peers);
+            self.network.on_restart(robot);
+            self.emit(
+                SimTime(restart_ms),
+                Event::Ledger(LedgerEvent::Restart { node: robot }),
+            );
+        }
+        self.ledger_until(now, &peers);
+        let faults = &self.faults;
+        let injections = self.agents.on_tick(&self.state.ledger, now, &peers, &|r| {
+            faults.is_down(r, now.0)
+        });
+        for event in injections {
+            self.emit(now, Event::Ledger(event));
         }
 
         self.switch(Part::Learning);
@@ -726,6 +748,47 @@ impl Sim {
         {
             let (change, config) = self.reconfigurations.pop_front().expect("checked");
             self.reconfigure(now, change, config);
+        }
+    }
+
+    /// The radio's peer sets at `now` with the links the faults cut removed.
+    fn peers(&self, now: SimTime) -> Vec<Vec<RobotId>> {
+        let robots = self.config.world.robots;
+        let mut peers: Vec<Vec<RobotId>> = (0..robots)
+            .map(|r| self.state.world.peers(r).to_vec())
+            .collect();
+        if self.faults.cuts_links() {
+            let x: Vec<f64> = self.state.world.poses().iter().map(|p| p.x).collect();
+            let top = (0..robots)
+                .map(|r| self.state.ledger.head(r).1)
+                .max()
+                .unwrap_or(0);
+            let in_turn = ((top + 1) % u64::from(robots)) as RobotId;
+            self.faults.filter_peers(&mut peers, now.0, &x, in_turn);
+        }
+        peers
+    }
+
+    /// Applies the ledger events due until `until`: a checkpoint after each sealing, and the
+    /// sealer's misbehaviour right after it, if it is Byzantine on the ledger.
+    fn ledger_until(&mut self, until: SimTime, peers: &[Vec<RobotId>]) {
+        while let Some((at, event)) = self.network.next_event(&self.state.ledger, until, peers) {
+            let sealed = match &event {
+                LedgerEvent::Seal { node, .. } => Some(*node),
+                _ => None,
+            };
+            self.emit(at, Event::Ledger(event));
+            if let Some(node) = sealed {
+                let (head, height) = self.state.ledger.head(node);
+                self.checkpoint(at, CheckpointCause::Block { node, height });
+                self.switch(Part::Ledger);
+                let injections = self
+                    .agents
+                    .after_seal(&self.state.ledger, node, head, at, peers);
+                for event in injections {
+                    self.emit(at, Event::Ledger(event));
+                }
+            }
         }
     }
 
@@ -844,7 +907,7 @@ impl Sim {
             }
             let view = self.state.ledger.head_state(r);
             let base_round = view.round;
-            let plan = if let Some(reason) = self.cannot_submit(r) {
+            let plan = if let Some(reason) = self.cannot_submit(r, now) {
                 Plan::Skip { reason, base_round }
             } else {
                 let samples = match captured {
@@ -982,9 +1045,11 @@ impl Sim {
 
     /// Why `robot` cannot submit now, in its own node's view: its balance is below the stake
     /// (when the rule stakes), or it already submitted in the current round.
-    fn cannot_submit(&self, robot: RobotId) -> Option<SkipReason> {
+    fn cannot_submit(&self, robot: RobotId, now: SimTime) -> Option<SkipReason> {
         let view = self.state.ledger.head_state(robot);
-        if self.config.rule().stakes() && view.balances[robot as usize] < self.learners.stake_units
+        if self.faults.is_down(robot, now.0) {
+            Some(SkipReason::Crashed)
+        } else if self.config.rule().stakes() && view.balances[robot as usize] < self.learners.stake_units
         {
             Some(SkipReason::InsufficientStake)
         } else if view.has_submitted(robot) {
@@ -1006,7 +1071,7 @@ impl Sim {
     ) -> Option<Plan> {
         let chain = self.state.ledger.head_state(robot);
         let base_round = chain.round;
-        if let Some(reason) = self.cannot_submit(robot) {
+        if let Some(reason) = self.cannot_submit(robot, now) {
             return Some(Plan::Skip { reason, base_round });
         }
         let attack = self

@@ -26,6 +26,7 @@ fn params(security: bool) -> ContractParams {
         reward_weights: vec![1, 1, -1],
         genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
         robust: None,
+        round_timeout_ms: 0,
     }
 }
 

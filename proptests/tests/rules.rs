@@ -34,6 +34,7 @@ fn params(rule: Rule) -> ContractParams {
             Rule::Fedavg | Rule::Paper => None,
             rule => Some(RobustRule { rule, assumed_f: 1 }),
         },
+        round_timeout_ms: 0,
     }
 }
 

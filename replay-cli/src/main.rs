@@ -2,6 +2,7 @@
 
 mod bench_train;
 mod bench_world;
+mod chaos;
 mod export;
 mod fixtures;
 mod fork;
@@ -227,6 +228,24 @@ enum Command {
         /// Report directory.
         #[arg(long)]
         out: PathBuf,
+    },
+    /// A seeded fault campaign: each seed draws a configuration, Byzantine behaviours and a
+    /// fault schedule, runs it and checks invariants at every block (conservation, validity,
+    /// agreement after heals, liveness). Exits 1 on a violation, naming the seed and the
+    /// command that replays it.
+    Chaos {
+        /// How many seeds.
+        #[arg(long, default_value_t = 10)]
+        seeds: u64,
+        /// The first seed.
+        #[arg(long, default_value_t = 0)]
+        first_seed: u64,
+        /// Simulated seconds per run.
+        #[arg(long, default_value_t = 600.0)]
+        duration: f64,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
     },
     /// List the presets.
     Presets,
@@ -497,6 +516,12 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             let path = report::report(&dir, &out)?;
             println!("wrote {}", path.display());
         }
+        Command::Chaos {
+            seeds,
+            first_seed,
+            duration,
+            json,
+        } => return chaos::run(seeds, first_seed, duration, json),
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());

@@ -23,6 +23,7 @@ pub mod collude;
 pub mod faulty;
 pub mod gaussian;
 pub mod inflate_samples;
+pub mod ledger;
 pub mod ipm;
 pub mod malicious;
 pub mod mimic;

@@ -39,6 +39,7 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
+mod deadline;
 pub mod payout;
 pub mod rules;
 
@@ -82,6 +83,9 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
+    /// Round deadline in ms of block time (0 = none; see `deadline.rs`).
+    #[serde(default)]
+    pub round_timeout_ms: u64,
     /// A robust aggregation rule and its assumed Byzantine count; `None` for the paper's two
     /// rules (`fedavg` when `security` is off, `paper` when on). Left out of the encoding when
     /// `None`, so the parameters' digest of `paper` and `fedavg` runs is the one they had
@@ -120,6 +124,7 @@ impl ContractParams {
                     assumed_f: c.assumed_f,
                 }),
             },
+            round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
         }
     }
 
@@ -368,6 +373,18 @@ pub struct ContractState {
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
     pub last_round: Option<Arc<RoundSummary>>,
+    /// Timestamp of the block being executed, ms (set by [`ContractState::enter_block`]).
+    #[serde(default)]
+    pub block_time_ms: u64,
+    /// When the open round opened (block time of the last aggregation or deadline), ms.
+    #[serde(default)]
+    pub round_opened_ms: u64,
+    /// Rounds closed by the deadline without aggregation.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Stake units refunded by deadlines, in all.
+    #[serde(default)]
+    pub timeout_refunded_units: u64,
 }
 
 impl ContractState {
@@ -384,6 +401,10 @@ impl ContractState {
             previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
+            block_time_ms: 0,
+            round_opened_ms: 0,
+            rounds_timed_out: 0,
+            timeout_refunded_units: 0,
         }
     }
 
@@ -489,6 +510,10 @@ impl ContractState {
                 h.update(&[0]);
             }
         }
+        h.update(&self.block_time_ms.to_le_bytes())
+            .update(&self.round_opened_ms.to_le_bytes())
+            .update(&self.rounds_timed_out.to_le_bytes())
+            .update(&self.timeout_refunded_units.to_le_bytes());
         Digest::from(h.finalize())
     }
 
@@ -689,6 +714,7 @@ impl ContractState {
         };
         self.last_round = Some(Arc::new(summary));
         self.round += 1;
+        self.round_opened_ms = self.block_time_ms;
         payouts
     }
 }
