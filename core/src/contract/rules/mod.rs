@@ -269,6 +269,19 @@ pub fn krum_scores(models: &[&[i64]], m: usize) -> Vec<u128> {
         .collect()
 }
 
+/// Test inputs: each model with its sample count (distance 0: rules do not read it).
+#[cfg(test)]
+pub(crate) fn inputs_of<'a>(models: &[(&'a [i64], u64)]) -> Vec<Input<'a>> {
+    models
+        .iter()
+        .map(|&(weights, samples)| Input {
+            weights,
+            samples,
+            distance_units: 0,
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -331,17 +344,4 @@ mod tests {
             assert_eq!(Rule::from_name(rule.name()), Some(rule));
         }
     }
-}
-
-/// Test inputs: each model with its sample count (distance 0: rules do not read it).
-#[cfg(test)]
-pub(crate) fn inputs_of<'a>(models: &[(&'a [i64], u64)]) -> Vec<Input<'a>> {
-    models
-        .iter()
-        .map(|&(weights, samples)| Input {
-            weights,
-            samples,
-            distance_units: 0,
-        })
-        .collect()
 }
