@@ -11,8 +11,8 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-pub use crate::contract::rules::Rule;
 pub use crate::byzantine::ledger::LedgerBehaviour;
+pub use crate::contract::rules::Rule;
 use crate::faults::FaultsConfig;
 
 /// A complete, resolved configuration of a run.

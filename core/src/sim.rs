@@ -1049,7 +1049,8 @@ impl Sim {
         let view = self.state.ledger.head_state(robot);
         if self.faults.is_down(robot, now.0) {
             Some(SkipReason::Crashed)
-        } else if self.config.rule().stakes() && view.balances[robot as usize] < self.learners.stake_units
+        } else if self.config.rule().stakes()
+            && view.balances[robot as usize] < self.learners.stake_units
         {
             Some(SkipReason::InsufficientStake)
         } else if view.has_submitted(robot) {

@@ -333,7 +333,8 @@ Example: what if security had been on from block 200?
   swarmfl replay runs/sec-at-200/run.swlog            # bit-exact on its own
   swarmfl diff runs/nosec/run.swlog runs/sec-at-200/run.swlog   # first divergence: the fork";
 
-const SWEEP_HELP: &str = "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
+const SWEEP_HELP: &str =
+    "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
 
 Experiments, points and default runs (seeds 1..=runs):
   e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs

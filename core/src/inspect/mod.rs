@@ -702,7 +702,11 @@ impl RunIndex {
                                 .iter()
                                 .filter(|x| {
                                     x.verdict == Verdict::Accepted
-                                        && !self.byzantine.get(x.sender as usize).copied().unwrap_or(false)
+                                        && !self
+                                            .byzantine
+                                            .get(x.sender as usize)
+                                            .copied()
+                                            .unwrap_or(false)
                                 })
                                 .map(|x| x.distance_units as f64 / per_weight)
                                 .collect()

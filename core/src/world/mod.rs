@@ -613,7 +613,12 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
 /// The first tick of each held-out observation window: `ceil(wanted / robots)` windows of
 /// `window_ticks` ticks, each centred in its equal share of the run's `run_ticks`. When the run
 /// is too short for the windows to be apart, they follow each other from tick 0.
-fn heldout_window_starts(wanted: usize, robots: usize, run_ticks: u64, window_ticks: u32) -> Vec<u64> {
+fn heldout_window_starts(
+    wanted: usize,
+    robots: usize,
+    run_ticks: u64,
+    window_ticks: u32,
+) -> Vec<u64> {
     let windows = wanted.div_ceil(robots.max(1)) as u64;
     let window_ticks = u64::from(window_ticks);
     let share = run_ticks / windows;
