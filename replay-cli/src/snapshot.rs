@@ -272,7 +272,10 @@ mod tests {
             let size = std::fs::metadata(&out).unwrap().len();
             assert!(size > 5_000, "{name}: {size} bytes");
         }
-        let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg")).unwrap();
+        // plotters writes each text's content on a line of its own.
+        let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg"))
+            .unwrap()
+            .replace('\n', "");
         assert!(svg.contains("t = 600 s"), "the title is drawn");
         for text in [
             ">3<",
