@@ -1169,7 +1169,7 @@ mod tests {
         );
         check_err(
             &["preset=../../etc"],
-            "`preset`: value \"../../etc\" is out of range; allowed: one of paper, reference",
+            "`preset`: value \"../../etc\" is out of range; allowed: one of paper, paper-text, reference",
         );
         let err = Config::resolve(Some("papr"), None, &[])
             .unwrap_err()
