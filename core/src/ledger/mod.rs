@@ -520,9 +520,16 @@ impl Ledger {
         self.node(node).known_blocks.contains(hash)
     }
 
-    /// Whether the node has seen the transaction (whatever became of it).
+    /// Whether the node has the transaction (pending or in a known block) or refused it
+    /// recently (the bounded refused set): either way a peer need not send it.
     pub fn knows_tx(&self, node: RobotId, hash: &TxHash) -> bool {
-        self.node(node).known_txs.contains(hash)
+        let n = self.node(node);
+        n.known_txs.contains(hash) || n.refused_txs.contains(hash)
+    }
+
+    /// How many transactions the node holds (pending or in a known block).
+    pub fn known_tx_count(&self, node: RobotId) -> usize {
+        self.node(node).known_txs.len()
     }
 
     /// The node's pending transactions, in arrival order.
@@ -897,12 +904,8 @@ impl Ledger {
         self.metrics.on_reject(&reason);
         let n = &mut self.nodes[node as usize];
         if let Some(ItemRef::Tx(hash)) = item {
-            if !n.known_txs.contains(&hash) && n.refused_txs.insert(hash) {
-                n.refused_order.push_back(hash);
-                if n.refused_order.len() > MAX_REFUSED_KEPT {
-                    let old = n.refused_order.pop_front().expect("not empty");
-                    n.refused_txs.remove(&old);
-                }
+            if !n.known_txs.contains(&hash) {
+                n.remember_refused(hash);
             }
         }
         n.rejections.push_back(Rejection { at, item, reason });
@@ -980,7 +983,13 @@ impl Ledger {
         }
         let n = &mut self.nodes[node as usize];
         if let Some((old, replaced)) = evict {
+            // A replaced or evicted transaction leaves the node (as in geth's pool): it is no
+            // longer known, so a flood of admitted-then-evicted transactions cannot grow the
+            // node's memory. It joins the bounded refused set, so that peers do not send it
+            // again at once; it becomes known again if a block carries it.
             n.mempool.remove(&old);
+            n.known_txs.remove(&old);
+            n.remember_refused(old);
             if replaced {
                 n.mempool_replaced += 1;
             } else {

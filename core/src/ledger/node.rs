@@ -192,6 +192,9 @@ pub struct Node {
     pub(crate) known_blocks: BTreeSet<BlockHash>,
     /// The known blocks by total difficulty (for the liveness rule of fork choice).
     pub(crate) by_td: BTreeMap<u64, Vec<BlockHash>>,
+    /// The transactions the node holds: pending in its mempool or carried by a block it
+    /// knows. It grows with the chain (32 bytes per transaction, as geth's transaction index
+    /// does); a replaced or evicted pending transaction leaves it.
     pub(crate) known_txs: BTreeSet<TxHash>,
     /// Pending transactions and their arrival sequence numbers at this node.
     pub(crate) mempool: BTreeMap<TxHash, u64>,
@@ -220,6 +223,18 @@ pub struct Node {
 }
 
 impl Node {
+    /// Remembers a refused, replaced or evicted transaction in the bounded refused set (first
+    /// in, first out), so that it is not examined again while it is there.
+    pub(crate) fn remember_refused(&mut self, hash: TxHash) {
+        if self.refused_txs.insert(hash) {
+            self.refused_order.push_back(hash);
+            if self.refused_order.len() > super::MAX_REFUSED_KEPT {
+                let old = self.refused_order.pop_front().expect("not empty");
+                self.refused_txs.remove(&old);
+            }
+        }
+    }
+
     pub(crate) fn new(genesis: BlockHash) -> Node {
         Node {
             head: genesis,

@@ -84,6 +84,25 @@ fn a_flood_is_bounded_by_the_mempool_caps() {
             .count() as u32;
         assert!(pending <= MEMPOOL_PER_SENDER, "node {r} keeps {pending}");
     }
+    // Evicted and replaced transactions leave the nodes: what a node holds is its mempool
+    // and the transactions of blocks, however many the flooder sent.
+    let in_blocks: std::collections::BTreeSet<_> = state
+        .ledger
+        .blocks()
+        .flat_map(|(_, entry)| entry.block.txs.iter().copied())
+        .collect();
+    assert!(
+        stats.mempool_replaced + stats.mempool_evicted > 0,
+        "the flood replaced or evicted pending transactions: {stats:?}"
+    );
+    for r in 0..config.world.robots {
+        let held = state.ledger.known_tx_count(r);
+        let bound = state.ledger.mempool(r).len() + in_blocks.len();
+        assert!(
+            held <= bound,
+            "node {r} holds {held} transactions, bound {bound}"
+        );
+    }
     honest_chains_check(&state, &config);
 }
 
