@@ -11,6 +11,12 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::contract::options::{
+    ContractEngine, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
+    ThresholdRule,
+};
+use crate::contract::options::ContractOptions;
+
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -167,6 +173,61 @@ pub struct ContractConfig {
     /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
     /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
     pub penalised_ranks: u32,
+    /// Explicit reward weight per rank, best first (one per quorum rank, at least one
+    /// positive, each in -1000..=1000); empty (the default) derives them from
+    /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].
+    #[serde(default)]
+    pub reward_weights: Vec<i64>,
+    /// Which machine executes the contract: "native" (the Rust reducer) or "evm" (the Solidity
+    /// contract of `contracts/`, its committed bytecode run in revm; same events and results).
+    #[serde(default)]
+    pub engine: ContractEngine,
+    /// Median of an even count of distances: "lower" middle (swarmfl) or "mean" of the two
+    /// middles, floored (authors).
+    #[serde(default)]
+    pub median: MedianRule,
+    /// FedAvg rounding: "nearest", ties away from zero (swarmfl), or "truncate" toward zero
+    /// (authors).
+    #[serde(default)]
+    pub fedavg_rounding: FedAvgRounding,
+    /// Refuse (malformed) an accepted model when some `w_i * n`, or the round's running sum
+    /// with it, leaves int48: the authors' int48 accumulator reverts such a submission.
+    #[serde(default)]
+    pub int48_products: bool,
+    /// Outlier threshold: "inclusive", `d <= t * N` (swarmfl), or "strict", `d < t * N`
+    /// (authors).
+    #[serde(default)]
+    pub threshold: ThresholdRule,
+    /// Ranking key: exact L1 "distance" (swarmfl) or truncated "mae" `floor(d / N)` (authors).
+    #[serde(default)]
+    pub rank_key: RankKey,
+    /// Ranking ties: "stable" submission order (swarmfl) or the authors' "quicksort".
+    #[serde(default)]
+    pub rank_ties: RankTies,
+    /// Payout shares: "exact" to one unit (swarmfl) or "ratio_1e9", normalised to 1e9 and
+    /// floored (authors).
+    #[serde(default)]
+    pub payout_rounding: PayoutRounding,
+    /// Pool of an aggregation: "carry" (all the contract holds, remainders included; swarmfl)
+    /// or "round" (the round's stakes only; authors).
+    #[serde(default)]
+    pub pool: PoolRule,
+}
+
+impl ContractConfig {
+    /// The variant options of the contract (docs/CONTRACT.md).
+    pub fn options(&self) -> ContractOptions {
+        ContractOptions {
+            median: self.median,
+            fedavg_rounding: self.fedavg_rounding,
+            int48_products: self.int48_products,
+            threshold: self.threshold,
+            rank_key: self.rank_key,
+            rank_ties: self.rank_ties,
+            payout_rounding: self.payout_rounding,
+            pool: self.pool,
+        }
+    }
 }
 
 /// Which robots are Byzantine and how they behave.
@@ -414,6 +475,16 @@ impl Config {
                 quorum_fraction: 0.5,
                 outlier_threshold: 0.05,
                 penalised_ranks: 2,
+                reward_weights: Vec::new(),
+                engine: ContractEngine::Native,
+                median: MedianRule::Lower,
+                fedavg_rounding: FedAvgRounding::Nearest,
+                int48_products: false,
+                threshold: ThresholdRule::Inclusive,
+                rank_key: RankKey::Distance,
+                rank_ties: RankTies::Stable,
+                payout_rounding: PayoutRounding::Exact,
+                pool: PoolRule::Carry,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -441,6 +512,9 @@ impl Config {
     /// The reward weight of each rank, best first: +1 for the rewarded, -1 for the
     /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
     pub fn reward_weights(&self) -> Vec<i64> {
+        if !self.contract.reward_weights.is_empty() {
+            return self.contract.reward_weights.clone();
+        }
         let q = self.quorum() as usize;
         // At least the best rank is rewarded (validation enforces it; the clamp keeps
         // unvalidated test configurations meaningful).
@@ -803,6 +877,29 @@ impl Config {
             0,
             u64::from(c.quorum() - 1),
         )?;
+        let k = &c.contract.reward_weights;
+        if !k.is_empty()
+            && (k.len() != c.quorum() as usize
+                || !k.iter().any(|&w| w > 0)
+                || k.iter().any(|w| w.abs() > 1000))
+        {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.reward_weights".to_string(),
+                value: format!("{k:?}"),
+                allowed: format!(
+                    "empty (derived from penalised_ranks) or one weight per rank of the quorum \
+                     ({}), at least one positive, each in -1000..=1000",
+                    c.quorum()
+                ),
+            });
+        }
+        if c.contract.engine == ContractEngine::Evm {
+            crate::contract::evm::supports(c).map_err(|allowed| ConfigError::OutOfRange {
+                key: "contract.engine".to_string(),
+                value: "evm".to_string(),
+                allowed,
+            })?;
+        }
         int(
             "byzantine.count",
             c.byzantine.count.into(),
@@ -894,7 +991,8 @@ impl Config {
 /// - `run.duration_s`: the run ends at the new time (after the fork point).
 /// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
 /// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
-///   `penalised_ranks`: the contract's rules change for the blocks sealed after the fork point
+///   `penalised_ranks`, `reward_weights` and the variant options (`median` .. `pool`): the
+///   contract's rules change for the blocks sealed after the fork point
 ///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
 ///   chain when it crosses the activation is restarted and its stakes refunded.
 /// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
@@ -914,6 +1012,15 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.quorum_fraction",
     "contract.outlier_threshold",
     "contract.penalised_ranks",
+    "contract.reward_weights",
+    "contract.median",
+    "contract.fedavg_rounding",
+    "contract.int48_products",
+    "contract.threshold",
+    "contract.rank_key",
+    "contract.rank_ties",
+    "contract.payout_rounding",
+    "contract.pool",
     "byzantine.*",
     "output.*",
 ];

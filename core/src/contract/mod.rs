@@ -39,6 +39,8 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
+pub mod evm;
+pub mod options;
 pub mod payout;
 
 #[cfg(test)]
@@ -49,6 +51,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
+use options::{ContractEngine, ContractOptions, PoolRule, RankKey, ThresholdRule};
 use crate::types::{Digest, RobotId};
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
@@ -80,6 +83,14 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
+    /// The authors' variants (docs/CONTRACT.md); committed to by the genesis block only when
+    /// some option is not swarmfl's default, so default runs keep their hashes.
+    #[serde(default, skip_serializing_if = "ContractOptions::is_default")]
+    pub options: ContractOptions,
+    /// Which machine executes the contract. Not part of the genesis commitment: both engines
+    /// execute the same contract, so a run's chain is the same under either.
+    #[serde(skip)]
+    pub engine: ContractEngine,
 }
 
 impl ContractParams {
@@ -95,6 +106,8 @@ impl ContractParams {
             outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
             reward_weights: config.reward_weights(),
             genesis_weights,
+            options: c.options(),
+            engine: c.engine,
         }
     }
 
@@ -110,6 +123,7 @@ impl ContractParams {
 
     /// The largest accepted distance `sum_i |w_i - w_a,i|`: `threshold_units * N`.
     pub fn max_distance_units(&self) -> u128 {
+        // The product fits u128: threshold below 2^63, at most 2^16 weights.
         u128::try_from(self.outlier_threshold_units).unwrap_or(0) * self.model_len() as u128
     }
 
@@ -312,6 +326,11 @@ pub struct ContractState {
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
     pub last_round: Option<Arc<RoundSummary>>,
+    /// With `contract.engine = "evm"`: the EVM holding the deployed contract, whose storage is
+    /// the truth the fields above are read back from. Not serialised (the fields above are the
+    /// state's portable form) and not in [`ContractState::digest`] (they mirror it exactly).
+    #[serde(skip)]
+    pub evm: Option<Arc<evm::EvmState>>,
 }
 
 impl ContractState {
@@ -328,6 +347,10 @@ impl ContractState {
             previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
+            evm: match params.engine {
+                ContractEngine::Native => None,
+                ContractEngine::Evm => Some(Arc::new(evm::EvmState::deploy(params))),
+            },
         }
     }
 
@@ -342,6 +365,15 @@ impl ContractState {
             .iter()
             .filter(|s| s.verdict == Verdict::Accepted)
             .count() as u32
+    }
+
+    /// The current round's accepted models with their sample counts, in submission order.
+    pub fn accepted_models(&self) -> Vec<(&[i64], u64)> {
+        self.submissions
+            .iter()
+            .filter(|s| s.verdict == Verdict::Accepted)
+            .map(|s| (&s.weights[..], s.samples))
+            .collect()
     }
 
     /// True when `robot` has a counted submission in the current round.
@@ -363,11 +395,12 @@ impl ContractState {
             params.robots as usize,
             "state and params disagree"
         );
-        let outcome = match call {
-            Call::SubmitModel { weights, samples } => {
+        let outcome = match (params.engine, call) {
+            (ContractEngine::Evm, call) => evm::execute(self, params, sender, value_units, call),
+            (ContractEngine::Native, Call::SubmitModel { weights, samples }) => {
                 self.submit_model(params, sender, value_units, weights, *samples)
             }
-            Call::Transfer { to, amount_units } => {
+            (ContractEngine::Native, Call::Transfer { to, amount_units }) => {
                 self.transfer(sender, value_units, *to, *amount_units)
             }
         };
@@ -384,6 +417,9 @@ impl ContractState {
     /// submission of the round gets its stake back from the contract and may submit again;
     /// the round number, the model and the carried remainder stay. Conserves tokens.
     pub fn restart_round(&mut self) {
+        if self.evm.is_some() {
+            return evm::restart_round(self);
+        }
         for s in std::mem::take(&mut self.submissions) {
             self.holdings_units = self
                 .holdings_units
@@ -496,12 +532,22 @@ impl ContractState {
         };
 
         let distance_units = payout::distance_units(weights, &self.weights);
-        let verdict = if params.security && u128::from(distance_units) > params.max_distance_units()
-        {
+        let max = params.max_distance_units();
+        let distance = u128::from(distance_units);
+        let beyond = match params.options.threshold {
+            ThresholdRule::Inclusive => distance > max,
+            ThresholdRule::Strict => distance >= max,
+        };
+        let verdict = if params.security && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted
         };
+        if verdict == Verdict::Accepted && params.options.int48_products {
+            if let Err(reason) = payout::int48_products(&self.accepted_models(), weights, samples) {
+                return Outcome::Malformed(reason);
+            }
+        }
         self.balances[sender as usize] = balance - stake_units;
         self.holdings_units = self
             .holdings_units
@@ -555,13 +601,18 @@ impl ContractState {
             .iter()
             .map(|s| (&s.weights[..], s.samples))
             .collect();
-        let new_weights: Arc<[i64]> = payout::fedavg(&models).into();
+        let new_weights: Arc<[i64]> =
+            payout::fedavg(&models, params.options.fedavg_rounding).into();
         assert_eq!(new_weights.len(), self.weights.len());
 
-        let pool_units = self.holdings_units;
+        let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
+        let pool_units = match params.options.pool {
+            PoolRule::Carry => self.holdings_units,
+            PoolRule::Round if params.security => u64::try_from(stakes).expect("stakes are held"),
+            PoolRule::Round => self.holdings_units,
+        };
         let mut payouts = Vec::new();
         if params.security {
-            let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
             assert!(
                 u128::from(pool_units) >= stakes,
                 "the pool holds the round's stakes"
@@ -571,14 +622,22 @@ impl ContractState {
                     >= u128::from(params.quorum) * u128::from(params.stake_units),
                 "every accepted submission staked"
             );
-            let distances: Vec<u64> = accepted.iter().map(|s| s.distance_units).collect();
-            let order = payout::rank(&distances);
+            let n = self.weights.len() as u64;
+            let keys: Vec<u64> = accepted
+                .iter()
+                .map(|s| match params.options.rank_key {
+                    RankKey::Distance => s.distance_units,
+                    RankKey::Mae => s.distance_units / n,
+                })
+                .collect();
+            let order = payout::rank(&keys, params.options.median, params.options.rank_ties);
             let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
             let units = payout::payouts(
                 pool_units,
                 params.stake_units,
                 &ranked_samples,
                 &params.reward_weights,
+                params.options.payout_rounding,
             );
             for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
                 payouts.push(Payout {
@@ -600,7 +659,7 @@ impl ContractState {
                 .checked_add(p.units)
                 .expect("conserved supply fits u64");
         }
-        self.holdings_units = pool_units - paid;
+        self.holdings_units -= paid;
 
         self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
         self.previous_digest = self.weights_digest;

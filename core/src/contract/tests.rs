@@ -4,6 +4,7 @@
 use std::sync::Arc;
 
 use super::payout::{div_round_half_away, fedavg, payouts, rank};
+use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 use super::*;
 
 const TOKEN: u64 = 1_000_000_000;
@@ -22,6 +23,8 @@ fn params(security: bool) -> ContractParams {
         outlier_threshold_units: 50_000_000,
         reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
         genesis_weights: vec![0i64; 4].into(),
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 
@@ -568,7 +571,7 @@ fn a_quorum_of_one_returns_the_pool() {
 #[test]
 fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
     fn check_rank(distances: &[u64], expect: &[usize]) {
-        assert_eq!(rank(distances), expect, "distances {distances:?}");
+        assert_eq!(rank(distances, MedianRule::Lower, RankTies::Stable), expect, "distances {distances:?}");
     }
     check_rank(&[10, 20, 30, 40, 50, 150, 190], &[3, 2, 4, 1, 0, 5, 6]);
     check_rank(&[7, 7, 7], &[0, 1, 2]);
@@ -582,7 +585,7 @@ fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
 fn payouts_follow_the_paper_to_the_unit() {
     fn check_pay(pool: u64, samples: &[u64], k: &[i64], expect: &[u64]) {
         assert_eq!(
-            payouts(pool, STAKE, samples, k),
+            payouts(pool, STAKE, samples, k, PayoutRounding::Exact),
             expect,
             "pool {pool} samples {samples:?}"
         );
@@ -618,7 +621,7 @@ fn payouts_follow_the_paper_to_the_unit() {
 #[test]
 fn fedavg_rounds_to_nearest_with_ties_away_from_zero() {
     fn check_avg(models: &[(&[i64], u64)], expect: &[i64]) {
-        assert_eq!(fedavg(models), expect);
+        assert_eq!(fedavg(models, FedAvgRounding::Nearest), expect);
     }
     check_avg(&[(&[1, -1, 3], 1), (&[0, 0, 0], 1)], &[1, -1, 2]); // 0.5, -0.5, 1.5
     check_avg(&[(&[1, 2, -2], 1), (&[0, 0, 0], 2)], &[0, 1, -1]); // 1/3, 2/3, -2/3
