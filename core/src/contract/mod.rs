@@ -639,7 +639,12 @@ impl ContractState {
                 &params.reward_weights,
                 params.options.payout_rounding,
             );
+            // Rounded-down penalties (ratio_1e9) can ask for a few units more than the pool:
+            // they come from what the contract holds, and run out in rank order.
+            let mut available = self.holdings_units;
             for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                let units = units.min(available);
+                available -= units;
                 payouts.push(Payout {
                     robot: accepted[i].sender,
                     rank: rank as u32,
@@ -650,8 +655,9 @@ impl ContractState {
         }
         let paid: u64 = payouts.iter().map(|p| p.units).sum();
         assert!(
-            paid <= pool_units,
-            "payouts {paid} exceed the pool {pool_units}"
+            paid <= self.holdings_units,
+            "payouts {paid} exceed the holdings {}",
+            self.holdings_units
         );
         for p in &payouts {
             let balance = &mut self.balances[p.robot as usize];
