@@ -53,7 +53,13 @@ fn selector(sig: &str) -> Vec<u8> {
 }
 
 impl Authors {
-    fn transact(&mut self, caller: Address, kind: TxKind, data: Vec<u8>, value: u128) -> ExecutionResult {
+    fn transact(
+        &mut self,
+        caller: Address,
+        kind: TxKind,
+        data: Vec<u8>,
+        value: u128,
+    ) -> ExecutionResult {
         let db = std::mem::take(&mut self.db);
         let mut evm = Context::mainnet()
             .modify_cfg_chained(|cfg| {
@@ -175,7 +181,12 @@ impl Authors {
     }
 }
 
-fn params(genesis: &Arc<[i64]>, options: ContractOptions, k: &[i64], engine: ContractEngine) -> ContractParams {
+fn params(
+    genesis: &Arc<[i64]>,
+    options: ContractOptions,
+    k: &[i64],
+    engine: ContractEngine,
+) -> ContractParams {
     ContractParams {
         robots: ROBOTS,
         initial_units: 21 * TOKEN_UNITS,
@@ -199,8 +210,12 @@ fn kind(outcome: &Outcome) -> &'static str {
 
 fn main() {
     let mut args = std::env::args().skip(1);
-    let path = args.next().expect("usage: compare_authors AUTHORS.json [ROUNDS]");
-    let rounds: u64 = args.next().map_or(200, |r| r.parse().expect("ROUNDS is a number"));
+    let path = args
+        .next()
+        .expect("usage: compare_authors AUTHORS.json [ROUNDS]");
+    let rounds: u64 = args
+        .next()
+        .map_or(200, |r| r.parse().expect("ROUNDS is a number"));
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&path).expect("readable AUTHORS.json"))
             .expect("AUTHORS.json is JSON");
@@ -217,8 +232,18 @@ fn main() {
             .collect::<Vec<_>>()
             .into();
         let mut theirs = Authors::deploy(bytecode.clone(), &genesis, &k);
-        let ours_p = params(&genesis, ContractOptions::default(), &k, ContractEngine::Native);
-        let auth_p = params(&genesis, ContractOptions::authors(), &k, ContractEngine::Evm);
+        let ours_p = params(
+            &genesis,
+            ContractOptions::default(),
+            &k,
+            ContractEngine::Native,
+        );
+        let auth_p = params(
+            &genesis,
+            ContractOptions::authors(),
+            &k,
+            ContractEngine::Evm,
+        );
         let mut ours = ContractState::genesis(&ours_p);
         let mut auth = ContractState::genesis(&auth_p);
         let mut diff: BTreeMap<&str, u64> = BTreeMap::new();
@@ -238,8 +263,13 @@ fn main() {
                     continue;
                 }
                 let shared = auth.weights.clone();
-                let spread = [20_000_000u64, 49_000_000, 50_000_000, 51_000_000, 200_000_000]
-                    [(rng.next_u64() % 5) as usize];
+                let spread = [
+                    20_000_000u64,
+                    49_000_000,
+                    50_000_000,
+                    51_000_000,
+                    200_000_000,
+                ][(rng.next_u64() % 5) as usize];
                 let w: Vec<i64> = if rng.next_u64() % 10 == 0 {
                     shared.to_vec()
                 } else {
@@ -281,7 +311,8 @@ fn main() {
                         *diff.entry("authors options: weights").or_default() += 1;
                     }
                     for p in payouts {
-                        let mut delta = theirs.balance(p.robot) as i128 - before[p.robot as usize] as i128;
+                        let mut delta =
+                            theirs.balance(p.robot) as i128 - before[p.robot as usize] as i128;
                         if p.robot == robot {
                             delta += STAKE_WEI as i128;
                         }
@@ -290,10 +321,16 @@ fn main() {
                         }
                     }
                 }
-                if matches!(o, Outcome::Aggregated { .. }) && ours.weights[..] != theirs.weights()[..] {
+                if matches!(o, Outcome::Aggregated { .. })
+                    && ours.weights[..] != theirs.weights()[..]
+                {
                     *diff.entry("swarmfl rules: weights").or_default() += 1;
                 }
-                if let (Outcome::Aggregated { payouts: po, .. }, Outcome::Aggregated { payouts: pa, .. }) = (&o, &a) {
+                if let (
+                    Outcome::Aggregated { payouts: po, .. },
+                    Outcome::Aggregated { payouts: pa, .. },
+                ) = (&o, &a)
+                {
                     if po != pa {
                         *diff.entry("swarmfl rules: payouts of a round").or_default() += 1;
                     }
@@ -304,10 +341,18 @@ fn main() {
         println!("reward weights {k:?}: {closed} rounds, {calls} submissions");
         println!("  differences: {diff:?}");
         for (kind, (n, total)) in &gas {
-            println!("  authors' gas {kind}: {} calls, mean {}", n, total / n.max(&1));
+            println!(
+                "  authors' gas {kind}: {} calls, mean {}",
+                n,
+                total / n.max(&1)
+            );
         }
         for (kind, g) in ours_gas {
-            println!("  SwarmFL.sol (authors options) gas {kind}: {} calls, mean {}", g.calls, g.mean_gas());
+            println!(
+                "  SwarmFL.sol (authors options) gas {kind}: {} calls, mean {}",
+                g.calls,
+                g.mean_gas()
+            );
         }
     }
 }

@@ -11,11 +11,11 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+use crate::contract::options::ContractOptions;
 pub use crate::contract::options::{
     ContractEngine, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
     ThresholdRule,
 };
-use crate::contract::options::ContractOptions;
 
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

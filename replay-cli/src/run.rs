@@ -214,7 +214,11 @@ pub fn print_summary(outcome: &RunOutcome) {
         l["bytes_per_submission"].as_f64().unwrap_or(0.0)
     );
     if let Some(gas) = s.get("evm_gas") {
-        let mean = |kind: &str| gas[kind]["mean_gas"].as_u64().map_or("-".into(), |g| g.to_string());
+        let mean = |kind: &str| {
+            gas[kind]["mean_gas"]
+                .as_u64()
+                .map_or("-".into(), |g| g.to_string())
+        };
         println!(
             "evm gas:    submission {} (mean), aggregating submission {}, outlier {}, deploy {}; \
              contract wall time is inside ledger_s below",

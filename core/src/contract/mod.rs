@@ -51,8 +51,8 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
-use options::{ContractEngine, ContractOptions, PoolRule, RankKey, ThresholdRule};
 use crate::types::{Digest, RobotId};
+use options::{ContractEngine, ContractOptions, PoolRule, RankKey, ThresholdRule};
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;

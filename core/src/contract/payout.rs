@@ -119,7 +119,11 @@ fn quicksort(keys: &mut [u64], order: &mut [usize], left: i64, right: i64) {
 /// The authors' implicit int48 bound (`contract.int48_products`): the round's accepted models
 /// so far are `accepted`; a new accepted model `weights` with `samples` must keep every
 /// `w_i * n` and every running sum `sum_k n_k w_k,i + w_i * n` inside int48.
-pub fn int48_products(accepted: &[(&[i64], u64)], weights: &[i64], samples: u64) -> Result<(), String> {
+pub fn int48_products(
+    accepted: &[(&[i64], u64)],
+    weights: &[i64],
+    samples: u64,
+) -> Result<(), String> {
     const MIN: i128 = -(1 << 47);
     const MAX: i128 = (1 << 47) - 1;
     let n = i128::from(samples);
@@ -130,7 +134,8 @@ pub fn int48_products(accepted: &[(&[i64], u64)], weights: &[i64], samples: u64)
             .map(|&(m, k)| i128::from(m[i]) * i128::from(k))
             .sum::<i128>()
             + product;
-        if !(MIN..=MAX).contains(&product) || (!accepted.is_empty() && !(MIN..=MAX).contains(&sum)) {
+        if !(MIN..=MAX).contains(&product) || (!accepted.is_empty() && !(MIN..=MAX).contains(&sum))
+        {
             return Err(format!(
                 "weight {i} = {w} times {samples} samples leaves int48 (contract.int48_products)"
             ));

@@ -3,8 +3,8 @@
 
 use std::sync::Arc;
 
-use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
+use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::*;
 
 const TOKEN: u64 = 1_000_000_000;
@@ -571,7 +571,11 @@ fn a_quorum_of_one_returns_the_pool() {
 #[test]
 fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
     fn check_rank(distances: &[u64], expect: &[usize]) {
-        assert_eq!(rank(distances, MedianRule::Lower, RankTies::Stable), expect, "distances {distances:?}");
+        assert_eq!(
+            rank(distances, MedianRule::Lower, RankTies::Stable),
+            expect,
+            "distances {distances:?}"
+        );
     }
     check_rank(&[10, 20, 30, 40, 50, 150, 190], &[3, 2, 4, 1, 0, 5, 6]);
     check_rank(&[7, 7, 7], &[0, 1, 2]);

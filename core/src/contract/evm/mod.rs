@@ -474,7 +474,10 @@ fn submission_from_storage(s: &[u128; 5], weights: &Arc<[i64]>) -> Submission {
 pub fn restart_round(state: &mut ContractState) {
     let evm = Arc::make_mut(state.evm.as_mut().expect("an evm state"));
     let r = evm.call(OWNER, abi::selector("restartRound()"));
-    evm.gas.entry("restart_round".into()).or_default().add(r.gas);
+    evm.gas
+        .entry("restart_round".into())
+        .or_default()
+        .add(r.gas);
     let (balances, holdings, round) = evm.read_state();
     assert!(evm.read_submissions().is_empty());
     state.balances = balances;
@@ -532,11 +535,7 @@ fn malformed(
             a,
             params.model_len()
         ),
-        (14, _) => format!(
-            "weight {} = {} is outside int48 (|w| < 2^47)",
-            a,
-            to_i64(b)
-        ),
+        (14, _) => format!("weight {} = {} is outside int48 (|w| < 2^47)", a, to_i64(b)),
         (15, _) => format!(
             "value {value_units} exceeds the stake of {} units; send exactly the stake",
             params.stake_units

@@ -25,9 +25,7 @@ fn chance(rng: &mut Pcg64, percent: u64) -> bool {
 fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
     let robots = 2 + below(rng, 9) as u32;
     let quorum = 1 + below(rng, u64::from(robots)) as u32;
-    let mut reward_weights: Vec<i64> = (0..quorum)
-        .map(|_| below(rng, 11) as i64 - 4)
-        .collect();
+    let mut reward_weights: Vec<i64> = (0..quorum).map(|_| below(rng, 11) as i64 - 4).collect();
     if !reward_weights.iter().any(|&k| k > 0) {
         reward_weights[0] = 1 + below(rng, 5) as i64;
     }
@@ -35,7 +33,11 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         ContractOptions::default()
     } else {
         ContractOptions {
-            median: if chance(rng, 50) { MedianRule::Mean } else { MedianRule::Lower },
+            median: if chance(rng, 50) {
+                MedianRule::Mean
+            } else {
+                MedianRule::Lower
+            },
             fedavg_rounding: if chance(rng, 50) {
                 FedAvgRounding::Truncate
             } else {
@@ -47,7 +49,11 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
             } else {
                 ThresholdRule::Inclusive
             },
-            rank_key: if chance(rng, 50) { RankKey::Mae } else { RankKey::Distance },
+            rank_key: if chance(rng, 50) {
+                RankKey::Mae
+            } else {
+                RankKey::Distance
+            },
             rank_ties: if chance(rng, 50) {
                 RankTies::Quicksort
             } else {
@@ -58,7 +64,11 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
             } else {
                 PayoutRounding::Exact
             },
-            pool: if chance(rng, 50) { PoolRule::Round } else { PoolRule::Carry },
+            pool: if chance(rng, 50) {
+                PoolRule::Round
+            } else {
+                PoolRule::Carry
+            },
         }
     };
     let genesis: Vec<i64> = (0..len)
@@ -107,7 +117,14 @@ fn random_call(rng: &mut Pcg64, p: &ContractParams, s: &ContractState) -> (Robot
             below(rng, balance + 1)
         };
         let value = if chance(rng, 10) { 1 } else { 0 };
-        return (sender, value, Call::Transfer { to, amount_units: amount });
+        return (
+            sender,
+            value,
+            Call::Transfer {
+                to,
+                amount_units: amount,
+            },
+        );
     }
     let n = p.model_len() as u64;
     let max = p.max_distance_units() as u64;
@@ -135,8 +152,14 @@ fn random_call(rng: &mut Pcg64, p: &ContractParams, s: &ContractState) -> (Robot
         }
         8 => {
             let i = below(rng, n) as usize;
-            w[i] = [1 << 47, -(1 << 47), (1 << 47) - 1, -(1 << 47) + 1, i64::MIN, i64::MAX]
-                [below(rng, 6) as usize];
+            w[i] = [
+                1 << 47,
+                -(1 << 47),
+                (1 << 47) - 1,
+                -(1 << 47) + 1,
+                i64::MIN,
+                i64::MAX,
+            ][below(rng, 6) as usize];
         }
         _ => {
             if chance(rng, 50) {
@@ -164,10 +187,16 @@ fn random_call(rng: &mut Pcg64, p: &ContractParams, s: &ContractState) -> (Robot
 
 fn assert_same(native: &ContractState, evm: &ContractState, context: &str) {
     assert_eq!(native.balances, evm.balances, "balances: {context}");
-    assert_eq!(native.holdings_units, evm.holdings_units, "holdings: {context}");
+    assert_eq!(
+        native.holdings_units, evm.holdings_units,
+        "holdings: {context}"
+    );
     assert_eq!(native.round, evm.round, "round: {context}");
     assert_eq!(native.weights, evm.weights, "weights: {context}");
-    assert_eq!(native.submissions, evm.submissions, "submissions: {context}");
+    assert_eq!(
+        native.submissions, evm.submissions,
+        "submissions: {context}"
+    );
     assert_eq!(native.last_round, evm.last_round, "last round: {context}");
     assert_eq!(native.digest(), evm.digest(), "digest: {context}");
 }
@@ -193,7 +222,8 @@ fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
             let (sender, value, call) = random_call(&mut rng, &p, &native);
             let a = native.execute(&p, sender, value, &call);
             let b = evm.execute(&pe, sender, value, &call);
-            let context = format!("seed {seed}, call {calls}: {p:?}, sender {sender}, value {value}");
+            let context =
+                format!("seed {seed}, call {calls}: {p:?}, sender {sender}, value {value}");
             assert_eq!(a, b, "outcome: {context}");
             assert_same(&native, &evm, &context);
             calls += 1;
@@ -276,7 +306,11 @@ fn the_binding_matches_the_committed_abi() {
             .iter()
             .map(|i| i["type"].as_str().expect("type"))
             .collect();
-        format!("{}({})", item["name"].as_str().unwrap_or(""), inputs.join(","))
+        format!(
+            "{}({})",
+            item["name"].as_str().unwrap_or(""),
+            inputs.join(",")
+        )
     };
     let names: Vec<String> = abi.iter().map(signature).collect();
     for used in [
