@@ -244,7 +244,6 @@ fn main() {
             &k,
             ContractEngine::Evm,
         );
-        let mut ours = ContractState::genesis(&ours_p);
         let mut auth = ContractState::genesis(&auth_p);
         let mut diff: BTreeMap<&str, u64> = BTreeMap::new();
         let mut gas: BTreeMap<&str, (u64, u64)> = BTreeMap::new();
@@ -291,7 +290,7 @@ fn main() {
                 };
                 // swarmfl's rules start every call from the same state as the others, so each
                 // call measures one decision, not the drift of earlier ones.
-                ours = auth.clone();
+                let mut ours = auth.clone();
                 ours.evm = None;
                 let a = auth.execute(&auth_p, robot, 5 * TOKEN_UNITS, &call);
                 let o = ours.execute(&ours_p, robot, 5 * TOKEN_UNITS, &call);

@@ -15,7 +15,7 @@ pub fn event_topic(signature: &str) -> B256 {
 
 /// Hex (no prefix) to bytes.
 pub fn from_hex(hex: &str) -> Option<Vec<u8>> {
-    if hex.len() % 2 != 0 {
+    if !hex.len().is_multiple_of(2) {
         return None;
     }
     (0..hex.len())
