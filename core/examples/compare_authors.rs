@@ -203,7 +203,8 @@ fn params(
 
 fn kind(outcome: &Outcome) -> &'static str {
     match outcome {
-        Outcome::Malformed(_) => "reverted",
+        // The authors' contract reverts every refusal (duplicate, stake, malformed).
+        Outcome::Malformed(_) | Outcome::Duplicate | Outcome::InsufficientStake => "reverted",
         o => o.name(),
     }
 }
@@ -249,7 +250,10 @@ fn main() {
         let mut gas: BTreeMap<&str, (u64, u64)> = BTreeMap::new();
         let mut calls = 0u64;
         let mut closed = 0u64;
-        while closed < rounds {
+        let mut idle_passes = 0;
+        // Drained robots (below the stake) stop submitting; stop when no round closes any more.
+        while closed < rounds && idle_passes < 3 {
+            idle_passes += 1;
             // One round's worth of submissions from robots in a random order.
             let mut order: Vec<u32> = (0..ROBOTS).collect();
             for i in (1..order.len()).rev() {
@@ -306,6 +310,7 @@ fn main() {
                 }
                 if let Outcome::Aggregated { payouts, .. } = &a {
                     closed += 1;
+                    idle_passes = 0;
                     if theirs.weights()[..] != auth.weights[..] {
                         *diff.entry("authors options: weights").or_default() += 1;
                     }
