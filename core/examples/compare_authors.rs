@@ -196,6 +196,8 @@ fn params(
         outlier_threshold_units: 50_000_000,
         reward_weights: k.to_vec(),
         genesis_weights: genesis.clone(),
+        round_timeout_ms: 0,
+        robust: None,
         options,
         engine,
     }

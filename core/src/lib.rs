@@ -8,11 +8,13 @@
 //! See ARCHITECTURE.md for the map and the invariants.
 
 pub mod byzantine;
+pub mod chaos;
 pub mod config;
 pub mod contract;
 pub mod data;
 pub mod diff;
 pub mod event;
+pub mod faults;
 pub mod fork;
 pub mod inspect;
 pub mod learn;

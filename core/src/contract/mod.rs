@@ -1,4 +1,4 @@
-//! The federated-learning smart contract, executed by every node on its own chain (SPEC.md
+//! The federated-learning smart contract, executed by every node on its own chain (docs/SPEC.md
 //! section 4). Integer arithmetic only: weights are fixed point (`contract.weight_scale`),
 //! tokens are integer units (`contract.token_units` per token).
 //!
@@ -39,9 +39,11 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
+mod deadline;
 pub mod evm;
 pub mod options;
 pub mod payout;
+pub mod rules;
 
 #[cfg(test)]
 mod tests;
@@ -52,7 +54,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
 use crate::types::{Digest, RobotId};
-use options::{ContractEngine, ContractOptions, PoolRule, RankKey, ThresholdRule};
+use options::{ContractEngine, ContractOptions, PoolRule, ThresholdRule};
+pub use rules::Rule;
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
@@ -83,8 +86,19 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
-    /// The authors' variants (docs/CONTRACT.md); committed to by the genesis block only when
-    /// some option is not swarmfl's default, so default runs keep their hashes.
+    /// Round deadline in ms of block time (0 = none; see `deadline.rs`).
+    #[serde(default)]
+    pub round_timeout_ms: u64,
+    /// A robust aggregation rule and its assumed Byzantine count; `None` for the paper's two
+    /// rules (`fedavg` when `security` is off, `paper` when on). Left out of the encoding when
+    /// `None`, so the parameters' digest of `paper` and `fedavg` runs is the one they had
+    /// before rules could be chosen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<RobustRule>,
+    /// The authors' variants of the paper's rule (docs/CONTRACT.md); committed to by the
+    /// genesis block only when some option is not swarmfl's default, so default runs keep
+    /// their hashes. Always the default with a robust rule (validation), so at most one of
+    /// `robust` and `options` is ever encoded.
     #[serde(default, skip_serializing_if = "ContractOptions::is_default")]
     pub options: ContractOptions,
     /// Which machine executes the contract. Not part of the genesis commitment: both engines
@@ -93,22 +107,54 @@ pub struct ContractParams {
     pub engine: ContractEngine,
 }
 
+/// A robust rule of [`ContractParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RobustRule {
+    /// The rule (never `fedavg` or `paper`).
+    pub rule: Rule,
+    /// Byzantine submissions per round the rule assumes (`contract.assumed_f`).
+    pub assumed_f: u32,
+}
+
 impl ContractParams {
     /// The parameters of a run's contract.
     pub fn from_config(config: &Config, genesis_weights: Arc<[i64]>) -> ContractParams {
         let c = &config.contract;
+        let rule = config.rule();
         ContractParams {
             robots: config.world.robots,
             initial_units: c.initial_tokens * c.token_units,
             stake_units: c.stake_tokens * c.token_units,
-            security: c.security,
+            security: rule.stakes(),
             quorum: config.quorum(),
             outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
             reward_weights: config.reward_weights(),
             genesis_weights,
+            robust: match rule {
+                Rule::Fedavg | Rule::Paper => None,
+                rule => Some(RobustRule {
+                    rule,
+                    assumed_f: c.assumed_f,
+                }),
+            },
+            round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
             options: c.options(),
             engine: c.engine,
         }
+    }
+
+    /// The aggregation rule in force.
+    pub fn rule(&self) -> Rule {
+        match self.robust {
+            Some(r) => r.rule,
+            None if self.security => Rule::Paper,
+            None => Rule::Fedavg,
+        }
+    }
+
+    /// The assumed Byzantine count (0 for `fedavg` and `paper`, which ignore it).
+    pub fn assumed_f(&self) -> u32 {
+        self.robust.map_or(0, |r| r.assumed_f)
     }
 
     /// The units in existence: `robots * initial_units`, constant for a run.
@@ -148,6 +194,23 @@ impl ContractParams {
         }
         if self.reward_weights.len() != self.quorum as usize {
             return Err("one reward weight per rank".into());
+        }
+        if let Some(r) = self.robust {
+            if matches!(r.rule, Rule::Fedavg | Rule::Paper) || !self.security {
+                return Err(format!(
+                    "{} is not a robust rule with stakes",
+                    r.rule.name()
+                ));
+            }
+            let needed = r.rule.min_quorum(r.assumed_f);
+            if self.quorum < needed {
+                return Err(format!(
+                    "{} with assumed_f {} needs a quorum of at least {needed}, got {}",
+                    r.rule.name(),
+                    r.assumed_f,
+                    self.quorum
+                ));
+            }
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
@@ -326,6 +389,18 @@ pub struct ContractState {
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
     pub last_round: Option<Arc<RoundSummary>>,
+    /// Timestamp of the block being executed, ms (set by [`ContractState::enter_block`]).
+    #[serde(default)]
+    pub block_time_ms: u64,
+    /// When the open round opened (block time of the last aggregation or deadline), ms.
+    #[serde(default)]
+    pub round_opened_ms: u64,
+    /// Rounds closed by the deadline without aggregation.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Stake units refunded by deadlines, in all.
+    #[serde(default)]
+    pub timeout_refunded_units: u64,
     /// With `contract.engine = "evm"`: the EVM holding the deployed contract, whose storage is
     /// the truth the fields above are read back from. Not serialised (the fields above are the
     /// state's portable form) and not in [`ContractState::digest`] (they mirror it exactly).
@@ -347,6 +422,10 @@ impl ContractState {
             previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
+            block_time_ms: 0,
+            round_opened_ms: 0,
+            rounds_timed_out: 0,
+            timeout_refunded_units: 0,
             evm: match params.engine {
                 ContractEngine::Native => None,
                 ContractEngine::Evm => Some(Arc::new(evm::EvmState::deploy(params))),
@@ -469,6 +548,10 @@ impl ContractState {
                 h.update(&[0]);
             }
         }
+        h.update(&self.block_time_ms.to_le_bytes())
+            .update(&self.round_opened_ms.to_le_bytes())
+            .update(&self.rounds_timed_out.to_le_bytes())
+            .update(&self.timeout_refunded_units.to_le_bytes());
         Digest::from(h.finalize())
     }
 
@@ -538,7 +621,7 @@ impl ContractState {
             ThresholdRule::Inclusive => distance > max,
             ThresholdRule::Strict => distance >= max,
         };
-        let verdict = if params.security && beyond {
+        let verdict = if params.security && params.rule().uses_threshold() && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted
@@ -597,12 +680,22 @@ impl ContractState {
             .collect();
         assert_eq!(accepted.len(), params.quorum as usize);
 
-        let models: Vec<(&[i64], u64)> = accepted
+        let rule = params.rule();
+        let inputs: Vec<rules::Input> = accepted
             .iter()
-            .map(|s| (&s.weights[..], s.samples))
+            .map(|s| rules::Input {
+                weights: &s.weights,
+                samples: s.samples,
+                distance_units: s.distance_units,
+            })
             .collect();
-        let new_weights: Arc<[i64]> =
-            payout::fedavg(&models, params.options.fedavg_rounding).into();
+        let aggregate = rule.aggregate(
+            &self.weights,
+            &inputs,
+            params.assumed_f() as usize,
+            &params.options,
+        );
+        let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 
         let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
@@ -622,35 +715,39 @@ impl ContractState {
                     >= u128::from(params.quorum) * u128::from(params.stake_units),
                 "every accepted submission staked"
             );
-            let n = self.weights.len() as u64;
-            let keys: Vec<u64> = accepted
-                .iter()
-                .map(|s| match params.options.rank_key {
-                    RankKey::Distance => s.distance_units,
-                    RankKey::Mae => s.distance_units / n,
-                })
-                .collect();
-            let order = payout::rank(&keys, params.options.median, params.options.rank_ties);
-            let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
-            let units = payout::payouts(
-                pool_units,
-                params.stake_units,
-                &ranked_samples,
-                &params.reward_weights,
-                params.options.payout_rounding,
-            );
-            // Rounded-down penalties (ratio_1e9) can ask for a few units more than the pool:
-            // they come from what the contract holds, and run out in rank order.
-            let mut available = self.holdings_units;
-            for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
-                let units = units.min(available);
-                available -= units;
-                payouts.push(Payout {
-                    robot: accepted[i].sender,
-                    rank: rank as u32,
-                    reward_weight: params.reward_weights[rank],
-                    units,
-                });
+            let order = &aggregate.used;
+            if rule == Rule::Paper {
+                let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
+                let units = payout::payouts(
+                    pool_units,
+                    params.stake_units,
+                    &ranked_samples,
+                    &params.reward_weights,
+                    params.options.payout_rounding,
+                );
+                // Rounded-down penalties (ratio_1e9) can ask for a few units more than the
+                // pool: they come from what the contract holds, and run out in rank order.
+                let mut available = self.holdings_units;
+                for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                    let units = units.min(available);
+                    available -= units;
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: params.reward_weights[rank],
+                        units,
+                    });
+                }
+            } else {
+                let units = payout::equal_shares(pool_units, order.len());
+                for (rank, &i) in order.iter().enumerate() {
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: 1,
+                        units,
+                    });
+                }
             }
         }
         let paid: u64 = payouts.iter().map(|p| p.units).sum();
@@ -679,6 +776,7 @@ impl ContractState {
         };
         self.last_round = Some(Arc::new(summary));
         self.round += 1;
+        self.round_opened_ms = self.block_time_ms;
         payouts
     }
 }

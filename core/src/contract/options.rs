@@ -4,6 +4,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::rules::Rule;
+use crate::config::{Config, ConfigError};
+
 /// Which machine executes the contract.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -154,5 +157,51 @@ impl ContractOptions {
             payout_rounding: PayoutRounding::Ratio1e9,
             pool: PoolRule::Round,
         }
+    }
+}
+
+/// The variant options (and `contract.reward_weights`) set away from swarmfl's defaults, as
+/// (key, value) pairs in key order.
+pub fn changed_options(config: &Config) -> Vec<(String, String)> {
+    let table = |o: &ContractOptions| toml::Table::try_from(o).expect("options encode as TOML");
+    let (mine, default) = (
+        table(&config.contract.options()),
+        table(&ContractOptions::default()),
+    );
+    let mut changed: Vec<(String, String)> = mine
+        .iter()
+        .filter(|&(k, v)| default.get(k) != Some(v))
+        .map(|(k, v)| (format!("contract.{k}"), v.to_string()))
+        .collect();
+    if !config.contract.reward_weights.is_empty() {
+        changed.push((
+            "contract.reward_weights".to_string(),
+            format!("{:?}", config.contract.reward_weights),
+        ));
+    }
+    changed.sort();
+    changed
+}
+
+/// The variant options describe the paper's contract (`fedavg` and `paper`); the robust rules
+/// would ignore them, so a configuration that sets one with a robust rule is refused rather
+/// than silently run under other rules than it says.
+pub fn check_rule_options(config: &Config) -> Result<(), ConfigError> {
+    let rule = config.rule();
+    if matches!(rule, Rule::Fedavg | Rule::Paper) {
+        return Ok(());
+    }
+    match changed_options(config).into_iter().next() {
+        None => Ok(()),
+        Some((key, value)) => Err(ConfigError::OutOfRange {
+            allowed: format!(
+                "its default with contract.rule = {} (the authors' variant options apply to \
+                 the paper's contract only: rules paper and fedavg); remove `{key}`, or set \
+                 contract.rule = paper",
+                rule.name()
+            ),
+            key,
+            value,
+        }),
     }
 }

@@ -213,3 +213,11 @@ pub fn payouts(
     );
     out
 }
+
+/// The reward rule of the robust rules: each of the `used` submissions gets `floor(P / used)`
+/// of the pool P (its stake back plus an equal share of the stakes of the submissions the rule
+/// did not use and of the carried remainder); the rest stays in the contract. `used >= 1`.
+pub fn equal_shares(pool_units: u64, used: usize) -> u64 {
+    assert!(used >= 1, "a rule uses at least one submission");
+    pool_units / used as u64
+}

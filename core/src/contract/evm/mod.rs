@@ -37,7 +37,8 @@ use super::{
     model_digest, Call, ContractParams, ContractState, Outcome, Payout, RoundSummary, Submission,
     Verdict, MAX_SAMPLES,
 };
-use crate::config::Config;
+use crate::config::{Config, ConfigError};
+use crate::contract::rules::Rule;
 use crate::types::RobotId;
 use abi::{Decoder, Encoder};
 
@@ -62,11 +63,36 @@ pub fn robot_address(robot: RobotId) -> Address {
     Address::new(bytes)
 }
 
-/// Checks that the EVM contract implements the configured rules (called by config validation):
-/// it implements the paper's rule with security on or off, every variant option included.
-pub fn supports(_config: &Config) -> Result<(), String> {
-    // Every key the native contract reads is implemented by SwarmFL.sol; aggregation rules
-    // other than the paper's have no Solidity counterpart and must be refused here.
+/// Checks that the EVM contract implements the configured rules (called by config validation
+/// when `contract.engine = "evm"`). `contracts/SwarmFL.sol` is the paper's contract, with
+/// security on (`contract.rule = paper`) or off (`fedavg`), every variant option included. It
+/// has no robust aggregation rule and no round deadline: such a configuration is refused,
+/// naming the key, rather than run on a contract that would not do what it says.
+pub fn supports(config: &Config) -> Result<(), ConfigError> {
+    let c = &config.contract;
+    let rule = config.rule();
+    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.rule".to_string(),
+            value: rule.name().to_string(),
+            allowed: format!(
+                "paper (or fedavg, i.e. contract.security = false) with contract.engine = evm: \
+                 contracts/SwarmFL.sol implements the paper's rule only; set \
+                 contract.engine = native to run {}, or contract.rule = paper",
+                rule.name()
+            ),
+        });
+    }
+    if c.round_timeout_s != 0.0 {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.round_timeout_s".to_string(),
+            value: c.round_timeout_s.to_string(),
+            allowed: "0 (no deadline) with contract.engine = evm: contracts/SwarmFL.sol has \
+                      no round deadline; set contract.round_timeout_s = 0, or \
+                      contract.engine = native"
+                .to_string(),
+        });
+    }
     Ok(())
 }
 
@@ -115,6 +141,10 @@ struct Rules {
 
 impl Rules {
     fn of(params: &ContractParams) -> Rules {
+        assert!(
+            params.robust.is_none() && params.round_timeout_ms == 0,
+            "SwarmFL.sol has no robust rule and no deadline (validation refuses them with evm)"
+        );
         Rules {
             stake_units: params.stake_units,
             security: params.security,
@@ -439,6 +469,10 @@ pub fn execute(
             state.previous_weights = Some(std::mem::replace(&mut state.weights, model));
             state.previous_digest = state.weights_digest;
             state.weights_digest = model_digest(&state.weights);
+            // The round opened by this aggregation counts from this block (what the native
+            // contract records for its deadline; the EVM contract has none, validation keeps
+            // it off, but the state digest covers the field).
+            state.round_opened_ms = state.block_time_ms;
             state.last_round = Some(Arc::new(RoundSummary {
                 round: *closed,
                 submissions,

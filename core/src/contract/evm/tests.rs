@@ -83,6 +83,8 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         outlier_threshold_units: [0, 1, 1_000, 50_000_000][below(rng, 4) as usize],
         reward_weights,
         genesis_weights: genesis.into(),
+        round_timeout_ms: 0,
+        robust: None,
         options,
         engine: ContractEngine::Native,
     }
@@ -219,6 +221,13 @@ fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
         let target = done + 1 + below(&mut rng, 12);
         let mut stalled = 0;
         while done < target && stalled < 200 {
+            // A new block now and then: the block time, and the round's opening time after an
+            // aggregation, are part of the state (and its digest) in both engines.
+            if chance(&mut rng, 30) {
+                let now_ms = native.block_time_ms + 1 + below(&mut rng, 20_000);
+                native.enter_block(&p, now_ms);
+                evm.enter_block(&pe, now_ms);
+            }
             let (sender, value, call) = random_call(&mut rng, &p, &native);
             let a = native.execute(&p, sender, value, &call);
             let b = evm.execute(&pe, sender, value, &call);
