@@ -12,6 +12,11 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub use crate::byzantine::ledger::LedgerBehaviour;
+use crate::contract::options::ContractOptions;
+pub use crate::contract::options::{
+    ContractEngine, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
+    ThresholdRule,
+};
 pub use crate::contract::rules::Rule;
 use crate::faults::FaultsConfig;
 
@@ -190,6 +195,61 @@ pub struct ContractConfig {
     /// Beyond the paper, whose contract has no deadline: off in every preset.
     #[serde(default)]
     pub round_timeout_s: f64,
+    /// Explicit reward weight per rank, best first (one per quorum rank, at least one
+    /// positive, each in -1000..=1000); empty (the default) derives them from
+    /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].
+    #[serde(default)]
+    pub reward_weights: Vec<i64>,
+    /// Which machine executes the contract: "native" (the Rust reducer) or "evm" (the Solidity
+    /// contract of `contracts/`, its committed bytecode run in revm; same events and results).
+    #[serde(default)]
+    pub engine: ContractEngine,
+    /// Median of an even count of distances: "lower" middle (swarmfl) or "mean" of the two
+    /// middles, floored (authors).
+    #[serde(default)]
+    pub median: MedianRule,
+    /// FedAvg rounding: "nearest", ties away from zero (swarmfl), or "truncate" toward zero
+    /// (authors).
+    #[serde(default)]
+    pub fedavg_rounding: FedAvgRounding,
+    /// Refuse (malformed) an accepted model when some `w_i * n`, or the round's running sum
+    /// with it, leaves int48: the authors' int48 accumulator reverts such a submission.
+    #[serde(default)]
+    pub int48_products: bool,
+    /// Outlier threshold: "inclusive", `d <= t * N` (swarmfl), or "strict", `d < t * N`
+    /// (authors).
+    #[serde(default)]
+    pub threshold: ThresholdRule,
+    /// Ranking key: exact L1 "distance" (swarmfl) or truncated "mae" `floor(d / N)` (authors).
+    #[serde(default)]
+    pub rank_key: RankKey,
+    /// Ranking ties: "stable" submission order (swarmfl) or the authors' "quicksort".
+    #[serde(default)]
+    pub rank_ties: RankTies,
+    /// Payout shares: "exact" to one unit (swarmfl) or "ratio_1e9", normalised to 1e9 and
+    /// floored (authors).
+    #[serde(default)]
+    pub payout_rounding: PayoutRounding,
+    /// Pool of an aggregation: "carry" (all the contract holds, remainders included; swarmfl)
+    /// or "round" (the round's stakes only; authors).
+    #[serde(default)]
+    pub pool: PoolRule,
+}
+
+impl ContractConfig {
+    /// The variant options of the contract (docs/CONTRACT.md).
+    pub fn options(&self) -> ContractOptions {
+        ContractOptions {
+            median: self.median,
+            fedavg_rounding: self.fedavg_rounding,
+            int48_products: self.int48_products,
+            threshold: self.threshold,
+            rank_key: self.rank_key,
+            rank_ties: self.rank_ties,
+            payout_rounding: self.payout_rounding,
+            pool: self.pool,
+        }
+    }
 }
 
 fn default_rule() -> Rule {
@@ -583,6 +643,16 @@ impl Config {
                 rule: Rule::Paper,
                 assumed_f: 1,
                 round_timeout_s: 0.0,
+                reward_weights: Vec::new(),
+                engine: ContractEngine::Native,
+                median: MedianRule::Lower,
+                fedavg_rounding: FedAvgRounding::Nearest,
+                int48_products: false,
+                threshold: ThresholdRule::Inclusive,
+                rank_key: RankKey::Distance,
+                rank_ties: RankTies::Stable,
+                payout_rounding: PayoutRounding::Exact,
+                pool: PoolRule::Carry,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -628,6 +698,9 @@ impl Config {
     /// The reward weight of each rank, best first: +1 for the rewarded, -1 for the
     /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
     pub fn reward_weights(&self) -> Vec<i64> {
+        if !self.contract.reward_weights.is_empty() {
+            return self.contract.reward_weights.clone();
+        }
         let q = self.quorum() as usize;
         // At least the best rank is rewarded (validation enforces it; the clamp keeps
         // unvalidated test configurations meaningful).
@@ -1080,6 +1153,26 @@ impl Config {
                 })
             }
         }
+        let k = &c.contract.reward_weights;
+        if !k.is_empty()
+            && (k.len() != c.quorum() as usize
+                || !k.iter().any(|&w| w > 0)
+                || k.iter().any(|w| w.abs() > 1000))
+        {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.reward_weights".to_string(),
+                value: format!("{k:?}"),
+                allowed: format!(
+                    "empty (derived from penalised_ranks) or one weight per rank of the quorum \
+                     ({}), at least one positive, each in -1000..=1000",
+                    c.quorum()
+                ),
+            });
+        }
+        crate::contract::options::check_rule_options(c)?;
+        if c.contract.engine == ContractEngine::Evm {
+            crate::contract::evm::supports(c)?;
+        }
         int(
             "byzantine.count",
             c.byzantine.count.into(),
@@ -1208,7 +1301,9 @@ impl Config {
 /// - `run.duration_s`: the run ends at the new time (after the fork point).
 /// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
 /// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
-///   `penalised_ranks`, `rule`, `assumed_f`: the contract's rules change for the blocks sealed after the fork point
+///   `penalised_ranks`, `rule`, `assumed_f`, `reward_weights` and the variant options
+///   (`median` .. `pool`): the contract's rules change for the blocks sealed after the fork
+///   point
 ///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
 ///   chain when it crosses the activation is restarted and its stakes refunded.
 /// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
@@ -1230,6 +1325,15 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.penalised_ranks",
     "contract.rule",
     "contract.assumed_f",
+    "contract.reward_weights",
+    "contract.median",
+    "contract.fedavg_rounding",
+    "contract.int48_products",
+    "contract.threshold",
+    "contract.rank_key",
+    "contract.rank_ties",
+    "contract.payout_rounding",
+    "contract.pool",
     "byzantine.*",
     "output.*",
 ];
@@ -1538,6 +1642,92 @@ mod tests {
             err.contains("unknown preset \"papr\"") && err.contains("e3-smart"),
             "{err}"
         );
+    }
+
+    /// `contract.engine = evm` runs contracts/SwarmFL.sol, the paper's contract with security
+    /// on or off: every other rule, and the round deadline it lacks, are refused with the key,
+    /// the value and the fix; native runs keep them.
+    #[test]
+    fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
+        for rule in crate::contract::rules::ALL_RULES {
+            let set = |engine: &str| {
+                Config::resolve(
+                    None,
+                    None,
+                    &[
+                        format!("contract.rule={}", rule.name()),
+                        format!("contract.engine={engine}"),
+                    ],
+                )
+            };
+            set("native").unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+            match (rule, set("evm")) {
+                (Rule::Paper | Rule::Fedavg, got) => {
+                    got.unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+                }
+                (_, Ok(_)) => panic!("{} accepted under evm", rule.name()),
+                (_, Err(e)) => {
+                    let e = e.to_string();
+                    assert!(
+                        e.contains(&format!("`contract.rule`: value {}", rule.name()))
+                            && e.contains("contract.engine = evm")
+                            && e.contains("set contract.engine = native"),
+                        "{e}"
+                    );
+                }
+            }
+        }
+        // Security off is the fedavg rule, which the contract implements.
+        Config::resolve(
+            None,
+            None,
+            &[
+                "contract.engine=evm".into(),
+                "contract.security=false".into(),
+            ],
+        )
+        .unwrap();
+        check_err(
+            &["contract.engine=evm", "contract.round_timeout_s=300"],
+            "`contract.round_timeout_s`: value 300 is out of range; allowed: 0 (no deadline) \
+             with contract.engine = evm",
+        );
+        Config::resolve(None, None, &["contract.round_timeout_s=300".into()]).unwrap();
+    }
+
+    /// The authors' variant options describe the paper's contract: a robust rule would ignore
+    /// them, so setting one with it is refused, naming the option.
+    #[test]
+    fn variant_options_are_refused_with_a_robust_rule() {
+        check_err(
+            &["contract.rule=median", "contract.median=mean"],
+            "`contract.median`: value \"mean\" is out of range; allowed: its default with \
+             contract.rule = median",
+        );
+        check_err(
+            &[
+                "contract.rule=krum",
+                "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]",
+            ],
+            "`contract.reward_weights`: value [5, 4, 3, 2, 1, -1, -2]",
+        );
+        check_err(
+            &["contract.rule=krum", "contract.pool=round"],
+            "remove `contract.pool`, or set contract.rule = paper",
+        );
+        for rule in ["paper", "fedavg"] {
+            Config::resolve(
+                None,
+                None,
+                &[
+                    format!("contract.rule={rule}"),
+                    "contract.median=mean".into(),
+                    "contract.pool=round".into(),
+                    "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]".into(),
+                ],
+            )
+            .unwrap_or_else(|e| panic!("{rule}: {e}"));
+        }
     }
 
     #[test]

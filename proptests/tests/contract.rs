@@ -27,6 +27,8 @@ fn params(security: bool) -> ContractParams {
         genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
         robust: None,
         round_timeout_ms: 0,
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 

@@ -35,6 +35,8 @@ fn params(rule: Rule) -> ContractParams {
             rule => Some(RobustRule { rule, assumed_f: 1 }),
         },
         round_timeout_ms: 0,
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 

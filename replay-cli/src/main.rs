@@ -323,7 +323,9 @@ and its stakes refunded). Keys a fork may change:
 
   run.duration_s                     the run ends at the new time
   learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
-  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks
+  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks,
+  reward_weights, median, fedavg_rounding, int48_products, threshold, rank_key, rank_ties,
+  payout_rounding, pool
   byzantine.*                        which robots misbehave, and how
   output.*
 

@@ -104,6 +104,9 @@ pub fn write_run(
     map.insert("wall_s".into(), serde_json::json!(wall_s));
     map.insert("log_bytes".into(), serde_json::json!(log_bytes));
     map.insert("timing".into(), timing.json());
+    if let Some(gas) = evm_gas(sim.state()) {
+        map.insert("evm_gas".into(), gas);
+    }
     let summary_path = out.join("summary.json");
     std::fs::write(
         &summary_path,
@@ -111,6 +114,32 @@ pub fn write_run(
     )
     .with_context(|| format!("cannot write {}", summary_path.display()))?;
     Ok(RunOutcome { summary, log_path })
+}
+
+/// With `contract.engine = "evm"`: the gas of the contract calls on the final canonical chain,
+/// by kind (`accepted` = a submission that did not close its round, `aggregated` = the one that
+/// did, `outlier`, the refusals, `deploy`), with mean, min, max and total.
+fn evm_gas(state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
+    let ledger = &state.ledger;
+    let head = ledger.head_state(swarmfl_core::metrics::best_node(ledger));
+    let evm = head.evm.as_ref()?;
+    let kinds: serde_json::Map<String, serde_json::Value> = evm
+        .gas
+        .iter()
+        .map(|(kind, g)| {
+            (
+                kind.clone(),
+                serde_json::json!({
+                    "calls": g.calls,
+                    "mean_gas": g.mean_gas(),
+                    "min_gas": g.min_gas,
+                    "max_gas": g.max_gas,
+                    "total_gas": g.total_gas,
+                }),
+            )
+        })
+        .collect();
+    Some(serde_json::Value::Object(kinds))
 }
 
 /// Prints the short human summary of a run.
@@ -174,6 +203,21 @@ pub fn print_summary(outcome: &RunOutcome) {
         l["tx_delay_p95_s"],
         l["bytes_per_submission"].as_f64().unwrap_or(0.0)
     );
+    if let Some(gas) = s.get("evm_gas") {
+        let mean = |kind: &str| {
+            gas[kind]["mean_gas"]
+                .as_u64()
+                .map_or("-".into(), |g| g.to_string())
+        };
+        println!(
+            "evm gas:    submission {} (mean), aggregating submission {}, outlier {}, deploy {}; \
+             contract wall time is inside ledger_s below",
+            mean("accepted"),
+            mean("aggregated"),
+            mean("outlier"),
+            mean("deploy")
+        );
+    }
     println!("timing:     {}", s["timing"]);
     println!("final hash: {}", s["final_hash"].as_str().unwrap_or("?"));
     println!("wall time:  {:.2} s", s["wall_s"].as_f64().unwrap_or(0.0));

@@ -69,6 +69,8 @@ mod tests {
             genesis_weights: vec![0i64; 4].into(),
             round_timeout_ms: timeout_ms,
             robust: None,
+            options: Default::default(),
+            engine: Default::default(),
         }
     }
 

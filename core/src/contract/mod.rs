@@ -40,6 +40,8 @@
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
 mod deadline;
+pub mod evm;
+pub mod options;
 pub mod payout;
 pub mod rules;
 
@@ -52,6 +54,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
 use crate::types::{Digest, RobotId};
+use options::{ContractEngine, ContractOptions, PoolRule, ThresholdRule};
 pub use rules::Rule;
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
@@ -92,6 +95,16 @@ pub struct ContractParams {
     /// before rules could be chosen.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub robust: Option<RobustRule>,
+    /// The authors' variants of the paper's rule (docs/CONTRACT.md); committed to by the
+    /// genesis block only when some option is not swarmfl's default, so default runs keep
+    /// their hashes. Always the default with a robust rule (validation), so at most one of
+    /// `robust` and `options` is ever encoded.
+    #[serde(default, skip_serializing_if = "ContractOptions::is_default")]
+    pub options: ContractOptions,
+    /// Which machine executes the contract. Not part of the genesis commitment: both engines
+    /// execute the same contract, so a run's chain is the same under either.
+    #[serde(skip)]
+    pub engine: ContractEngine,
 }
 
 /// A robust rule of [`ContractParams`].
@@ -125,6 +138,8 @@ impl ContractParams {
                 }),
             },
             round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
+            options: c.options(),
+            engine: c.engine,
         }
     }
 
@@ -154,6 +169,7 @@ impl ContractParams {
 
     /// The largest accepted distance `sum_i |w_i - w_a,i|`: `threshold_units * N`.
     pub fn max_distance_units(&self) -> u128 {
+        // The product fits u128: threshold below 2^63, at most 2^16 weights.
         u128::try_from(self.outlier_threshold_units).unwrap_or(0) * self.model_len() as u128
     }
 
@@ -385,6 +401,11 @@ pub struct ContractState {
     /// Stake units refunded by deadlines, in all.
     #[serde(default)]
     pub timeout_refunded_units: u64,
+    /// With `contract.engine = "evm"`: the EVM holding the deployed contract, whose storage is
+    /// the truth the fields above are read back from. Not serialised (the fields above are the
+    /// state's portable form) and not in [`ContractState::digest`] (they mirror it exactly).
+    #[serde(skip)]
+    pub evm: Option<Arc<evm::EvmState>>,
 }
 
 impl ContractState {
@@ -405,6 +426,10 @@ impl ContractState {
             round_opened_ms: 0,
             rounds_timed_out: 0,
             timeout_refunded_units: 0,
+            evm: match params.engine {
+                ContractEngine::Native => None,
+                ContractEngine::Evm => Some(Arc::new(evm::EvmState::deploy(params))),
+            },
         }
     }
 
@@ -419,6 +444,15 @@ impl ContractState {
             .iter()
             .filter(|s| s.verdict == Verdict::Accepted)
             .count() as u32
+    }
+
+    /// The current round's accepted models with their sample counts, in submission order.
+    pub fn accepted_models(&self) -> Vec<(&[i64], u64)> {
+        self.submissions
+            .iter()
+            .filter(|s| s.verdict == Verdict::Accepted)
+            .map(|s| (&s.weights[..], s.samples))
+            .collect()
     }
 
     /// True when `robot` has a counted submission in the current round.
@@ -440,11 +474,12 @@ impl ContractState {
             params.robots as usize,
             "state and params disagree"
         );
-        let outcome = match call {
-            Call::SubmitModel { weights, samples } => {
+        let outcome = match (params.engine, call) {
+            (ContractEngine::Evm, call) => evm::execute(self, params, sender, value_units, call),
+            (ContractEngine::Native, Call::SubmitModel { weights, samples }) => {
                 self.submit_model(params, sender, value_units, weights, *samples)
             }
-            Call::Transfer { to, amount_units } => {
+            (ContractEngine::Native, Call::Transfer { to, amount_units }) => {
                 self.transfer(sender, value_units, *to, *amount_units)
             }
         };
@@ -461,6 +496,9 @@ impl ContractState {
     /// submission of the round gets its stake back from the contract and may submit again;
     /// the round number, the model and the carried remainder stay. Conserves tokens.
     pub fn restart_round(&mut self) {
+        if self.evm.is_some() {
+            return evm::restart_round(self);
+        }
         for s in std::mem::take(&mut self.submissions) {
             self.holdings_units = self
                 .holdings_units
@@ -577,14 +615,22 @@ impl ContractState {
         };
 
         let distance_units = payout::distance_units(weights, &self.weights);
-        let verdict = if params.security
-            && params.rule().uses_threshold()
-            && u128::from(distance_units) > params.max_distance_units()
-        {
+        let max = params.max_distance_units();
+        let distance = u128::from(distance_units);
+        let beyond = match params.options.threshold {
+            ThresholdRule::Inclusive => distance > max,
+            ThresholdRule::Strict => distance >= max,
+        };
+        let verdict = if params.security && params.rule().uses_threshold() && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted
         };
+        if verdict == Verdict::Accepted && params.options.int48_products {
+            if let Err(reason) = payout::int48_products(&self.accepted_models(), weights, samples) {
+                return Outcome::Malformed(reason);
+            }
+        }
         self.balances[sender as usize] = balance - stake_units;
         self.holdings_units = self
             .holdings_units
@@ -643,14 +689,23 @@ impl ContractState {
                 distance_units: s.distance_units,
             })
             .collect();
-        let aggregate = rule.aggregate(&self.weights, &inputs, params.assumed_f() as usize);
+        let aggregate = rule.aggregate(
+            &self.weights,
+            &inputs,
+            params.assumed_f() as usize,
+            &params.options,
+        );
         let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 
-        let pool_units = self.holdings_units;
+        let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
+        let pool_units = match params.options.pool {
+            PoolRule::Carry => self.holdings_units,
+            PoolRule::Round if params.security => u64::try_from(stakes).expect("stakes are held"),
+            PoolRule::Round => self.holdings_units,
+        };
         let mut payouts = Vec::new();
         if params.security {
-            let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
             assert!(
                 u128::from(pool_units) >= stakes,
                 "the pool holds the round's stakes"
@@ -668,8 +723,14 @@ impl ContractState {
                     params.stake_units,
                     &ranked_samples,
                     &params.reward_weights,
+                    params.options.payout_rounding,
                 );
+                // Rounded-down penalties (ratio_1e9) can ask for a few units more than the
+                // pool: they come from what the contract holds, and run out in rank order.
+                let mut available = self.holdings_units;
                 for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                    let units = units.min(available);
+                    available -= units;
                     payouts.push(Payout {
                         robot: accepted[i].sender,
                         rank: rank as u32,
@@ -691,8 +752,9 @@ impl ContractState {
         }
         let paid: u64 = payouts.iter().map(|p| p.units).sum();
         assert!(
-            paid <= pool_units,
-            "payouts {paid} exceed the pool {pool_units}"
+            paid <= self.holdings_units,
+            "payouts {paid} exceed the holdings {}",
+            self.holdings_units
         );
         for p in &payouts {
             let balance = &mut self.balances[p.robot as usize];
@@ -700,7 +762,7 @@ impl ContractState {
                 .checked_add(p.units)
                 .expect("conserved supply fits u64");
         }
-        self.holdings_units = pool_units - paid;
+        self.holdings_units -= paid;
 
         self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
         self.previous_digest = self.weights_digest;

@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::*;
 
@@ -24,6 +25,8 @@ fn params(security: bool) -> ContractParams {
         genesis_weights: vec![0i64; 4].into(),
         robust: None,
         round_timeout_ms: 0,
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 
@@ -570,7 +573,11 @@ fn a_quorum_of_one_returns_the_pool() {
 #[test]
 fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
     fn check_rank(distances: &[u64], expect: &[usize]) {
-        assert_eq!(rank(distances), expect, "distances {distances:?}");
+        assert_eq!(
+            rank(distances, MedianRule::Lower, RankTies::Stable),
+            expect,
+            "distances {distances:?}"
+        );
     }
     check_rank(&[10, 20, 30, 40, 50, 150, 190], &[3, 2, 4, 1, 0, 5, 6]);
     check_rank(&[7, 7, 7], &[0, 1, 2]);
@@ -584,7 +591,7 @@ fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
 fn payouts_follow_the_paper_to_the_unit() {
     fn check_pay(pool: u64, samples: &[u64], k: &[i64], expect: &[u64]) {
         assert_eq!(
-            payouts(pool, STAKE, samples, k),
+            payouts(pool, STAKE, samples, k, PayoutRounding::Exact),
             expect,
             "pool {pool} samples {samples:?}"
         );
@@ -620,7 +627,7 @@ fn payouts_follow_the_paper_to_the_unit() {
 #[test]
 fn fedavg_rounds_to_nearest_with_ties_away_from_zero() {
     fn check_avg(models: &[(&[i64], u64)], expect: &[i64]) {
-        assert_eq!(fedavg(models), expect);
+        assert_eq!(fedavg(models, FedAvgRounding::Nearest), expect);
     }
     check_avg(&[(&[1, -1, 3], 1), (&[0, 0, 0], 1)], &[1, -1, 2]); // 0.5, -0.5, 1.5
     check_avg(&[(&[1, 2, -2], 1), (&[0, 0, 0], 2)], &[0, 1, -1]); // 1/3, 2/3, -2/3

@@ -187,7 +187,7 @@ impl TrainData {
     pub fn from_flat(shape: &ModelShape, inputs: Vec<f32>, targets: Vec<f32>) -> Option<TrainData> {
         let n_in = shape.input_len();
         let n_out = shape.outputs();
-        if n_in == 0 || n_out == 0 || inputs.len() % n_in != 0 {
+        if n_in == 0 || n_out == 0 || !inputs.len().is_multiple_of(n_in) {
             return None;
         }
         let len = inputs.len() / n_in;

@@ -342,7 +342,7 @@ impl World {
             }
             self.recorders[i].expire(&p.recording, now);
         }
-        if self.tick % p.peer_refresh_ticks == 0 {
+        if self.tick.is_multiple_of(p.peer_refresh_ticks) {
             for (peers, c) in self.peers.iter_mut().zip(&contacts) {
                 peers.clone_from(c);
             }

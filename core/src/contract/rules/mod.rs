@@ -33,6 +33,7 @@ pub mod trimmed_mean;
 
 use serde::{Deserialize, Serialize};
 
+use super::options::ContractOptions;
 use super::payout::{self, div_round_half_away};
 
 /// A contract aggregation rule (`contract.rule`).
@@ -140,8 +141,16 @@ impl Rule {
 
     /// Aggregates a round: `current` is the shared model the round was opened on, `inputs`
     /// the accepted submissions in submission order (non-empty, each of `current`'s length),
-    /// `f` the assumed Byzantine count (`inputs.len() >= min_quorum(f)`).
-    pub fn aggregate(self, current: &[i64], inputs: &[Input], f: usize) -> Aggregate {
+    /// `f` the assumed Byzantine count (`inputs.len() >= min_quorum(f)`), `options` the
+    /// authors' variants, which only `fedavg` and `paper` read (validation keeps them at their
+    /// defaults under the robust rules).
+    pub fn aggregate(
+        self,
+        current: &[i64],
+        inputs: &[Input],
+        f: usize,
+        options: &ContractOptions,
+    ) -> Aggregate {
         assert!(!inputs.is_empty(), "aggregation of no models");
         assert!(
             inputs.iter().all(|s| s.weights.len() == current.len()),
@@ -154,8 +163,8 @@ impl Rule {
             self.min_quorum(f as u32)
         );
         let aggregate = match self {
-            Rule::Fedavg => fedavg::aggregate(inputs),
-            Rule::Paper => paper::aggregate(inputs),
+            Rule::Fedavg => fedavg::aggregate(inputs, options.fedavg_rounding),
+            Rule::Paper => paper::aggregate(inputs, options),
             Rule::Krum => krum::aggregate(inputs, f),
             Rule::MultiKrum => multi_krum::aggregate(inputs, f),
             Rule::Median => median::aggregate(inputs, f),

@@ -5,17 +5,30 @@
 //! ([`crate::contract::payout::rank`]); the reward rule then pays by rank with the paper's
 //! +1/-1 weights ([`crate::contract::payout::payouts`]). `f` is ignored: the threshold, not a
 //! count, is the defence.
+//!
+//! The authors' variants (`contract.fedavg_rounding`, `rank_key`, `median`, `rank_ties`;
+//! docs/CONTRACT.md) change the FedAvg rounding and the ranking here; the others act on
+//! arrival (`threshold`, `int48_products`) and in the payouts (`payout_rounding`, `pool`).
 
 use super::{Aggregate, Input};
+use crate::contract::options::{ContractOptions, RankKey};
 use crate::contract::payout;
 
 /// FedAvg of the accepted inputs; all used, in the paper's rank order.
-pub fn aggregate(inputs: &[Input]) -> Aggregate {
+pub fn aggregate(inputs: &[Input], options: &ContractOptions) -> Aggregate {
     let models: Vec<(&[i64], u64)> = inputs.iter().map(|s| (s.weights, s.samples)).collect();
-    let distances: Vec<u64> = inputs.iter().map(|s| s.distance_units).collect();
+    let n = inputs[0].weights.len() as u64;
+    let keys: Vec<u64> = inputs
+        .iter()
+        .map(|s| match options.rank_key {
+            RankKey::Distance => s.distance_units,
+            // The authors rank on the truncated mean absolute error, which creates ties.
+            RankKey::Mae => s.distance_units / n,
+        })
+        .collect();
     Aggregate {
-        weights: payout::fedavg(&models),
-        used: payout::rank(&distances),
+        weights: payout::fedavg(&models, options.fedavg_rounding),
+        used: payout::rank(&keys, options.median, options.rank_ties),
     }
 }
 
@@ -35,7 +48,7 @@ mod tests {
                 distance_units: d,
             })
             .collect();
-        let a = aggregate(&inputs);
+        let a = aggregate(&inputs, &ContractOptions::default());
         // (0 + 12 + 3) / 4 = 3.75 -> 4; median distance 30: keys 20, 20, 0.
         assert_eq!(a.weights, vec![4]);
         assert_eq!(a.used, vec![2, 0, 1]);
