@@ -8,6 +8,7 @@ use std::path::Path;
 
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{ExperimentStats, Figure};
 use crate::sweep;
@@ -317,24 +318,6 @@ fn draw_on<DB: DrawingBackend>(
             .y_label_area_size(130);
     }
     let mut chart = builder.build_cartesian_2d(0..nc, 0..nr)?;
-    if text {
-        let cols = map.cols.clone();
-        let rows = map.rows.clone();
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .x_labels(map.cols.len())
-            .y_labels(map.rows.len())
-            .x_label_formatter(&move |x| cols.get(*x as usize).cloned().unwrap_or_default())
-            .y_label_formatter(&move |y| {
-                rows.get((nr - 1 - *y) as usize)
-                    .cloned()
-                    .unwrap_or_default()
-            })
-            .x_label_style(("sans-serif", 12))
-            .y_label_style(("sans-serif", 13))
-            .draw()?;
-    }
     for (r, row) in map.values.iter().enumerate() {
         let y = nr - 1 - r as i32;
         for (c, v) in row.iter().enumerate() {
@@ -361,6 +344,29 @@ fn draw_on<DB: DrawingBackend>(
                     ("sans-serif", 12).into_font().color(&BLACK),
                 ))?;
             }
+        }
+    }
+    if text {
+        // Axis labels at the centre of each row and column (plotters' mesh labels sit on the
+        // cell boundaries of an integer axis).
+        for (c, name) in map.cols.iter().enumerate() {
+            let (px, py) = chart.backend_coord(&(c as i32, 0));
+            let (qx, _) = chart.backend_coord(&(c as i32 + 1, 0));
+            let style = ("sans-serif", 12)
+                .into_font()
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Center, VPos::Top));
+            root.draw(&Text::new(name.clone(), ((px + qx) / 2, py + 8), style))?;
+        }
+        for (r, name) in map.rows.iter().enumerate() {
+            let y = nr - 1 - r as i32;
+            let (px, py) = chart.backend_coord(&(0, y));
+            let (_, qy) = chart.backend_coord(&(0, y + 1));
+            let style = ("sans-serif", 13)
+                .into_font()
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Right, VPos::Center));
+            root.draw(&Text::new(name.clone(), (px - 8, (py + qy) / 2), style))?;
         }
     }
     Ok(())
