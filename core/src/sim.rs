@@ -978,47 +978,18 @@ impl Sim {
                     weights,
                     samples: claimed,
                     base_round,
-                } => match learn::to_fixed(&weights, scale) {
-                    Ok(fixed) => {
-                        let tx = self.submission(r, fixed, u64::from(claimed));
-                        let action = LearnAction::Forged {
-                            tx: tx.hash_and_size().0,
-                            claimed_samples: claimed,
-                        };
-                        (base_round, action, Some(tx))
-                    }
-                    Err(_) => (
-                        base_round,
-                        LearnAction::Skipped {
-                            reason: SkipReason::NonFiniteModel,
-                        },
-                        None,
-                    ),
-                },
+                } => {
+                    let (action, tx) = self.forged(r, &weights, claimed);
+                    (base_round, action, tx)
+                }
                 Plan::Train { job, base_round } => {
                     let (action, tx) = self.trained(r, &outcomes[job]);
                     (base_round, action, tx)
                 }
                 Plan::TrainForged { job, base_round } => {
                     let outcome = &outcomes[job];
-                    let claimed = outcome.train_samples;
-                    match learn::to_fixed(&outcome.weights, scale) {
-                        Ok(fixed) => {
-                            let tx = self.submission(r, fixed, u64::from(claimed));
-                            let action = LearnAction::Forged {
-                                tx: tx.hash_and_size().0,
-                                claimed_samples: claimed,
-                            };
-                            (base_round, action, Some(tx))
-                        }
-                        Err(_) => (
-                            base_round,
-                            LearnAction::Skipped {
-                                reason: SkipReason::NonFiniteModel,
-                            },
-                            None,
-                        ),
-                    }
+                    let (action, tx) = self.forged(r, &outcome.weights, outcome.train_samples);
+                    (base_round, action, tx)
                 }
                 Plan::Ready {
                     outcome,
@@ -1139,6 +1110,27 @@ impl Sim {
         self.state
             .ledger
             .make_tx(robot, self.learners.stake_units, call)
+    }
+
+    /// The report and submission of a forged model claiming `claimed` samples (a model that
+    /// does not convert to fixed point is skipped, as an honest one is).
+    fn forged(&self, robot: RobotId, weights: &[f32], claimed: u32) -> (LearnAction, Option<Tx>) {
+        match learn::to_fixed(weights, self.config.contract.weight_scale) {
+            Ok(fixed) => {
+                let tx = self.submission(robot, fixed, u64::from(claimed));
+                let action = LearnAction::Forged {
+                    tx: tx.hash_and_size().0,
+                    claimed_samples: claimed,
+                };
+                (action, Some(tx))
+            }
+            Err(_) => (
+                LearnAction::Skipped {
+                    reason: SkipReason::NonFiniteModel,
+                },
+                None,
+            ),
+        }
     }
 
     /// The report and submission of an honest training.
