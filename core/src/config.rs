@@ -1647,6 +1647,7 @@ mod tests {
     /// `contract.engine = evm` runs contracts/SwarmFL.sol, the paper's contract with security
     /// on or off: every other rule, and the round deadline it lacks, are refused with the key,
     /// the value and the fix; native runs keep them.
+    #[cfg(feature = "evm")]
     #[test]
     fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
         for rule in crate::contract::rules::ALL_RULES {
@@ -1693,6 +1694,20 @@ mod tests {
              with contract.engine = evm",
         );
         Config::resolve(None, None, &["contract.round_timeout_s=300".into()]).unwrap();
+    }
+
+    /// Without the `evm` feature, `contract.engine = evm` is refused with the command that
+    /// builds the engine; `native` still runs.
+    #[cfg(not(feature = "evm"))]
+    #[test]
+    fn the_evm_engine_names_the_feature_in_a_build_without_it() {
+        check_err(
+            &["contract.engine=evm"],
+            "`contract.engine`: value evm is out of range; allowed: native in this build of \
+             swarmfl, which was built without the EVM engine (cargo feature `evm`, off by \
+             default); rebuild with `cargo build --release -p replay-cli --features evm`",
+        );
+        Config::resolve(None, None, &["contract.engine=native".into()]).unwrap();
     }
 
     /// The authors' variant options describe the paper's contract: a robust rule would ignore

@@ -10,9 +10,17 @@ use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
 use swarmfl_core::sim::{Sim, State};
 
+use rayon::prelude::*;
+
 #[test]
 fn every_rule_and_attack_runs_and_replays_bit_exactly() {
-    for (i, kind) in ByzantineKind::ALL[1..].iter().copied().enumerate() {
+    // The 12 runs are independent: run them side by side (each asserts on its own).
+    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL[1..]
+        .iter()
+        .copied()
+        .enumerate()
+        .collect();
+    kinds.into_par_iter().for_each(|(i, kind)| {
         let rule = ALL_RULES[i % ALL_RULES.len()];
         let mut config = Preset::Smoke.config();
         config.run.duration_s = 250.0;
@@ -58,5 +66,5 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
             rule.name(),
             kind.name()
         );
-    }
+    });
 }

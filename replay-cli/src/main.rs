@@ -7,6 +7,7 @@ mod export;
 mod fixtures;
 mod fork;
 mod inspect;
+mod png;
 mod progress;
 mod report;
 mod run;

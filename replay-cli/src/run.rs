@@ -116,9 +116,16 @@ pub fn write_run(
     Ok(RunOutcome { summary, log_path })
 }
 
+/// Without the `evm` feature no run has an EVM, so no gas to report.
+#[cfg(not(feature = "evm"))]
+fn evm_gas(_state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
+    None
+}
+
 /// With `contract.engine = "evm"`: the gas of the contract calls on the final canonical chain,
 /// by kind (`accepted` = a submission that did not close its round, `aggregated` = the one that
 /// did, `outlier`, the refusals, `deploy`), with mean, min, max and total.
+#[cfg(feature = "evm")]
 fn evm_gas(state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
     let ledger = &state.ledger;
     let head = ledger.head_state(swarmfl_core::metrics::best_node(ledger));

@@ -57,11 +57,12 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
             draw_on(&root, world, marks, Some(title))
                 .or_else(|_| draw_on(&root, world, marks, None))
         }
-        Some("png") => {
-            let root = BitMapBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
-            draw_on(&root, world, marks, Some(title))
-                .or_else(|_| draw_on(&root, world, marks, None))
-        }
+        Some("png") => crate::png::draw_png(out, (SIZE_PX, SIZE_PX), |root| {
+            draw_on(root, world, marks, Some(title))
+                .or_else(|_| draw_on(root, world, marks, None))
+                .map_err(|e| format!("{e:#}"))
+        })
+        .map_err(|e| anyhow::anyhow!(e)),
         _ => unreachable!("the extension was checked above"),
     };
     result.with_context(|| format!("drawing the snapshot into {}", out.display()))

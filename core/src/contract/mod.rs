@@ -40,6 +40,10 @@
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
 mod deadline;
+#[cfg(feature = "evm")]
+pub mod evm;
+#[cfg(not(feature = "evm"))]
+#[path = "evm_absent.rs"]
 pub mod evm;
 pub mod options;
 pub mod payout;

@@ -218,9 +218,9 @@ fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
             let root = SVGBackend::new(&svg, (900, 560)).into_drawing_area();
             draw_on(&root, plot, text).map_err(|e| e.to_string())?;
             root.present().map_err(|e| e.to_string())?;
-            let root = BitMapBackend::new(&png, (900, 560)).into_drawing_area();
-            draw_on(&root, plot, text).map_err(|e| e.to_string())?;
-            root.present().map_err(|e| e.to_string())
+            crate::png::draw_png(&png, (900, 560), |root| {
+                draw_on(root, plot, text).map_err(|e| e.to_string())
+            })
         })();
         match result {
             Ok(()) => return Ok(with_text),

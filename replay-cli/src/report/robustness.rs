@@ -284,9 +284,9 @@ fn draw(map: &Heatmap, out: &Path, stem: &str) -> anyhow::Result<bool> {
             let root = SVGBackend::new(&svg, size).into_drawing_area();
             draw_on(&root, map, text).map_err(|e| e.to_string())?;
             root.present().map_err(|e| e.to_string())?;
-            let root = BitMapBackend::new(&png, size).into_drawing_area();
-            draw_on(&root, map, text).map_err(|e| e.to_string())?;
-            root.present().map_err(|e| e.to_string())
+            crate::png::draw_png(&png, size, |root| {
+                draw_on(root, map, text).map_err(|e| e.to_string())
+            })
         })();
         match result {
             Ok(()) => return Ok(text),
