@@ -58,6 +58,7 @@ mod tests {
     #[test]
     fn switches_from_smart_to_collude_above_the_token_share() {
         let mut config = Preset::Smoke.config();
+        config.byzantine.kind = crate::config::ByzantineKind::SmartThenCollude;
         config.byzantine.count = 2;
         let world = World::new(&config, 1).expect("a world");
         let scale = config.contract.weight_scale as i64;

@@ -206,11 +206,8 @@ pub fn payouts(pool_units: u64, scores: &[i64], refund_percent: u32) -> Vec<u64>
     let out: Vec<u64> = positive
         .iter()
         .map(|&p| {
-            let bonus = if sum == 0 {
-                bonus_pool / u
-            } else {
-                bonus_pool * p / sum
-            };
+            // No positive score (sum 0): the bonus pool in equal parts.
+            let bonus = (bonus_pool * p).checked_div(sum).unwrap_or(bonus_pool / u);
             u64::try_from(base + bonus).expect("a payout is at most the pool")
         })
         .collect();
