@@ -200,6 +200,7 @@ fn params(
         robust: None,
         options,
         engine,
+        defence: None,
     }
 }
 

@@ -12,6 +12,7 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 pub use crate::byzantine::ledger::LedgerBehaviour;
+pub use crate::contract::defences::Defence;
 use crate::contract::options::ContractOptions;
 pub use crate::contract::options::{
     ContractEngine, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
@@ -234,6 +235,21 @@ pub struct ContractConfig {
     /// or "round" (the round's stakes only; authors).
     #[serde(default)]
     pub pool: PoolRule,
+    /// A defence of the reward rule against robots that are paid without collecting data or
+    /// training (issue 16, beyond the paper): "none" (the rule's own rewards), "agreement" or
+    /// "innovation" (rewards follow a model's agreement with the round's other models; see
+    /// `contract::defences`). Needs a staking rule (security on); "none" in every preset but
+    /// `e5-smart-defence`.
+    #[serde(default)]
+    pub defence: Defence,
+    /// Percent (0..=100) of an aggregation's pool that a defence refunds in equal parts to the
+    /// used submissions; the rest is shared by score.
+    #[serde(default = "default_defence_refund_percent")]
+    pub defence_refund_percent: u32,
+}
+
+fn default_defence_refund_percent() -> u32 {
+    50
 }
 
 impl ContractConfig {
@@ -301,6 +317,15 @@ pub struct ByzantineConfig {
     /// orthogonal to `kind` (beyond the paper; `honest` by default).
     #[serde(default)]
     pub ledger: LedgerBehaviour,
+    /// `smart-then-collude`: the share of the robots' tokens (balances on the robot's own
+    /// chain, Byzantine over all) above which the Byzantine robots stop acting `smart` and
+    /// all submit one harmful model; 0.5 = "more tokens than the honest robots together".
+    #[serde(default = "default_switch_token_share")]
+    pub switch_token_share: f64,
+}
+
+fn default_switch_token_share() -> f64 {
+    0.5
 }
 
 fn default_wait_for_honest() -> u32 {
@@ -359,11 +384,13 @@ pub enum ByzantineKind {
     PoisonData,
     /// The Byzantine robots agree on one model.
     Collude,
+    /// `smart` until the Byzantine robots hold a token share, then `collude`.
+    SmartThenCollude,
 }
 
 impl ByzantineKind {
     /// Every kind, `none` first.
-    pub const ALL: [ByzantineKind; 13] = [
+    pub const ALL: [ByzantineKind; 14] = [
         ByzantineKind::None,
         ByzantineKind::Faulty,
         ByzantineKind::Malicious,
@@ -377,6 +404,7 @@ impl ByzantineKind {
         ByzantineKind::InflateSamples,
         ByzantineKind::PoisonData,
         ByzantineKind::Collude,
+        ByzantineKind::SmartThenCollude,
     ];
 
     /// The kind's name as written in configurations.
@@ -395,6 +423,7 @@ impl ByzantineKind {
             ByzantineKind::InflateSamples => "inflate-samples",
             ByzantineKind::PoisonData => "poison-data",
             ByzantineKind::Collude => "collude",
+            ByzantineKind::SmartThenCollude => "smart-then-collude",
         }
     }
 }
@@ -442,11 +471,13 @@ pub enum Preset {
     /// Experiment 4: aggregation rules against attacks, 2000 s at learning rate 0.01; sweep
     /// `contract.rule` x `byzantine.kind` x `byzantine.count`.
     E4Robustness,
+    /// Issue 16: smart robots against a defence of the reward rule (`contract.defence`).
+    E5SmartDefence,
 }
 
 impl Preset {
     /// Every preset, in the order `swarmfl presets` lists them.
-    pub const ALL: [Preset; 10] = [
+    pub const ALL: [Preset; 11] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
@@ -457,6 +488,7 @@ impl Preset {
         Preset::E2Malicious,
         Preset::E3Smart,
         Preset::E4Robustness,
+        Preset::E5SmartDefence,
     ];
 
     /// The preset's name as written on the command line.
@@ -472,6 +504,7 @@ impl Preset {
             Preset::E2Malicious => "e2-malicious",
             Preset::E3Smart => "e3-smart",
             Preset::E4Robustness => "e4-robustness",
+            Preset::E5SmartDefence => "e5-smart-defence",
         }
     }
 
@@ -499,6 +532,9 @@ impl Preset {
             Preset::E3Smart => "Exp. 3: security on, smart robots; sweep byzantine.count 0..7",
             Preset::E4Robustness => {
                 "Exp. 4: rules x attacks x Byzantine count, 2000 s, learning rate 0.01"
+            }
+            Preset::E5SmartDefence => {
+                "Exp. 5: smart robots against the agreement defence; sweep byzantine.count 0..7"
             }
         }
     }
@@ -563,6 +599,12 @@ impl Preset {
                 // Short runs by default (the sweep has 225 points); --set run.duration_s=5000
                 // for the paper's length.
                 c.run.duration_s = 2000.0;
+            }
+            Preset::E5SmartDefence => {
+                // e3-smart with the defence that measured best (RESEARCH.md, e5-smart-defence).
+                c.byzantine.kind = ByzantineKind::Smart;
+                c.byzantine.count = 1;
+                c.contract.defence = Defence::Agreement;
             }
         }
         c
@@ -653,6 +695,8 @@ impl Config {
                 rank_ties: RankTies::Stable,
                 payout_rounding: PayoutRounding::Exact,
                 pool: PoolRule::Carry,
+                defence: Defence::None,
+                defence_refund_percent: 50,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -667,6 +711,7 @@ impl Config {
                 threshold_fraction: 0.99,
                 inflated_samples: u32::MAX,
                 ledger: LedgerBehaviour::Honest,
+                switch_token_share: 0.5,
             },
             faults: FaultsConfig::default(),
             output: OutputConfig {
@@ -1239,6 +1284,31 @@ impl Config {
             1,
             u32::MAX.into(),
         )?;
+        if !(c.byzantine.switch_token_share > 0.0 && c.byzantine.switch_token_share < 1.0) {
+            return Err(ConfigError::OutOfRange {
+                key: "byzantine.switch_token_share".to_string(),
+                value: c.byzantine.switch_token_share.to_string(),
+                allowed: "a share strictly between 0 and 1 (0.5: more tokens than the honest \
+                          robots together)"
+                    .to_string(),
+            });
+        }
+        int(
+            "contract.defence_refund_percent",
+            c.contract.defence_refund_percent.into(),
+            0,
+            100,
+        )?;
+        if c.contract.defence != Defence::None && !c.rule().stakes() {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.defence".to_string(),
+                value: c.contract.defence.name().to_string(),
+                allowed: "\"none\" with contract.security = false or contract.rule = fedavg \
+                          (no stakes, no rewards to defend); set contract.security = true and a \
+                          staking rule, or contract.defence = none"
+                    .to_string(),
+            });
+        }
         Ok(())
     }
 
@@ -1334,6 +1404,8 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.rank_ties",
     "contract.payout_rounding",
     "contract.pool",
+    "contract.defence",
+    "contract.defence_refund_percent",
     "byzantine.*",
     "output.*",
 ];

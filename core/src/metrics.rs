@@ -207,6 +207,43 @@ pub struct TokenSummary {
     pub balances: Vec<f64>,
     /// Units held by the contract (pool and carried remainders), in tokens.
     pub contract_holdings: f64,
+    /// The first block of the final canonical chain at which the Byzantine robots hold more
+    /// than `byzantine.switch_token_share` of the robots' balances (the moment
+    /// `smart-then-collude` switches, as read from that chain); `None` if never, or without
+    /// Byzantine robots.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub byzantine_control: Option<ControlPoint>,
+}
+
+/// A block at which the Byzantine robots took control of the tokens (see
+/// [`TokenSummary::byzantine_control`]).
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ControlPoint {
+    /// The block's height.
+    pub height: u64,
+    /// Its timestamp, simulated s.
+    pub time_s: f64,
+    /// The Byzantine share of the balances after it.
+    pub share: f64,
+    /// Held-out loss of the shared model after it (compare with `final_heldout_loss`).
+    pub heldout_loss: f64,
+}
+
+/// The Byzantine share of the robots' balances, `byzantine / all` in `[0, 1]` (0 when nobody
+/// holds anything); `byzantine[i]` marks robot i.
+pub fn byzantine_share(balances: &[u64], byzantine: &[bool]) -> f64 {
+    let (mut ours, mut all) = (0u128, 0u128);
+    for (robot, &balance) in balances.iter().enumerate() {
+        all += u128::from(balance);
+        if byzantine.get(robot).copied().unwrap_or(false) {
+            ours += u128::from(balance);
+        }
+    }
+    if all == 0 {
+        0.0
+    } else {
+        ours as f64 / all as f64
+    }
 }
 
 /// The node whose head ends the final canonical chain: greatest total difficulty, ties to the
@@ -267,8 +304,21 @@ pub fn summarise(
     let (mut honest_distance_sum, mut honest_accepted) = (0.0f64, 0u64);
     let (mut round_distance_sum, mut round_honest) = (0.0f64, 0u64);
     let mut round_txs: Vec<TxHash> = Vec::new();
+    let mut control: Option<ControlPoint> = None;
+    let any_byzantine = byzantine.iter().any(|&b| b);
     for hash in chain {
         let entry = ledger.block(hash).expect("canonical blocks are stored");
+        if any_byzantine && control.is_none() {
+            let share = byzantine_share(&entry.state.balances, byzantine);
+            if share > config.byzantine.switch_token_share {
+                control = Some(ControlPoint {
+                    height: entry.block.header.height,
+                    time_s: entry.block.header.timestamp_ms as f64 / 1000.0,
+                    share,
+                    heldout_loss: heldout_loss(&entry.state.weights),
+                });
+            }
+        }
         for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
             let Some(submitted) = ledger
                 .tx(tx_hash)
@@ -351,6 +401,7 @@ pub fn summarise(
         byzantine_mean_gain: gain(true),
         balances: head.balances.iter().map(|&b| b as f64 / units).collect(),
         contract_holdings: head.holdings_units as f64 / units,
+        byzantine_control: control,
     };
     (s, tokens)
 }

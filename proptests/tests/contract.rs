@@ -29,6 +29,7 @@ fn params(security: bool) -> ContractParams {
         round_timeout_ms: 0,
         options: Default::default(),
         engine: Default::default(),
+        defence: None,
     }
 }
 

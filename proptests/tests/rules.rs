@@ -37,6 +37,7 @@ fn params(rule: Rule) -> ContractParams {
         round_timeout_ms: 0,
         options: Default::default(),
         engine: Default::default(),
+        defence: None,
     }
 }
 

@@ -198,7 +198,8 @@ enum Command {
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]
     Sweep {
-        /// The experiment: e1-expiration, e1-faulty, e2-faulty, e2-malicious or e3-smart.
+        /// The experiment: e1-expiration, e1-faulty, e2-faulty, e2-malicious, e3-smart,
+        /// e4-robustness or e5-smart-defence.
         experiment: String,
         /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
         #[arg(long)]
@@ -345,6 +346,9 @@ Experiments, points and default runs (seeds 1..=runs):
   e2-faulty      byzantine-0..7 (byzantine.count; kind none for 0)                    20 runs
   e2-malicious   byzantine-0..7                                                        20 runs
   e3-smart       byzantine-0..7                                                        18 runs
+  e4-robustness  <rule>--<attack>--<count>: 9 rules x (clean + 12 attacks x {3, 7})       3 runs
+  e5-smart-defence  <defence>--<attack>--<count>: defences none, agreement, innovation x
+                 (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,

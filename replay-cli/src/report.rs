@@ -12,6 +12,7 @@
 //! deterministic number (shards merged or one local sweep give identical files); wall-clock
 //! times are kept apart in `timing.csv`.
 
+mod defence;
 mod plots;
 mod robustness;
 
@@ -385,6 +386,13 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
                 "byzantine_gain",
                 t.get("byzantine_mean_gain").and_then(Value::as_f64),
             );
+            if let Some(c) = t.get("byzantine_control").filter(|c| c.is_object()) {
+                push("control_time_s", c.get("time_s").and_then(Value::as_f64));
+                push(
+                    "control_heldout_loss",
+                    c.get("heldout_loss").and_then(Value::as_f64),
+                );
+            }
         }
         if let Some(l) = s.get("ledger").filter(|c| c.is_object()) {
             push("height", l.get("canonical_height").and_then(Value::as_f64));
@@ -504,6 +512,7 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
     std::fs::write(out.join("timing.csv"), timing)?;
     let mut figures = plots::draw_all(&stats, out, &mut notes)?;
     figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
+    figures.extend(defence::draw_all(&stats, out, &mut notes)?);
     if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
         std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
     }
@@ -560,6 +569,15 @@ fn markdown(
                  loss at each Byzantine count, and that loss as a multiple of the rule's clean \
                  run (`e4-worst-case.csv`).\n\n{}",
                 robustness::worst_case(e).0
+            );
+        }
+        if e.name == defence::EXPERIMENT {
+            let _ = writeln!(
+                md,
+                "When the Byzantine robots held more than `byzantine.switch_token_share` of the \
+                 balances on the final chain (`tokens.byzantine_control`; `smart-then-collude` \
+                 switches then):\n\n{}",
+                defence::control_table(e)
             );
         }
         let _ = writeln!(
@@ -657,7 +675,10 @@ pub(crate) mod tests {
             "tokens": {"total_units_start": 315000000000u64, "total_units_end": 315000000000u64,
                        "honest_mean_gain": 1.5 + r.uniform(),
                        "byzantine_mean_gain": if byzantine == 0 { Value::Null } else { serde_json::json!(-4.0 + r.uniform()) },
-                       "balances": vec![21.0; 15]},
+                       "balances": vec![21.0; 15],
+                       "byzantine_control": if byzantine >= 5 {
+                           serde_json::json!({"height": 100, "time_s": 1000.0 + r.uniform(), "share": 0.6, "heldout_loss": 0.05})
+                       } else { Value::Null }},
             "timing": {"world_s": 1.0, "learning_s": 30.0, "ledger_s": 2.0, "log_s": 0.3}
         })
     }
@@ -878,6 +899,10 @@ pub(crate) mod tests {
             "e3-smart-loss",
             "e3-smart-tokens",
             "e2-faulty-chain",
+            "e5-smart-defence-smart-tokens",
+            "e5-smart-defence-smart-heldout",
+            "e5-smart-defence-switch-tokens",
+            "e5-smart-defence-switch-heldout",
         ] {
             for ext in ["svg", "png"] {
                 let f = out.join(format!("{stem}.{ext}"));
@@ -889,6 +914,10 @@ pub(crate) mod tests {
                 "{stem} is not in report.md"
             );
         }
+        assert!(
+            md.contains("| agreement--smart-then-collude--7 | 3 | 3 | 10"),
+            "the control table of e5"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

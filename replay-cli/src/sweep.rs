@@ -16,20 +16,22 @@ use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::Context;
-use swarmfl_core::config::{ByzantineKind, Config, Rule};
+use swarmfl_core::config::{ByzantineKind, Config, Defence, Rule};
+use swarmfl_core::contract::defences::ALL_DEFENCES;
 use swarmfl_core::contract::rules::ALL_RULES;
 
 use crate::progress::Progress;
 use crate::run;
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 6] = [
+pub const EXPERIMENTS: [&str; 7] = [
     "e1-expiration",
     "e1-faulty",
     "e2-faulty",
     "e2-malicious",
     "e3-smart",
     "e4-robustness",
+    "e5-smart-defence",
 ];
 
 /// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
@@ -142,6 +144,12 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             points: e4_points(),
             runs: 3,
         },
+        "e5-smart-defence" => Experiment {
+            name: "e5-smart-defence",
+            axis: "Byzantine robots",
+            points: e5_points(),
+            runs: 3,
+        },
         other => anyhow::bail!(
             "unknown experiment {other:?}; the experiments are {}",
             EXPERIMENTS.join(", ")
@@ -163,7 +171,13 @@ fn e4_points() -> Vec<Point> {
             let kinds: Vec<ByzantineKind> = if count == 0 {
                 vec![ByzantineKind::None]
             } else {
-                ByzantineKind::ALL[1..].to_vec()
+                // smart-then-collude is e5-smart-defence's attack: the e4 grid stays as
+                // published (12 attacks).
+                ByzantineKind::ALL[1..]
+                    .iter()
+                    .copied()
+                    .filter(|&k| k != ByzantineKind::SmartThenCollude)
+                    .collect()
             };
             for kind in kinds {
                 let mut overrides = base.clone();
@@ -181,6 +195,48 @@ fn e4_points() -> Vec<Point> {
             }
         }
     }
+    points
+}
+
+/// Counts of `smart-then-collude` in `e5-smart-defence`: 3 (a minority that must first earn
+/// a majority of the tokens), 5 and 7 (the paper's "from 3 on" up to the largest minority).
+pub const E5_SWITCH_COUNTS: [u32; 3] = [3, 5, 7];
+
+/// The grid of `e5-smart-defence`, defence-major (`none`, `agreement`, `innovation`): the
+/// e3-smart grid (`smart` x 0..7), `smart-then-collude` x [`E5_SWITCH_COUNTS`], and the e2
+/// check (`faulty` and `malicious` x 3). Point names are `<defence>--<attack>--<count>`
+/// (`agreement--smart--3`, `none--none--0`).
+fn e5_points() -> Vec<Point> {
+    let mut points = Vec::new();
+    for defence in ALL_DEFENCES {
+        let mut grid: Vec<(ByzantineKind, u32)> = vec![(ByzantineKind::None, 0)];
+        grid.extend((1..=7).map(|count| (ByzantineKind::Smart, count)));
+        grid.extend(
+            E5_SWITCH_COUNTS
+                .iter()
+                .map(|&count| (ByzantineKind::SmartThenCollude, count)),
+        );
+        grid.push((ByzantineKind::Faulty, 3));
+        grid.push((ByzantineKind::Malicious, 3));
+        for (kind, count) in grid {
+            points.push(Point {
+                name: format!("{}--{}--{count}", defence.name(), kind.name()),
+                x: f64::from(count),
+                overrides: vec![
+                    format!("contract.defence={}", defence.name()),
+                    format!("byzantine.kind={}", kind.name()),
+                    format!("byzantine.count={count}"),
+                ],
+                tags: vec![
+                    ("defence", defence.name().to_string()),
+                    ("attack", kind.name().to_string()),
+                ],
+            });
+        }
+    }
+    debug_assert!(points
+        .iter()
+        .all(|p| Defence::from_name(&p.tags[0].1).is_some()));
     points
 }
 
@@ -648,6 +704,7 @@ mod tests {
         check("e2-faulty", 8, 20);
         check("e2-malicious", 8, 20);
         check("e3-smart", 8, 18);
+        check("e5-smart-defence", 39, 3);
         assert!(experiment("e4").is_err());
     }
 

@@ -14,7 +14,9 @@
 //!
 //! The attacks (each file documents its formula, parameters and the information it uses):
 //! `faulty`, `malicious`, `smart` (the paper's, docs/SPEC.md section 5), `sign-flip`, `gaussian`,
-//! `alie`, `ipm`, `min-max`, `mimic`, `inflate-samples`, `poison-data`, `collude`. Models are
+//! `alie`, `ipm`, `min-max`, `mimic`, `inflate-samples`, `poison-data`, `collude`,
+//! `smart-then-collude` (the paper's open problem: smart until the coalition holds a token
+//! share, then one harmful model). Models are
 //! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
 //! driver converts them to fixed point as it does honest models.
 
@@ -31,6 +33,7 @@ pub mod min_max;
 pub mod poison_data;
 pub mod sign_flip;
 pub mod smart;
+pub mod smart_then_collude;
 
 use crate::config::{ByzantineConfig, ByzantineKind, Config};
 use crate::contract::{ContractParams, ContractState, Submission};
@@ -156,6 +159,7 @@ pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
         ByzantineKind::InflateSamples => Box::new(inflate_samples::InflateSamples),
         ByzantineKind::PoisonData => Box::new(poison_data::PoisonData),
         ByzantineKind::Collude => Box::new(collude::Collude),
+        ByzantineKind::SmartThenCollude => Box::new(smart_then_collude::SmartThenCollude),
     })
 }
 

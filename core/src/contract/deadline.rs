@@ -71,6 +71,7 @@ mod tests {
             robust: None,
             options: Default::default(),
             engine: Default::default(),
+            defence: None,
         }
     }
 

@@ -34,12 +34,16 @@
 //! earlier rounds. What the integer payouts leave unpaid stays in the contract and is part of
 //! the next round's pool.
 //!
+//! With a defence (`contract.defence`, [`defences`]) the payout of the used submissions follows
+//! their agreement scores instead of the ranking; everything else above is unchanged.
+//!
 //! `transfer(to, amount)` needs `value == 0` and both accounts to exist ([`Outcome::Malformed`]
 //! otherwise) and `amount <= balance` ([`Outcome::InsufficientFunds`] otherwise).
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
 mod deadline;
+pub mod defences;
 #[cfg(feature = "evm")]
 pub mod evm;
 #[cfg(not(feature = "evm"))]
@@ -105,6 +109,11 @@ pub struct ContractParams {
     /// `robust` and `options` is ever encoded.
     #[serde(default, skip_serializing_if = "ContractOptions::is_default")]
     pub options: ContractOptions,
+    /// A defence of the reward rule (`contract.defence`, see [`defences`]); `None` without
+    /// one, and then left out of the encoding, so the parameters' digest of runs without a
+    /// defence is the one they had before defences existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub defence: Option<defences::DefenceParams>,
     /// Which machine executes the contract. Not part of the genesis commitment: both engines
     /// execute the same contract, so a run's chain is the same under either.
     #[serde(skip)]
@@ -143,6 +152,15 @@ impl ContractParams {
             },
             round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
             options: c.options(),
+            defence: match c.defence {
+                defences::Defence::None => None,
+                defence if rule.stakes() => Some(defences::DefenceParams {
+                    defence,
+                    refund_percent: c.defence_refund_percent,
+                }),
+                // Without stakes there are no rewards to defend.
+                _ => None,
+            },
             engine: c.engine,
         }
     }
@@ -216,6 +234,15 @@ impl ContractParams {
                 ));
             }
         }
+        if let Some(d) = self.defence {
+            if d.defence == defences::Defence::None || d.refund_percent > 100 || !self.security {
+                return Err(format!(
+                    "defence {} with refund {} % needs a staking rule and a percentage",
+                    d.defence.name(),
+                    d.refund_percent
+                ));
+            }
+        }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
         }
@@ -263,7 +290,8 @@ pub struct Payout {
     pub robot: RobotId,
     /// Its rank, 0 = best.
     pub rank: u32,
-    /// The reward weight k of that rank.
+    /// The reward weight k of that rank; under a defence (`contract.defence`), the
+    /// submission's score in 10^9 units (10^9 = full agreement).
     pub reward_weight: i64,
     /// Units paid back to it from the pool.
     pub units: u64,
@@ -720,7 +748,26 @@ impl ContractState {
                 "every accepted submission staked"
             );
             let order = &aggregate.used;
-            if rule == Rule::Paper {
+            if let Some(defence) = params.defence {
+                // The defence replaces the reward rule: score the used models, share the pool.
+                let models: Vec<&[i64]> = order.iter().map(|&i| &accepted[i].weights[..]).collect();
+                let scores = defences::scores(
+                    defence.defence,
+                    &self.weights,
+                    self.previous_weights.as_deref(),
+                    &models,
+                );
+                let units = defences::payouts(pool_units, &scores, defence.refund_percent);
+                for (rank, ((&i, units), score)) in order.iter().zip(units).zip(scores).enumerate()
+                {
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: score,
+                        units,
+                    });
+                }
+            } else if rule == Rule::Paper {
                 let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
                 let units = payout::payouts(
                     pool_units,

@@ -61,6 +61,10 @@ pub const IDENTS: &[(&str, &str)] = &[
         "total balance of the Byzantine robots, tokens",
     ),
     ("honest_sum", "total balance of the honest robots, tokens"),
+    (
+        "byzantine_share",
+        "byzantine_sum / (byzantine_sum + honest_sum), 0..1 (smart-then-collude switches above byzantine.switch_token_share)",
+    ),
     ("accepted", "accepted submissions in the current round"),
     ("outliers", "outlier submissions in the current round"),
     (

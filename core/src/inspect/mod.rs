@@ -862,6 +862,7 @@ impl expr::Env for BlockValues<'_> {
             "honest_wealth" => wealth(false),
             "byzantine_sum" => group(true).0,
             "honest_sum" => group(false).0,
+            "byzantine_share" => crate::metrics::byzantine_share(&state.balances, &index.byzantine),
             "accepted" => state.accepted_count() as f64,
             "outliers" => state
                 .submissions

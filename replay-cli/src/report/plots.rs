@@ -12,9 +12,9 @@ use plotters::prelude::*;
 use super::{ExperimentStats, Figure, Stat};
 
 /// One labelled series of (x, statistic) points.
-struct Series {
-    label: String,
-    points: Vec<(f64, Stat)>,
+pub(super) struct Series {
+    pub(super) label: String,
+    pub(super) points: Vec<(f64, Stat)>,
 }
 
 /// Distinct colours, in series order.
@@ -31,21 +31,21 @@ const COLOURS: [RGBColor; 8] = [
 
 /// What kind of plot.
 #[derive(Clone, Copy)]
-enum Kind {
+pub(super) enum Kind {
     /// Lines over time with confidence bands; log-scale y when `log_y`.
     Time { log_y: bool },
     /// Points with error bars versus the grid value.
     Versus,
 }
 
-struct Plot<'a> {
-    title: String,
-    x_label: &'a str,
-    y_label: &'a str,
-    kind: Kind,
-    series: Vec<Series>,
+pub(super) struct Plot<'a> {
+    pub(super) title: String,
+    pub(super) x_label: &'a str,
+    pub(super) y_label: &'a str,
+    pub(super) kind: Kind,
+    pub(super) series: Vec<Series>,
     /// The quantity cannot be negative (a size, a loss): the axis and the intervals stop at 0.
-    nonnegative: bool,
+    pub(super) nonnegative: bool,
 }
 
 /// Draws every figure the statistics allow into `out`, returning them (for report.md).
@@ -60,10 +60,11 @@ pub fn draw_all(
         .iter()
         .find(|e| e.name == "e1-expiration")
         .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
-    // e4-robustness has 225 points: its figures are heatmaps (`robustness.rs`).
+    // e4-robustness has 225 points: its figures are heatmaps (`robustness.rs`); e5's 39
+    // points are drawn per defence (`defence.rs`).
     for e in stats
         .iter()
-        .filter(|e| e.name != super::robustness::EXPERIMENT)
+        .filter(|e| e.name != super::robustness::EXPERIMENT && e.name != super::defence::EXPERIMENT)
     {
         let mut emit = |stem: String, caption: String, plot: Plot| -> anyhow::Result<()> {
             if plot.series.iter().all(|s| s.points.is_empty()) {
@@ -208,7 +209,7 @@ fn label(experiment: &str, point: &str, x: f64) -> String {
 }
 
 /// Draws `plot` as `stem.svg` and `stem.png`; returns whether the text could be drawn.
-fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
+pub(super) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
     let svg = out.join(format!("{stem}.svg"));
     let png = out.join(format!("{stem}.png"));
     let mut with_text = true;

@@ -83,6 +83,15 @@ pub fn supports(config: &Config) -> Result<(), ConfigError> {
             ),
         });
     }
+    if c.defence != crate::contract::defences::Defence::None {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.defence".to_string(),
+            value: c.defence.name().to_string(),
+            allowed: "none with contract.engine = evm: contracts/SwarmFL.sol pays by the \
+                      paper's ranking only; set contract.engine = native to run a defence"
+                .to_string(),
+        });
+    }
     if c.round_timeout_s != 0.0 {
         return Err(ConfigError::OutOfRange {
             key: "contract.round_timeout_s".to_string(),

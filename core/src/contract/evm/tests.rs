@@ -87,6 +87,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         robust: None,
         options,
         engine: ContractEngine::Native,
+        defence: None,
     }
 }
 
