@@ -130,6 +130,41 @@ pub struct LearnConfig {
     pub training_duration_s: f64,
     /// Fewest training samples a robot needs before it trains and submits.
     pub min_train_samples: u32,
+    /// How the robots' models are aggregated: through the blockchain (`chain`, the paper's
+    /// system), Flow-FL-style gossip of a virtual-stigmergy store (`gossip`) or an ideal
+    /// central server (`central`). See `aggregation` (ARCHITECTURE.md) for the baselines.
+    #[serde(default)]
+    pub aggregation: Aggregation,
+    /// `gossip` only: a robot leaves out of its average the stored models whose mean absolute
+    /// weight distance to its own current model exceeds `contract.outlier_threshold`
+    /// (Flow-FL has no such filter: off by default).
+    #[serde(default)]
+    pub gossip_outlier_filter: bool,
+}
+
+/// How the robots' trained models become their next starting model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Aggregation {
+    /// Transactions to the smart contract on every robot's chain (the paper's system).
+    #[default]
+    Chain,
+    /// Flow-FL: a virtual-stigmergy store replicated by neighbour gossip; each robot averages
+    /// the newest models it holds.
+    Gossip,
+    /// An ideal server that receives every model instantly and aggregates FedAvg.
+    Central,
+}
+
+impl Aggregation {
+    /// The name used in configurations and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Aggregation::Chain => "chain",
+            Aggregation::Gossip => "gossip",
+            Aggregation::Central => "central",
+        }
+    }
 }
 
 /// The per-robot proof-of-authority nodes and the radio between them.
@@ -144,6 +179,15 @@ pub struct LedgerConfig {
     pub bandwidth_bytes_per_s: u64,
     /// Probability that a gossip message between two peers is lost.
     pub packet_loss: f64,
+    /// Start of a radio cut in simulated seconds: from then, for `radio_cut_duration_s`, no
+    /// message crosses between the arena's halves x < 0 and x >= 0 (the ledger's and the
+    /// stigmergy's gossip alike; range-and-bearing sensing is untouched). A minimal partition
+    /// for comparing the aggregations.
+    #[serde(default)]
+    pub radio_cut_start_s: f64,
+    /// Length of the radio cut in simulated seconds (0: no cut).
+    #[serde(default)]
+    pub radio_cut_duration_s: f64,
 }
 
 /// The federated-learning contract.
@@ -237,11 +281,14 @@ pub enum Preset {
     E2Malicious,
     /// Experiment 3: security on, smart robots; sweep `byzantine.count` 0..7.
     E3Smart,
+    /// Baselines: the chain (security on) against Flow-FL gossip and a central server; sweep
+    /// `learn.aggregation` and the Byzantine robots.
+    E0Baselines,
 }
 
 impl Preset {
     /// Every preset, in the order `swarmfl presets` lists them.
-    pub const ALL: [Preset; 8] = [
+    pub const ALL: [Preset; 9] = [
         Preset::Paper,
         Preset::Reference,
         Preset::Smoke,
@@ -250,6 +297,7 @@ impl Preset {
         Preset::E2Faulty,
         Preset::E2Malicious,
         Preset::E3Smart,
+        Preset::E0Baselines,
     ];
 
     /// The preset's name as written on the command line.
@@ -263,6 +311,7 @@ impl Preset {
             Preset::E2Faulty => "e2-faulty",
             Preset::E2Malicious => "e2-malicious",
             Preset::E3Smart => "e3-smart",
+            Preset::E0Baselines => "e0-baselines",
         }
     }
 
@@ -285,6 +334,10 @@ impl Preset {
                 "Exp. 2: security on, malicious robots; sweep byzantine.count 0..7"
             }
             Preset::E3Smart => "Exp. 3: security on, smart robots; sweep byzantine.count 0..7",
+            Preset::E0Baselines => {
+                "Baselines: chain vs Flow-FL gossip vs central server, SGD 0.01; sweep \
+                 learn.aggregation x {0, 1 faulty, 3 malicious}"
+            }
         }
     }
 
@@ -339,6 +392,11 @@ impl Preset {
             Preset::E3Smart => {
                 c.byzantine.kind = ByzantineKind::Smart;
                 c.byzantine.count = 1;
+            }
+            Preset::E0Baselines => {
+                // The rate behind the paper's figures (SPEC.md section 2): at 0.001 no
+                // aggregation learns enough in 5000 s to tell them apart.
+                c.learn.learning_rate = 0.01;
             }
         }
         c
@@ -398,12 +456,16 @@ impl Config {
                 training_period_s: 100.0,
                 training_duration_s: 0.0,
                 min_train_samples: 1,
+                aggregation: Aggregation::Chain,
+                gossip_outlier_filter: false,
             },
             ledger: LedgerConfig {
                 block_period_s: 10.0,
                 wiggle_unit_s: 0.5,
                 bandwidth_bytes_per_s: 0,
                 packet_loss: 0.0,
+                radio_cut_start_s: 0.0,
+                radio_cut_duration_s: 0.0,
             },
             contract: ContractConfig {
                 security: true,
@@ -757,6 +819,18 @@ impl Config {
         positive("ledger.block_period_s", c.ledger.block_period_s)?;
         range("ledger.wiggle_unit_s", c.ledger.wiggle_unit_s, 0.0, 1.0e6)?;
         range("ledger.packet_loss", c.ledger.packet_loss, 0.0, 1.0)?;
+        range(
+            "ledger.radio_cut_start_s",
+            c.ledger.radio_cut_start_s,
+            0.0,
+            1.0e7,
+        )?;
+        range(
+            "ledger.radio_cut_duration_s",
+            c.ledger.radio_cut_duration_s,
+            0.0,
+            1.0e7,
+        )?;
         int(
             "contract.stake_tokens",
             c.contract.stake_tokens,

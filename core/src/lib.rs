@@ -7,6 +7,7 @@
 //! ([`log`]). Replaying the log through the same reducers rebuilds every state bit-exactly.
 //! See ARCHITECTURE.md for the map and the invariants.
 
+pub mod aggregation;
 pub mod byzantine;
 pub mod config;
 pub mod contract;
@@ -19,6 +20,7 @@ pub mod learn;
 pub mod ledger;
 pub mod log;
 pub mod metrics;
+pub mod radio;
 pub mod replay;
 pub mod rng;
 pub mod sim;

@@ -41,6 +41,9 @@ pub enum Purpose {
     Keys = 12,
     /// Which robots are Byzantine (one stream, robot id 0).
     ByzantineSelection = 13,
+    /// Packet loss on the virtual-stigmergy gossip links from a robot (`learn.aggregation =
+    /// "gossip"`).
+    Stigmergy = 14,
 }
 
 /// A deterministic random number generator (PCG 128/64, "Pcg64") with portable float draws.

@@ -20,8 +20,9 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
+use crate::aggregation::{self, AggregationEvent, AggregationState, AggregationSummary, Gossiper};
 use crate::byzantine;
-use crate::config::{ByzantineKind, Config};
+use crate::config::{Aggregation, ByzantineKind, Config};
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
@@ -99,6 +100,8 @@ pub struct State {
     pub ledger: Ledger,
     /// What the robots measured.
     pub metrics: Metrics,
+    /// A baseline aggregation's state (`learn.aggregation` other than `chain`; idle otherwise).
+    pub aggregation: AggregationState,
     /// Digest of the fixed parameters (contract parameters and genesis block).
     pub params: Digest,
 }
@@ -152,10 +155,12 @@ pub fn apply_ledger_side(
             metrics.apply(time, report);
             Ok(())
         }
-        Event::Tick(_) | Event::Reconfigure(_) => Err(ApplyError::Invalid(format!(
-            "a {} event needs the whole state",
-            event.kind()
-        ))),
+        Event::Tick(_) | Event::Reconfigure(_) | Event::Aggregation(_) => {
+            Err(ApplyError::Invalid(format!(
+                "a {} event needs the whole state",
+                event.kind()
+            )))
+        }
     }
 }
 
@@ -172,7 +177,9 @@ impl State {
     /// The state at time 0 of the run `(config, seed)`.
     pub fn genesis(config: &Config, seed: u64) -> Result<State, SimError> {
         let world = World::new(config, seed)?;
-        let params = ContractParams::from_config(config, genesis_weights(config, seed)?);
+        let genesis = genesis_weights(config, seed)?;
+        let aggregation = AggregationState::new(config, genesis.clone());
+        let params = ContractParams::from_config(config, genesis);
         let mut digest = blake3::Hasher::new();
         digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
         let ledger = Ledger::new(config, seed, params);
@@ -181,6 +188,7 @@ impl State {
             world,
             ledger,
             metrics: Metrics::default(),
+            aggregation,
             params: digest.finalize().into(),
         })
     }
@@ -190,6 +198,10 @@ impl State {
         match event {
             Event::Tick(tick) => apply_tick(&mut self.world, time, tick),
             Event::Reconfigure(change) => self.reconfigure(time, change),
+            Event::Aggregation(e) => self
+                .aggregation
+                .apply(time, e)
+                .map_err(ApplyError::Invalid),
             Event::Ledger(_) | Event::Learn(_) => {
                 apply_ledger_side(&mut self.ledger, &mut self.metrics, time, event)
             }
@@ -244,6 +256,8 @@ impl State {
             nodes: (0..robots).map(|r| self.ledger.node_digest(r)).collect(),
             contract: contract.finalize().into(),
             metrics: self.metrics.digest(),
+            aggregation: (self.aggregation.kind() != Aggregation::Chain)
+                .then(|| self.aggregation.digest()),
         }
     }
 }
@@ -346,6 +360,9 @@ pub struct RunSummary {
     pub contract: ContractSummary,
     /// Tokens per group at the end.
     pub tokens: TokenSummary,
+    /// How models were aggregated, token conservation, and bytes sent and stored per robot.
+    #[serde(default)]
+    pub aggregation: AggregationSummary,
 }
 
 impl RunSummary {
@@ -365,6 +382,23 @@ impl RunSummary {
             state.world.heldout(),
             &byzantine,
         );
+        let (contract, aggregation) = match config.learn.aggregation {
+            Aggregation::Chain => {
+                let summary = aggregation::summary::chain_summary(
+                    config,
+                    &state.ledger.stats(),
+                    contract.final_heldout_loss.unwrap_or(contract.heldout_loss_initial),
+                );
+                (contract, summary)
+            }
+            Aggregation::Gossip | Aggregation::Central => aggregation::summary::summarise(
+                config,
+                &state.aggregation,
+                &state.metrics,
+                state.world.heldout(),
+                &byzantine,
+            ),
+        };
         RunSummary {
             format: crate::log::FORMAT_VERSION,
             seed,
@@ -385,6 +419,7 @@ impl RunSummary {
             ledger: LedgerSummary::new(state.ledger.stats()),
             contract,
             tokens,
+            aggregation,
         }
     }
 }
@@ -412,7 +447,23 @@ enum Plan {
 /// A submission waiting for its training to finish (`learn.training_duration_s`).
 struct Pending {
     report: LearnReport,
-    tx: Option<Tx>,
+    submission: Option<Submission>,
+}
+
+/// How a model is submitted: a transaction to the contract, or a baseline's write or upload.
+enum Submission {
+    Tx(Tx),
+    Baseline(AggregationEvent),
+}
+
+/// What a robot starts a learning phase from, whatever the aggregation.
+struct Start {
+    weights: Arc<[i64]>,
+    digest: Digest,
+    round: u64,
+    previous: Option<Arc<[i64]>>,
+    /// Why it may not submit this phase, if so.
+    blocked: Option<SkipReason>,
 }
 
 /// The robots' learning loop: schedule, training, forging, submitting (driver side).
@@ -490,6 +541,7 @@ pub struct Sim {
     seed: u64,
     state: State,
     network: Network,
+    gossiper: Gossiper,
     ahead: LookAhead,
     learners: Learners,
     tick_ms: u64,
@@ -530,6 +582,7 @@ impl Sim {
         Ok(Sim {
             total_ticks: config.ticks(),
             network: Network::new(&config, seed),
+            gossiper: Gossiper::new(&config, seed),
             ahead,
             learners,
             config,
@@ -673,20 +726,25 @@ impl Sim {
         debug_assert_eq!(now, self.state.world.time());
 
         self.switch(Part::Ledger);
-        let peers: Vec<Vec<RobotId>> = (0..self.config.world.robots)
-            .map(|r| self.state.world.peers(r).to_vec())
-            .collect();
-        while let Some((at, event)) = self.network.next_event(&self.state.ledger, now, &peers) {
-            let sealed = match &event {
-                LedgerEvent::Seal { node, .. } => Some(*node),
-                _ => None,
-            };
-            self.emit(at, Event::Ledger(event));
-            if let Some(node) = sealed {
-                let height = self.state.ledger.head(node).1;
-                self.checkpoint(at, CheckpointCause::Block { node, height });
-                self.switch(Part::Ledger);
+        let peers = crate::radio::peers(&self.config, &self.state.world, now);
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.ledger_events(now, &peers),
+            Aggregation::Gossip => {
+                while let Some((at, event)) =
+                    self.gossiper
+                        .next_event(&self.state.aggregation.stigmergy, now, &peers)
+                {
+                    self.emit(at, Event::Aggregation(event));
+                }
             }
+            Aggregation::Central => {}
+        }
+        if self.config.learn.aggregation != Aggregation::Chain
+            && now.0 % self.period_checkpoint_ms() == 0
+        {
+            // No blocks: a checkpoint every block period pins the state for replay,
+            // inspect and bisect by time.
+            self.checkpoint(now, CheckpointCause::Periodic);
         }
 
         self.switch(Part::Learning);
@@ -699,6 +757,27 @@ impl Sim {
         {
             let (change, config) = self.reconfigurations.pop_front().expect("checked");
             self.reconfigure(now, change, config);
+        }
+    }
+
+    /// The checkpoint period of a run without blocks: the block period, in ms.
+    fn period_checkpoint_ms(&self) -> u64 {
+        ((self.config.ledger.block_period_s * 1000.0).round() as u64).max(1)
+    }
+
+    /// The ledger's events due by `now` (sealings with a checkpoint each, gossip, deliveries).
+    fn ledger_events(&mut self, now: SimTime, peers: &[Vec<RobotId>]) {
+        while let Some((at, event)) = self.network.next_event(&self.state.ledger, now, peers) {
+            let sealed = match &event {
+                LedgerEvent::Seal { node, .. } => Some(*node),
+                _ => None,
+            };
+            self.emit(at, Event::Ledger(event));
+            if let Some(node) = sealed {
+                let height = self.state.ledger.head(node).1;
+                self.checkpoint(at, CheckpointCause::Block { node, height });
+                self.switch(Part::Ledger);
+            }
         }
     }
 
@@ -772,27 +851,14 @@ impl Sim {
             self.learners.next_due_ms[i] += self.learners.period_ms;
             let captured = self.ahead.upcoming.remove(&(due_ms, r));
             let speculated = self.ahead.speculated.remove(&(r, phase));
-            let view = self.state.ledger.head_state(r);
+            let view = self.start(now, r);
             let base_round = view.round;
-            let plan = if self.config.contract.security
-                && view.balances[i] < self.learners.stake_units
-            {
-                Plan::Skip {
-                    reason: SkipReason::InsufficientStake,
-                    base_round,
-                }
-            } else if view.has_submitted(r) {
-                Plan::Skip {
-                    reason: SkipReason::AlreadySubmitted,
-                    base_round,
-                }
+            let plan = if let Some(reason) = view.blocked {
+                Plan::Skip { reason, base_round }
             } else if self.learners.byzantine[i] {
                 let b = &self.config.byzantine;
                 let shared = learn::from_fixed(&view.weights, scale);
-                let previous = view
-                    .previous_weights
-                    .as_ref()
-                    .map(|w| learn::from_fixed(w, scale));
+                let previous = view.previous.as_ref().map(|w| learn::from_fixed(w, scale));
                 let mut rng = rng::substream(self.seed, Purpose::Byzantine, r, phase);
                 let weights = byzantine::forge(
                     b.kind,
@@ -823,7 +889,7 @@ impl Sim {
                     >= min_train;
                 match (data, speculated) {
                     (Some(_), Some((digest, outcome)))
-                        if trainable && digest == view.weights_digest =>
+                        if trainable && digest == view.digest =>
                     {
                         Plan::Ready {
                             outcome,
@@ -876,12 +942,12 @@ impl Sim {
                     let claimed = self.config.byzantine.claimed_samples;
                     match learn::to_fixed(&weights, scale) {
                         Ok(fixed) => {
-                            let tx = self.submission(r, fixed, u64::from(claimed));
+                            let (tx, submission) = self.submission(r, fixed, u64::from(claimed));
                             let action = LearnAction::Forged {
-                                tx: tx.hash_and_size().0,
+                                tx,
                                 claimed_samples: claimed,
                             };
-                            (base_round, action, Some(tx))
+                            (base_round, action, Some(submission))
                         }
                         Err(_) => (
                             base_round,
@@ -909,40 +975,94 @@ impl Sim {
                 base_round,
                 action,
             };
-            self.learners.pending.insert(
-                (submit_at, r),
-                Pending {
-                    report,
-                    tx: submission,
-                },
-            );
+            self.learners
+                .pending
+                .insert((submit_at, r), Pending { report, submission });
         }
     }
 
-    /// The signed submission of `weights` claiming `samples`, from `robot`'s own node.
-    fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> Tx {
-        let call = Call::SubmitModel {
-            weights: Arc::from(weights),
-            samples,
+    /// The submission of `weights` claiming `samples` by `robot` and its identity in the
+    /// learning report: a transaction signed by its own node, or a baseline's write or upload.
+    fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> (Digest, Submission) {
+        let weights: Arc<[i64]> = Arc::from(weights);
+        if self.config.learn.aggregation == Aggregation::Chain {
+            let call = Call::SubmitModel { weights, samples };
+            let tx = self
+                .state
+                .ledger
+                .make_tx(robot, self.learners.stake_units, call);
+            return (tx.hash_and_size().0, Submission::Tx(tx));
+        }
+        let a = &self.state.aggregation;
+        (
+            a.next_hash(robot, samples, weights.clone()),
+            Submission::Baseline(a.submission(robot, samples, weights)),
+        )
+    }
+
+    /// What `robot` starts its due learning phase from. A baseline robot merges (or downloads)
+    /// first: that is an event.
+    fn start(&mut self, now: SimTime, robot: RobotId) -> Start {
+        if self.config.learn.aggregation == Aggregation::Chain {
+            return self.preview(robot);
+        }
+        self.emit(now, Event::Aggregation(AggregationEvent::Merge { robot }));
+        self.switch(Part::Learning);
+        let view = self.state.aggregation.current(robot);
+        Start {
+            weights: view.weights,
+            digest: view.digest,
+            round: view.round,
+            previous: view.previous,
+            blocked: view.pending.then_some(SkipReason::AlreadySubmitted),
+        }
+    }
+
+    /// What `robot` would start from if its phase came now (for speculative training).
+    fn preview(&self, robot: RobotId) -> Start {
+        if self.config.learn.aggregation != Aggregation::Chain {
+            let view = self.state.aggregation.preview(robot);
+            return Start {
+                weights: view.weights,
+                digest: view.digest,
+                round: view.round,
+                previous: view.previous,
+                blocked: view.pending.then_some(SkipReason::AlreadySubmitted),
+            };
+        }
+        let view = self.state.ledger.head_state(robot);
+        let blocked = if self.config.contract.security
+            && view.balances[robot as usize] < self.learners.stake_units
+        {
+            Some(SkipReason::InsufficientStake)
+        } else if view.has_submitted(robot) {
+            Some(SkipReason::AlreadySubmitted)
+        } else {
+            None
         };
-        self.state
-            .ledger
-            .make_tx(robot, self.learners.stake_units, call)
+        Start {
+            weights: view.weights.clone(),
+            digest: view.weights_digest,
+            round: view.round,
+            previous: view.previous_weights.clone(),
+            blocked,
+        }
     }
 
     /// The report and submission of an honest training.
-    fn trained(&self, robot: RobotId, outcome: &TrainOutcome) -> (LearnAction, Option<Tx>) {
+    fn trained(&self, robot: RobotId, outcome: &TrainOutcome) -> (LearnAction, Option<Submission>) {
         match learn::to_fixed(&outcome.weights, self.config.contract.weight_scale) {
             Ok(fixed) => {
-                let tx = self.submission(robot, fixed, u64::from(outcome.train_samples));
+                let (tx, submission) =
+                    self.submission(robot, fixed, u64::from(outcome.train_samples));
                 let action = LearnAction::Trained {
-                    tx: tx.hash_and_size().0,
+                    tx,
                     train_samples: outcome.train_samples,
                     val_samples: outcome.val_samples,
                     val_loss: outcome.val_loss,
                     final_train_loss: outcome.final_train_loss,
                 };
-                (action, Some(tx))
+                (action, Some(submission))
             }
             Err(_) => (
                 LearnAction::Skipped {
@@ -969,15 +1089,15 @@ impl Sim {
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
         {
             debug_assert!(due_ms > now.0, "due phases were taken out");
-            let view = self.state.ledger.head_state(r);
+            let view = self.preview(r);
             let unchanged = self
                 .ahead
                 .speculated
                 .get(&(r, *phase))
-                .is_some_and(|(digest, _)| *digest == view.weights_digest);
+                .is_some_and(|(digest, _)| *digest == view.digest);
             let trainable =
                 learn::split_point(samples.len(), self.config.learn.train_fraction) >= min_train;
-            if unchanged || !trainable || view.has_submitted(r) {
+            if unchanged || !trainable || view.blocked.is_some() {
                 continue;
             }
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
@@ -990,7 +1110,7 @@ impl Sim {
                 data,
                 dropout: rng::substream(self.seed, Purpose::Dropout, r, *phase),
             });
-            keys.push(((r, *phase), view.weights_digest));
+            keys.push(((r, *phase), view.digest));
         }
         keys
     }
@@ -1003,11 +1123,15 @@ impl Sim {
             if at > now.0 {
                 break;
             }
-            let Pending { report, tx } = entry.remove();
+            let Pending { report, submission } = entry.remove();
             // A training finished between ticks is submitted at the tick that follows.
             self.emit(now, Event::Learn(report));
-            if let Some(tx) = tx {
-                self.emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
+            match submission {
+                Some(Submission::Tx(tx)) => {
+                    self.emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
+                }
+                Some(Submission::Baseline(event)) => self.emit(now, Event::Aggregation(event)),
+                None => {}
             }
         }
     }

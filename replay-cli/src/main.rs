@@ -118,8 +118,12 @@ enum Command {
         /// The log (run.swlog).
         log: PathBuf,
         /// Height on the final canonical chain (the best node's chain at the end; 0 = genesis).
+        #[arg(long, required_unless_present = "time", conflicts_with = "time")]
+        block: Option<u64>,
+        /// A baseline run (`learn.aggregation` gossip or central, no blocks): the state at the
+        /// last checkpoint at or before this simulated time, s.
         #[arg(long)]
-        block: u64,
+        time: Option<f64>,
         /// Narrow to one robot's view too (its node, balance, data, last learning phase).
         #[arg(long)]
         robot: Option<u32>,
@@ -130,7 +134,9 @@ enum Command {
         #[arg(long)]
         no_index: bool,
     },
-    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none).
+    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none);
+    /// in a baseline run (no blocks), the first checkpoint by time (time, round, loss,
+    /// heldout_loss).
     #[command(after_long_help = BISECT_HELP)]
     Bisect {
         /// The log (run.swlog).
@@ -396,10 +402,15 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Inspect {
             log,
             block,
+            time,
             robot,
             json,
             no_index,
-        } => inspect::inspect(&log, block, robot, json, !no_index)?,
+        } => match (block, time) {
+            (Some(block), _) => inspect::inspect(&log, block, robot, json, !no_index)?,
+            (None, Some(time)) => inspect::inspect_time(&log, time, json)?,
+            (None, None) => anyhow::bail!("give --block HEIGHT or --time SECONDS"),
+        },
         Command::Bisect {
             log,
             until,

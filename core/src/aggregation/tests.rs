@@ -1,0 +1,192 @@
+use std::sync::Arc;
+
+use super::*;
+use crate::config::Preset;
+
+fn config(kind: Aggregation, robots: u32) -> Config {
+    let mut c = Preset::Smoke.config();
+    c.world.robots = robots;
+    c.learn.aggregation = kind;
+    c
+}
+
+fn model(values: &[i64]) -> Arc<[i64]> {
+    Arc::from(values.to_vec())
+}
+
+fn fold(state: &mut AggregationState, events: &[AggregationEvent]) {
+    for (i, e) in events.iter().enumerate() {
+        state.apply(SimTime(i as u64), e).unwrap();
+    }
+}
+
+fn write(robot: RobotId, samples: u64, w: &[i64]) -> AggregationEvent {
+    AggregationEvent::Write {
+        robot,
+        samples,
+        weights: model(w),
+    }
+}
+
+#[test]
+fn the_merge_averages_by_samples_once_a_quorum_is_held() {
+    // 4 robots, quorum floor(0.5 * 4) = 2.
+    let mut s = AggregationState::new(&config(Aggregation::Gossip, 4), model(&[0, 0]));
+    assert_eq!(s.quorum(), 2);
+    fold(&mut s, &[write(0, 1, &[10, -10]), AggregationEvent::Merge { robot: 0 }]);
+    // Below the quorum the robot continues from its own last model.
+    assert_eq!(&s.current(0).weights[..], &[10, -10]);
+    assert_eq!(s.current(0).round, 0);
+    assert!(s.aggregations.is_empty());
+    let entries = vec![EntryId { key: 1, clock: 1 }];
+    fold(
+        &mut s,
+        &[
+            write(1, 3, &[2, 2]),
+            AggregationEvent::Send {
+                from: 1,
+                to: 0,
+                entries,
+                lost: false,
+            },
+            AggregationEvent::Deliver { message: 0 },
+            AggregationEvent::Merge { robot: 0 },
+        ],
+    );
+    // (1 * 10 + 3 * 2) / 4 = 4, (1 * -10 + 3 * 2) / 4 = -1.
+    assert_eq!(&s.current(0).weights[..], &[4, -1]);
+    assert_eq!(s.current(0).round, 1);
+    assert_eq!(s.aggregations.len(), 1);
+    assert_eq!(s.aggregations[0].robot, Some(0));
+    assert_eq!(s.current(0).previous.as_deref(), Some(&[10i64, -10][..]));
+    // Robot 1 never heard of robot 0: below the quorum.
+    assert_eq!(&s.preview(1).weights[..], &[2, 2]);
+}
+
+#[test]
+fn the_newest_version_wins_and_stale_or_lost_messages_change_nothing() {
+    let mut s = AggregationState::new(&config(Aggregation::Gossip, 3), model(&[0]));
+    fold(
+        &mut s,
+        &[
+            write(2, 1, &[5]),
+            AggregationEvent::Send {
+                from: 2,
+                to: 0,
+                entries: vec![EntryId { key: 2, clock: 1 }],
+                lost: false,
+            },
+            write(2, 1, &[7]),
+            AggregationEvent::Send {
+                from: 2,
+                to: 0,
+                entries: vec![EntryId { key: 2, clock: 2 }],
+                lost: false,
+            },
+            AggregationEvent::Send {
+                from: 2,
+                to: 1,
+                entries: vec![EntryId { key: 2, clock: 2 }],
+                lost: true,
+            },
+            // The newer version arrives first; the older one must not overwrite it.
+            AggregationEvent::Deliver { message: 1 },
+            AggregationEvent::Deliver { message: 0 },
+        ],
+    );
+    let held: Vec<(EntryId, i64)> = s
+        .stigmergy
+        .held(0)
+        .iter()
+        .map(|e| (e.id, e.weights[0]))
+        .collect();
+    assert_eq!(held, vec![(EntryId { key: 2, clock: 2 }, 7)]);
+    assert!(s.stigmergy.held(1).is_empty(), "the lost message never arrives");
+    assert_eq!(s.stigmergy.messages_lost, 1);
+    // Lost messages were still sent: the sender paid for three.
+    let b1 = Entry::new(EntryId { key: 2, clock: 1 }, 1, model(&[5])).bytes;
+    let b2 = Entry::new(EntryId { key: 2, clock: 2 }, 1, model(&[7])).bytes;
+    assert_eq!(s.bytes_sent[2], b1 + 2 * b2);
+    assert_eq!(s.stigmergy.bytes_received[0], b1 + b2);
+    assert!(s.apply(SimTime(9), &AggregationEvent::Deliver { message: 2 }).is_err());
+}
+
+#[test]
+fn a_robot_cannot_send_what_it_does_not_hold_and_events_must_fit_the_aggregation() {
+    let mut s = AggregationState::new(&config(Aggregation::Gossip, 3), model(&[0]));
+    let forged = AggregationEvent::Send {
+        from: 0,
+        to: 1,
+        entries: vec![EntryId { key: 2, clock: 1 }],
+        lost: false,
+    };
+    assert!(s.apply(SimTime(0), &forged).unwrap_err().contains("holds version 0"));
+    let upload = AggregationEvent::Upload {
+        robot: 0,
+        samples: 1,
+        weights: model(&[1]),
+    };
+    assert!(s.apply(SimTime(0), &upload).unwrap_err().contains("gossip"));
+    let mut chain = AggregationState::new(&config(Aggregation::Chain, 3), model(&[0]));
+    assert!(chain
+        .apply(SimTime(0), &AggregationEvent::Merge { robot: 0 })
+        .is_err());
+}
+
+#[test]
+fn the_outlier_filter_leaves_out_distant_models_but_never_the_robots_own() {
+    let mut c = config(Aggregation::Gossip, 4);
+    c.learn.gossip_outlier_filter = true;
+    c.contract.weight_scale = 100;
+    c.contract.outlier_threshold = 0.05;
+    // Limit: 0.05 * 100 * 2 weights = 10 units of L1 distance to the current model [0, 0].
+    let mut s = AggregationState::new(&c, model(&[0, 0]));
+    fold(
+        &mut s,
+        &[
+            write(0, 1, &[40, 40]),
+            write(1, 1, &[3, 3]),
+            write(2, 1, &[100, -100]),
+            AggregationEvent::Send {
+                from: 1,
+                to: 0,
+                entries: vec![EntryId { key: 1, clock: 1 }],
+                lost: false,
+            },
+            AggregationEvent::Send {
+                from: 2,
+                to: 0,
+                entries: vec![EntryId { key: 2, clock: 1 }],
+                lost: false,
+            },
+            AggregationEvent::Deliver { message: 0 },
+            AggregationEvent::Deliver { message: 1 },
+            AggregationEvent::Merge { robot: 0 },
+        ],
+    );
+    // Robot 2's model (distance 200) is left out; robot 0's own (distance 80) is kept.
+    assert_eq!(&s.current(0).weights[..], &[22, 22]);
+    assert_eq!(s.aggregations[0].models.len(), 2);
+}
+
+#[test]
+fn the_central_server_counts_uploads_and_downloads() {
+    let mut s = AggregationState::new(&config(Aggregation::Central, 2), model(&[0, 0]));
+    assert_eq!(s.quorum(), 1);
+    fold(
+        &mut s,
+        &[
+            AggregationEvent::Merge { robot: 0 },
+            AggregationEvent::Upload {
+                robot: 0,
+                samples: 2,
+                weights: model(&[6, 8]),
+            },
+        ],
+    );
+    assert_eq!(&s.preview(1).weights[..], &[6, 8]);
+    assert_eq!(s.preview(1).round, 1);
+    assert_eq!(s.aggregations.len(), 1);
+    assert!(s.bytes_sent[0] > 16 && s.bytes_downloaded[0] > 16);
+    assert_eq!(s.bytes_sent[1], 0);
+}
