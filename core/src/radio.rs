@@ -62,7 +62,10 @@ mod tests {
                 severed += usize::from(!same);
             }
         }
-        assert!(free.iter().map(Vec::len).sum::<usize>() > 0, "robots see each other");
+        assert!(
+            free.iter().map(Vec::len).sum::<usize>() > 0,
+            "robots see each other"
+        );
         let _ = severed;
     }
 }

@@ -155,12 +155,9 @@ pub fn apply_ledger_side(
             metrics.apply(time, report);
             Ok(())
         }
-        Event::Tick(_) | Event::Reconfigure(_) | Event::Aggregation(_) => {
-            Err(ApplyError::Invalid(format!(
-                "a {} event needs the whole state",
-                event.kind()
-            )))
-        }
+        Event::Tick(_) | Event::Reconfigure(_) | Event::Aggregation(_) => Err(ApplyError::Invalid(
+            format!("a {} event needs the whole state", event.kind()),
+        )),
     }
 }
 
@@ -198,10 +195,7 @@ impl State {
         match event {
             Event::Tick(tick) => apply_tick(&mut self.world, time, tick),
             Event::Reconfigure(change) => self.reconfigure(time, change),
-            Event::Aggregation(e) => self
-                .aggregation
-                .apply(time, e)
-                .map_err(ApplyError::Invalid),
+            Event::Aggregation(e) => self.aggregation.apply(time, e).map_err(ApplyError::Invalid),
             Event::Ledger(_) | Event::Learn(_) => {
                 apply_ledger_side(&mut self.ledger, &mut self.metrics, time, event)
             }
@@ -387,7 +381,9 @@ impl RunSummary {
                 let summary = aggregation::summary::chain_summary(
                     config,
                     &state.ledger.stats(),
-                    contract.final_heldout_loss.unwrap_or(contract.heldout_loss_initial),
+                    contract
+                        .final_heldout_loss
+                        .unwrap_or(contract.heldout_loss_initial),
                 );
                 (contract, summary)
             }
@@ -888,9 +884,7 @@ impl Sim {
                 let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
                     >= min_train;
                 match (data, speculated) {
-                    (Some(_), Some((digest, outcome)))
-                        if trainable && digest == view.digest =>
-                    {
+                    (Some(_), Some((digest, outcome))) if trainable && digest == view.digest => {
                         Plan::Ready {
                             outcome,
                             base_round,

@@ -346,7 +346,9 @@ fn bisect_by_time(
     } else {
         match &hit {
             Some((t, values)) => {
-                println!("first checkpoint where `{expr}` holds: t = {t:.1} s (a baseline run: by time)");
+                println!(
+                    "first checkpoint where `{expr}` holds: t = {t:.1} s (a baseline run: by time)"
+                );
                 for (name, value) in values {
                     println!("  {name} = {value}");
                 }

@@ -175,7 +175,10 @@ pub fn print_summary(outcome: &RunOutcome) {
     );
     let a = &s["aggregation"];
     if a.is_object() {
-        let mb = |v: &serde_json::Value| v.as_f64().map_or("-".to_string(), |x| format!("{:.3}", x / 1e6));
+        let mb = |v: &serde_json::Value| {
+            v.as_f64()
+                .map_or("-".to_string(), |x| format!("{:.3}", x / 1e6))
+        };
         println!(
             "aggregation: {}; sent {} MB/robot, stored {} MB/robot; conservation {}",
             a["kind"].as_str().unwrap_or("?"),

@@ -136,7 +136,11 @@ pub const AGGREGATIONS: [&str; 3] = ["chain", "gossip", "central"];
 fn baselines_grid() -> Vec<Point> {
     let conditions: [(&str, u32, &[&str]); 3] = [
         ("clean", 0, &["byzantine.count=0", "byzantine.kind=none"]),
-        ("faulty-1", 1, &["byzantine.count=1", "byzantine.kind=faulty"]),
+        (
+            "faulty-1",
+            1,
+            &["byzantine.count=1", "byzantine.kind=faulty"],
+        ),
         (
             "malicious-3",
             3,

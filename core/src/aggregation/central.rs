@@ -46,14 +46,7 @@ impl Server {
     /// The entry `robot`'s next upload makes (its identity in learning reports).
     pub fn next_entry(&self, robot: RobotId, samples: u64, weights: Arc<[i64]>) -> Entry {
         let clock = self.uploads.get(robot as usize).map_or(1, |u| u + 1);
-        Entry::new(
-            EntryId {
-                key: robot,
-                clock,
-            },
-            samples,
-            weights,
-        )
+        Entry::new(EntryId { key: robot, clock }, samples, weights)
     }
 
     /// Folds an upload; returns the entry and, when it completes the quorum, the hashes of the

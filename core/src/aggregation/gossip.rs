@@ -146,7 +146,10 @@ impl Stigmergy {
         let a = self.check_robot(from)?;
         self.check_robot(to)?;
         if from == to || entries.is_empty() {
-            return Err(format!("robot {from} sends {} entries to {to}", entries.len()));
+            return Err(format!(
+                "robot {from} sends {} entries to {to}",
+                entries.len()
+            ));
         }
         let mut bytes = 0;
         for id in entries {

@@ -167,7 +167,10 @@ pub fn merge(
         return None;
     }
     let models: Vec<(&[i64], u64)> = kept.iter().map(|e| (&e.weights[..], e.samples)).collect();
-    Some((payout::fedavg(&models), kept.iter().map(|e| e.hash).collect()))
+    Some((
+        payout::fedavg(&models),
+        kept.iter().map(|e| e.hash).collect(),
+    ))
 }
 
 /// The reduced state of a baseline aggregation.
@@ -199,7 +202,8 @@ impl AggregationState {
     pub fn new(config: &Config, genesis: Arc<[i64]>) -> AggregationState {
         let robots = config.world.robots;
         let n = robots as usize;
-        let quorum = ((config.contract.quorum_fraction * f64::from(robots)).floor() as usize).max(1);
+        let quorum =
+            ((config.contract.quorum_fraction * f64::from(robots)).floor() as usize).max(1);
         let outlier_units = config.learn.gossip_outlier_filter.then(|| {
             (config.contract.outlier_threshold
                 * config.contract.weight_scale as f64
@@ -305,7 +309,10 @@ impl AggregationState {
             .held(robot)
             .into_iter()
             .find(|e| e.id.key == robot)
-            .map_or_else(|| self.models[robot as usize].0.clone(), |e| e.weights.clone())
+            .map_or_else(
+                || self.models[robot as usize].0.clone(),
+                |e| e.weights.clone(),
+            )
     }
 
     /// The hash `robot`'s next model gets in its learning report (the entry it will write or

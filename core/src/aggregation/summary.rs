@@ -64,12 +64,17 @@ fn mean(v: &[u64]) -> f64 {
 }
 
 /// The aggregation section of a chain run.
-pub fn chain_summary(config: &Config, stats: &LedgerStats, final_heldout: f64) -> AggregationSummary {
+pub fn chain_summary(
+    config: &Config,
+    stats: &LedgerStats,
+    final_heldout: f64,
+) -> AggregationSummary {
     let robots = f64::from(config.world.robots.max(1));
     AggregationSummary {
         kind: Aggregation::Chain,
-        conservation: "holds: sum(balances) + contract holdings is asserted after every contract call"
-            .to_string(),
+        conservation:
+            "holds: sum(balances) + contract holdings is asserted after every contract call"
+                .to_string(),
         bytes_sent_per_robot_mean: stats.gossip_bytes as f64 / robots,
         bytes_stored_per_robot_mean: stats.stored_bytes_mean,
         bytes_downloaded_per_robot_mean: 0.0,
@@ -162,8 +167,9 @@ pub fn summarise(
     s.final_loss = s.loss_by_round.last().copied();
     s.final_heldout_loss = match state.kind() {
         Aggregation::Central => s.heldout_loss_by_round.last().copied(),
-        _ => (!per_robot.is_empty())
-            .then(|| per_robot.iter().sum::<f64>() / per_robot.len() as f64),
+        _ => {
+            (!per_robot.is_empty()).then(|| per_robot.iter().sum::<f64>() / per_robot.len() as f64)
+        }
     };
     let kind = state.kind();
     let summary = AggregationSummary {

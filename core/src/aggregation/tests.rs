@@ -33,7 +33,13 @@ fn the_merge_averages_by_samples_once_a_quorum_is_held() {
     // 4 robots, quorum floor(0.5 * 4) = 2.
     let mut s = AggregationState::new(&config(Aggregation::Gossip, 4), model(&[0, 0]));
     assert_eq!(s.quorum(), 2);
-    fold(&mut s, &[write(0, 1, &[10, -10]), AggregationEvent::Merge { robot: 0 }]);
+    fold(
+        &mut s,
+        &[
+            write(0, 1, &[10, -10]),
+            AggregationEvent::Merge { robot: 0 },
+        ],
+    );
     // Below the quorum the robot continues from its own last model.
     assert_eq!(&s.current(0).weights[..], &[10, -10]);
     assert_eq!(s.current(0).round, 0);
@@ -101,14 +107,19 @@ fn the_newest_version_wins_and_stale_or_lost_messages_change_nothing() {
         .map(|e| (e.id, e.weights[0]))
         .collect();
     assert_eq!(held, vec![(EntryId { key: 2, clock: 2 }, 7)]);
-    assert!(s.stigmergy.held(1).is_empty(), "the lost message never arrives");
+    assert!(
+        s.stigmergy.held(1).is_empty(),
+        "the lost message never arrives"
+    );
     assert_eq!(s.stigmergy.messages_lost, 1);
     // Lost messages were still sent: the sender paid for three.
     let b1 = Entry::new(EntryId { key: 2, clock: 1 }, 1, model(&[5])).bytes;
     let b2 = Entry::new(EntryId { key: 2, clock: 2 }, 1, model(&[7])).bytes;
     assert_eq!(s.bytes_sent[2], b1 + 2 * b2);
     assert_eq!(s.stigmergy.bytes_received[0], b1 + b2);
-    assert!(s.apply(SimTime(9), &AggregationEvent::Deliver { message: 2 }).is_err());
+    assert!(s
+        .apply(SimTime(9), &AggregationEvent::Deliver { message: 2 })
+        .is_err());
 }
 
 #[test]
@@ -120,7 +131,10 @@ fn a_robot_cannot_send_what_it_does_not_hold_and_events_must_fit_the_aggregation
         entries: vec![EntryId { key: 2, clock: 1 }],
         lost: false,
     };
-    assert!(s.apply(SimTime(0), &forged).unwrap_err().contains("holds version 0"));
+    assert!(s
+        .apply(SimTime(0), &forged)
+        .unwrap_err()
+        .contains("holds version 0"));
     let upload = AggregationEvent::Upload {
         robot: 0,
         samples: 1,

@@ -122,7 +122,9 @@ fn last_loss(state: &State, metrics: &Metrics, byzantine: &[bool]) -> (u64, f64)
     (honest.len() as u64, loss)
 }
 
-fn open(path: &Path) -> Result<(LogReader<std::io::BufReader<std::fs::File>>, Config, u64), InspectError> {
+fn open(
+    path: &Path,
+) -> Result<(LogReader<std::io::BufReader<std::fs::File>>, Config, u64), InspectError> {
     let name = path.display().to_string();
     let reader = LogReader::open(path).map_err(ReplayError::from)?;
     let config = replay::header_config(&reader, &name)?;
