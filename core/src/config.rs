@@ -1,6 +1,6 @@
 //! The configuration: one serde tree holding every parameter of the system, with its default.
 //!
-//! Every number of SPEC.md is a field here, documented where it is declared. A run is fully
+//! Every number of docs/SPEC.md is a field here, documented where it is declared. A run is fully
 //! determined by a [`Config`] and a seed. Configurations come from a named preset
 //! ([`Preset`]), optionally overlaid with a TOML file and with `key.path=value` overrides
 //! ([`Config::set`]); [`Config::validate`] then checks every range and names the offending key.
@@ -11,6 +11,15 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::byzantine::ledger::LedgerBehaviour;
+use crate::contract::options::ContractOptions;
+pub use crate::contract::options::{
+    ContractEngine, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
+    ThresholdRule,
+};
+pub use crate::contract::rules::Rule;
+use crate::faults::FaultsConfig;
+
 /// A complete, resolved configuration of a run.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -19,19 +28,22 @@ pub struct Config {
     pub preset: String,
     /// Simulated time.
     pub run: RunConfig,
-    /// Arena, robots, physics and sensing (SPEC.md section 1).
+    /// Arena, robots, physics and sensing (docs/SPEC.md section 1).
     pub world: WorldConfig,
-    /// Trajectory data collection (SPEC.md section 1, data collection).
+    /// Trajectory data collection (docs/SPEC.md section 1, data collection).
     pub data: DataConfig,
-    /// The model and its local training (SPEC.md section 2).
+    /// The model and its local training (docs/SPEC.md section 2).
     pub learn: LearnConfig,
-    /// The per-robot blockchain nodes (SPEC.md section 3).
+    /// The per-robot blockchain nodes (docs/SPEC.md section 3).
     pub ledger: LedgerConfig,
-    /// The federated-learning smart contract (SPEC.md section 4).
+    /// The federated-learning smart contract (docs/SPEC.md section 4).
     pub contract: ContractConfig,
-    /// Byzantine robots (SPEC.md section 5).
+    /// Byzantine robots (docs/SPEC.md section 5).
     pub byzantine: ByzantineConfig,
-    /// Log and metrics settings (SPEC.md sections 6 and 8).
+    /// Faults on the radio and the robots (none by default; beyond the paper).
+    #[serde(default)]
+    pub faults: FaultsConfig,
+    /// Log and metrics settings (docs/SPEC.md sections 6 and 8).
     pub output: OutputConfig,
 }
 
@@ -116,7 +128,8 @@ pub struct LearnConfig {
     pub lstm_units: u32,
     /// Dropout rate after the LSTM layer, active during training only.
     pub dropout: f64,
-    /// SGD learning rate (paper 0.001, reference 0.01).
+    /// SGD learning rate: 0.01, what the authors' code ran (Keras' default); the paper's text says
+    /// 0.001 (preset `paper-text`). docs/SPEC.md section 2 has the evidence.
     pub learning_rate: f64,
     /// Mini-batch size.
     pub batch_size: u32,
@@ -179,15 +192,6 @@ pub struct LedgerConfig {
     pub bandwidth_bytes_per_s: u64,
     /// Probability that a gossip message between two peers is lost.
     pub packet_loss: f64,
-    /// Start of a radio cut in simulated seconds: from then, for `radio_cut_duration_s`, no
-    /// message crosses between the arena's halves x < 0 and x >= 0 (the ledger's and the
-    /// stigmergy's gossip alike; range-and-bearing sensing is untouched). A minimal partition
-    /// for comparing the aggregations.
-    #[serde(default)]
-    pub radio_cut_start_s: f64,
-    /// Length of the radio cut in simulated seconds (0: no cut).
-    #[serde(default)]
-    pub radio_cut_duration_s: f64,
 }
 
 /// The federated-learning contract.
@@ -211,6 +215,84 @@ pub struct ContractConfig {
     /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
     /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
     pub penalised_ranks: u32,
+    /// The aggregation rule (`fedavg`, `paper`, `krum`, `multi-krum`, `median`,
+    /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`; see `contract::rules`).
+    /// `security = false` means `fedavg` whatever this says (old configurations read as before).
+    #[serde(default = "default_rule")]
+    pub rule: Rule,
+    /// Byzantine submissions per round the robust rules assume (f): krum and multi-krum need
+    /// quorum >= 2f + 3, median, trimmed-mean, geomed and centered-clipping 2f + 1, bulyan
+    /// 4f + 3. Ignored by fedavg and paper.
+    #[serde(default = "default_assumed_f")]
+    pub assumed_f: u32,
+    /// A round that has not reached its quorum this many seconds (block time) after it opened
+    /// closes without aggregation and refunds the stakes of its accepted submissions; 0 = never.
+    /// Beyond the paper, whose contract has no deadline: off in every preset.
+    #[serde(default)]
+    pub round_timeout_s: f64,
+    /// Explicit reward weight per rank, best first (one per quorum rank, at least one
+    /// positive, each in -1000..=1000); empty (the default) derives them from
+    /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].
+    #[serde(default)]
+    pub reward_weights: Vec<i64>,
+    /// Which machine executes the contract: "native" (the Rust reducer) or "evm" (the Solidity
+    /// contract of `contracts/`, its committed bytecode run in revm; same events and results).
+    #[serde(default)]
+    pub engine: ContractEngine,
+    /// Median of an even count of distances: "lower" middle (swarmfl) or "mean" of the two
+    /// middles, floored (authors).
+    #[serde(default)]
+    pub median: MedianRule,
+    /// FedAvg rounding: "nearest", ties away from zero (swarmfl), or "truncate" toward zero
+    /// (authors).
+    #[serde(default)]
+    pub fedavg_rounding: FedAvgRounding,
+    /// Refuse (malformed) an accepted model when some `w_i * n`, or the round's running sum
+    /// with it, leaves int48: the authors' int48 accumulator reverts such a submission.
+    #[serde(default)]
+    pub int48_products: bool,
+    /// Outlier threshold: "inclusive", `d <= t * N` (swarmfl), or "strict", `d < t * N`
+    /// (authors).
+    #[serde(default)]
+    pub threshold: ThresholdRule,
+    /// Ranking key: exact L1 "distance" (swarmfl) or truncated "mae" `floor(d / N)` (authors).
+    #[serde(default)]
+    pub rank_key: RankKey,
+    /// Ranking ties: "stable" submission order (swarmfl) or the authors' "quicksort".
+    #[serde(default)]
+    pub rank_ties: RankTies,
+    /// Payout shares: "exact" to one unit (swarmfl) or "ratio_1e9", normalised to 1e9 and
+    /// floored (authors).
+    #[serde(default)]
+    pub payout_rounding: PayoutRounding,
+    /// Pool of an aggregation: "carry" (all the contract holds, remainders included; swarmfl)
+    /// or "round" (the round's stakes only; authors).
+    #[serde(default)]
+    pub pool: PoolRule,
+}
+
+impl ContractConfig {
+    /// The variant options of the contract (docs/CONTRACT.md).
+    pub fn options(&self) -> ContractOptions {
+        ContractOptions {
+            median: self.median,
+            fedavg_rounding: self.fedavg_rounding,
+            int48_products: self.int48_products,
+            threshold: self.threshold,
+            rank_key: self.rank_key,
+            rank_ties: self.rank_ties,
+            payout_rounding: self.payout_rounding,
+            pool: self.pool,
+        }
+    }
+}
+
+fn default_rule() -> Rule {
+    Rule::Paper
+}
+
+fn default_assumed_f() -> u32 {
+    1
 }
 
 /// Which robots are Byzantine and how they behave.
@@ -227,11 +309,63 @@ pub struct ByzantineConfig {
     pub claimed_samples: u32,
     /// Faulty robots send weights uniform in [-this, this].
     pub faulty_range: f64,
+    /// How many honest submissions of the current round the attacks that read them (`alie`,
+    /// `ipm`, `min-max`, `mimic`, `inflate-samples`) wait to see on their own chain before
+    /// submitting (at least 1; `alie` and `min-max` use at least 2).
+    #[serde(default = "default_wait_for_honest")]
+    pub wait_for_honest: u32,
+    /// `sign-flip`: the submitted model is w(t) - scale * (w(t) - w(t-1)); `ipm`: the
+    /// submitted step is -scale times the honest mean step (inner-product manipulation's
+    /// epsilon).
+    #[serde(default = "default_attack_scale")]
+    pub scale: f64,
+    /// `gaussian`: standard deviation of the noise added to every weight of w(t).
+    #[serde(default = "default_sigma")]
+    pub sigma: f64,
+    /// `alie`: how many honest standard deviations each weight is moved from the honest mean.
+    #[serde(default = "default_alie_z")]
+    pub alie_z: f64,
+    /// `inflate-samples` and `collude`: the fraction of the outlier threshold
+    /// (`contract.outlier_threshold`, mean absolute distance) the forged model moves from w(t).
+    #[serde(default = "default_threshold_fraction")]
+    pub threshold_fraction: f64,
+    /// `inflate-samples`: the sample count claimed (the contract's limit is 2^32 - 1).
+    #[serde(default = "default_inflated_samples")]
+    pub inflated_samples: u32,
+    /// Misbehaviour of the same robots on the ledger (sealing, gossip, transactions),
+    /// orthogonal to `kind` (beyond the paper; `honest` by default).
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
 }
 
-/// The behaviour of Byzantine robots (SPEC.md section 5).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
+fn default_wait_for_honest() -> u32 {
+    2
+}
+
+fn default_attack_scale() -> f64 {
+    1.0
+}
+
+fn default_sigma() -> f64 {
+    0.1
+}
+
+fn default_alie_z() -> f64 {
+    1.0
+}
+
+fn default_threshold_fraction() -> f64 {
+    0.99
+}
+
+fn default_inflated_samples() -> u32 {
+    u32::MAX
+}
+
+/// The behaviour of Byzantine robots (docs/SPEC.md section 5, and the attacks of `byzantine/`,
+/// each documented in its own file).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
 pub enum ByzantineKind {
     /// No Byzantine robots (the count must be 0).
     None,
@@ -241,6 +375,63 @@ pub enum ByzantineKind {
     Malicious,
     /// Follows the trend of the shared model to be ranked first.
     Smart,
+    /// Reverses the last aggregation step.
+    SignFlip,
+    /// Gaussian noise on the shared model.
+    Gaussian,
+    /// A little is enough: the honest mean moved by a few honest standard deviations.
+    Alie,
+    /// Inner-product manipulation: the negated honest mean step.
+    Ipm,
+    /// Min-max: as far from the honest mean as the honest models are from each other.
+    MinMax,
+    /// Copies an honest model of the round (over-represents one robot's data).
+    Mimic,
+    /// A model just inside the outlier threshold, against the honest direction, with a huge
+    /// claimed sample count.
+    InflateSamples,
+    /// Trains honestly on corrupted trajectories.
+    PoisonData,
+    /// The Byzantine robots agree on one model.
+    Collude,
+}
+
+impl ByzantineKind {
+    /// Every kind, `none` first.
+    pub const ALL: [ByzantineKind; 13] = [
+        ByzantineKind::None,
+        ByzantineKind::Faulty,
+        ByzantineKind::Malicious,
+        ByzantineKind::Smart,
+        ByzantineKind::SignFlip,
+        ByzantineKind::Gaussian,
+        ByzantineKind::Alie,
+        ByzantineKind::Ipm,
+        ByzantineKind::MinMax,
+        ByzantineKind::Mimic,
+        ByzantineKind::InflateSamples,
+        ByzantineKind::PoisonData,
+        ByzantineKind::Collude,
+    ];
+
+    /// The kind's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            ByzantineKind::None => "none",
+            ByzantineKind::Faulty => "faulty",
+            ByzantineKind::Malicious => "malicious",
+            ByzantineKind::Smart => "smart",
+            ByzantineKind::SignFlip => "sign-flip",
+            ByzantineKind::Gaussian => "gaussian",
+            ByzantineKind::Alie => "alie",
+            ByzantineKind::Ipm => "ipm",
+            ByzantineKind::MinMax => "min-max",
+            ByzantineKind::Mimic => "mimic",
+            ByzantineKind::InflateSamples => "inflate-samples",
+            ByzantineKind::PoisonData => "poison-data",
+            ByzantineKind::Collude => "collude",
+        }
+    }
 }
 
 /// Which formula a Byzantine behaviour follows.
@@ -265,8 +456,10 @@ pub struct OutputConfig {
 /// The named configurations shipped with swarmfl.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
-    /// The paper's values (the default).
+    /// The paper's values (the default), with the learning rate its code ran (0.01).
     Paper,
+    /// The paper's text taken literally: as `Paper` but with its stated learning rate 0.001.
+    PaperText,
     /// The reference implementation's values where they differ from the paper.
     Reference,
     /// 15 robots for 600 s: quick, for fixtures and CI.
@@ -281,6 +474,9 @@ pub enum Preset {
     E2Malicious,
     /// Experiment 3: security on, smart robots; sweep `byzantine.count` 0..7.
     E3Smart,
+    /// Experiment 4: aggregation rules against attacks, 2000 s at learning rate 0.01; sweep
+    /// `contract.rule` x `byzantine.kind` x `byzantine.count`.
+    E4Robustness,
     /// Baselines: the chain (security on) against Flow-FL gossip and a central server; sweep
     /// `learn.aggregation` and the Byzantine robots.
     E0Baselines,
@@ -288,8 +484,9 @@ pub enum Preset {
 
 impl Preset {
     /// Every preset, in the order `swarmfl presets` lists them.
-    pub const ALL: [Preset; 9] = [
+    pub const ALL: [Preset; 11] = [
         Preset::Paper,
+        Preset::PaperText,
         Preset::Reference,
         Preset::Smoke,
         Preset::E1Expiration,
@@ -297,6 +494,7 @@ impl Preset {
         Preset::E2Faulty,
         Preset::E2Malicious,
         Preset::E3Smart,
+        Preset::E4Robustness,
         Preset::E0Baselines,
     ];
 
@@ -304,6 +502,7 @@ impl Preset {
     pub fn name(self) -> &'static str {
         match self {
             Preset::Paper => "paper",
+            Preset::PaperText => "paper-text",
             Preset::Reference => "reference",
             Preset::Smoke => "smoke",
             Preset::E1Expiration => "e1-expiration",
@@ -311,6 +510,7 @@ impl Preset {
             Preset::E2Faulty => "e2-faulty",
             Preset::E2Malicious => "e2-malicious",
             Preset::E3Smart => "e3-smart",
+            Preset::E4Robustness => "e4-robustness",
             Preset::E0Baselines => "e0-baselines",
         }
     }
@@ -319,7 +519,10 @@ impl Preset {
     pub fn description(self) -> &'static str {
         match self {
             Preset::Paper => {
-                "the paper's system: 15 robots, 5 x 5 m, 2.5 m range, 5000 s, security on"
+                "the paper's system: 15 robots, 5 x 5 m, 2.5 m range, 5000 s, security on, SGD 0.01"
+            }
+            Preset::PaperText => {
+                "the paper's text: as `paper` but SGD 0.001 (its figures were made at 0.01)"
             }
             Preset::Reference => {
                 "the reference implementation's values: 4 x 4 m, 2.0 m range, 4980 s, SGD 0.01"
@@ -334,6 +537,9 @@ impl Preset {
                 "Exp. 2: security on, malicious robots; sweep byzantine.count 0..7"
             }
             Preset::E3Smart => "Exp. 3: security on, smart robots; sweep byzantine.count 0..7",
+            Preset::E4Robustness => {
+                "Exp. 4: rules x attacks x Byzantine count, 2000 s, learning rate 0.01"
+            }
             Preset::E0Baselines => {
                 "Baselines: chain vs Flow-FL gossip vs central server, SGD 0.01; sweep \
                  learn.aggregation x {0, 1 faulty, 3 malicious}"
@@ -363,12 +569,16 @@ impl Preset {
         c.preset = self.name().to_string();
         match self {
             Preset::Paper => {}
+            Preset::PaperText => {
+                // The rate the paper's text gives (taken from Flow-FL); its code never set one,
+                // so Keras' default 0.01 made the figures (docs/SPEC.md, "Learning rate").
+                c.learn.learning_rate = 0.001;
+            }
             Preset::Reference => {
                 c.run.duration_s = 4980.0;
                 c.world.arena_side_m = 4.0;
                 c.world.obstacle_spread_half_m = 1.5;
                 c.world.rab_range_m = 2.0;
-                c.learn.learning_rate = 0.01;
             }
             Preset::Smoke => {
                 c.run.duration_s = 600.0;
@@ -393,10 +603,15 @@ impl Preset {
                 c.byzantine.kind = ByzantineKind::Smart;
                 c.byzantine.count = 1;
             }
+            Preset::E4Robustness => {
+                // Short runs by default (the sweep has 225 points); --set run.duration_s=5000
+                // for the paper's length.
+                c.run.duration_s = 2000.0;
+            }
             Preset::E0Baselines => {
-                // The rate behind the paper's figures (SPEC.md section 2): at 0.001 no
-                // aggregation learns enough in 5000 s to tell them apart.
-                c.learn.learning_rate = 0.01;
+                // The paper's system (security on, learning rate 0.01, docs/SPEC.md section
+                // 2) at its full 5000 s; the sweep varies learn.aggregation and the Byzantine
+                // robots.
             }
         }
         c
@@ -449,7 +664,9 @@ impl Config {
             learn: LearnConfig {
                 lstm_units: 16,
                 dropout: 0.2,
-                learning_rate: 0.001,
+                // Keras' default for `optimizer='SGD'`, what the authors' code ran (the text says
+                // 0.001; the `paper-text` preset keeps that value).
+                learning_rate: 0.01,
                 batch_size: 20,
                 epochs: 20,
                 train_fraction: 0.8,
@@ -464,8 +681,6 @@ impl Config {
                 wiggle_unit_s: 0.5,
                 bandwidth_bytes_per_s: 0,
                 packet_loss: 0.0,
-                radio_cut_start_s: 0.0,
-                radio_cut_duration_s: 0.0,
             },
             contract: ContractConfig {
                 security: true,
@@ -476,6 +691,19 @@ impl Config {
                 quorum_fraction: 0.5,
                 outlier_threshold: 0.05,
                 penalised_ranks: 2,
+                rule: Rule::Paper,
+                assumed_f: 1,
+                round_timeout_s: 0.0,
+                reward_weights: Vec::new(),
+                engine: ContractEngine::Native,
+                median: MedianRule::Lower,
+                fedavg_rounding: FedAvgRounding::Nearest,
+                int48_products: false,
+                threshold: ThresholdRule::Inclusive,
+                rank_key: RankKey::Distance,
+                rank_ties: RankTies::Stable,
+                payout_rounding: PayoutRounding::Exact,
+                pool: PoolRule::Carry,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -483,7 +711,15 @@ impl Config {
                 variant: ByzantineVariant::Paper,
                 claimed_samples: 200,
                 faulty_range: 0.5,
+                wait_for_honest: 2,
+                scale: 1.0,
+                sigma: 0.1,
+                alie_z: 1.0,
+                threshold_fraction: 0.99,
+                inflated_samples: u32::MAX,
+                ledger: LedgerBehaviour::Honest,
             },
+            faults: FaultsConfig::default(),
             output: OutputConfig {
                 snapshot_every_blocks: 50,
             },
@@ -495,6 +731,16 @@ impl Config {
         (self.run.duration_s / self.run.tick_s).round() as u64
     }
 
+    /// The aggregation rule in force: `fedavg` when `contract.security` is off, else
+    /// `contract.rule`.
+    pub fn rule(&self) -> Rule {
+        if self.contract.security {
+            self.contract.rule
+        } else {
+            Rule::Fedavg
+        }
+    }
+
     /// The quorum: max(floor(q * N_r), 1).
     pub fn quorum(&self) -> u32 {
         ((self.contract.quorum_fraction * f64::from(self.world.robots)).floor() as u32).max(1)
@@ -503,6 +749,9 @@ impl Config {
     /// The reward weight of each rank, best first: +1 for the rewarded, -1 for the
     /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
     pub fn reward_weights(&self) -> Vec<i64> {
+        if !self.contract.reward_weights.is_empty() {
+            return self.contract.reward_weights.clone();
+        }
         let q = self.quorum() as usize;
         // At least the best rank is rewarded (validation enforces it; the clamp keeps
         // unvalidated test configurations meaningful).
@@ -574,6 +823,10 @@ impl Config {
         }
         let preset = Preset::from_name(preset_name.as_deref().unwrap_or("paper"))?;
         let mut config = preset.config();
+        let mut explicit = std::collections::BTreeSet::new();
+        if let Some((table, _)) = &file_table {
+            collect_keys("", table, &mut explicit);
+        }
         if let Some((table, source_name)) = file_table {
             let mut base = toml::Value::try_from(&config).expect("Config serialises");
             merge(&mut base, toml::Value::Table(table), "", source_name)?;
@@ -587,9 +840,44 @@ impl Config {
         }
         for assignment in overrides {
             config.set(assignment)?;
+            if let Some((key, _)) = assignment.split_once('=') {
+                explicit.insert(key.trim().to_string());
+            }
         }
-        config.validate()?;
+        config.derive(&explicit);
+        config.validate().map_err(|e| match e {
+            ConfigError::OutOfRange { ref key, .. }
+                if !explicit.is_empty() && !explicit.contains(key) =>
+            {
+                ConfigError::NotSetByYou {
+                    key: key.clone(),
+                    preset: config.preset.clone(),
+                    set: explicit.iter().cloned().collect::<Vec<_>>().join(", "),
+                    source: Box::new(e),
+                }
+            }
+            e => e,
+        })?;
         Ok(config)
+    }
+
+    /// Makes the values the user did not set follow the ones they did, where a preset's value
+    /// only suits the preset's swarm: `contract.penalised_ranks` is clamped to `quorum - 1` (a
+    /// swarm of 2..5 robots has a quorum of 1 or 2, so the paper's 2 of 7 cannot apply) and
+    /// `world.peer_refresh_s` is raised to `run.tick_s` (peers are refreshed at most once a
+    /// tick). `explicit` holds the dotted keys set by a file or an override: those are never
+    /// changed, so a contradiction among them is reported by [`Config::validate`] naming the
+    /// user's own key. A configuration that already validates is left as it is, so every
+    /// existing run keeps its records.
+    pub fn derive(&mut self, explicit: &std::collections::BTreeSet<String>) {
+        let set = |key: &str| explicit.contains(key);
+        if !set("contract.penalised_ranks") {
+            let max = self.quorum().saturating_sub(1);
+            self.contract.penalised_ranks = self.contract.penalised_ranks.min(max);
+        }
+        if !set("world.peer_refresh_s") && self.world.peer_refresh_s < self.run.tick_s {
+            self.world.peer_refresh_s = self.run.tick_s;
+        }
     }
 
     /// Applies one `key.path=value` override. The value is TOML (`0.5`, `true`, `"faulty"`,
@@ -819,18 +1107,6 @@ impl Config {
         positive("ledger.block_period_s", c.ledger.block_period_s)?;
         range("ledger.wiggle_unit_s", c.ledger.wiggle_unit_s, 0.0, 1.0e6)?;
         range("ledger.packet_loss", c.ledger.packet_loss, 0.0, 1.0)?;
-        range(
-            "ledger.radio_cut_start_s",
-            c.ledger.radio_cut_start_s,
-            0.0,
-            1.0e7,
-        )?;
-        range(
-            "ledger.radio_cut_duration_s",
-            c.ledger.radio_cut_duration_s,
-            0.0,
-            1.0e7,
-        )?;
         int(
             "contract.stake_tokens",
             c.contract.stake_tokens,
@@ -877,23 +1153,111 @@ impl Config {
             0,
             u64::from(c.quorum() - 1),
         )?;
+        if !c.contract.security && !matches!(c.contract.rule, Rule::Paper | Rule::Fedavg) {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.rule".to_string(),
+                value: c.contract.rule.name().to_string(),
+                allowed: "fedavg or paper while contract.security = false (security off is \
+                          the fedavg rule); set contract.security = true to use another rule"
+                    .to_string(),
+            });
+        }
+        let rule = c.rule();
+        let max_f = (0..=c.quorum())
+            .take_while(|&f| rule.min_quorum(f) <= c.quorum())
+            .last();
+        match max_f {
+            Some(max_f) => int(
+                "contract.assumed_f",
+                c.contract.assumed_f.into(),
+                0,
+                max_f.into(),
+            )
+            .map_err(|e| match e {
+                ConfigError::OutOfRange {
+                    key,
+                    value,
+                    allowed,
+                } => ConfigError::OutOfRange {
+                    key,
+                    value,
+                    allowed: format!(
+                        "{allowed} for rule {} with quorum {} (it needs quorum >= {} with f = {})",
+                        rule.name(),
+                        c.quorum(),
+                        rule.min_quorum(c.contract.assumed_f),
+                        c.contract.assumed_f
+                    ),
+                },
+                e => e,
+            })?,
+            None => {
+                return Err(ConfigError::OutOfRange {
+                    key: "contract.rule".to_string(),
+                    value: rule.name().to_string(),
+                    allowed: format!(
+                        "a rule defined for quorum {} (it needs quorum >= {} even with f = 0); \
+                         raise contract.quorum_fraction",
+                        c.quorum(),
+                        rule.min_quorum(0)
+                    ),
+                })
+            }
+        }
+        let k = &c.contract.reward_weights;
+        if !k.is_empty()
+            && (k.len() != c.quorum() as usize
+                || !k.iter().any(|&w| w > 0)
+                || k.iter().any(|w| w.abs() > 1000))
+        {
+            return Err(ConfigError::OutOfRange {
+                key: "contract.reward_weights".to_string(),
+                value: format!("{k:?}"),
+                allowed: format!(
+                    "empty (derived from penalised_ranks) or one weight per rank of the quorum \
+                     ({}), at least one positive, each in -1000..=1000",
+                    c.quorum()
+                ),
+            });
+        }
+        crate::contract::options::check_rule_options(c)?;
+        if c.contract.engine == ContractEngine::Evm {
+            crate::contract::evm::supports(c)?;
+        }
         int(
             "byzantine.count",
             c.byzantine.count.into(),
             0,
             c.world.robots.into(),
         )?;
-        if (c.byzantine.kind == ByzantineKind::None) != (c.byzantine.count == 0) {
+        let misbehaves = c.byzantine.kind != ByzantineKind::None
+            || c.byzantine.ledger != LedgerBehaviour::Honest;
+        if misbehaves != (c.byzantine.count > 0) {
             return Err(ConfigError::OutOfRange {
                 key: "byzantine.count".to_string(),
                 value: c.byzantine.count.to_string(),
                 allowed: format!(
-                    "0 when byzantine.kind = \"none\", at least 1 otherwise (kind is {:?}); \
-                     set both, e.g. --set byzantine.kind=faulty --set byzantine.count=3",
-                    c.byzantine.kind
+                    "0 when byzantine.kind = \"none\" and byzantine.ledger = \"honest\", at \
+                     least 1 otherwise (kind is {:?}, ledger is {:?}); set both, e.g. \
+                     --set byzantine.kind=faulty --set byzantine.count=3",
+                    c.byzantine.kind, c.byzantine.ledger
                 ),
             });
         }
+        range(
+            "contract.round_timeout_s",
+            c.contract.round_timeout_s,
+            0.0,
+            1.0e9,
+        )?;
+        if let Err((key, value, allowed)) = c.faults.check(c.world.robots, c.run.duration_s) {
+            return Err(ConfigError::OutOfRange {
+                key,
+                value,
+                allowed,
+            });
+        }
+        crate::aggregation::supports(c)?;
         int(
             "byzantine.claimed_samples",
             c.byzantine.claimed_samples.into(),
@@ -905,6 +1269,27 @@ impl Config {
             c.byzantine.faulty_range,
             0.0,
             1000.0,
+        )?;
+        int(
+            "byzantine.wait_for_honest",
+            c.byzantine.wait_for_honest.into(),
+            1,
+            10_000,
+        )?;
+        range("byzantine.scale", c.byzantine.scale, 0.0, 1.0e6)?;
+        range("byzantine.sigma", c.byzantine.sigma, 0.0, 1000.0)?;
+        range("byzantine.alie_z", c.byzantine.alie_z, -1000.0, 1000.0)?;
+        range(
+            "byzantine.threshold_fraction",
+            c.byzantine.threshold_fraction,
+            0.0,
+            1000.0,
+        )?;
+        int(
+            "byzantine.inflated_samples",
+            c.byzantine.inflated_samples.into(),
+            1,
+            u32::MAX.into(),
         )?;
         Ok(())
     }
@@ -968,7 +1353,9 @@ impl Config {
 /// - `run.duration_s`: the run ends at the new time (after the fork point).
 /// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
 /// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
-///   `penalised_ranks`: the contract's rules change for the blocks sealed after the fork point
+///   `penalised_ranks`, `rule`, `assumed_f`, `reward_weights` and the variant options
+///   (`median` .. `pool`): the contract's rules change for the blocks sealed after the fork
+///   point
 ///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
 ///   chain when it crosses the activation is restarted and its stakes refunded.
 /// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
@@ -988,6 +1375,17 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.quorum_fraction",
     "contract.outlier_threshold",
     "contract.penalised_ranks",
+    "contract.rule",
+    "contract.assumed_f",
+    "contract.reward_weights",
+    "contract.median",
+    "contract.fedavg_rounding",
+    "contract.int48_products",
+    "contract.threshold",
+    "contract.rank_key",
+    "contract.rank_ties",
+    "contract.payout_rounding",
+    "contract.pool",
     "byzantine.*",
     "output.*",
 ];
@@ -1138,6 +1536,19 @@ pub enum ConfigError {
         /// The keys that may change.
         allowed: String,
     },
+    /// A value the user did not set (it comes from the preset) that conflicts with the values
+    /// they did set.
+    #[error("{source}; you did not set `{key}` (preset `{preset}` gives it), but it no longer fits what you set ({set}): set `{key}` too, or change those values")]
+    NotSetByYou {
+        /// The preset's key that is out of range.
+        key: String,
+        /// The preset it came from.
+        preset: String,
+        /// The keys the user set, comma-separated.
+        set: String,
+        /// The range error.
+        source: Box<ConfigError>,
+    },
     /// A `--set` argument that is not `key=value`.
     #[error("invalid override `{assignment}`: {message}")]
     Override {
@@ -1146,6 +1557,23 @@ pub enum ConfigError {
         /// What is wrong.
         message: String,
     },
+}
+
+/// Every dotted key of a value in a (partial) TOML table (`world.robots`, not `world`).
+fn collect_keys(prefix: &str, table: &toml::Table, out: &mut std::collections::BTreeSet<String>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(t) => collect_keys(&key, t, out),
+            _ => {
+                out.insert(key);
+            }
+        }
+    }
 }
 
 impl fmt::Display for Preset {
@@ -1168,6 +1596,34 @@ mod tests {
             let back: Config = toml::from_str(&config.to_toml()).unwrap();
             assert_eq!(back, config, "{preset}");
         }
+    }
+
+    /// `contract.rule` is listed in every resolved configuration; a configuration written
+    /// before rules existed (no `rule`, no `assumed_f`) reads as `paper`, and
+    /// `security = false` still means `fedavg`.
+    #[test]
+    fn the_rule_is_listed_and_old_configurations_read() {
+        let paper = Preset::Paper.config();
+        assert!(paper.to_toml().contains("rule = \"paper\""));
+        assert_eq!(paper.flat_values()["contract.rule"], "\"paper\"");
+        let mut old: toml::Table = toml::from_str(&paper.to_toml()).unwrap();
+        let contract = old["contract"].as_table_mut().unwrap();
+        contract.remove("rule");
+        contract.remove("assumed_f");
+        contract.insert("security".into(), toml::Value::Boolean(false));
+        let text = toml::to_string(&old).unwrap();
+        let c = Config::from_toml_str(&text, "old.toml").unwrap();
+        assert_eq!(c.contract.rule, Rule::Paper);
+        assert_eq!(c.rule(), Rule::Fedavg);
+        let mut krum = Preset::Paper.config();
+        krum.set("contract.rule=krum").unwrap();
+        krum.validate().unwrap();
+        krum.set("contract.assumed_f=3").unwrap();
+        let e = krum.validate().unwrap_err().to_string();
+        assert!(
+            e.contains("contract.assumed_f") && e.contains("krum"),
+            "{e}"
+        );
     }
 
     #[test]
@@ -1229,7 +1685,7 @@ mod tests {
         );
         check_err(
             &["preset=../../etc"],
-            "`preset`: value \"../../etc\" is out of range; allowed: one of paper, reference",
+            "`preset`: value \"../../etc\" is out of range; allowed: one of paper, paper-text, reference",
         );
         let err = Config::resolve(Some("papr"), None, &[])
             .unwrap_err()
@@ -1238,6 +1694,92 @@ mod tests {
             err.contains("unknown preset \"papr\"") && err.contains("e3-smart"),
             "{err}"
         );
+    }
+
+    /// `contract.engine = evm` runs contracts/SwarmFL.sol, the paper's contract with security
+    /// on or off: every other rule, and the round deadline it lacks, are refused with the key,
+    /// the value and the fix; native runs keep them.
+    #[test]
+    fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
+        for rule in crate::contract::rules::ALL_RULES {
+            let set = |engine: &str| {
+                Config::resolve(
+                    None,
+                    None,
+                    &[
+                        format!("contract.rule={}", rule.name()),
+                        format!("contract.engine={engine}"),
+                    ],
+                )
+            };
+            set("native").unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+            match (rule, set("evm")) {
+                (Rule::Paper | Rule::Fedavg, got) => {
+                    got.unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+                }
+                (_, Ok(_)) => panic!("{} accepted under evm", rule.name()),
+                (_, Err(e)) => {
+                    let e = e.to_string();
+                    assert!(
+                        e.contains(&format!("`contract.rule`: value {}", rule.name()))
+                            && e.contains("contract.engine = evm")
+                            && e.contains("set contract.engine = native"),
+                        "{e}"
+                    );
+                }
+            }
+        }
+        // Security off is the fedavg rule, which the contract implements.
+        Config::resolve(
+            None,
+            None,
+            &[
+                "contract.engine=evm".into(),
+                "contract.security=false".into(),
+            ],
+        )
+        .unwrap();
+        check_err(
+            &["contract.engine=evm", "contract.round_timeout_s=300"],
+            "`contract.round_timeout_s`: value 300 is out of range; allowed: 0 (no deadline) \
+             with contract.engine = evm",
+        );
+        Config::resolve(None, None, &["contract.round_timeout_s=300".into()]).unwrap();
+    }
+
+    /// The authors' variant options describe the paper's contract: a robust rule would ignore
+    /// them, so setting one with it is refused, naming the option.
+    #[test]
+    fn variant_options_are_refused_with_a_robust_rule() {
+        check_err(
+            &["contract.rule=median", "contract.median=mean"],
+            "`contract.median`: value \"mean\" is out of range; allowed: its default with \
+             contract.rule = median",
+        );
+        check_err(
+            &[
+                "contract.rule=krum",
+                "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]",
+            ],
+            "`contract.reward_weights`: value [5, 4, 3, 2, 1, -1, -2]",
+        );
+        check_err(
+            &["contract.rule=krum", "contract.pool=round"],
+            "remove `contract.pool`, or set contract.rule = paper",
+        );
+        for rule in ["paper", "fedavg"] {
+            Config::resolve(
+                None,
+                None,
+                &[
+                    format!("contract.rule={rule}"),
+                    "contract.median=mean".into(),
+                    "contract.pool=round".into(),
+                    "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]".into(),
+                ],
+            )
+            .unwrap_or_else(|e| panic!("{rule}: {e}"));
+        }
     }
 
     #[test]
@@ -1267,6 +1809,42 @@ mod tests {
             .to_string();
         assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn small_swarms_and_long_ticks_derive_what_the_user_did_not_set() {
+        for robots in 1..=5u32 {
+            let c = Config::resolve(Some("smoke"), None, &[format!("world.robots={robots}")])
+                .unwrap_or_else(|e| panic!("{robots} robots: {e}"));
+            assert_eq!(
+                c.contract.penalised_ranks,
+                c.quorum() - 1,
+                "{robots} robots"
+            );
+            assert!(c.reward_weights()[0] == 1);
+        }
+        // The paper's swarm keeps the paper's ranks: derivation changes nothing that validates.
+        let paper = Config::resolve(None, None, &["world.robots=15".into()]).unwrap();
+        assert_eq!(paper, Preset::Paper.config());
+        let c = Config::resolve(Some("smoke"), None, &["run.tick_s=10".into()]).unwrap();
+        assert_eq!(c.world.peer_refresh_s, 10.0);
+        let c = Config::resolve(None, None, &["world.peer_refresh_s=2".into()]).unwrap();
+        assert_eq!(c.world.peer_refresh_s, 2.0);
+        // What the user set is never changed: the error names their own key.
+        check_err(
+            &["world.robots=5", "contract.penalised_ranks=2"],
+            "`contract.penalised_ranks`: value 2 is out of range",
+        );
+        check_err(
+            &["run.tick_s=1", "world.peer_refresh_s=0.5"],
+            "`world.peer_refresh_s`: value 0.5",
+        );
+        // A preset value that conflicts with the user's and cannot be derived names both.
+        check_err(
+            &["data.input_waypoints=80"],
+            "you did not set `data.target_waypoints` (preset `paper` gives it), but it no \
+             longer fits what you set (data.input_waypoints)",
+        );
     }
 
     #[test]

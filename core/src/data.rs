@@ -1,4 +1,4 @@
-//! Trajectory data: the samples a robot records about its neighbours (SPEC.md section 1).
+//! Trajectory data: the samples a robot records about its neighbours (docs/SPEC.md section 1).
 //!
 //! Each tick a robot hears some neighbours (range-and-bearing) and records their absolute
 //! positions. `trajectory_ticks` consecutive ticks of the same neighbour form one trajectory; a

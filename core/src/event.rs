@@ -86,6 +86,7 @@ impl Event {
                 LedgerEvent::Send { .. } => "send",
                 LedgerEvent::Deliver { .. } => "deliver",
                 LedgerEvent::Inject { .. } => "inject",
+                LedgerEvent::Restart { .. } => "restart",
             },
             Event::Learn(_) => "learn",
             Event::Reconfigure(_) => "reconfigure",

@@ -9,18 +9,19 @@
 
 pub mod aggregation;
 pub mod byzantine;
+pub mod chaos;
 pub mod config;
 pub mod contract;
 pub mod data;
 pub mod diff;
 pub mod event;
+pub mod faults;
 pub mod fork;
 pub mod inspect;
 pub mod learn;
 pub mod ledger;
 pub mod log;
 pub mod metrics;
-pub mod radio;
 pub mod replay;
 pub mod rng;
 pub mod sim;

@@ -1,6 +1,6 @@
 //! What the robots measured (reduced from [`LearnReport`] events) and the run's figures derived
 //! from the final canonical chain: the paper's average loss per round, the shared model's loss
-//! on the held-out set, submissions by outcome, and tokens gained per group (SPEC.md section 6).
+//! on the held-out set, submissions by outcome, and tokens gained per group (docs/SPEC.md section 6).
 
 use std::collections::BTreeMap;
 
@@ -65,6 +65,11 @@ pub enum SkipReason {
     AlreadySubmitted,
     /// Training produced weights that are not finite or do not fit the fixed point.
     NonFiniteModel,
+    /// A Byzantine robot's attack waited (e.g. for honest models of the round) until its next
+    /// phase was due.
+    Waited,
+    /// The robot is crashed (a fault): it neither trains nor submits.
+    Crashed,
 }
 
 impl SkipReason {
@@ -75,6 +80,8 @@ impl SkipReason {
             SkipReason::InsufficientStake => "insufficient_stake",
             SkipReason::AlreadySubmitted => "already_submitted",
             SkipReason::NonFiniteModel => "non_finite_model",
+            SkipReason::Waited => "waited",
+            SkipReason::Crashed => "crashed",
         }
     }
 }
@@ -161,6 +168,20 @@ pub struct ContractSummary {
     pub final_loss: Option<f64>,
     /// Last entry of `heldout_loss_by_round`.
     pub final_heldout_loss: Option<f64>,
+    /// The paper's pilot-study figure: the mean absolute distance `(1/N) sum_i |w_i - w_a,i|`
+    /// between an honest robot's accepted submission and the shared model the contract held
+    /// when it executed it, averaged over every accepted honest submission of the final
+    /// canonical chain (the paper measured about 0.01 and set the outlier threshold at 5x
+    /// that, 0.05). `None` without an accepted honest submission.
+    #[serde(default)]
+    pub mean_honest_distance: Option<f64>,
+    /// The outlier threshold the distances are compared with (`contract.outlier_threshold`).
+    #[serde(default)]
+    pub outlier_threshold: f64,
+    /// The same mean over the accepted honest submissions of round r (index r - 1); NaN for a
+    /// round that aggregated Byzantine models only.
+    #[serde(default)]
+    pub mean_honest_distance_by_round: Vec<f64>,
     /// `submitModel` transactions on the final canonical chain by outcome.
     pub submissions: BTreeMap<String, u64>,
     /// Honest models aggregated, Byzantine models aggregated.
@@ -229,6 +250,9 @@ pub fn summarise(
         heldout_loss_initial: heldout_loss(&ledger.params().genesis_weights),
         final_loss: None,
         final_heldout_loss: None,
+        mean_honest_distance: None,
+        outlier_threshold: config.contract.outlier_threshold,
+        mean_honest_distance_by_round: vec![],
         submissions: BTreeMap::new(),
         aggregated_honest: 0,
         aggregated_byzantine: 0,
@@ -238,19 +262,36 @@ pub fn summarise(
             .map(|(k, v)| (k.name().to_string(), *v))
             .collect(),
     };
+    // A distance in fixed-point units summed over N weights, as a mean per weight.
+    let per_weight = (ledger.params().model_len() as f64) * scale as f64;
+    let (mut honest_distance_sum, mut honest_accepted) = (0.0f64, 0u64);
+    let (mut round_distance_sum, mut round_honest) = (0.0f64, 0u64);
     let mut round_txs: Vec<TxHash> = Vec::new();
     for hash in chain {
         let entry = ledger.block(hash).expect("canonical blocks are stored");
         for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
-            let is_submission = ledger
+            let Some(submitted) = ledger
                 .tx(tx_hash)
-                .is_some_and(|t| matches!(t.tx.call, Call::SubmitModel { .. }));
-            if !is_submission {
+                .filter(|t| matches!(t.tx.call, Call::SubmitModel { .. }))
+            else {
                 continue;
-            }
+            };
             *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;
             if outcome.is_accepted() {
                 round_txs.push(*tx_hash);
+            }
+            let honest = !byzantine
+                .get(submitted.tx.sender as usize)
+                .copied()
+                .unwrap_or(false);
+            if let (true, Outcome::Accepted { distance_units, .. })
+            | (true, Outcome::Aggregated { distance_units, .. }) = (honest, outcome)
+            {
+                let d = *distance_units as f64 / per_weight;
+                honest_distance_sum += d;
+                honest_accepted += 1;
+                round_distance_sum += d;
+                round_honest += 1;
             }
             if let Outcome::Aggregated { .. } = outcome {
                 let (mut weighted, mut samples) = (0.0f64, 0.0f64);
@@ -276,9 +317,17 @@ pub fn summarise(
                 });
                 s.heldout_loss_by_round
                     .push(heldout_loss(&entry.state.weights));
+                s.mean_honest_distance_by_round.push(if round_honest > 0 {
+                    round_distance_sum / round_honest as f64
+                } else {
+                    f64::NAN
+                });
+                (round_distance_sum, round_honest) = (0.0, 0);
             }
         }
     }
+    s.mean_honest_distance =
+        (honest_accepted > 0).then(|| honest_distance_sum / honest_accepted as f64);
     s.final_loss = s.loss_by_round.last().copied();
     s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
 

@@ -41,9 +41,13 @@ pub enum Purpose {
     Keys = 12,
     /// Which robots are Byzantine (one stream, robot id 0).
     ByzantineSelection = 13,
+    /// The chaos campaign's draws of a run's configuration and faults (robot id 0).
+    Faults = 14,
+    /// A Byzantine robot's ledger misbehaviour (spam contents, targets).
+    LedgerAttack = 15,
     /// Packet loss on the virtual-stigmergy gossip links from a robot (`learn.aggregation =
     /// "gossip"`).
-    Stigmergy = 14,
+    Stigmergy = 16,
 }
 
 /// A deterministic random number generator (PCG 128/64, "Pcg64") with portable float draws.

@@ -21,11 +21,12 @@ use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 use crate::aggregation::{self, AggregationEvent, AggregationState, AggregationSummary, Gossiper};
-use crate::byzantine;
-use crate::config::{Aggregation, ByzantineKind, Config};
+use crate::byzantine::{self, ledger::LedgerAgents};
+use crate::config::{Aggregation, ByzantineKind, Config, LedgerBehaviour};
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
+use crate::faults::FaultSchedule;
 use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
@@ -323,6 +324,9 @@ pub struct ByzantineSummary {
     pub count: u32,
     /// Their ids.
     pub robots: Vec<RobotId>,
+    /// Their behaviour on the ledger.
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
 }
 
 /// Figures of a run for `summary.json` (the CLI adds wall-clock figures).
@@ -410,6 +414,7 @@ impl RunSummary {
                 robots: (0..config.world.robots)
                     .filter(|&r| byzantine[r as usize])
                     .collect(),
+                ledger: config.byzantine.ledger,
             },
             world: state.world.stats(),
             ledger: LedgerSummary::new(state.ledger.stats()),
@@ -432,12 +437,28 @@ enum Plan {
     },
     Forge {
         weights: Vec<f32>,
+        samples: u32,
+        base_round: u64,
+    },
+    /// A Byzantine robot's honest training on samples it chose (reported as forged).
+    TrainForged {
+        job: usize,
         base_round: u64,
     },
     Skip {
         reason: SkipReason,
         base_round: u64,
     },
+}
+
+/// A Byzantine robot's learning phase whose attack is waiting (see `byzantine::Action::Wait`).
+#[derive(Clone, Copy)]
+struct Waiting {
+    /// The phase's index (keys its random stream).
+    phase: u64,
+    /// When the phase began: the submission leaves no earlier than this plus the training
+    /// duration.
+    started_ms: u64,
 }
 
 /// A submission waiting for its training to finish (`learn.training_duration_s`).
@@ -452,26 +473,40 @@ enum Submission {
     Baseline(AggregationEvent),
 }
 
-/// What a robot starts a learning phase from, whatever the aggregation.
+/// What a robot starts a learning phase from, whatever the aggregation: the shared model at
+/// its own chain's head, its stigmergy merge, or the server's model.
 struct Start {
     weights: Arc<[i64]>,
     digest: Digest,
     round: u64,
-    previous: Option<Arc<[i64]>>,
-    /// Why it may not submit this phase, if so.
-    blocked: Option<SkipReason>,
+}
+
+impl From<aggregation::StartView> for Start {
+    fn from(view: aggregation::StartView) -> Start {
+        Start {
+            weights: view.weights,
+            digest: view.digest,
+            round: view.round,
+        }
+    }
 }
 
 /// The robots' learning loop: schedule, training, forging, submitting (driver side).
 struct Learners {
     shape: ModelShape,
     byzantine: Vec<bool>,
+    /// The Byzantine robots' agent (`None` without Byzantine robots).
+    attack: Option<Box<dyn byzantine::Attack>>,
+    /// Byzantine robots whose attack chose to wait, by robot: the phase it waits in.
+    waiting: BTreeMap<RobotId, Waiting>,
     next_due_ms: Vec<u64>,
     phases: Vec<u64>,
     period_ms: u64,
     duration_ms: u64,
     stake_units: u64,
-    pending: BTreeMap<(u64, RobotId), Pending>,
+    /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
+    /// at the same time.
+    pending: BTreeMap<(u64, RobotId, u64), Pending>,
 }
 
 impl Learners {
@@ -480,14 +515,21 @@ impl Learners {
         let robots = config.world.robots;
         Learners {
             shape: ModelShape::from_config(config),
-            byzantine: byzantine::byzantine_robots(config, seed),
+            // Robots that only attack the ledger train honestly.
+            byzantine: if config.byzantine.kind == ByzantineKind::None {
+                vec![false; robots as usize]
+            } else {
+                byzantine::byzantine_robots(config, seed)
+            },
+            attack: byzantine::attack(config.byzantine.kind),
+            waiting: BTreeMap::new(),
             next_due_ms: (0..robots)
                 .map(|r| rng::stream(seed, Purpose::Schedule, r).below(period_ms))
                 .collect(),
             phases: vec![0; robots as usize],
             period_ms,
             duration_ms: (config.learn.training_duration_s * 1000.0).round() as u64,
-            stake_units: if config.contract.security {
+            stake_units: if config.rule().stakes() {
                 config.contract.stake_tokens * config.contract.token_units
             } else {
                 0
@@ -502,7 +544,11 @@ impl Learners {
     /// schedule's period and duration from the next phase on, and the stake.
     fn reconfigure(&mut self, config: &Config, seed: u64) {
         let fresh = Learners::new(config, seed);
+        // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
         self.byzantine = fresh.byzantine;
+        self.attack = fresh.attack;
+        // A phase waited under the old attack ends unsubmitted, without a report.
+        self.waiting.clear();
         self.period_ms = fresh.period_ms;
         self.duration_ms = fresh.duration_ms;
         self.stake_units = fresh.stake_units;
@@ -537,6 +583,7 @@ pub struct Sim {
     seed: u64,
     state: State,
     network: Network,
+    /// The stigmergy's gossip scheduler (`learn.aggregation = "gossip"`; idle otherwise).
     gossiper: Gossiper,
     ahead: LookAhead,
     learners: Learners,
@@ -549,6 +596,10 @@ pub struct Sim {
     profiler: Option<Box<dyn Profiler>>,
     /// Reconfigurations still to come, in time order, with their parsed configurations.
     reconfigurations: VecDeque<(Reconfiguration, Config)>,
+    /// The faults of the run (driver side).
+    faults: FaultSchedule,
+    /// The Byzantine robots' ledger misbehaviour.
+    agents: LedgerAgents,
 }
 
 impl Sim {
@@ -575,10 +626,15 @@ impl Sim {
             upcoming: BTreeMap::new(),
             speculated: BTreeMap::new(),
         };
+        let agents = LedgerAgents::new(&config, seed);
+        let mut network = Network::new(&config, seed);
+        network.set_withhold(agents.withhold_policy());
         Ok(Sim {
             total_ticks: config.ticks(),
-            network: Network::new(&config, seed),
+            network,
             gossiper: Gossiper::new(&config, seed),
+            faults: FaultSchedule::new(&config.faults, config.world.robots),
+            agents,
             ahead,
             learners,
             config,
@@ -722,9 +778,9 @@ impl Sim {
         debug_assert_eq!(now, self.state.world.time());
 
         self.switch(Part::Ledger);
-        let peers = crate::radio::peers(&self.config, &self.state.world, now);
+        let peers = self.peers(now);
         match self.config.learn.aggregation {
-            Aggregation::Chain => self.ledger_events(now, &peers),
+            Aggregation::Chain => self.ledger_tick(time, now, &peers),
             Aggregation::Gossip => {
                 while let Some((at, event)) =
                     self.gossiper
@@ -733,13 +789,14 @@ impl Sim {
                     self.emit(at, Event::Aggregation(event));
                 }
             }
+            // The ideal server is not on the radio: uploads and downloads are instant.
             Aggregation::Central => {}
         }
         if self.config.learn.aggregation != Aggregation::Chain
-            && now.0 % self.period_checkpoint_ms() == 0
+            && now.0.is_multiple_of(self.period_checkpoint_ms())
         {
-            // No blocks: a checkpoint every block period pins the state for replay,
-            // inspect and bisect by time.
+            // No blocks: a checkpoint every block period pins the state for replay, inspect
+            // and bisect by time.
             self.checkpoint(now, CheckpointCause::Periodic);
         }
 
@@ -756,23 +813,69 @@ impl Sim {
         }
     }
 
+    /// The ledger's part of the tick from `time` to `now`: restarts of crashed nodes, the
+    /// sealings, gossip and deliveries due, the Byzantine nodes' injections.
+    fn ledger_tick(&mut self, time: SimTime, now: SimTime, peers: &[Vec<RobotId>]) {
+        for (restart_ms, robot) in self.faults.restart_times(time.0, now.0) {
+            self.ledger_until(SimTime(restart_ms - 1), peers);
+            self.network.on_restart(robot);
+            self.emit(
+                SimTime(restart_ms),
+                Event::Ledger(LedgerEvent::Restart { node: robot }),
+            );
+        }
+        self.ledger_until(now, peers);
+        let faults = &self.faults;
+        let injections = self.agents.on_tick(&self.state.ledger, now, peers, &|r| {
+            faults.is_down(r, now.0)
+        });
+        for event in injections {
+            self.emit(now, Event::Ledger(event));
+        }
+    }
+
     /// The checkpoint period of a run without blocks: the block period, in ms.
     fn period_checkpoint_ms(&self) -> u64 {
         ((self.config.ledger.block_period_s * 1000.0).round() as u64).max(1)
     }
 
-    /// The ledger's events due by `now` (sealings with a checkpoint each, gossip, deliveries).
-    fn ledger_events(&mut self, now: SimTime, peers: &[Vec<RobotId>]) {
-        while let Some((at, event)) = self.network.next_event(&self.state.ledger, now, peers) {
+    /// The radio's peer sets at `now` with the links the faults cut removed.
+    fn peers(&self, now: SimTime) -> Vec<Vec<RobotId>> {
+        let robots = self.config.world.robots;
+        let mut peers: Vec<Vec<RobotId>> = (0..robots)
+            .map(|r| self.state.world.peers(r).to_vec())
+            .collect();
+        if self.faults.cuts_links() {
+            let x: Vec<f64> = self.state.world.poses().iter().map(|p| p.x).collect();
+            let top = (0..robots)
+                .map(|r| self.state.ledger.head(r).1)
+                .max()
+                .unwrap_or(0);
+            let in_turn = ((top + 1) % u64::from(robots)) as RobotId;
+            self.faults.filter_peers(&mut peers, now.0, &x, in_turn);
+        }
+        peers
+    }
+
+    /// Applies the ledger events due until `until`: a checkpoint after each sealing, and the
+    /// sealer's misbehaviour right after it, if it is Byzantine on the ledger.
+    fn ledger_until(&mut self, until: SimTime, peers: &[Vec<RobotId>]) {
+        while let Some((at, event)) = self.network.next_event(&self.state.ledger, until, peers) {
             let sealed = match &event {
                 LedgerEvent::Seal { node, .. } => Some(*node),
                 _ => None,
             };
             self.emit(at, Event::Ledger(event));
             if let Some(node) = sealed {
-                let height = self.state.ledger.head(node).1;
+                let (head, height) = self.state.ledger.head(node);
                 self.checkpoint(at, CheckpointCause::Block { node, height });
                 self.switch(Part::Ledger);
+                let injections = self
+                    .agents
+                    .after_seal(&self.state.ledger, node, head, at, peers);
+                for event in injections {
+                    self.emit(at, Event::Ledger(event));
+                }
             }
         }
     }
@@ -827,18 +930,48 @@ impl Sim {
     }
 
     /// Every robot whose learning phase is due by `now` trains (in parallel, with the
-    /// speculative trainings of the window) or forges, and queues its submission.
+    /// speculative trainings of the window) or, if Byzantine, asks its attack; waiting attacks
+    /// are asked again. Queues the submissions.
     fn learning_phase(&mut self, now: SimTime) {
+        // Byzantine robots waiting in an earlier phase are asked again first (robot order);
+        // one whose next phase is due now has its last chance.
+        let waiting: Vec<(RobotId, Waiting)> = self
+            .learners
+            .waiting
+            .iter()
+            .map(|(&r, &w)| (r, w))
+            .collect();
         let due: Vec<RobotId> = (0..self.config.world.robots)
             .filter(|&r| self.learners.next_due_ms[r as usize] <= now.0)
             .collect();
-        if due.is_empty() {
+        if due.is_empty() && waiting.is_empty() {
             return;
         }
         let scale = self.config.contract.weight_scale;
         let min_train = self.config.learn.min_train_samples.max(1) as usize;
         let mut jobs = Vec::new();
-        let mut plans = Vec::with_capacity(due.len());
+        let mut plans = Vec::with_capacity(due.len() + waiting.len());
+        for (r, w) in waiting {
+            self.learners.waiting.remove(&r);
+            let last_chance = self.learners.next_due_ms[r as usize] <= now.0;
+            match self.byzantine_plan(r, w, now, last_chance, &mut jobs) {
+                Some(plan) => plans.push((r, w.phase, w.started_ms, plan)),
+                None if last_chance => {
+                    let base_round = self.current(r).round;
+                    let report = LearnReport {
+                        robot: r,
+                        base_round,
+                        action: LearnAction::Skipped {
+                            reason: SkipReason::Waited,
+                        },
+                    };
+                    self.emit(now, Event::Learn(report));
+                }
+                None => {
+                    self.learners.waiting.insert(r, w);
+                }
+            }
+        }
         for &r in &due {
             let i = r as usize;
             let phase = self.learners.phases[i];
@@ -847,27 +980,31 @@ impl Sim {
             self.learners.next_due_ms[i] += self.learners.period_ms;
             let captured = self.ahead.upcoming.remove(&(due_ms, r));
             let speculated = self.ahead.speculated.remove(&(r, phase));
-            let view = self.start(now, r);
-            let base_round = view.round;
-            let plan = if let Some(reason) = view.blocked {
-                Plan::Skip { reason, base_round }
-            } else if self.learners.byzantine[i] {
-                let b = &self.config.byzantine;
-                let shared = learn::from_fixed(&view.weights, scale);
-                let previous = view.previous.as_ref().map(|w| learn::from_fixed(w, scale));
-                let mut rng = rng::substream(self.seed, Purpose::Byzantine, r, phase);
-                let weights = byzantine::forge(
-                    b.kind,
-                    b.variant,
-                    &shared,
-                    previous.as_deref(),
-                    b.faulty_range,
-                    &mut rng,
+            if self.config.learn.aggregation != Aggregation::Chain {
+                // A baseline robot merges its replica (gossip) or downloads the server's model
+                // (central) as its phase begins, Byzantine or not: that is an event.
+                self.emit(
+                    now,
+                    Event::Aggregation(AggregationEvent::Merge { robot: r }),
                 );
-                Plan::Forge {
-                    weights,
-                    base_round,
+            }
+            if self.learners.byzantine[i] {
+                let w = Waiting {
+                    phase,
+                    started_ms: now.0,
+                };
+                match self.byzantine_plan(r, w, now, false, &mut jobs) {
+                    Some(plan) => plans.push((r, phase, now.0, plan)),
+                    None => {
+                        self.learners.waiting.insert(r, w);
+                    }
                 }
+                continue;
+            }
+            let view = self.current(r);
+            let base_round = view.round;
+            let plan = if let Some(reason) = self.cannot_submit(r, now) {
+                Plan::Skip { reason, base_round }
             } else {
                 let samples = match captured {
                     Some((captured_phase, samples)) => {
@@ -909,7 +1046,7 @@ impl Sim {
                     },
                 }
             };
-            plans.push((r, plan));
+            plans.push((r, phase, now.0, plan));
         }
         let due_jobs = jobs.len();
         let speculative = if due_jobs > 0 {
@@ -923,37 +1060,29 @@ impl Sim {
             self.ahead.speculated.insert(key, (digest, outcome));
         }
         debug_assert_eq!(outcomes.len(), due_jobs);
-        let submit_at = now.0 + self.learners.duration_ms;
-        for (r, plan) in plans {
+        for (r, phase, started_ms, plan) in plans {
+            // A phase's submission leaves a training duration after the phase began, or now
+            // if a waiting attack decided later than that.
+            let submit_at = (started_ms + self.learners.duration_ms).max(now.0);
             let (base_round, action, submission) = match plan {
                 Plan::Skip { reason, base_round } => {
                     (base_round, LearnAction::Skipped { reason }, None)
                 }
                 Plan::Forge {
                     weights,
+                    samples: claimed,
                     base_round,
                 } => {
-                    let claimed = self.config.byzantine.claimed_samples;
-                    match learn::to_fixed(&weights, scale) {
-                        Ok(fixed) => {
-                            let (tx, submission) = self.submission(r, fixed, u64::from(claimed));
-                            let action = LearnAction::Forged {
-                                tx,
-                                claimed_samples: claimed,
-                            };
-                            (base_round, action, Some(submission))
-                        }
-                        Err(_) => (
-                            base_round,
-                            LearnAction::Skipped {
-                                reason: SkipReason::NonFiniteModel,
-                            },
-                            None,
-                        ),
-                    }
+                    let (action, tx) = self.forged(r, &weights, claimed);
+                    (base_round, action, tx)
                 }
                 Plan::Train { job, base_round } => {
                     let (action, tx) = self.trained(r, &outcomes[job]);
+                    (base_round, action, tx)
+                }
+                Plan::TrainForged { job, base_round } => {
+                    let outcome = &outcomes[job];
+                    let (action, tx) = self.forged(r, &outcome.weights, outcome.train_samples);
                     (base_round, action, tx)
                 }
                 Plan::Ready {
@@ -971,8 +1100,143 @@ impl Sim {
             };
             self.learners
                 .pending
-                .insert((submit_at, r), Pending { report, submission });
+                .insert((submit_at, r, phase), Pending { report, submission });
         }
+    }
+
+    /// Why `robot` cannot submit now, in its own node's view: it is down, its balance is below
+    /// the stake (when the rule stakes), or it already submitted in the current round.
+    fn cannot_submit(&self, robot: RobotId, now: SimTime) -> Option<SkipReason> {
+        if self.faults.is_down(robot, now.0) {
+            Some(SkipReason::Crashed)
+        } else if self.config.learn.aggregation == Aggregation::Chain
+            && self.config.rule().stakes()
+            && self.state.ledger.head_state(robot).balances[robot as usize]
+                < self.learners.stake_units
+        {
+            Some(SkipReason::InsufficientStake)
+        } else if self.submitted(robot) {
+            Some(SkipReason::AlreadySubmitted)
+        } else {
+            None
+        }
+    }
+
+    /// Whether `robot`'s model already waits in the open round: on its own chain, or at the
+    /// server. A stigmergy write never waits (each phase overwrites the robot's key).
+    fn submitted(&self, robot: RobotId) -> bool {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.state.ledger.head_state(robot).has_submitted(robot),
+            Aggregation::Gossip => false,
+            Aggregation::Central => self.state.aggregation.server.has_pending(robot),
+        }
+    }
+
+    /// What `robot` starts from now: the shared model at its own chain's head, its model after
+    /// its last merge (`gossip`), or the server's model (`central`).
+    fn current(&self, robot: RobotId) -> Start {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => {
+                let head = self.state.ledger.head_state(robot);
+                Start {
+                    weights: head.weights.clone(),
+                    digest: head.weights_digest,
+                    round: head.round,
+                }
+            }
+            _ => Start::from(self.state.aggregation.current(robot)),
+        }
+    }
+
+    /// What `robot` would start from if its phase began now (for speculative training): as
+    /// [`Sim::current`], except that a `gossip` robot would merge its replica as it is now.
+    fn preview(&self, robot: RobotId) -> Start {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.current(robot),
+            _ => Start::from(self.state.aggregation.preview(robot)),
+        }
+    }
+
+    /// Asks the Byzantine `robot`'s attack what to do in phase `w` now; `None` when it waits.
+    /// A training it asks for is added to `jobs`.
+    fn byzantine_plan(
+        &self,
+        robot: RobotId,
+        w: Waiting,
+        now: SimTime,
+        last_chance: bool,
+        jobs: &mut Vec<TrainJob>,
+    ) -> Option<Plan> {
+        // Without a chain, the attack reads the same kind of view built from what the robot
+        // holds: its stigmergy replica, or the server (`AggregationState::attacker_view`).
+        let baseline;
+        let chain = match self.config.learn.aggregation {
+            Aggregation::Chain => self.state.ledger.head_state(robot),
+            Aggregation::Gossip | Aggregation::Central => {
+                baseline = self
+                    .state
+                    .aggregation
+                    .attacker_view(robot, self.state.ledger.current_params());
+                &baseline
+            }
+        };
+        let base_round = chain.round;
+        if let Some(reason) = self.cannot_submit(robot, now) {
+            return Some(Plan::Skip { reason, base_round });
+        }
+        let attack = self
+            .learners
+            .attack
+            .as_ref()
+            .expect("Byzantine robots have an attack (validated: count > 0 needs a kind)");
+        let view = byzantine::View {
+            robot,
+            now_ms: now.0,
+            last_chance,
+            chain,
+            params: self.state.ledger.current_params(),
+            weight_scale: self.config.contract.weight_scale,
+            coalition: &self.learners.byzantine,
+            world: &self.state.world,
+            config: &self.config.byzantine,
+            input_waypoints: self.config.data.input_waypoints as usize,
+        };
+        let mut rng = rng::substream(self.seed, Purpose::Byzantine, robot, w.phase);
+        Some(match attack.act(&view, &mut rng) {
+            byzantine::Action::Wait => return None,
+            byzantine::Action::Submit { weights, samples } => Plan::Forge {
+                weights,
+                samples,
+                base_round,
+            },
+            byzantine::Action::Train { samples } => {
+                let min_train = self.config.learn.min_train_samples.max(1) as usize;
+                let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
+                    >= min_train;
+                match TrainData::new(&self.learners.shape, &samples) {
+                    Ok(data) if trainable => {
+                        jobs.push(TrainJob {
+                            shape: self.learners.shape.clone(),
+                            cfg: self.config.learn.clone(),
+                            start: learn::from_fixed(
+                                &chain.weights,
+                                self.config.contract.weight_scale,
+                            ),
+                            data,
+                            dropout: rng::substream(self.seed, Purpose::Dropout, robot, w.phase),
+                        });
+                        Plan::TrainForged {
+                            job: jobs.len() - 1,
+                            base_round,
+                        }
+                    }
+                    _ => Plan::Skip {
+                        reason: SkipReason::NotEnoughData,
+                        base_round,
+                    },
+                }
+            }
+        })
     }
 
     /// The submission of `weights` claiming `samples` by `robot` and its identity in the
@@ -994,52 +1258,29 @@ impl Sim {
         )
     }
 
-    /// What `robot` starts its due learning phase from. A baseline robot merges (or downloads)
-    /// first: that is an event.
-    fn start(&mut self, now: SimTime, robot: RobotId) -> Start {
-        if self.config.learn.aggregation == Aggregation::Chain {
-            return self.preview(robot);
-        }
-        self.emit(now, Event::Aggregation(AggregationEvent::Merge { robot }));
-        self.switch(Part::Learning);
-        let view = self.state.aggregation.current(robot);
-        Start {
-            weights: view.weights,
-            digest: view.digest,
-            round: view.round,
-            previous: view.previous,
-            blocked: view.pending.then_some(SkipReason::AlreadySubmitted),
-        }
-    }
-
-    /// What `robot` would start from if its phase came now (for speculative training).
-    fn preview(&self, robot: RobotId) -> Start {
-        if self.config.learn.aggregation != Aggregation::Chain {
-            let view = self.state.aggregation.preview(robot);
-            return Start {
-                weights: view.weights,
-                digest: view.digest,
-                round: view.round,
-                previous: view.previous,
-                blocked: view.pending.then_some(SkipReason::AlreadySubmitted),
-            };
-        }
-        let view = self.state.ledger.head_state(robot);
-        let blocked = if self.config.contract.security
-            && view.balances[robot as usize] < self.learners.stake_units
-        {
-            Some(SkipReason::InsufficientStake)
-        } else if view.has_submitted(robot) {
-            Some(SkipReason::AlreadySubmitted)
-        } else {
-            None
-        };
-        Start {
-            weights: view.weights.clone(),
-            digest: view.weights_digest,
-            round: view.round,
-            previous: view.previous_weights.clone(),
-            blocked,
+    /// The report and submission of a forged model claiming `claimed` samples (a model that
+    /// does not convert to fixed point is skipped, as an honest one is).
+    fn forged(
+        &self,
+        robot: RobotId,
+        weights: &[f32],
+        claimed: u32,
+    ) -> (LearnAction, Option<Submission>) {
+        match learn::to_fixed(weights, self.config.contract.weight_scale) {
+            Ok(fixed) => {
+                let (tx, submission) = self.submission(robot, fixed, u64::from(claimed));
+                let action = LearnAction::Forged {
+                    tx,
+                    claimed_samples: claimed,
+                };
+                (action, Some(submission))
+            }
+            Err(_) => (
+                LearnAction::Skipped {
+                    reason: SkipReason::NonFiniteModel,
+                },
+                None,
+            ),
         }
     }
 
@@ -1091,7 +1332,7 @@ impl Sim {
                 .is_some_and(|(digest, _)| *digest == view.digest);
             let trainable =
                 learn::split_point(samples.len(), self.config.learn.train_fraction) >= min_train;
-            if unchanged || !trainable || view.blocked.is_some() {
+            if unchanged || !trainable || self.submitted(r) {
                 continue;
             }
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
@@ -1113,7 +1354,7 @@ impl Sim {
     /// robot order.
     fn release_submissions(&mut self, now: SimTime) {
         while let Some(entry) = self.learners.pending.first_entry() {
-            let (at, _) = *entry.key();
+            let (at, _, _) = *entry.key();
             if at > now.0 {
                 break;
             }

@@ -75,7 +75,7 @@ fn a_fork_keeps_its_parents_history_and_replays_alone() {
     let (dir, parent) = plain_parent("replay", 3);
     let parent_hash = replay::replay(&parent).unwrap().final_hash;
 
-    let plan = fork::plan(&parent, 8, &["learn.learning_rate=0.01".into()]).unwrap();
+    let plan = fork::plan(&parent, 8, &["learn.learning_rate=0.02".into()]).unwrap();
     assert_eq!(plan.changed, vec!["learn.learning_rate".to_string()]);
     assert_eq!(plan.at.0 % 100, 0);
     assert!(plan.at >= plan.sealed_at && plan.at.0 < plan.sealed_at.0 + 100);
@@ -88,8 +88,8 @@ fn a_fork_keeps_its_parents_history_and_replays_alone() {
     let replayed = replay::replay(&child).unwrap();
     let resimulated = replay::resimulate(&child).unwrap();
     assert_eq!(replayed.final_hash, resimulated.final_hash);
-    assert_eq!(replayed.config.learn.learning_rate, 0.01);
-    assert_eq!(resimulated.config.learn.learning_rate, 0.01);
+    assert_eq!(replayed.config.learn.learning_rate, 0.02);
+    assert_eq!(resimulated.config.learn.learning_rate, 0.02);
 
     // The first divergence from the parent is the reconfiguration, right after the history.
     let report = diff_logs(&parent, &child).unwrap();
@@ -115,7 +115,7 @@ fn a_fork_keeps_its_parents_history_and_replays_alone() {
     let third = dir.join("fork3.swlog");
     write_fork(&child, &plan3, &third).unwrap();
     let r3 = replay::resimulate(&third).unwrap();
-    assert_eq!(r3.config.learn.learning_rate, 0.01);
+    assert_eq!(r3.config.learn.learning_rate, 0.02);
     assert_eq!(r3.config.contract.outlier_threshold, 0.01);
     std::fs::remove_dir_all(&dir).unwrap();
 }

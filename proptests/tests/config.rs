@@ -137,6 +137,7 @@ proptest! {
                         key.ends_with(&format!("(in {SOURCE})"))
                     }
                     ConfigError::OutOfRange { .. } => message.starts_with("configuration key `"),
+                    ConfigError::NotSetByYou { key, .. } => message.contains(key.as_str()),
                     ConfigError::UnknownPreset { name, .. } => message.contains(&format!("{name:?}")),
                     ConfigError::Io { .. }
                     | ConfigError::Override { .. }

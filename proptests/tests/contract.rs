@@ -25,6 +25,10 @@ fn params(security: bool) -> ContractParams {
         outlier_threshold_units: 50_000_000,
         reward_weights: vec![1, 1, -1],
         genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
+        robust: None,
+        round_timeout_ms: 0,
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 

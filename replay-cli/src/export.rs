@@ -10,6 +10,7 @@ use swarmfl_core::inspect::{self, expr::Env};
 pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
     let start = Instant::now();
     let index = inspect::index_run(log, None)?;
+    crate::inspect::warn_if_truncated(&index);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let open = |name: &str| -> anyhow::Result<csv::Writer<std::fs::File>> {
         let path = out.join(name);
@@ -27,6 +28,7 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         "heldout_loss",
         "accepted",
         "outliers",
+        "mean_honest_distance",
     ])?;
     let rounds = index.rounds();
     for r in &rounds {
@@ -39,6 +41,7 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
             heldout.to_string(),
             r.accepted.to_string(),
             r.outliers.to_string(),
+            r.mean_honest_distance.to_string(),
         ])?;
     }
     w.flush()?;

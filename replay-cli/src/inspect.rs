@@ -31,8 +31,11 @@ pub fn inspect(
         ),
         None => {
             let index = inspect::index_run(log, Some(height))?;
+            warn_if_truncated(&index);
             let report = inspect::block_report(&index, height, robot)?;
-            let how = if !use_index {
+            let how = if index.truncated.is_some() {
+                "folded the intact prefix of a truncated log"
+            } else if !use_index {
                 "folded the whole log"
             } else {
                 match index
@@ -130,7 +133,13 @@ fn print_report(r: &BlockReport, last: u64) {
     }
     let c = &r.contract;
     println!("contract after the block");
-    println!("  round {}  model {}", c.round, short(&c.model_digest));
+    println!(
+        "  {} rounds closed, round {} open; model version {} {}",
+        c.round,
+        c.round + 1,
+        c.round,
+        short(&c.model_digest)
+    );
     println!("  pool (contract holdings) {:.3} tokens", c.pool_tokens);
     println!("  balances (tokens):");
     for chunk in c.balances.chunks(5) {
@@ -201,7 +210,7 @@ fn print_report(r: &BlockReport, last: u64) {
     if let Some(v) = &r.robot {
         println!("robot {} ({}) view", v.robot, mark(v.byzantine));
         println!(
-            "  its node's head {} at height {} ({}), round {}, its balance {:.3} tokens",
+            "  its node's head {} at height {} ({}), {} rounds closed there, its balance {:.3} tokens",
             short(&v.node.head),
             v.node.height,
             if v.node.on_final_chain {
@@ -223,6 +232,20 @@ fn print_report(r: &BlockReport, last: u64) {
     }
 }
 
+/// Says on stderr that a log is truncated and that what follows is of its intact prefix.
+pub fn warn_if_truncated(index: &inspect::RunIndex) {
+    if let Some(why) = &index.truncated {
+        eprintln!("warning: {why}");
+        eprintln!(
+            "warning: using the intact prefix: {} records, the chain up to block {} (t = {:.3} s); \
+             the run's later blocks are missing",
+            index.records,
+            index.last_height(),
+            index.chain.last().map_or(0.0, |r| r.time.secs())
+        );
+    }
+}
+
 /// Prints the first block where `expr` holds.
 pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Result<bool> {
     let predicate = Expr::parse(expr)?;
@@ -231,6 +254,7 @@ pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Res
     }
     let start = Instant::now();
     let index = inspect::index_run(log, None)?;
+    warn_if_truncated(&index);
     let fold_ms = start.elapsed().as_secs_f64() * 1000.0;
     let values = index.values();
     let search = Instant::now();
@@ -248,6 +272,8 @@ pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Res
                 "hit": hit,
                 "profile": profile,
                 "last_height": index.last_height(),
+                "truncated": index.truncated,
+                "why_not": if hit.is_none() { why_not(&index, &values, &predicate) } else { Vec::new() },
                 "fold_ms": fold_ms,
                 "search_ms": search_ms,
             }))?
@@ -273,15 +299,20 @@ pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Res
                     h.evaluations
                 );
             }
-            None => println!(
-                "`{expr}` holds at no block of the final canonical chain (heights 0..={}){}",
-                index.last_height(),
-                if monotone {
-                    "; with --monotone only the last block is tested"
-                } else {
-                    ""
+            None => {
+                println!(
+                    "`{expr}` holds at no block of the final canonical chain (heights 0..={}){}",
+                    index.last_height(),
+                    if monotone {
+                        "; with --monotone only the last block is tested"
+                    } else {
+                        ""
+                    }
+                );
+                for line in why_not(&index, &values, &predicate) {
+                    println!("  {line}");
                 }
-            ),
+            }
         }
         if profile.monotone {
             println!("the predicate is monotone over the chain: scan and --monotone agree");
@@ -300,6 +331,52 @@ pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Res
         }
     }
     Ok(hit.is_some())
+}
+
+/// Why a predicate holds nowhere: for each value it reads, the range it takes over the chain,
+/// or why it is NaN at every block (no Byzantine robots, no closed round, ...).
+fn why_not(
+    index: &inspect::RunIndex,
+    values: &inspect::ChainValues<'_>,
+    predicate: &Expr,
+) -> Vec<String> {
+    let mut ranges: Vec<(String, f64, f64)> = Vec::new();
+    for h in 0..values.len() as u64 {
+        for (name, v) in predicate.leaves(&values.at(h)) {
+            let slot = match ranges.iter().position(|r| r.0 == name) {
+                Some(i) => &mut ranges[i],
+                None => {
+                    ranges.push((name, f64::NAN, f64::NAN));
+                    ranges.last_mut().expect("just pushed")
+                }
+            };
+            if !v.is_nan() {
+                slot.1 = if slot.1.is_nan() { v } else { slot.1.min(v) };
+                slot.2 = if slot.2.is_nan() { v } else { slot.2.max(v) };
+            }
+        }
+    }
+    let byzantine = index.byzantine.iter().filter(|&&b| b).count();
+    ranges
+        .into_iter()
+        .map(|(name, lo, hi)| {
+            if !lo.is_nan() {
+                return format!("`{name}` ranges over [{lo}, {hi}] on the chain");
+            }
+            let why = if name.starts_with("byzantine_") && byzantine == 0 {
+                ": this run has no Byzantine robots (byzantine.count = 0); run one with \
+                 e.g. --set byzantine.kind=malicious --set byzantine.count=3"
+                    .to_string()
+            } else if name.starts_with("honest_") && byzantine == index.byzantine.len() {
+                ": every robot of this run is Byzantine".to_string()
+            } else if name == "loss" {
+                ": no round closed on the chain".to_string()
+            } else {
+                String::new()
+            };
+            format!("`{name}` is NaN at every block (a comparison with NaN is false){why}")
+        })
+        .collect()
 }
 
 fn describe(index: &inspect::RunIndex, height: Option<u64>) -> String {

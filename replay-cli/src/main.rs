@@ -2,14 +2,17 @@
 
 mod bench_train;
 mod bench_world;
+mod chaos;
 mod export;
 mod fixtures;
 mod fork;
 mod inspect;
+mod progress;
 mod report;
 mod run;
 mod snapshot;
 mod sweep;
+mod view;
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -92,8 +95,21 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// Write one self-contained HTML file to watch a run in a browser (no network, no server):
+    /// the arena with robots, ids, Byzantine marks and radio links, animated with a scrubber
+    /// that also jumps by block height; each robot's tokens, the loss per round and the chain
+    /// with its forks and reorgs up to the time shown. `run.html#t=600` or `#block=40` opens
+    /// at that moment.
+    View {
+        /// The log (run.swlog).
+        log: PathBuf,
+        /// Output file (e.g. run.html).
+        #[arg(long)]
+        out: PathBuf,
+    },
     /// Compare two logs: header differences and the first diverging record (exit 1 if they
-    /// differ). With --resimulate, compare one log with a re-simulation under this build.
+    /// differ). With --resimulate, compare one log with a re-simulation under this build: exit
+    /// 0 identical, 1 diverged, 125 when the log cannot be read (`git bisect run` skips).
     Diff {
         /// The first log.
         a: PathBuf,
@@ -219,6 +235,24 @@ enum Command {
         #[arg(long)]
         out: PathBuf,
     },
+    /// A seeded fault campaign: each seed draws a configuration, Byzantine behaviours and a
+    /// fault schedule, runs it and checks invariants at every block (conservation, validity,
+    /// agreement after heals, liveness). Exits 1 on a violation, naming the seed and the
+    /// command that replays it.
+    Chaos {
+        /// How many seeds.
+        #[arg(long, default_value_t = 10)]
+        seeds: u64,
+        /// The first seed.
+        #[arg(long, default_value_t = 0)]
+        first_seed: u64,
+        /// Simulated seconds per run.
+        #[arg(long, default_value_t = 600.0)]
+        duration: f64,
+        /// Print the report as JSON.
+        #[arg(long)]
+        json: bool,
+    },
     /// List the presets.
     Presets,
     /// Print the fully resolved configuration as TOML.
@@ -250,7 +284,9 @@ with NaN is false; a value is true when non-zero and not NaN):
 Identifiers, at each block of the final canonical chain:
   height            the block's height
   time              its timestamp, simulated s
-  round             the contract's round (model version) after the block
+  round             rounds closed up to the block: the number of the last closed round
+                    (rounds count from 1 everywhere: the run summary's r1, rounds.csv,
+                    inspect), also the shared model's version
   loss              paper metric of the last round closed up to the block (NaN before)
   heldout_loss      loss of the block's shared model on the held-out set
   byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
@@ -293,7 +329,9 @@ and its stakes refunded). Keys a fork may change:
 
   run.duration_s                     the run ends at the new time
   learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
-  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks
+  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks,
+  reward_weights, median, fedavg_rounding, int48_products, threshold, rank_key, rank_ties,
+  payout_rounding, pool
   byzantine.*                        which robots misbehave, and how
   output.*
 
@@ -303,7 +341,8 @@ Example: what if security had been on from block 200?
   swarmfl replay runs/sec-at-200/run.swlog            # bit-exact on its own
   swarmfl diff runs/nosec/run.swlog runs/sec-at-200/run.swlog   # first divergence: the fork";
 
-const SWEEP_HELP: &str = "Run one of the paper's experiments (SPEC.md section 7), or a shard of it.
+const SWEEP_HELP: &str =
+    "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
 
 Experiments, points and default runs (seeds 1..=runs):
   e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs
@@ -325,6 +364,8 @@ command resumes a sweep and retries failed tasks.";
 const EXIT_DIVERGED: u8 = 1;
 /// Exit code for bad arguments or input.
 const EXIT_ERROR: u8 = 2;
+/// Exit code of `diff --resimulate` when the log cannot be read: `git bisect run`'s "skip".
+const EXIT_CANNOT_TEST: u8 = 125;
 
 fn main() -> ExitCode {
     // Output piped into `head` and the like ends quietly, as other command-line tools do,
@@ -367,6 +408,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             let outcome = run::run(config, seed, &out, quiet)?;
             if !quiet {
                 run::print_summary(&outcome);
+                run::print_next(&outcome);
             }
         }
         Command::Replay { log, resimulate } => {
@@ -394,7 +436,21 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             block,
             out,
         } => snapshot_command(&log, time, block, &out)?,
-        Command::Diff { a, b, resimulate } => return diff(&a, b.as_deref(), resimulate),
+        Command::View { log, out } => {
+            let v = view::view(&log, &out)?;
+            println!(
+                "wrote {} ({:.1} MB: {} frames, one every {} s plus one per block of the final \
+                 chain; {} blocks of every node); open it in a browser",
+                out.display(),
+                v.bytes as f64 / 1.0e6,
+                v.frames,
+                v.frame_s,
+                v.blocks
+            );
+        }
+        Command::Diff { a, b, resimulate } => {
+            return diff(&a, b.as_deref(), resimulate).map(ExitCode::from)
+        }
         Command::Fixtures {
             action: FixturesAction::Regenerate,
             dir,
@@ -474,6 +530,12 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             let path = report::report(&dir, &out)?;
             println!("wrote {}", path.display());
         }
+        Command::Chaos {
+            seeds,
+            first_seed,
+            duration,
+            json,
+        } => return chaos::run(seeds, first_seed, duration, json),
         Command::Presets => {
             for preset in Preset::ALL {
                 println!("{:<14} {}", preset.name(), preset.description());
@@ -495,11 +557,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-fn diff(
-    a: &std::path::Path,
-    b: Option<&std::path::Path>,
-    resimulate: bool,
-) -> anyhow::Result<ExitCode> {
+fn diff(a: &std::path::Path, b: Option<&std::path::Path>, resimulate: bool) -> anyhow::Result<u8> {
     match (b, resimulate) {
         (None, true) => match replay::resimulate(a) {
             Ok(report) => {
@@ -507,7 +565,7 @@ fn diff(
                     "identical: {} records re-simulated bit-exactly; final hash {}",
                     report.records, report.final_hash
                 );
-                Ok(ExitCode::SUCCESS)
+                Ok(0)
             }
             Err(ReplayError::Diverged {
                 index,
@@ -518,9 +576,23 @@ fn diff(
                 ..
             }) => {
                 println!("first divergence from the re-simulation: record {index} ({kind} at t = {time}): {component} differs{detail}");
-                Ok(ExitCode::from(EXIT_DIVERGED))
+                Ok(EXIT_DIVERGED)
             }
-            Err(e) => Err(e.into()),
+            Err(e @ ReplayError::Apply { .. }) => {
+                println!("first divergence from the re-simulation: {e}");
+                Ok(EXIT_DIVERGED)
+            }
+            Err(e) => {
+                // The log cannot be read (damaged, foreign, or a header this build does not
+                // accept): nothing was compared, so this is not a divergence. 125 is
+                // `git bisect run`'s "cannot test this commit, skip it".
+                eprintln!("error: {e}");
+                eprintln!(
+                    "(exit {EXIT_CANNOT_TEST}: the log could not be compared; `git bisect run` \
+                     skips this commit)"
+                );
+                Ok(EXIT_CANNOT_TEST)
+            }
         },
         (Some(b), false) => {
             let report = swarmfl_core::diff::diff_logs(a, b)?;
@@ -541,9 +613,9 @@ fn diff(
                         report.final_hashes.1.short()
                     );
                     Ok(if report.final_hashes.0 == report.final_hashes.1 {
-                        ExitCode::SUCCESS
+                        0
                     } else {
-                        ExitCode::from(EXIT_DIVERGED)
+                        EXIT_DIVERGED
                     })
                 }
                 Some(d) => {
@@ -556,7 +628,7 @@ fn diff(
                         d.index, d.time, d.offsets.0, d.offsets.1, d.kinds.0, d.kinds.1
                     );
                     println!("  {}", d.explanation);
-                    Ok(ExitCode::from(EXIT_DIVERGED))
+                    Ok(EXIT_DIVERGED)
                 }
             }
         }
@@ -576,6 +648,7 @@ fn snapshot_command(
     let (world, config, seed, title) = match (time, block) {
         (_, Some(height)) => {
             let index = swarmfl_core::inspect::index_run(log, Some(height))?;
+            inspect::warn_if_truncated(&index);
             let (state, _) = index
                 .at_block
                 .ok_or_else(|| anyhow::anyhow!("block {height} was not captured"))?;
@@ -609,4 +682,44 @@ fn snapshot_command(
     snapshot::draw(&world, &marks, &title, out)?;
     println!("wrote {} ({title})", out.display());
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn diff_resimulate_exits_125_on_a_log_it_cannot_read_and_1_on_divergence() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-diff-exit-{}", std::process::id()));
+        let config = Config::resolve(
+            Some("smoke"),
+            None,
+            &["run.duration_s=30".into(), "world.robots=4".into()],
+        )
+        .unwrap();
+        let out = run::run(config.clone(), 1, &dir.join("a"), true).unwrap();
+        assert_eq!(diff(&out.log_path, None, true).unwrap(), 0);
+        // Truncated, foreign and missing logs: git bisect's "skip", never "bad".
+        let bytes = std::fs::read(&out.log_path).unwrap();
+        let cut = dir.join("cut.swlog");
+        std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+        assert_eq!(diff(&cut, None, true).unwrap(), EXIT_CANNOT_TEST);
+        std::fs::write(&cut, b"not a log at all").unwrap();
+        assert_eq!(diff(&cut, None, true).unwrap(), EXIT_CANNOT_TEST);
+        assert_eq!(
+            diff(&dir.join("missing.swlog"), None, true).unwrap(),
+            EXIT_CANNOT_TEST
+        );
+        // A log whose header says seed 1 but whose records are seed 2's: it reads fine and
+        // the re-simulation diverges.
+        let header = swarmfl_core::log::Header::new(1, config.to_toml());
+        let wrong = dir.join("wrong.swlog");
+        let mut writer = swarmfl_core::log::LogWriter::create(&wrong, &header).unwrap();
+        for record in swarmfl_core::sim::Sim::new(config, 2).unwrap() {
+            writer.append(&record).unwrap();
+        }
+        writer.finish().unwrap();
+        assert_eq!(diff(&wrong, None, true).unwrap(), EXIT_DIVERGED);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
 }

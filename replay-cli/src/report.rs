@@ -13,6 +13,7 @@
 //! times are kept apart in `timing.csv`.
 
 mod plots;
+mod robustness;
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -104,11 +105,12 @@ pub fn t_975(df: usize) -> f64 {
 }
 
 /// Reads every `DIR/<experiment>/<point>/seed<N>.json`, sorted by experiment, point (grid order
-/// for known experiments, else by name) and seed. Returns the results and notes on files that
-/// were skipped.
+/// for known experiments, else by name) and seed. Refuses (naming the files) damaged result
+/// files and points that mix configurations. Returns the results and notes for the report.
 pub fn load(dir: &Path) -> anyhow::Result<(Vec<RunResult>, Vec<String>)> {
     let mut results = Vec::new();
-    let mut notes = Vec::new();
+    let notes = Vec::new();
+    let mut bad = Vec::new();
     let entries = |d: &Path| -> anyhow::Result<Vec<PathBuf>> {
         let mut v: Vec<PathBuf> = std::fs::read_dir(d)
             .with_context(|| format!("cannot read {}", d.display()))?
@@ -145,16 +147,68 @@ pub fn load(dir: &Path) -> anyhow::Result<(Vec<RunResult>, Vec<String>)> {
                             summary,
                         })
                     }
-                    _ => notes.push(format!(
-                        "skipped {}: not a summary of seed {seed}",
+                    Some(_) => bad.push(format!(
+                        "{}: a JSON file, but not the summary of seed {seed} (its `seed` differs \
+                         or is missing)",
+                        file.display()
+                    )),
+                    None => bad.push(format!(
+                        "{}: not readable as JSON (truncated or damaged; delete it and re-run \
+                         the sweep to redo that task)",
                         file.display()
                     )),
                 }
             }
         }
     }
+    anyhow::ensure!(
+        bad.is_empty(),
+        "{} result file(s) under {} are damaged, no report written:\n  {}",
+        bad.len(),
+        dir.display(),
+        bad.join("\n  ")
+    );
     sort(&mut results);
+    check_one_configuration_per_point(dir, &results)?;
     Ok((results, notes))
+}
+
+/// Refuses a point whose results were made under different configurations (other `--set`
+/// values, or another version's presets): their mean would describe no experiment. Names a
+/// file of each configuration and its settings.
+fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyhow::Result<()> {
+    for group in results.chunk_by(|a, b| a.experiment == b.experiment && a.point == b.point) {
+        let first = &group[0];
+        let hash = |r: &RunResult| r.summary["config_hash"].as_str().unwrap_or("").to_string();
+        let Some(other) = group.iter().find(|r| hash(r) != hash(first)) else {
+            continue;
+        };
+        let point_overrides = sweep::experiment(&first.experiment)
+            .ok()
+            .and_then(|e| e.points.into_iter().find(|p| p.name == first.point))
+            .map(|p| p.overrides)
+            .unwrap_or_default();
+        let settings = |r: &RunResult| {
+            let h = hash(r);
+            format!(
+                "{} (configuration {})",
+                sweep::show_overrides(&sweep::extra_overrides(&r.summary, &point_overrides)),
+                &h[..h.len().min(12)]
+            )
+        };
+        let path = |r: &RunResult| sweep::result_path(dir, &r.experiment, &r.point, r.seed);
+        anyhow::bail!(
+            "{} {} mixes results of different settings, no report written: {} was made with {}, \
+             {} with {}. Keep each setting in its own results directory",
+            first.experiment,
+            first.point,
+            path(first).display(),
+            settings(first),
+            path(other).display(),
+            settings(other)
+        );
+    }
+    Ok(())
 }
 
 fn file_name(p: &Path) -> String {
@@ -475,7 +529,11 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
         }
     }
     std::fs::write(out.join("timing.csv"), timing)?;
-    let figures = plots::draw_all(&stats, out, &mut notes)?;
+    let mut figures = plots::draw_all(&stats, out, &mut notes)?;
+    figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
+    if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
+        std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
+    }
     let md = markdown(&stats, &figures, &notes, results.len());
     let path = out.join("report.md");
     std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
@@ -520,6 +578,15 @@ fn markdown(
                 md,
                 "![{}]({}.png)\n\n*{}* ([SVG]({}.svg))\n",
                 f.caption, f.stem, f.caption, f.stem
+            );
+        }
+        if e.name == robustness::EXPERIMENT {
+            let _ = writeln!(
+                md,
+                "Worst case: for each rule, the attack that leaves the highest final held-out \
+                 loss at each Byzantine count, and that loss as a multiple of the rule's clean \
+                 run (`e4-worst-case.csv`).\n\n{}",
+                robustness::worst_case(e).0
             );
         }
         let _ = writeln!(
@@ -572,7 +639,7 @@ pub(crate) mod tests {
     use super::*;
     use swarmfl_core::rng::{self, Purpose};
 
-    /// A synthetic summary that follows the schema of summary-schema.md exactly, with values
+    /// A synthetic summary that follows the schema of `summary.json` (`sim::RunSummary`) exactly, with values
     /// drawn from the seeded RNG. For tests only: not a result of any run.
     pub(crate) fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> Value {
         let mut r = rng::stream(seed * 1000 + x as u64, Purpose::Dropout, 0);
@@ -775,13 +842,51 @@ pub(crate) mod tests {
             map.remove(k);
         }
         sweep::write_atomic(&path, &s).unwrap();
-        std::fs::write(dir.join("e1-faulty/faulty-1/seed2.json"), "{not json").unwrap();
         let out = dir.join("report");
         let md_path = report(&dir, &out).unwrap();
         let md = std::fs::read_to_string(md_path).unwrap();
         assert!(md.contains("have no `contract` section"), "{md}");
-        assert!(md.contains("skipped"), "the broken file is named: {md}");
         assert!(md.contains("| faulty-1 | 1 | 1 | n/a |"), "{md}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn damaged_and_mixed_results_are_refused_naming_the_files() {
+        let dir = temp("refused");
+        synthetic_dir(&dir, &["e2-faulty"], 2);
+        let broken = dir.join("e2-faulty/byzantine-3/seed2.json");
+        std::fs::write(&broken, "{\"seed\": 2, \"contr").unwrap();
+        let wrong = dir.join("e2-faulty/byzantine-1/seed1.json");
+        std::fs::write(&wrong, "{\"seed\": 9}").unwrap();
+        let err = report(&dir, &dir.join("report")).unwrap_err().to_string();
+        assert!(err.contains("2 result file(s)"), "{err}");
+        assert!(
+            err.contains("byzantine-3/seed2.json: not readable as JSON"),
+            "{err}"
+        );
+        assert!(err.contains("byzantine-1/seed1.json: a JSON file"), "{err}");
+        assert!(!dir.join("report/report.md").exists());
+        synthetic_dir(&dir, &["e2-faulty"], 2);
+        // seed 3 of one point made at another duration: refused, both settings named.
+        let mut other = synthetic_summary("e2-faulty", 2.0, 3);
+        other["config_hash"] = "1234567890abcdef".into();
+        other["sweep"] =
+            serde_json::json!({"overrides": ["byzantine.count=2", "run.duration_s=200"]});
+        sweep::write_atomic(
+            &sweep::result_path(&dir, "e2-faulty", "byzantine-2", 3),
+            &other,
+        )
+        .unwrap();
+        let err = report(&dir, &dir.join("report")).unwrap_err().to_string();
+        assert!(err.contains("e2-faulty byzantine-2 mixes results"), "{err}");
+        assert!(
+            err.contains("seed1.json was made with no --set (configuration 00)"),
+            "{err}"
+        );
+        assert!(
+            err.contains("seed3.json with --set run.duration_s=200 (configuration 1234567890ab)"),
+            "{err}"
+        );
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

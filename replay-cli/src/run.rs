@@ -1,15 +1,15 @@
 //! `swarmfl run`: simulate a run into `DIR/run.swlog` and `DIR/summary.json`.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
 use swarmfl_core::config::Config;
 use swarmfl_core::event::Record;
 use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
+
+use crate::progress::Progress;
 
 /// Wall time per part of the driver, shared with the driver's profiler hook.
 #[derive(Clone, Default)]
@@ -81,34 +81,19 @@ pub fn write_run(
     let mut timing = Timing::default();
     sim.set_profiler(Box::new(timing.clone()));
     let (_, total_ms) = sim.progress();
-    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
-        let bar = ProgressBar::new(total_ms / 1000);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} sim s  {msg}  ETA {eta}",
-            )
-            .expect("valid template"),
-        );
-        bar
-    });
-    let mut last_update = Instant::now();
+    let label = format!("run {} seed {seed}", sim.config().preset);
+    let mut progress = Progress::new(&label, "sim s", total_ms / 1000, quiet);
     while let Some(record) = sim.next() {
         timing.switch(Part::Log);
         check(&record)?;
         writer.append(&record)?;
-        if let Some(bar) = &bar {
-            if last_update.elapsed().as_millis() >= 100 {
-                last_update = Instant::now();
-                let (done_ms, _) = sim.progress();
-                bar.set_position(done_ms / 1000);
-                let rate = writer.records() as f64 / started.elapsed().as_secs_f64().max(1e-9);
-                bar.set_message(format!("{rate:.0} events/s"));
-            }
-        }
+        let (done_ms, _) = sim.progress();
+        progress.set(done_ms / 1000, || {
+            let rate = writer.records() as f64 / started.elapsed().as_secs_f64().max(1e-9);
+            format!("{rate:.0} events/s")
+        });
     }
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    progress.finish(total_ms / 1000);
     let records = writer.records();
     let log_bytes = writer.bytes();
     let (footer, _) = writer.finish()?;
@@ -119,6 +104,9 @@ pub fn write_run(
     map.insert("wall_s".into(), serde_json::json!(wall_s));
     map.insert("log_bytes".into(), serde_json::json!(log_bytes));
     map.insert("timing".into(), timing.json());
+    if let Some(gas) = evm_gas(sim.state()) {
+        map.insert("evm_gas".into(), gas);
+    }
     let summary_path = out.join("summary.json");
     std::fs::write(
         &summary_path,
@@ -126,6 +114,32 @@ pub fn write_run(
     )
     .with_context(|| format!("cannot write {}", summary_path.display()))?;
     Ok(RunOutcome { summary, log_path })
+}
+
+/// With `contract.engine = "evm"`: the gas of the contract calls on the final canonical chain,
+/// by kind (`accepted` = a submission that did not close its round, `aggregated` = the one that
+/// did, `outlier`, the refusals, `deploy`), with mean, min, max and total.
+fn evm_gas(state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
+    let ledger = &state.ledger;
+    let head = ledger.head_state(swarmfl_core::metrics::best_node(ledger));
+    let evm = head.evm.as_ref()?;
+    let kinds: serde_json::Map<String, serde_json::Value> = evm
+        .gas
+        .iter()
+        .map(|(kind, g)| {
+            (
+                kind.clone(),
+                serde_json::json!({
+                    "calls": g.calls,
+                    "mean_gas": g.mean_gas(),
+                    "min_gas": g.min_gas,
+                    "max_gas": g.max_gas,
+                    "total_gas": g.total_gas,
+                }),
+            )
+        })
+        .collect();
+    Some(serde_json::Value::Object(kinds))
 }
 
 /// Prints the short human summary of a run.
@@ -165,6 +179,11 @@ pub fn print_summary(outcome: &RunOutcome) {
         loss(&c["final_heldout_loss"]),
         c["submissions"]
     );
+    println!(
+        "            mean honest distance {} (outlier threshold {})",
+        loss(&c["mean_honest_distance"]),
+        c["outlier_threshold"]
+    );
     let t = &s["tokens"];
     println!(
         "tokens:     honest mean gain {}, Byzantine mean gain {}, total units {} -> {}",
@@ -198,7 +217,42 @@ pub fn print_summary(outcome: &RunOutcome) {
         l["tx_delay_p95_s"],
         l["bytes_per_submission"].as_f64().unwrap_or(0.0)
     );
+    if let Some(gas) = s.get("evm_gas") {
+        let mean = |kind: &str| {
+            gas[kind]["mean_gas"]
+                .as_u64()
+                .map_or("-".into(), |g| g.to_string())
+        };
+        println!(
+            "evm gas:    submission {} (mean), aggregating submission {}, outlier {}, deploy {}; \
+             contract wall time is inside ledger_s below",
+            mean("accepted"),
+            mean("aggregated"),
+            mean("outlier"),
+            mean("deploy")
+        );
+    }
     println!("timing:     {}", s["timing"]);
     println!("final hash: {}", s["final_hash"].as_str().unwrap_or("?"));
     println!("wall time:  {:.2} s", s["wall_s"].as_f64().unwrap_or(0.0));
+}
+
+/// Prints what to do next with a finished run's log.
+pub fn print_next(outcome: &RunOutcome) {
+    let log = outcome.log_path.display();
+    let html = outcome.log_path.with_file_name("run.html");
+    let height = outcome.summary["ledger"]["canonical_height"]
+        .as_u64()
+        .unwrap_or(0)
+        / 2;
+    println!();
+    println!("next:");
+    println!(
+        "  swarmfl view {log} --out {}   # watch it in a browser",
+        html.display()
+    );
+    println!("  swarmfl replay {log}            # check that it replays bit-exactly");
+    println!(
+        "  swarmfl inspect {log} --block {height}   # the chain, contract and robots at a block"
+    );
 }

@@ -2,10 +2,9 @@
 //! Fig. 1 of the paper: walls in black, obstacles in grey, robots as green disks (Byzantine
 //! ones red) with a heading line, range-and-bearing links as cyan lines, and each robot's
 //! proximity rays as short light-blue lines (as long as the free distance they measure).
-//! The title is drawn with the system's sans-serif font (plotters `ttf`); if no font can be
-//! loaded, the picture is drawn without the title rather than failing.
-
-// `swarmfl snapshot` is wired in main.rs at integration; until then only the tests call `draw`.
+//! Each robot carries its id; axes in metres, a 1 m scale bar and a legend explain the
+//! picture. Text is drawn with the system's sans-serif font (plotters `ttf`); if no font can
+//! be loaded, the picture is drawn without text rather than failing.
 
 use std::path::Path;
 
@@ -37,6 +36,21 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
         .extension()
         .and_then(|e| e.to_str())
         .map(str::to_ascii_lowercase);
+    if !matches!(ext.as_deref(), Some("svg" | "png")) {
+        anyhow::bail!(
+            "cannot draw {}: the file name must end in .svg or .png",
+            out.display()
+        );
+    }
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).with_context(|| {
+            format!(
+                "cannot create the folder {} for {}",
+                dir.display(),
+                out.display()
+            )
+        })?;
+    }
     let result = match ext.as_deref() {
         Some("svg") => {
             let root = SVGBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
@@ -48,10 +62,7 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
             draw_on(&root, world, marks, Some(title))
                 .or_else(|_| draw_on(&root, world, marks, None))
         }
-        _ => anyhow::bail!(
-            "cannot draw {}: the file name must end in .svg or .png",
-            out.display()
-        ),
+        _ => unreachable!("the extension was checked above"),
     };
     result.with_context(|| format!("drawing the snapshot into {}", out.display()))
 }
@@ -70,11 +81,26 @@ where
     let mut builder = ChartBuilder::on(root);
     builder.margin(20);
     if let Some(title) = title {
-        builder.caption(title, ("sans-serif", 22));
+        builder
+            .caption(title, ("sans-serif", 22))
+            .x_label_area_size(40)
+            .y_label_area_size(50);
     }
     let mut chart = builder
         .build_cartesian_2d(-h..h, -h..h)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let text = title.is_some();
+    if text {
+        chart
+            .configure_mesh()
+            .disable_mesh()
+            .x_desc("x (m)")
+            .y_desc("y (m)")
+            .x_label_formatter(&|v| format!("{v:.1}"))
+            .y_label_formatter(&|v| format!("{v:.1}"))
+            .draw()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    }
     let (xr, _) = chart.plotting_area().get_pixel_range();
     let px_per_m = f64::from(xr.end - xr.start) / (2.0 * h);
     let px = |m: f64| ((m * px_per_m).round() as i32).max(1);
@@ -162,6 +188,62 @@ where
             )))
             .map_err(err)?;
     }
+    if text {
+        // Robot ids, beside each body.
+        for (i, p) in world.poses().iter().enumerate() {
+            chart
+                .draw_series(std::iter::once(Text::new(
+                    i.to_string(),
+                    (p.x + 1.3 * r, p.y + 1.3 * r),
+                    ("sans-serif", 14).into_font().color(&BLACK),
+                )))
+                .map_err(err)?;
+        }
+        // A 1 m scale bar (or the largest power of ten that fits) in the lower left corner.
+        let mut bar_m = 1.0;
+        while bar_m > h {
+            bar_m /= 10.0;
+        }
+        let (x0, y0) = (-h + 0.05 * h, -h + 0.05 * h);
+        chart
+            .draw_series(std::iter::once(PathElement::new(
+                vec![(x0, y0), (x0 + bar_m, y0)],
+                BLACK.stroke_width(3),
+            )))
+            .map_err(err)?;
+        chart
+            .draw_series(std::iter::once(Text::new(
+                format!("{bar_m} m"),
+                (x0, y0 + 0.04 * h),
+                ("sans-serif", 14).into_font().color(&BLACK),
+            )))
+            .map_err(err)?;
+        // The legend: one entry per kind of mark.
+        let entries: [(&str, ShapeStyle); 5] = [
+            ("honest robot (id)", HONEST.filled()),
+            ("Byzantine robot", BYZANTINE.filled()),
+            ("radio link", LINK.stroke_width(2)),
+            ("obstacle", OBSTACLE.filled()),
+            ("proximity ray", RAY.stroke_width(1)),
+        ];
+        for (label, style) in entries {
+            chart
+                .draw_series(std::iter::once(Circle::new((-2.0 * h, -2.0 * h), 0, style)))
+                .map_err(err)?
+                .label(label)
+                .legend(move |(x, y)| {
+                    EmptyElement::at((x, y)) + Rectangle::new([(0, -5), (14, 5)], style)
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::UpperRight)
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font(("sans-serif", 14))
+            .draw()
+            .map_err(err)?;
+    }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
 }
@@ -190,8 +272,29 @@ mod tests {
             let size = std::fs::metadata(&out).unwrap().len();
             assert!(size > 5_000, "{name}: {size} bytes");
         }
-        let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg")).unwrap();
+        // plotters writes each text's content on a line of its own.
+        let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg"))
+            .unwrap()
+            .replace('\n', "");
         assert!(svg.contains("t = 600 s"), "the title is drawn");
+        for text in [
+            ">3<",
+            ">14<",
+            "Byzantine robot",
+            "radio link",
+            "1 m",
+            "x (m)",
+        ] {
+            assert!(
+                svg.contains(text),
+                "ids, legend and scale are drawn: {text}"
+            );
+        }
         assert!(draw(&world, &marks, "x", &dir.join("snapshot.gif")).is_err());
+        // A missing output folder is created, never reported as a debug message.
+        let nested = dir.join(format!("swarmfl-snapshot-{}/a/b.png", std::process::id()));
+        draw(&world, &marks, "nested", &nested).unwrap();
+        assert!(nested.exists());
+        std::fs::remove_dir_all(nested.parent().unwrap().parent().unwrap()).unwrap();
     }
 }

@@ -1,4 +1,4 @@
-//! `swarmfl sweep`: the paper's experiments (SPEC.md section 7) as a fixed task list of
+//! `swarmfl sweep`: the paper's experiments (docs/SPEC.md section 7) as a fixed task list of
 //! (configuration point, seed) pairs, run locally in parallel or one shard at a time under a
 //! cluster scheduler.
 //!
@@ -10,27 +10,45 @@
 //! the task), atomically (temporary file + rename); a task whose result file exists and parses is
 //! skipped, so a re-run resumes an interrupted sweep and a retried task simply overwrites.
 
-use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
 use anyhow::Context;
-use indicatif::{ProgressBar, ProgressStyle};
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{ByzantineKind, Config, Rule};
+use swarmfl_core::contract::rules::ALL_RULES;
 
+use crate::progress::Progress;
 use crate::run;
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 6] = [
+pub const EXPERIMENTS: [&str; 7] = [
     "e0-baselines",
     "e1-expiration",
     "e1-faulty",
     "e2-faulty",
     "e2-malicious",
     "e3-smart",
+    "e4-robustness",
 ];
+
+/// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
+/// 15: about 1.4 per 7-model round, near the rules' assumed f) and the largest minority (7 of
+/// 15: about 3.3 per round, beyond every rule's f at quorum 7). Three counts keep the grid at
+/// 9 + 9 x 12 x 2 = 225 points per seed (about 1.6 h of one core per seed at 2000 s);
+/// 0, 1, 3, 5, 7 would be 441.
+pub const E4_COUNTS: [u32; 3] = [0, 3, 7];
+
+/// The assumed Byzantine count `e4-robustness` gives each rule: 2 (a rule built for the
+/// expected 1.4 and a margin), except bulyan, whose maximum at quorum 7 is 1.
+pub fn e4_assumed_f(rule: Rule) -> u32 {
+    if rule == Rule::Bulyan {
+        1
+    } else {
+        2
+    }
+}
 
 /// One configuration point of an experiment's grid.
 #[derive(Clone, Debug, PartialEq)]
@@ -41,6 +59,8 @@ pub struct Point {
     pub x: f64,
     /// The configuration overrides that make this point from the experiment's preset.
     pub overrides: Vec<String>,
+    /// The point's coordinates on further axes, by axis name (e4: `rule`, `attack`).
+    pub tags: Vec<(&'static str, String)>,
 }
 
 /// One experiment: a preset, its grid of points and the paper's number of runs per point.
@@ -56,7 +76,7 @@ pub struct Experiment {
     pub runs: u32,
 }
 
-/// Looks an experiment up by id (SPEC.md section 7).
+/// Looks an experiment up by id (docs/SPEC.md section 7).
 pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
     let byzantine_grid = || {
         (0..=7u32)
@@ -69,6 +89,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                 } else {
                     vec![format!("byzantine.count={count}")]
                 },
+                tags: Vec::new(),
             })
             .collect()
     };
@@ -88,6 +109,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                     name: format!("expiration-{s}"),
                     x: f64::from(s),
                     overrides: vec![format!("data.expiration_s={s}.0")],
+                    tags: Vec::new(),
                 })
                 .collect(),
             runs: 5,
@@ -99,6 +121,7 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
                 name: "faulty-1".into(),
                 x: 1.0,
                 overrides: Vec::new(),
+                tags: Vec::new(),
             }],
             runs: 10,
         },
@@ -119,6 +142,12 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             axis: "smart robots",
             points: byzantine_grid(),
             runs: 18,
+        },
+        "e4-robustness" => Experiment {
+            name: "e4-robustness",
+            axis: "Byzantine robots",
+            points: e4_points(),
+            runs: 3,
         },
         other => anyhow::bail!(
             "unknown experiment {other:?}; the experiments are {}",
@@ -157,10 +186,49 @@ fn baselines_grid() -> Vec<Point> {
                     name: format!("{aggregation}-{condition}"),
                     x: f64::from(*count),
                     overrides: all,
+                    tags: vec![
+                        ("aggregation", aggregation.to_string()),
+                        ("condition", condition.to_string()),
+                    ],
                 }
             })
         })
         .collect()
+}
+
+/// The grid of `e4-robustness`, rule-major: per rule its clean point (no Byzantine robot),
+/// then every attack at every non-zero count of [`E4_COUNTS`]. Point names are
+/// `<rule>--<attack>--<count>` (`paper--none--0`, `krum--alie--3`).
+fn e4_points() -> Vec<Point> {
+    let mut points = Vec::new();
+    for rule in ALL_RULES {
+        let base = vec![
+            format!("contract.rule={}", rule.name()),
+            format!("contract.assumed_f={}", e4_assumed_f(rule)),
+        ];
+        for &count in &E4_COUNTS {
+            let kinds: Vec<ByzantineKind> = if count == 0 {
+                vec![ByzantineKind::None]
+            } else {
+                ByzantineKind::ALL[1..].to_vec()
+            };
+            for kind in kinds {
+                let mut overrides = base.clone();
+                overrides.push(format!("byzantine.kind={}", kind.name()));
+                overrides.push(format!("byzantine.count={count}"));
+                points.push(Point {
+                    name: format!("{}--{}--{count}", rule.name(), kind.name()),
+                    x: f64::from(count),
+                    overrides,
+                    tags: vec![
+                        ("rule", rule.name().to_string()),
+                        ("attack", kind.name().to_string()),
+                    ],
+                });
+            }
+        }
+    }
+    points
 }
 
 /// One task: a configuration point and a seed.
@@ -319,6 +387,92 @@ pub fn is_done(path: &Path) -> bool {
         .is_some_and(|v| v.get("seed").is_some_and(|s| s.is_u64()))
 }
 
+/// The sweep-wide `--set` overrides a result file was made with: its `sweep.overrides` minus
+/// the point's own (which every result of the point shares).
+pub fn extra_overrides(summary: &serde_json::Value, point_overrides: &[String]) -> Vec<String> {
+    summary["sweep"]["overrides"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(str::to_string))
+                .filter(|o| !point_overrides.contains(o))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Shows overrides as the user typed them: `--set a=1 --set b=2`, or `no --set`.
+pub fn show_overrides(overrides: &[String]) -> String {
+    if overrides.is_empty() {
+        "no --set".to_string()
+    } else {
+        overrides
+            .iter()
+            .map(|o| format!("--set {o}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// Refuses to add results to a point directory that holds results of another configuration
+/// (other `--set` values, or the same ones under presets of another version), naming the file
+/// and both settings: averaging them would silently mix two studies.
+fn check_settings(
+    point_dir: &Path,
+    config_hash: &str,
+    overrides: &[String],
+    point_overrides: &[String],
+) -> anyhow::Result<()> {
+    let Ok(entries) = std::fs::read_dir(point_dir) else {
+        return Ok(());
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("seed") && n.ends_with(".json"))
+        })
+        .collect();
+    files.sort();
+    for file in files {
+        let Some(summary) = std::fs::read(&file)
+            .ok()
+            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
+        else {
+            // An unreadable result is re-run (and overwritten) like a missing one.
+            continue;
+        };
+        let theirs = summary["config_hash"].as_str().unwrap_or("(none)");
+        if theirs == config_hash {
+            continue;
+        }
+        let their_overrides = extra_overrides(&summary, point_overrides);
+        let why = if their_overrides == overrides {
+            format!(
+                "the same {} under another version's presets (configuration {} vs {})",
+                show_overrides(overrides),
+                &theirs[..theirs.len().min(12)],
+                &config_hash[..12]
+            )
+        } else {
+            format!(
+                "{}, this sweep uses {}",
+                show_overrides(&their_overrides),
+                show_overrides(overrides)
+            )
+        };
+        anyhow::bail!(
+            "{} holds results of other settings: {} was made with {why}. A report would \
+             average the two; sweep into another --out directory (or repeat the same --set to \
+             add seeds)",
+            point_dir.display(),
+            file.display(),
+        );
+    }
+    Ok(())
+}
+
 /// Writes `value` to `path` atomically: a temporary file in the same directory, then rename.
 pub fn write_atomic(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
     let dir = path.parent().context("result path has no directory")?;
@@ -384,6 +538,14 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
             .with_context(|| format!("{} point {}", exp.name, point.name))?;
         configs.push(config);
     }
+    for (point, config) in exp.points.iter().zip(&configs) {
+        check_settings(
+            &opts.out.join(exp.name).join(&point.name),
+            &config.hash().to_hex(),
+            &opts.overrides,
+            &point.overrides,
+        )?;
+    }
     let selected: Vec<Task> = all
         .into_iter()
         .filter(|t| opts.shard.owns(t.index))
@@ -406,16 +568,12 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
         "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
         exp.name, outcome.selected, opts.shard.index, opts.shard.count, outcome.skipped, runs, jobs
     );
-    let bar = std::io::stderr().is_terminal().then(|| {
-        let bar = ProgressBar::new(todo.len() as u64);
-        bar.set_style(
-            ProgressStyle::with_template(
-                "{spinner} [{elapsed_precise}] {bar:40} {pos}/{len} tasks  {msg}  ETA {eta}",
-            )
-            .expect("valid template"),
-        );
-        bar
-    });
+    let progress = Mutex::new(Progress::new(
+        &format!("sweep {}", exp.name),
+        "tasks",
+        todo.len() as u64,
+        false,
+    ));
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
     let failed = Mutex::new(Vec::new());
@@ -444,20 +602,11 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
                         task.seed
                     ),
                 };
-                match &bar {
-                    Some(bar) => {
-                        bar.inc(1);
-                        if result.is_err() {
-                            bar.println(&line);
-                        } else {
-                            bar.set_message(format!(
-                                "{} {} seed {}",
-                                task.experiment, task.point, task.seed
-                            ));
-                        }
-                    }
-                    None => eprintln!("{line}"),
+                let mut progress = progress.lock().expect("no worker panics holding it");
+                if result.is_err() {
+                    progress.println(&line);
                 }
+                progress.set(finished as u64, || line.clone());
                 if let Err(e) = result {
                     failed
                         .lock()
@@ -467,9 +616,10 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
             });
         }
     });
-    if let Some(bar) = bar {
-        bar.finish_and_clear();
-    }
+    progress
+        .into_inner()
+        .expect("workers finished")
+        .finish(todo.len() as u64);
     let mut failed = failed.into_inner().expect("workers finished");
     failed.sort_by_key(|(t, _)| t.index);
     outcome.ran = todo.len() - failed.len();
@@ -650,6 +800,46 @@ mod tests {
             Some((1, 2)),
         );
         check(None, Some(2), &[], None);
+    }
+
+    #[test]
+    fn a_sweep_refuses_to_add_results_of_other_settings_naming_both() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-sweep-mix-{}", std::process::id()));
+        let point = dir.join("e2-faulty/byzantine-3");
+        let point_overrides = vec!["byzantine.count=3".to_string()];
+        let made = serde_json::json!({"seed": 1, "config_hash": "aaaaaaaaaaaaaaaa",
+            "sweep": {"overrides": ["byzantine.count=3", "run.duration_s=300"]}});
+        write_atomic(&point.join("seed1.json"), &made).unwrap();
+        let same = check_settings(
+            &point,
+            "aaaaaaaaaaaaaaaa",
+            &["run.duration_s=300".into()],
+            &point_overrides,
+        );
+        assert!(same.is_ok(), "same settings add seeds: {same:?}");
+        let err = check_settings(
+            &point,
+            "bbbbbbbbbbbbbbbb",
+            &["run.duration_s=200".into()],
+            &point_overrides,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(
+            err.contains("seed1.json was made with --set run.duration_s=300, this sweep uses --set run.duration_s=200"),
+            "{err}"
+        );
+        let err = check_settings(
+            &point,
+            "bbbbbbbbbbbbbbbb",
+            &["run.duration_s=300".into()],
+            &point_overrides,
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(err.contains("another version's presets"), "{err}");
+        assert!(check_settings(&dir.join("nothing"), "b", &[], &[]).is_ok());
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

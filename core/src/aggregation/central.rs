@@ -8,6 +8,7 @@
 use std::sync::Arc;
 
 use super::gossip::{Entry, EntryId};
+use crate::contract::options::FedAvgRounding;
 use crate::contract::payout;
 use crate::types::{Digest, RobotId};
 
@@ -24,6 +25,8 @@ pub struct Server {
     pending: Vec<(RobotId, Arc<Entry>)>,
     /// Uploads per robot (an upload's version number).
     uploads: Vec<u64>,
+    /// Uploads refused because the robot's model already waited in the open round.
+    pub duplicates: u64,
 }
 
 impl Server {
@@ -35,7 +38,13 @@ impl Server {
             round: 0,
             pending: Vec::new(),
             uploads: vec![0; robots as usize],
+            duplicates: 0,
         }
+    }
+
+    /// The open round's uploads, in arrival order.
+    pub fn pending(&self) -> &[(RobotId, Arc<Entry>)] {
+        &self.pending
     }
 
     /// Whether `robot`'s model waits in the open round.
@@ -50,13 +59,15 @@ impl Server {
     }
 
     /// Folds an upload; returns the entry and, when it completes the quorum, the hashes of the
-    /// aggregated models (the new shared model is then in `weights`).
+    /// aggregated models (the new shared model is then in `weights`). A robot's second upload
+    /// in one round is counted in `duplicates` and left out.
     pub fn upload(
         &mut self,
         robot: RobotId,
         samples: u64,
         weights: Arc<[i64]>,
         quorum: usize,
+        rounding: FedAvgRounding,
     ) -> Result<(Arc<Entry>, Option<Vec<Digest>>), String> {
         let Some(count) = self.uploads.get_mut(robot as usize) else {
             return Err(format!(
@@ -71,12 +82,6 @@ impl Server {
                 self.weights.len()
             ));
         }
-        if self.pending.iter().any(|(r, _)| *r == robot) {
-            return Err(format!(
-                "robot {robot} uploads twice in round {}",
-                self.round
-            ));
-        }
         *count += 1;
         let entry = Arc::new(Entry::new(
             EntryId {
@@ -86,6 +91,12 @@ impl Server {
             samples,
             weights,
         ));
+        if self.pending.iter().any(|(r, _)| *r == robot) {
+            // A second model in one round (a waited phase and the next one leaving together):
+            // refused, as the contract refuses a duplicate submission.
+            self.duplicates += 1;
+            return Ok((entry, None));
+        }
         self.pending.push((robot, entry.clone()));
         if self.pending.len() < quorum.max(1) {
             return Ok((entry, None));
@@ -95,7 +106,7 @@ impl Server {
             .iter()
             .map(|(_, e)| (&e.weights[..], e.samples))
             .collect();
-        let aggregated: Arc<[i64]> = Arc::from(payout::fedavg(&models));
+        let aggregated: Arc<[i64]> = Arc::from(payout::fedavg(&models, rounding));
         let members = self.pending.iter().map(|(_, e)| e.hash).collect();
         self.pending.clear();
         self.previous = Some(std::mem::replace(&mut self.weights, aggregated));
@@ -106,6 +117,7 @@ impl Server {
     /// Digest of the server's state.
     pub fn digest_into(&self, h: &mut blake3::Hasher) {
         h.update(&self.round.to_le_bytes());
+        h.update(&self.duplicates.to_le_bytes());
         h.update(&super::weights_digest(&self.weights).0);
         for (r, e) in &self.pending {
             h.update(&r.to_le_bytes());
@@ -121,16 +133,31 @@ mod tests {
     #[test]
     fn aggregates_fedavg_at_the_quorum_and_refuses_a_second_upload() {
         let mut s = Server::new(Arc::from(vec![0i64, 0]), 3);
-        let (_, none) = s.upload(0, 1, Arc::from(vec![10i64, -10]), 2).unwrap();
+        let (_, none) = s
+            .upload(
+                0,
+                1,
+                Arc::from(vec![10i64, -10]),
+                2,
+                FedAvgRounding::Nearest,
+            )
+            .unwrap();
         assert!(none.is_none());
         assert!(s.has_pending(0));
-        assert!(s.upload(0, 1, Arc::from(vec![1i64, 1]), 2).is_err());
-        let (e, members) = s.upload(2, 3, Arc::from(vec![2i64, 2]), 2).unwrap();
+        let (_, none) = s
+            .upload(0, 1, Arc::from(vec![1i64, 1]), 2, FedAvgRounding::Nearest)
+            .unwrap();
+        assert!(none.is_none());
+        assert_eq!(s.duplicates, 1, "the second upload of a round is refused");
+        let (e, members) = s
+            .upload(2, 3, Arc::from(vec![2i64, 2]), 2, FedAvgRounding::Nearest)
+            .unwrap();
         // (1 * 10 + 3 * 2) / 4 = 4; (1 * -10 + 3 * 2) / 4 = -1.
         assert_eq!(&s.weights[..], &[4, -1]);
         assert_eq!(s.round, 1);
         assert_eq!(members.unwrap().len(), 2);
         assert_eq!(e.id.clock, 1);
+        assert_eq!(s.pending().len(), 0);
         assert_eq!(s.previous.as_deref(), Some(&[0i64, 0][..]));
         assert!(!s.has_pending(0));
     }

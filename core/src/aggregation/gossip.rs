@@ -11,7 +11,10 @@
 //! peer `b` in ascending order, in one message, the entries whose version `a` holds newer than
 //! `b` (and not already in flight to `b`); a message takes `ceil(bytes * 1000 / bandwidth)` ms
 //! after its directed link is free (1 ms with unlimited bandwidth) and is lost with
-//! `ledger.packet_loss`, drawn per message from `a`'s `Purpose::Stigmergy` stream.
+//! `ledger.packet_loss`, drawn per message from `a`'s `Purpose::Stigmergy` stream. The radio
+//! faults act as on the ledger's gossip: partitions (`split`, `isolate`) through the peer sets
+//! the driver passes, loss bursts raise the loss and delays add to the airtime of a message
+//! sent in their window (`faults.rs`).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 use std::sync::Arc;
@@ -20,6 +23,7 @@ use serde::{Deserialize, Serialize};
 
 use super::AggregationEvent;
 use crate::config::Config;
+use crate::faults::FaultSchedule;
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
 
@@ -266,6 +270,7 @@ pub struct Gossiper {
     gossip_ms: u64,
     bandwidth_bytes_per_s: u64,
     packet_loss: f64,
+    faults: FaultSchedule,
     loss_rngs: Vec<Rng>,
     next_gossip: SimTime,
     batch: VecDeque<AggregationEvent>,
@@ -288,6 +293,7 @@ impl Gossiper {
             gossip_ms: ((config.run.tick_s * 1000.0).round() as u64).max(1),
             bandwidth_bytes_per_s: config.ledger.bandwidth_bytes_per_s,
             packet_loss: config.ledger.packet_loss,
+            faults: FaultSchedule::new(&config.faults, robots),
             loss_rngs: (0..robots)
                 .map(|r| rng::stream(seed, Purpose::Stigmergy, r))
                 .collect(),
@@ -369,6 +375,7 @@ impl Gossiper {
         } else {
             (bytes * 1000).div_ceil(self.bandwidth_bytes_per_s).max(1)
         };
+        let airtime_ms = airtime_ms + self.faults.extra_delay_ms(self.batch_time.0);
         let link = self.link_free.entry((*from, *to)).or_insert(SimTime(0));
         let start = (*link).max(self.batch_time);
         let due = SimTime(start.0 + airtime_ms);
@@ -410,7 +417,8 @@ impl Gossiper {
                     continue;
                 }
                 self.idle[slot] = None;
-                let lost = self.loss_rngs[a as usize].chance(self.packet_loss);
+                let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
+                let lost = self.loss_rngs[a as usize].chance(loss);
                 if !lost {
                     for id in &entries {
                         self.in_flight.insert((b, *id));

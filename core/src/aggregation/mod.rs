@@ -21,6 +21,17 @@
 //! own) whose mean absolute distance to its current model exceeds `contract.outlier_threshold`
 //! (the contract's test, applied locally); Flow-FL has no such filter, so it is off by default.
 //!
+//! **Byzantine robots** run the same attacks (`byzantine.kind`) as on the chain: the driver
+//! gives their agent a [`crate::byzantine::View`] whose contract state is built by
+//! [`AggregationState::attacker_view`] from what the robot holds (its replica, or the server),
+//! and writes or uploads what the attack returns. What acts only on a chain (ledger attacks,
+//! robust rules, the EVM, crashes, clock skews, the sealer partition) is refused by
+//! [`supports`] when the configuration is validated.
+//!
+//! **Faults.** The stigmergy's gossip runs over the radio's peer sets with the `[faults]`
+//! partitions (`split`, `isolate`) cut out, and with their loss bursts and delays, as the
+//! ledger's gossip does; the ideal server is off the radio.
+//!
 //! Events ([`AggregationEvent`]) carry every model, so replay never trains; the reduced state
 //! ([`AggregationState`]) holds the replicas, the server, each robot's current model and every
 //! aggregation, which `summarise` turns into the same figures as the chain's: loss per
@@ -36,8 +47,11 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Aggregation, Config};
-use crate::contract::payout;
+use crate::config::{Aggregation, Config, ConfigError, ContractEngine, LedgerBehaviour};
+use crate::contract::options::FedAvgRounding;
+use crate::contract::rules::Rule;
+use crate::contract::{payout, ContractParams, ContractState, Submission, Verdict};
+use crate::faults::PartitionKind;
 use crate::types::{Digest, RobotId, SimTime};
 
 pub use central::Server;
@@ -128,8 +142,91 @@ pub struct StartView {
     pub round: u64,
     /// The model before it (the smart attack's w(t - 1)).
     pub previous: Option<Arc<[i64]>>,
-    /// `central`: the robot's model waits in the open round (it skips, as on the chain).
-    pub pending: bool,
+}
+
+/// Checks that a baseline aggregation can run the configuration (called by config validation).
+/// Without a chain there is no contract, no token, no block and no sealer, so what acts only on
+/// those is refused, naming the key and the fix, rather than silently ignored:
+/// - `contract.rule`: `gossip` and `central` average by FedAvg; `paper` (the default, whose
+///   threshold and rewards then do not apply) and `fedavg` are accepted, the robust rules are
+///   not (a robust server or merge would be a new baseline);
+/// - `contract.engine = "evm"`, `contract.round_timeout_s`: contract machinery;
+/// - `byzantine.ledger`: misbehaviour on a chain (Byzantine robots' model attacks,
+///   `byzantine.kind`, all work: see [`AggregationState::attacker_view`]);
+/// - `faults.crashes` (a node's restart and resync), `faults.clock_skews` (block timestamps),
+///   partitions of kind `sealer` (Clique's in-turn sealer).
+///
+/// Partitions `split` and `isolate`, loss bursts and delays act on the stigmergy's gossip as on
+/// the ledger's. The `central` server is not on the radio, so they leave it untouched (accepted,
+/// so that one fault schedule compares the three aggregations).
+pub fn supports(config: &Config) -> Result<(), ConfigError> {
+    let kind = config.learn.aggregation;
+    if kind == Aggregation::Chain {
+        return Ok(());
+    }
+    let refuse = |key: &str, value: String, allowed: String| {
+        Err(ConfigError::OutOfRange {
+            key: key.to_string(),
+            value,
+            allowed: format!(
+                "{allowed} with learn.aggregation = {} (no chain, no contract); set \
+                 learn.aggregation = chain to use it",
+                kind.name()
+            ),
+        })
+    };
+    let rule = config.rule();
+    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
+        return refuse(
+            "contract.rule",
+            rule.name().to_string(),
+            "paper or fedavg (both mean plain FedAvg here)".to_string(),
+        );
+    }
+    if config.contract.engine == ContractEngine::Evm {
+        return refuse("contract.engine", "evm".to_string(), "native".to_string());
+    }
+    if config.contract.round_timeout_s != 0.0 {
+        return refuse(
+            "contract.round_timeout_s",
+            config.contract.round_timeout_s.to_string(),
+            "0 (no round deadline)".to_string(),
+        );
+    }
+    if config.byzantine.ledger != LedgerBehaviour::Honest {
+        return refuse(
+            "byzantine.ledger",
+            config.byzantine.ledger.name().to_string(),
+            "honest (byzantine.kind attacks all apply)".to_string(),
+        );
+    }
+    let f = &config.faults;
+    if !f.crashes.is_empty() {
+        return refuse(
+            "faults.crashes",
+            format!("{} crash(es)", f.crashes.len()),
+            "none (partitions, loss bursts and delays are supported)".to_string(),
+        );
+    }
+    if !f.clock_skews.is_empty() {
+        return refuse(
+            "faults.clock_skews",
+            format!("{} skew(s)", f.clock_skews.len()),
+            "none (clocks matter only to block timestamps)".to_string(),
+        );
+    }
+    if let Some(i) = f
+        .partitions
+        .iter()
+        .position(|p| p.kind == PartitionKind::Sealer)
+    {
+        return refuse(
+            &format!("faults.partitions[{i}].kind"),
+            "sealer".to_string(),
+            "split or isolate (there is no sealer)".to_string(),
+        );
+    }
+    Ok(())
 }
 
 /// The digest of a fixed-point model.
@@ -151,6 +248,7 @@ pub fn merge(
     held: &[&Arc<Entry>],
     quorum: usize,
     outlier_units: Option<u64>,
+    rounding: FedAvgRounding,
 ) -> Option<(Vec<i64>, Vec<Digest>)> {
     let kept: Vec<&Arc<Entry>> = held
         .iter()
@@ -168,7 +266,7 @@ pub fn merge(
     }
     let models: Vec<(&[i64], u64)> = kept.iter().map(|e| (&e.weights[..], e.samples)).collect();
     Some((
-        payout::fedavg(&models),
+        payout::fedavg(&models, rounding),
         kept.iter().map(|e| e.hash).collect(),
     ))
 }
@@ -180,6 +278,7 @@ pub struct AggregationState {
     genesis: Arc<[i64]>,
     quorum: usize,
     outlier_units: Option<u64>,
+    rounding: FedAvgRounding,
     /// `gossip`: every replica of the store.
     pub stigmergy: Stigmergy,
     /// `central`: the server.
@@ -216,6 +315,7 @@ impl AggregationState {
             genesis: genesis.clone(),
             quorum,
             outlier_units,
+            rounding: config.contract.fedavg_rounding,
             stigmergy: Stigmergy::new(robots),
             server: Server::new(genesis.clone(), robots),
             models: vec![(genesis, digest); n],
@@ -252,7 +352,6 @@ impl AggregationState {
                 weights: self.server.weights.clone(),
                 round: self.server.round,
                 previous: self.server.previous.clone(),
-                pending: self.server.has_pending(robot),
             },
             _ => {
                 let (weights, round) = match self.merged(robot) {
@@ -264,7 +363,6 @@ impl AggregationState {
                     weights,
                     round,
                     previous: Some(self.models[i].0.clone()),
-                    pending: false,
                 }
             }
         }
@@ -280,7 +378,6 @@ impl AggregationState {
                 digest: self.models[i].1,
                 round: self.merges[i],
                 previous: self.previous[i].clone(),
-                pending: false,
             },
         }
     }
@@ -300,6 +397,7 @@ impl AggregationState {
             &held,
             self.quorum,
             self.outlier_units,
+            self.rounding,
         )
     }
 
@@ -313,6 +411,60 @@ impl AggregationState {
                 || self.models[robot as usize].0.clone(),
                 |e| e.weights.clone(),
             )
+    }
+
+    /// What a Byzantine `robot` knows, in the shape of the contract state its attack reads on
+    /// the chain (`byzantine::View::chain`), so that every attack runs unchanged:
+    /// - `weights`, `round`, `previous_weights`: the model it starts from now (after its
+    ///   merge; `central`: the server's) and the one before it;
+    /// - `submissions`, the models of others it can read: `gossip`, the newest entry of every
+    ///   other key in its own replica (what its stigmergy holds, stale or not); `central`, the
+    ///   open round's uploads. A real server would hide them: this is the omniscient attacker
+    ///   of the Byzantine-robust FL literature (ALIE, IPM, min-max), the strongest case.
+    ///
+    /// Each is marked accepted (no contract judges it) with its distance to the starting model.
+    /// No tokens: balances are the genesis ones and nothing is staked.
+    pub fn attacker_view(&self, robot: RobotId, params: &ContractParams) -> ContractState {
+        let start = self.current(robot);
+        let others: Vec<(RobotId, u64, Arc<[i64]>)> = match self.kind {
+            Aggregation::Central => self
+                .server
+                .pending()
+                .iter()
+                .filter(|(r, _)| *r != robot)
+                .map(|(r, e)| (*r, e.samples, e.weights.clone()))
+                .collect(),
+            _ => self
+                .stigmergy
+                .held(robot)
+                .into_iter()
+                .filter(|e| e.id.key != robot)
+                .map(|e| (e.id.key, e.samples, e.weights.clone()))
+                .collect(),
+        };
+        let mut view = ContractState::genesis(params);
+        view.submissions = others
+            .into_iter()
+            .filter(|(_, _, w)| w.len() == start.weights.len())
+            .map(|(sender, samples, weights)| Submission {
+                sender,
+                samples,
+                distance_units: payout::distance_units(&weights, &start.weights),
+                stake_units: 0,
+                verdict: Verdict::Accepted,
+                weights_digest: crate::contract::model_digest(&weights),
+                weights,
+            })
+            .collect();
+        view.round = start.round;
+        view.weights_digest = crate::contract::model_digest(&start.weights);
+        view.weights = start.weights;
+        view.previous_digest = start
+            .previous
+            .as_ref()
+            .map_or_else(Digest::default, |w| crate::contract::model_digest(w));
+        view.previous_weights = start.previous;
+        view
     }
 
     /// The hash `robot`'s next model gets in its learning report (the entry it will write or
@@ -386,9 +538,13 @@ impl AggregationState {
                 samples,
                 weights,
             } => {
-                let (entry, members) =
-                    self.server
-                        .upload(*robot, *samples, weights.clone(), self.quorum)?;
+                let (entry, members) = self.server.upload(
+                    *robot,
+                    *samples,
+                    weights.clone(),
+                    self.quorum,
+                    self.rounding,
+                )?;
                 self.bytes_sent[*robot as usize] += entry.bytes;
                 if let Some(models) = members {
                     self.aggregations.push(AggregationRecord {

@@ -134,6 +134,10 @@ pub fn summarise(
         heldout_loss_initial: heldout_loss(state.genesis()),
         final_loss: None,
         final_heldout_loss: None,
+        // No contract measures distances to a shared model.
+        mean_honest_distance: None,
+        outlier_threshold: config.contract.outlier_threshold,
+        mean_honest_distance_by_round: Vec::new(),
         submissions: BTreeMap::new(),
         aggregated_honest: 0,
         aggregated_byzantine: 0,
@@ -163,7 +167,12 @@ pub fn summarise(
         });
     }
     let written = metrics.trained.len() as u64 + metrics.forged;
-    s.submissions.insert("accepted".to_string(), written);
+    let duplicates = state.server.duplicates;
+    s.submissions
+        .insert("accepted".to_string(), written.saturating_sub(duplicates));
+    if duplicates > 0 {
+        s.submissions.insert("duplicate".to_string(), duplicates);
+    }
     s.final_loss = s.loss_by_round.last().copied();
     s.final_heldout_loss = match state.kind() {
         Aggregation::Central => s.heldout_loss_by_round.last().copied(),

@@ -207,3 +207,118 @@ fn the_central_server_counts_uploads_and_downloads() {
     assert_eq!((s.bytes_sent[0], s.bytes_downloaded[0]), (up, down));
     assert_eq!(s.bytes_sent[1], 0);
 }
+
+#[test]
+fn a_byzantine_robot_reads_the_models_its_replica_or_the_server_holds() {
+    let c = config(Aggregation::Gossip, 15);
+    let params = crate::contract::ContractParams::from_config(&c, model(&[0, 0]));
+    let mut s = AggregationState::new(&c, model(&[0, 0]));
+    fold(
+        &mut s,
+        &[
+            write(0, 1, &[10, -10]),
+            write(1, 3, &[2, 2]),
+            write(2, 5, &[7, 7]),
+            AggregationEvent::Send {
+                from: 1,
+                to: 0,
+                entries: vec![EntryId { key: 1, clock: 1 }],
+                lost: false,
+            },
+            AggregationEvent::Deliver { message: 0 },
+        ],
+    );
+    // Robot 0 holds its own entry and robot 1's, not robot 2's: it reads robot 1's only.
+    let view = s.attacker_view(0, &params);
+    let read: Vec<(u32, u64, i64)> = view
+        .submissions
+        .iter()
+        .map(|x| (x.sender, x.samples, x.weights[0]))
+        .collect();
+    assert_eq!(read, vec![(1, 3, 2)]);
+    assert_eq!(view.submissions[0].distance_units, 4, "|2 - 0| + |2 - 0|");
+    assert_eq!(&view.weights[..], &s.current(0).weights[..]);
+
+    let c = config(Aggregation::Central, 15);
+    let mut s = AggregationState::new(&c, model(&[0, 0]));
+    let params = crate::contract::ContractParams::from_config(&c, model(&[0, 0]));
+    fold(
+        &mut s,
+        &[
+            AggregationEvent::Upload {
+                robot: 3,
+                samples: 2,
+                weights: model(&[6, 8]),
+            },
+            AggregationEvent::Upload {
+                robot: 5,
+                samples: 1,
+                weights: model(&[1, 1]),
+            },
+        ],
+    );
+    // The open round's uploads of the others (the omniscient attacker).
+    let view = s.attacker_view(5, &params);
+    let senders: Vec<u32> = view.submissions.iter().map(|x| x.sender).collect();
+    assert_eq!(senders, vec![3]);
+    assert_eq!(view.round, 0);
+}
+
+#[test]
+fn what_needs_a_chain_is_refused_naming_the_key() {
+    fn refused(sets: &[&str]) -> String {
+        let mut c = Preset::Smoke.config();
+        for s in sets {
+            c.set(s).unwrap();
+        }
+        c.validate().unwrap_err().to_string()
+    }
+    for (sets, key) in [
+        (
+            &["byzantine.ledger=equivocate", "byzantine.count=2"][..],
+            "byzantine.ledger",
+        ),
+        (&["contract.rule=krum"][..], "contract.rule"),
+        (&["contract.engine=evm"][..], "contract.engine"),
+        (
+            &["contract.round_timeout_s=300"][..],
+            "contract.round_timeout_s",
+        ),
+        (
+            &["faults.crashes=[{robot=3, start_s=50, end_s=120}]"][..],
+            "faults.crashes",
+        ),
+        (
+            &["faults.partitions=[{kind=\"sealer\", start_s=50, end_s=120}]"][..],
+            "faults.partitions[0].kind",
+        ),
+    ] {
+        for aggregation in ["gossip", "central"] {
+            let mut all = vec![format!("learn.aggregation={aggregation}")];
+            all.extend(sets.iter().map(|s| s.to_string()));
+            let all: Vec<&str> = all.iter().map(String::as_str).collect();
+            let e = refused(&all);
+            assert!(
+                e.contains(key) && e.contains("learn.aggregation = chain"),
+                "{aggregation} {sets:?}: {e}"
+            );
+        }
+        // The chain accepts them (evm with the default rule, krum with its default f).
+        let mut c = Preset::Smoke.config();
+        for s in sets {
+            c.set(s).unwrap();
+        }
+        assert!(c.validate().is_ok(), "chain {sets:?}: {:?}", c.validate());
+    }
+    // Partitions that cut the radio, the paper's rule and byzantine.kind attacks run.
+    let mut c = Preset::Smoke.config();
+    for s in [
+        "learn.aggregation=gossip",
+        "faults.partitions=[{kind=\"split\", start_s=100, end_s=400}]",
+        "byzantine.kind=alie",
+        "byzantine.count=3",
+    ] {
+        c.set(s).unwrap();
+    }
+    c.validate().unwrap();
+}

@@ -189,6 +189,9 @@ pub fn report_at(path: &Path, time: SimTime) -> Result<TimeReport, InspectError>
     })
 }
 
+/// A checkpoint where a predicate holds: its time (s) and the leaf values that made it true.
+pub type TimeHit = (f64, Vec<(String, f64)>);
+
 /// The first checkpoint of the baseline run at `path` where `predicate` holds: its time and
 /// the leaf values that made it true, and the number of evaluations. `monotone` declares the
 /// predicate false then true for good (binary search over the checkpoints).
@@ -196,7 +199,7 @@ pub fn bisect_by_time(
     path: &Path,
     predicate: &Expr,
     monotone: bool,
-) -> Result<(Option<(f64, Vec<(String, f64)>)>, u64), InspectError> {
+) -> Result<(Option<TimeHit>, u64), InspectError> {
     let name = path.display().to_string();
     let (mut reader, config, seed) = open(path)?;
     let mut state = State::genesis(&config, seed).map_err(|source| {

@@ -1,4 +1,4 @@
-//! The federated-learning smart contract, executed by every node on its own chain (SPEC.md
+//! The federated-learning smart contract, executed by every node on its own chain (docs/SPEC.md
 //! section 4). Integer arithmetic only: weights are fixed point (`contract.weight_scale`),
 //! tokens are integer units (`contract.token_units` per token).
 //!
@@ -39,7 +39,11 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
+mod deadline;
+pub mod evm;
+pub mod options;
 pub mod payout;
+pub mod rules;
 
 #[cfg(test)]
 mod tests;
@@ -50,6 +54,8 @@ use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
 use crate::types::{Digest, RobotId};
+use options::{ContractEngine, ContractOptions, PoolRule, ThresholdRule};
+pub use rules::Rule;
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
@@ -80,22 +86,75 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
+    /// Round deadline in ms of block time (0 = none; see `deadline.rs`).
+    #[serde(default)]
+    pub round_timeout_ms: u64,
+    /// A robust aggregation rule and its assumed Byzantine count; `None` for the paper's two
+    /// rules (`fedavg` when `security` is off, `paper` when on). Left out of the encoding when
+    /// `None`, so the parameters' digest of `paper` and `fedavg` runs is the one they had
+    /// before rules could be chosen.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub robust: Option<RobustRule>,
+    /// The authors' variants of the paper's rule (docs/CONTRACT.md); committed to by the
+    /// genesis block only when some option is not swarmfl's default, so default runs keep
+    /// their hashes. Always the default with a robust rule (validation), so at most one of
+    /// `robust` and `options` is ever encoded.
+    #[serde(default, skip_serializing_if = "ContractOptions::is_default")]
+    pub options: ContractOptions,
+    /// Which machine executes the contract. Not part of the genesis commitment: both engines
+    /// execute the same contract, so a run's chain is the same under either.
+    #[serde(skip)]
+    pub engine: ContractEngine,
+}
+
+/// A robust rule of [`ContractParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct RobustRule {
+    /// The rule (never `fedavg` or `paper`).
+    pub rule: Rule,
+    /// Byzantine submissions per round the rule assumes (`contract.assumed_f`).
+    pub assumed_f: u32,
 }
 
 impl ContractParams {
     /// The parameters of a run's contract.
     pub fn from_config(config: &Config, genesis_weights: Arc<[i64]>) -> ContractParams {
         let c = &config.contract;
+        let rule = config.rule();
         ContractParams {
             robots: config.world.robots,
             initial_units: c.initial_tokens * c.token_units,
             stake_units: c.stake_tokens * c.token_units,
-            security: c.security,
+            security: rule.stakes(),
             quorum: config.quorum(),
             outlier_threshold_units: (c.outlier_threshold * c.weight_scale as f64).round() as i64,
             reward_weights: config.reward_weights(),
             genesis_weights,
+            robust: match rule {
+                Rule::Fedavg | Rule::Paper => None,
+                rule => Some(RobustRule {
+                    rule,
+                    assumed_f: c.assumed_f,
+                }),
+            },
+            round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
+            options: c.options(),
+            engine: c.engine,
         }
+    }
+
+    /// The aggregation rule in force.
+    pub fn rule(&self) -> Rule {
+        match self.robust {
+            Some(r) => r.rule,
+            None if self.security => Rule::Paper,
+            None => Rule::Fedavg,
+        }
+    }
+
+    /// The assumed Byzantine count (0 for `fedavg` and `paper`, which ignore it).
+    pub fn assumed_f(&self) -> u32 {
+        self.robust.map_or(0, |r| r.assumed_f)
     }
 
     /// The units in existence: `robots * initial_units`, constant for a run.
@@ -110,6 +169,7 @@ impl ContractParams {
 
     /// The largest accepted distance `sum_i |w_i - w_a,i|`: `threshold_units * N`.
     pub fn max_distance_units(&self) -> u128 {
+        // The product fits u128: threshold below 2^63, at most 2^16 weights.
         u128::try_from(self.outlier_threshold_units).unwrap_or(0) * self.model_len() as u128
     }
 
@@ -134,6 +194,23 @@ impl ContractParams {
         }
         if self.reward_weights.len() != self.quorum as usize {
             return Err("one reward weight per rank".into());
+        }
+        if let Some(r) = self.robust {
+            if matches!(r.rule, Rule::Fedavg | Rule::Paper) || !self.security {
+                return Err(format!(
+                    "{} is not a robust rule with stakes",
+                    r.rule.name()
+                ));
+            }
+            let needed = r.rule.min_quorum(r.assumed_f);
+            if self.quorum < needed {
+                return Err(format!(
+                    "{} with assumed_f {} needs a quorum of at least {needed}, got {}",
+                    r.rule.name(),
+                    r.assumed_f,
+                    self.quorum
+                ));
+            }
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
@@ -312,6 +389,23 @@ pub struct ContractState {
     pub submissions: Vec<Submission>,
     /// The last aggregated round, with its payouts; `None` before the first aggregation.
     pub last_round: Option<Arc<RoundSummary>>,
+    /// Timestamp of the block being executed, ms (set by [`ContractState::enter_block`]).
+    #[serde(default)]
+    pub block_time_ms: u64,
+    /// When the open round opened (block time of the last aggregation or deadline), ms.
+    #[serde(default)]
+    pub round_opened_ms: u64,
+    /// Rounds closed by the deadline without aggregation.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Stake units refunded by deadlines, in all.
+    #[serde(default)]
+    pub timeout_refunded_units: u64,
+    /// With `contract.engine = "evm"`: the EVM holding the deployed contract, whose storage is
+    /// the truth the fields above are read back from. Not serialised (the fields above are the
+    /// state's portable form) and not in [`ContractState::digest`] (they mirror it exactly).
+    #[serde(skip)]
+    pub evm: Option<Arc<evm::EvmState>>,
 }
 
 impl ContractState {
@@ -328,6 +422,14 @@ impl ContractState {
             previous_digest: Digest::default(),
             submissions: Vec::new(),
             last_round: None,
+            block_time_ms: 0,
+            round_opened_ms: 0,
+            rounds_timed_out: 0,
+            timeout_refunded_units: 0,
+            evm: match params.engine {
+                ContractEngine::Native => None,
+                ContractEngine::Evm => Some(Arc::new(evm::EvmState::deploy(params))),
+            },
         }
     }
 
@@ -342,6 +444,15 @@ impl ContractState {
             .iter()
             .filter(|s| s.verdict == Verdict::Accepted)
             .count() as u32
+    }
+
+    /// The current round's accepted models with their sample counts, in submission order.
+    pub fn accepted_models(&self) -> Vec<(&[i64], u64)> {
+        self.submissions
+            .iter()
+            .filter(|s| s.verdict == Verdict::Accepted)
+            .map(|s| (&s.weights[..], s.samples))
+            .collect()
     }
 
     /// True when `robot` has a counted submission in the current round.
@@ -363,11 +474,12 @@ impl ContractState {
             params.robots as usize,
             "state and params disagree"
         );
-        let outcome = match call {
-            Call::SubmitModel { weights, samples } => {
+        let outcome = match (params.engine, call) {
+            (ContractEngine::Evm, call) => evm::execute(self, params, sender, value_units, call),
+            (ContractEngine::Native, Call::SubmitModel { weights, samples }) => {
                 self.submit_model(params, sender, value_units, weights, *samples)
             }
-            Call::Transfer { to, amount_units } => {
+            (ContractEngine::Native, Call::Transfer { to, amount_units }) => {
                 self.transfer(sender, value_units, *to, *amount_units)
             }
         };
@@ -384,6 +496,9 @@ impl ContractState {
     /// submission of the round gets its stake back from the contract and may submit again;
     /// the round number, the model and the carried remainder stay. Conserves tokens.
     pub fn restart_round(&mut self) {
+        if self.evm.is_some() {
+            return evm::restart_round(self);
+        }
         for s in std::mem::take(&mut self.submissions) {
             self.holdings_units = self
                 .holdings_units
@@ -433,6 +548,10 @@ impl ContractState {
                 h.update(&[0]);
             }
         }
+        h.update(&self.block_time_ms.to_le_bytes())
+            .update(&self.round_opened_ms.to_le_bytes())
+            .update(&self.rounds_timed_out.to_le_bytes())
+            .update(&self.timeout_refunded_units.to_le_bytes());
         Digest::from(h.finalize())
     }
 
@@ -496,12 +615,22 @@ impl ContractState {
         };
 
         let distance_units = payout::distance_units(weights, &self.weights);
-        let verdict = if params.security && u128::from(distance_units) > params.max_distance_units()
-        {
+        let max = params.max_distance_units();
+        let distance = u128::from(distance_units);
+        let beyond = match params.options.threshold {
+            ThresholdRule::Inclusive => distance > max,
+            ThresholdRule::Strict => distance >= max,
+        };
+        let verdict = if params.security && params.rule().uses_threshold() && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted
         };
+        if verdict == Verdict::Accepted && params.options.int48_products {
+            if let Err(reason) = payout::int48_products(&self.accepted_models(), weights, samples) {
+                return Outcome::Malformed(reason);
+            }
+        }
         self.balances[sender as usize] = balance - stake_units;
         self.holdings_units = self
             .holdings_units
@@ -551,17 +680,32 @@ impl ContractState {
             .collect();
         assert_eq!(accepted.len(), params.quorum as usize);
 
-        let models: Vec<(&[i64], u64)> = accepted
+        let rule = params.rule();
+        let inputs: Vec<rules::Input> = accepted
             .iter()
-            .map(|s| (&s.weights[..], s.samples))
+            .map(|s| rules::Input {
+                weights: &s.weights,
+                samples: s.samples,
+                distance_units: s.distance_units,
+            })
             .collect();
-        let new_weights: Arc<[i64]> = payout::fedavg(&models).into();
+        let aggregate = rule.aggregate(
+            &self.weights,
+            &inputs,
+            params.assumed_f() as usize,
+            &params.options,
+        );
+        let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 
-        let pool_units = self.holdings_units;
+        let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
+        let pool_units = match params.options.pool {
+            PoolRule::Carry => self.holdings_units,
+            PoolRule::Round if params.security => u64::try_from(stakes).expect("stakes are held"),
+            PoolRule::Round => self.holdings_units,
+        };
         let mut payouts = Vec::new();
         if params.security {
-            let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
             assert!(
                 u128::from(pool_units) >= stakes,
                 "the pool holds the round's stakes"
@@ -571,28 +715,46 @@ impl ContractState {
                     >= u128::from(params.quorum) * u128::from(params.stake_units),
                 "every accepted submission staked"
             );
-            let distances: Vec<u64> = accepted.iter().map(|s| s.distance_units).collect();
-            let order = payout::rank(&distances);
-            let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
-            let units = payout::payouts(
-                pool_units,
-                params.stake_units,
-                &ranked_samples,
-                &params.reward_weights,
-            );
-            for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
-                payouts.push(Payout {
-                    robot: accepted[i].sender,
-                    rank: rank as u32,
-                    reward_weight: params.reward_weights[rank],
-                    units,
-                });
+            let order = &aggregate.used;
+            if rule == Rule::Paper {
+                let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
+                let units = payout::payouts(
+                    pool_units,
+                    params.stake_units,
+                    &ranked_samples,
+                    &params.reward_weights,
+                    params.options.payout_rounding,
+                );
+                // Rounded-down penalties (ratio_1e9) can ask for a few units more than the
+                // pool: they come from what the contract holds, and run out in rank order.
+                let mut available = self.holdings_units;
+                for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
+                    let units = units.min(available);
+                    available -= units;
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: params.reward_weights[rank],
+                        units,
+                    });
+                }
+            } else {
+                let units = payout::equal_shares(pool_units, order.len());
+                for (rank, &i) in order.iter().enumerate() {
+                    payouts.push(Payout {
+                        robot: accepted[i].sender,
+                        rank: rank as u32,
+                        reward_weight: 1,
+                        units,
+                    });
+                }
             }
         }
         let paid: u64 = payouts.iter().map(|p| p.units).sum();
         assert!(
-            paid <= pool_units,
-            "payouts {paid} exceed the pool {pool_units}"
+            paid <= self.holdings_units,
+            "payouts {paid} exceed the holdings {}",
+            self.holdings_units
         );
         for p in &payouts {
             let balance = &mut self.balances[p.robot as usize];
@@ -600,7 +762,7 @@ impl ContractState {
                 .checked_add(p.units)
                 .expect("conserved supply fits u64");
         }
-        self.holdings_units = pool_units - paid;
+        self.holdings_units -= paid;
 
         self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
         self.previous_digest = self.weights_digest;
@@ -614,6 +776,7 @@ impl ContractState {
         };
         self.last_round = Some(Arc::new(summary));
         self.round += 1;
+        self.round_opened_ms = self.block_time_ms;
         payouts
     }
 }

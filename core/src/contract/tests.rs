@@ -3,6 +3,7 @@
 
 use std::sync::Arc;
 
+use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::*;
 
@@ -22,6 +23,10 @@ fn params(security: bool) -> ContractParams {
         outlier_threshold_units: 50_000_000,
         reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
         genesis_weights: vec![0i64; 4].into(),
+        robust: None,
+        round_timeout_ms: 0,
+        options: Default::default(),
+        engine: Default::default(),
     }
 }
 
@@ -568,7 +573,11 @@ fn a_quorum_of_one_returns_the_pool() {
 #[test]
 fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
     fn check_rank(distances: &[u64], expect: &[usize]) {
-        assert_eq!(rank(distances), expect, "distances {distances:?}");
+        assert_eq!(
+            rank(distances, MedianRule::Lower, RankTies::Stable),
+            expect,
+            "distances {distances:?}"
+        );
     }
     check_rank(&[10, 20, 30, 40, 50, 150, 190], &[3, 2, 4, 1, 0, 5, 6]);
     check_rank(&[7, 7, 7], &[0, 1, 2]);
@@ -582,7 +591,7 @@ fn ranking_puts_the_median_first_and_breaks_ties_by_submission_order() {
 fn payouts_follow_the_paper_to_the_unit() {
     fn check_pay(pool: u64, samples: &[u64], k: &[i64], expect: &[u64]) {
         assert_eq!(
-            payouts(pool, STAKE, samples, k),
+            payouts(pool, STAKE, samples, k, PayoutRounding::Exact),
             expect,
             "pool {pool} samples {samples:?}"
         );
@@ -618,7 +627,7 @@ fn payouts_follow_the_paper_to_the_unit() {
 #[test]
 fn fedavg_rounds_to_nearest_with_ties_away_from_zero() {
     fn check_avg(models: &[(&[i64], u64)], expect: &[i64]) {
-        assert_eq!(fedavg(models), expect);
+        assert_eq!(fedavg(models, FedAvgRounding::Nearest), expect);
     }
     check_avg(&[(&[1, -1, 3], 1), (&[0, 0, 0], 1)], &[1, -1, 2]); // 0.5, -0.5, 1.5
     check_avg(&[(&[1, 2, -2], 1), (&[0, 0, 0], 2)], &[0, 1, -1]); // 1/3, 2/3, -2/3
@@ -686,4 +695,92 @@ fn cloning_shares_the_models_and_the_digest_tracks_them() {
         s.digest(),
         "pending models are part of the state"
     );
+}
+
+/// A robust rule's round: every valid model is accepted (no threshold), the rule decides the
+/// model and whom it used, the used share the pool equally, the others lose their stakes.
+#[test]
+fn median_rule_pays_the_models_it_used_and_keeps_the_others_stakes() {
+    let p = ContractParams {
+        robust: Some(RobustRule {
+            rule: Rule::Median,
+            assumed_f: 2,
+        }),
+        ..params(true)
+    };
+    let mut s = ContractState::genesis(&p);
+    // Six models near 10 and one far away with a huge sample claim: under paper it would be an
+    // outlier; here it is accepted, outvoted by the median and not paid.
+    let far = 1i64 << 40;
+    let models: [[i64; 4]; 7] = [
+        [10, 10, 10, 10],
+        [11, 9, 10, 10],
+        [far, far, far, far],
+        [9, 11, 10, 10],
+        [10, 10, 12, 8],
+        [10, 10, 8, 12],
+        [12, 8, 10, 10],
+    ];
+    let mut last = None;
+    for (robot, w) in models.iter().enumerate() {
+        let samples = if robot == 2 { u64::from(u32::MAX) } else { 10 };
+        let out = s.execute(&p, robot as RobotId, STAKE, &submit(*w, samples));
+        assert!(out.is_accepted(), "{out:?}");
+        last = Some(out);
+    }
+    let Some(Outcome::Aggregated { payouts, .. }) = last else {
+        panic!("the seventh model aggregates: {last:?}");
+    };
+    // Columns sorted: (8 or 9 ..) -> median 10 in every coordinate.
+    assert_eq!(&s.weights[..], &[10, 10, 10, 10]);
+    // q - f = 5 used: L1 to the median: 0, 2, huge, 2, 4, 4, 4 -> robots 0, 1, 3, 4, 5.
+    let paid: Vec<RobotId> = payouts.iter().map(|p| p.robot).collect();
+    assert_eq!(paid, vec![0, 1, 3, 4, 5]);
+    // Pool 35 tokens / 5 = 7 tokens each; robots 2 and 6 lose their 5.
+    assert!(payouts.iter().all(|p| p.units == 7 * TOKEN));
+    assert_eq!(s.balances[0], 23 * TOKEN);
+    assert_eq!(s.balances[2], 16 * TOKEN);
+    assert_eq!(s.balances[6], 16 * TOKEN);
+    assert_eq!(s.holdings_units, 0);
+    assert_eq!(s.total_units(), p.total_units());
+}
+
+#[test]
+fn robust_rules_need_their_quorum() {
+    let p = ContractParams {
+        robust: Some(RobustRule {
+            rule: Rule::Bulyan,
+            assumed_f: 2,
+        }),
+        ..params(true)
+    };
+    assert!(p.check().unwrap_err().contains("quorum of at least 11"));
+    assert_eq!(params(true).rule(), Rule::Paper);
+    assert_eq!(params(false).rule(), Rule::Fedavg);
+}
+
+/// The parameters of paper and fedavg runs encode as they did before rules existed, so their
+/// checkpoints' parameter digests do not move.
+#[test]
+fn paper_parameters_encode_without_the_rule() {
+    let p = params(true);
+    let q = ContractParams {
+        robust: Some(RobustRule {
+            rule: Rule::Krum,
+            assumed_f: 1,
+        }),
+        ..params(true)
+    };
+    let a = rmp_serde::to_vec(&p).unwrap();
+    let b = rmp_serde::to_vec(&q).unwrap();
+    assert!(b.len() > a.len());
+    assert_eq!(
+        &b[1..a.len()],
+        &a[1..],
+        "the same fields, one more at the end"
+    );
+    let back: ContractParams = rmp_serde::from_slice(&a).unwrap();
+    assert_eq!(back, p);
+    let back: ContractParams = rmp_serde::from_slice(&b).unwrap();
+    assert_eq!(back, q);
 }

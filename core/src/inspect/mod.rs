@@ -439,6 +439,9 @@ pub struct RunIndex {
     pub records: u64,
     /// Chain sizes per node, at every sealing.
     pub chain_bytes: Vec<ChainBytesRow>,
+    /// `Some(why)` when the log is truncated: everything here is of its intact prefix (the
+    /// records before the cut), and `final_state` is the state after the last intact record.
+    pub truncated: Option<String>,
     /// The state right after the sealing of the block asked for in [`index_run`], with each
     /// robot's last learning report until then.
     pub at_block: Option<StateAtBlock>,
@@ -459,6 +462,9 @@ struct Sealed {
 /// Folds the whole log at `path` (checking every checkpoint) and indexes its final canonical
 /// chain; with `want = Some(h)`, also keeps the full state right after block `h` was sealed
 /// (an error names the last height if the chain is shorter).
+///
+/// A truncated log is indexed as far as its intact prefix goes, with
+/// [`RunIndex::truncated`] saying why; a corrupt (altered) one is refused.
 pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectError> {
     let name = path.display().to_string();
     let mut reader = LogReader::open(path).map_err(ReplayError::from)?;
@@ -474,7 +480,20 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     let mut learned: LastLearning = vec![None; robots as usize];
     let mut candidates: BTreeMap<BlockHash, StateAtBlock> = BTreeMap::new();
     let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
-    while let Some(record) = reader.next_record().map_err(ReplayError::from)? {
+    let mut truncated = None;
+    loop {
+        let record = match reader.next_record() {
+            Ok(Some(record)) => record,
+            Ok(None) => break,
+            // A log cut short (a killed run, a full disk, a partial copy): every record before
+            // the cut is intact (the hash chain verifies it), so the run is indexed as far as
+            // it got and the caller says so. An altered record is still refused.
+            Err(e @ crate::log::LogError::Truncated { .. }) => {
+                truncated = Some(e.to_string());
+                break;
+            }
+            Err(e) => return Err(ReplayError::from(e).into()),
+        };
         let index = reader.index() - 1;
         fold_record(&mut state, &mut learned, &name, index, &record)?;
         if let Some(next) = replay::reconfigured(&record) {
@@ -517,10 +536,10 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
             }
         }
     }
-    let records = reader
-        .footer()
-        .expect("a finished reader has its footer")
-        .records;
+    let records = match reader.footer() {
+        Some(footer) => footer.records,
+        None => reader.index(),
+    };
     let best = metrics::best_node(&state.ledger);
     let mut chain = Vec::new();
     for (height, hash) in state.ledger.canonical_chain(best).iter().enumerate() {
@@ -540,6 +559,11 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
                 node_heights: vec![0; robots as usize],
             }
         } else {
+            if truncated.is_some() && !sealed.contains_key(hash) {
+                // The cut fell between a block's sealing and its checkpoint: the chain of the
+                // intact prefix ends at its parent.
+                break;
+            }
             let s = sealed.get(hash).ok_or_else(|| InspectError::Inconsistent {
                 path: name.clone(),
                 message: format!(
@@ -588,6 +612,7 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         records,
         chain_bytes,
         at_block,
+        truncated,
     })
 }
 
@@ -601,7 +626,8 @@ fn inconsistent(path: &str, index: u64, what: &str) -> InspectError {
 /// One closed round of the final canonical chain.
 #[derive(Clone, Debug, Serialize)]
 pub struct RoundRow {
-    /// The round that closed.
+    /// The round that closed, numbered from 1 in closing order as everywhere in swarmfl (the
+    /// run summary's `r1` is round 1); after it the shared model has version `round`.
     pub round: u64,
     /// Height of the block that closed it.
     pub block: u64,
@@ -614,6 +640,10 @@ pub struct RoundRow {
     pub accepted: u64,
     /// Outlier submissions of the round.
     pub outliers: u64,
+    /// Mean absolute distance per weight between the round's accepted honest models and the
+    /// shared model they were checked against (NaN without one): how close honest robots come
+    /// to the outlier threshold.
+    pub mean_honest_distance: f64,
 }
 
 impl RunIndex {
@@ -664,8 +694,34 @@ impl RunIndex {
                             s.submissions.iter().filter(|x| x.verdict == v).count() as u64
                         })
                     };
+                    let per_weight = ledger.params().model_len() as f64
+                        * self.config.contract.weight_scale as f64;
+                    let honest: Vec<f64> = summary
+                        .map(|s| {
+                            s.submissions
+                                .iter()
+                                .filter(|x| {
+                                    x.verdict == Verdict::Accepted
+                                        && !self
+                                            .byzantine
+                                            .get(x.sender as usize)
+                                            .copied()
+                                            .unwrap_or(false)
+                                })
+                                .map(|x| x.distance_units as f64 / per_weight)
+                                .collect()
+                        })
+                        .unwrap_or_default();
+                    let mean_honest_distance = if honest.is_empty() {
+                        f64::NAN
+                    } else {
+                        honest.iter().sum::<f64>() / honest.len() as f64
+                    };
                     out.push(RoundRow {
-                        round: *round,
+                        mean_honest_distance,
+                        // The contract counts model versions from 0: the round that closes
+                        // version v into v + 1 is round v + 1.
+                        round: *round + 1,
                         block: row.height,
                         time_s: row.time.secs(),
                         loss: if samples > 0.0 {
@@ -1021,7 +1077,8 @@ pub struct TxInfo {
 /// The contract state after a block.
 #[derive(Clone, Debug, Serialize)]
 pub struct ContractInfo {
-    /// The round (model version).
+    /// Rounds closed so far, which is also the shared model's version and the number of the
+    /// last closed round (rounds are numbered from 1 everywhere); round `round + 1` is open.
     pub round: u64,
     /// Digest of the shared model (hex).
     pub model_digest: String,
@@ -1066,7 +1123,7 @@ pub struct SubmissionInfo {
 /// The last closed round and its payouts.
 #[derive(Clone, Debug, Serialize)]
 pub struct RoundInfo {
-    /// The round.
+    /// The round, numbered from 1 (the run summary's `r1` is round 1).
     pub round: u64,
     /// Its counted submissions.
     pub submissions: Vec<SubmissionInfo>,
@@ -1128,7 +1185,7 @@ pub struct RobotView {
     pub byzantine: bool,
     /// Its node's head.
     pub node: NodeInfo,
-    /// The round at its own head.
+    /// Rounds closed at its own head (its model version; round `round + 1` is open there).
     pub round: u64,
     /// Its balance at its own head, tokens.
     pub balance_tokens: f64,
@@ -1265,7 +1322,7 @@ fn report_at(input: &ReportInput<'_>, robot: Option<RobotId>) -> Result<BlockRep
         pool_tokens: tokens(cs.holdings_units),
         submissions: cs.submissions.iter().map(submission).collect(),
         last_round: cs.last_round.as_ref().map(|s| RoundInfo {
-            round: s.round,
+            round: s.round + 1,
             submissions: s.submissions.iter().map(submission).collect(),
             pool_tokens: tokens(s.pool_units),
             carried_tokens: tokens(s.carried_units),
@@ -1341,19 +1398,20 @@ fn outcome_detail(outcome: &Outcome) -> String {
         Outcome::Accepted {
             round,
             distance_units,
-        } => format!("round {round}, distance {distance_units}"),
+        } => format!("round {}, distance {distance_units}", round + 1),
         Outcome::Aggregated {
             round,
             distance_units,
             payouts,
         } => format!(
-            "closed round {round}, distance {distance_units}, {} payouts",
+            "closed round {}, distance {distance_units}, {} payouts",
+            round + 1,
             payouts.len()
         ),
         Outcome::Outlier {
             round,
             distance_units,
-        } => format!("round {round}, distance {distance_units}"),
+        } => format!("round {}, distance {distance_units}", round + 1),
         Outcome::Malformed(reason) => reason.clone(),
         _ => String::new(),
     }
@@ -1369,20 +1427,20 @@ fn describe_learning(report: &LearnReport) -> String {
             val_loss,
             final_train_loss,
         } => format!(
-            "trained on round {} ({train_samples} train / {val_samples} validation samples): val loss {val_loss:.6}, train loss {final_train_loss:.6}; submitted tx {}",
-            report.base_round,
+            "trained for round {} ({train_samples} train / {val_samples} validation samples): val loss {val_loss:.6}, train loss {final_train_loss:.6}; submitted tx {}",
+            report.base_round + 1,
             tx.short()
         ),
         LearnAction::Forged {
             tx,
             claimed_samples,
         } => format!(
-            "forged a model on round {} claiming {claimed_samples} samples; submitted tx {}",
-            report.base_round,
+            "forged a model for round {} claiming {claimed_samples} samples; submitted tx {}",
+            report.base_round + 1,
             tx.short()
         ),
         LearnAction::Skipped { reason } => {
-            format!("skipped on round {}: {}", report.base_round, reason.name())
+            format!("skipped round {}: {}", report.base_round + 1, reason.name())
         }
     }
 }

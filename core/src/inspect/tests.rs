@@ -288,6 +288,15 @@ fn blocks_are_found_inspected_and_bisected() {
         assert_eq!(w[1].round, w[0].round + 1);
         assert!(w[1].block > w[0].block);
     }
+    // One numbering everywhere: the first round is round 1 (the summary's r1), and at the
+    // block that closes round k, bisect's `round` is k and `loss` is that round's loss.
+    assert_eq!(rounds.first().map(|r| r.round), Some(1), "{rounds:?}");
+    for r in &rounds {
+        let at = values.at(r.block);
+        assert_eq!(at.ident("round").unwrap(), r.round as f64);
+        let loss = at.ident("loss").unwrap();
+        assert!(loss == r.loss || (loss.is_nan() && r.loss.is_nan()));
+    }
 
     // A log of another format version: a clear error naming both versions, no panic.
     let mut bytes = std::fs::read(&path).unwrap();
@@ -320,5 +329,33 @@ fn blocks_are_found_inspected_and_bisected() {
         "{e}"
     );
     assert!(e.to_string().contains("format version"), "{e}");
+
+    // A truncated log: indexed on its intact prefix, saying so; every block it still has is
+    // the same block as in the whole log.
+    let full = std::fs::read(&path).unwrap();
+    let cut_path = path.with_file_name("cut.swlog");
+    std::fs::write(&cut_path, &full[..full.len() * 2 / 3]).unwrap();
+    let cut = index_run(&cut_path, None).expect("the intact prefix is indexed");
+    let why = cut.truncated.as_deref().expect("says it is truncated");
+    assert!(why.contains("truncated"), "{why}");
+    assert!(
+        cut.last_height() >= 1 && cut.last_height() < last,
+        "{}",
+        cut.last_height()
+    );
+    assert!(cut.records < index.records);
+    // (The tip of the prefix may still be reorganised later: compare its older half.)
+    for row in &cut.chain[..cut.chain.len() / 2] {
+        let whole = &index.chain[row.height as usize];
+        assert_eq!(
+            (row.hash, row.time),
+            (whole.hash, whole.time),
+            "block {}",
+            row.height
+        );
+    }
+    let report = block_report(&index_run(&cut_path, Some(1)).unwrap(), 1, None).unwrap();
+    assert_eq!(report.block.height, 1);
+    assert!(index.truncated.is_none());
     std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }

@@ -1,4 +1,4 @@
-//! The model and its deterministic local training (SPEC.md section 2).
+//! The model and its deterministic local training (docs/SPEC.md section 2).
 //!
 //! The model is the paper's: LSTM(`units`) over `input_waypoints` steps of (x, y), dropout,
 //! Dense(2 * `target_waypoints`), read as (`target_waypoints`, 2). Its weights are one flat
@@ -158,7 +158,7 @@ pub struct TrainData {
 
 impl TrainData {
     /// Builds the data set from samples (oldest first). Waypoints beyond input + target are
-    /// ignored (SPEC.md: waypoints 80..100 are unused); a shorter sample is an error.
+    /// ignored (docs/SPEC.md: waypoints 80..100 are unused); a shorter sample is an error.
     pub fn new(shape: &ModelShape, samples: &[Sample]) -> Result<TrainData, LearnError> {
         let (n_in, n_out) = (shape.steps_in(), shape.output_steps as usize);
         let mut inputs = Vec::with_capacity(samples.len() * shape.input_len());
@@ -187,7 +187,7 @@ impl TrainData {
     pub fn from_flat(shape: &ModelShape, inputs: Vec<f32>, targets: Vec<f32>) -> Option<TrainData> {
         let n_in = shape.input_len();
         let n_out = shape.outputs();
-        if n_in == 0 || n_out == 0 || inputs.len() % n_in != 0 {
+        if n_in == 0 || n_out == 0 || !inputs.len().is_multiple_of(n_in) {
             return None;
         }
         let len = inputs.len() / n_in;

@@ -62,6 +62,9 @@ impl<'de> serde::Deserialize<'de> for Sig {
 pub struct Keys {
     signing: Vec<SigningKey>,
     verifying: Vec<VerifyingKey>,
+    /// The chain identity every transaction signature commits to (the genesis block's id;
+    /// all zero bytes for keys not bound to a chain).
+    chain: Digest,
 }
 
 impl Keys {
@@ -71,7 +74,23 @@ impl Keys {
             .map(|r| SigningKey::from_bytes(&rng::derive_bytes(seed, Purpose::Keys, r)))
             .collect();
         let verifying = signing.iter().map(SigningKey::verifying_key).collect();
-        Keys { signing, verifying }
+        Keys {
+            signing,
+            verifying,
+            chain: Digest::default(),
+        }
+    }
+
+    /// The same keys bound to the chain `chain` (its genesis id): transactions signed with
+    /// them commit to it, and only they verify (EIP-155's replay protection).
+    pub fn for_chain(mut self, chain: Digest) -> Keys {
+        self.chain = chain;
+        self
+    }
+
+    /// The chain identity transaction signatures commit to.
+    pub fn chain(&self) -> Digest {
+        self.chain
     }
 
     /// Number of robots (authorised signers).

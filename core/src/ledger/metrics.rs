@@ -18,6 +18,13 @@
 //!   blocks of a node's canonical chain; mean and max over nodes, sampled every
 //!   [`SAMPLE_PERIOD_MS`] of simulated time and at the end. *Stored bytes*: the same over
 //!   every block a node holds, side branches included (what a node's disk would hold).
+//! - *equivocations*: per sealer, the parents on which it signed two blocks that some node
+//!   knows both of (`sites`), and how many nodes hold such evidence against it.
+//! - *orphaned blocks*: valid blocks not on the final canonical chain (the heaviest head over
+//!   nodes, ties to the lowest node id); their transactions are *re-included* when the final
+//!   chain holds them too, *dropped* otherwise.
+//! - *mempool replaced / evicted*: pending transactions pushed out by the replacement rule and
+//!   by the global cap, over all nodes.
 
 use std::collections::BTreeMap;
 
@@ -128,6 +135,47 @@ pub struct LedgerStats {
     pub gossip_bytes: u64,
     /// Rejections over all nodes, by reason.
     pub rejections: BTreeMap<String, u64>,
+    /// Equivocations detected, per sealer (see the module doc).
+    #[serde(default)]
+    pub equivocations: Vec<EquivocationStat>,
+    /// Valid blocks off the final canonical chain.
+    #[serde(default)]
+    pub orphaned_blocks: u64,
+    /// Transactions of orphaned blocks that the final canonical chain also holds.
+    #[serde(default)]
+    pub orphaned_txs_reincluded: u64,
+    /// Transactions of orphaned blocks that the final canonical chain does not hold.
+    #[serde(default)]
+    pub orphaned_txs_dropped: u64,
+    /// Pending transactions replaced by the same nonce with a lower id, over all nodes.
+    #[serde(default)]
+    pub mempool_replaced: u64,
+    /// Pending transactions evicted by the global mempool cap, over all nodes.
+    #[serde(default)]
+    pub mempool_evicted: u64,
+    /// Largest mempool at the end, over nodes.
+    #[serde(default)]
+    pub mempool_max: u64,
+    /// Transactions in the shared storage at the end.
+    #[serde(default)]
+    pub stored_txs: u64,
+    /// Rounds closed by the contract's deadline on the final canonical chain.
+    #[serde(default)]
+    pub rounds_timed_out: u64,
+    /// Stake units refunded by deadlines on the final canonical chain.
+    #[serde(default)]
+    pub timeout_refunded_units: u64,
+}
+
+/// Equivocation evidence against one sealer.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct EquivocationStat {
+    /// The sealer.
+    pub sealer: u32,
+    /// Parents on which it sealed two blocks known together by some node.
+    pub sites: u64,
+    /// Nodes holding evidence against it.
+    pub detected_by: u32,
 }
 
 #[derive(Clone, Debug)]
@@ -276,7 +324,72 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
     if samples.last().map(|s| s.time_s) != Some(last.time_s) {
         samples.push(last.clone());
     }
+    // The final canonical chain: the heaviest head, ties to the lowest node id.
+    let final_node = (0..ledger.nodes.len())
+        .max_by_key(|&i| {
+            (
+                ledger.blocks[&ledger.nodes[i].head].total_difficulty,
+                std::cmp::Reverse(i),
+            )
+        })
+        .unwrap_or(0);
+    let canonical: std::collections::BTreeSet<BlockHash> = ledger
+        .nodes
+        .get(final_node)
+        .map(|n| n.canonical.iter().copied().collect())
+        .unwrap_or_default();
+    let final_txs: std::collections::BTreeSet<TxHash> = canonical
+        .iter()
+        .flat_map(|h| ledger.blocks[h].block.txs.iter().copied())
+        .collect();
+    let mut orphaned_blocks = 0;
+    let mut orphan_txs = std::collections::BTreeSet::new();
+    for (hash, entry) in &ledger.blocks {
+        if !canonical.contains(hash) {
+            orphaned_blocks += 1;
+            orphan_txs.extend(entry.block.txs.iter().copied());
+        }
+    }
+    let reincluded = orphan_txs.iter().filter(|t| final_txs.contains(t)).count() as u64;
+    let mut by_sealer: BTreeMap<u32, (std::collections::BTreeSet<BlockHash>, u32)> =
+        BTreeMap::new();
+    for n in &ledger.nodes {
+        let mut against = std::collections::BTreeSet::new();
+        for (signer, parent) in n.evidence.keys() {
+            by_sealer.entry(*signer).or_default().0.insert(*parent);
+            against.insert(*signer);
+        }
+        for signer in against {
+            by_sealer.entry(signer).or_default().1 += 1;
+        }
+    }
+    let final_state = ledger
+        .nodes
+        .get(final_node)
+        .map(|n| &ledger.blocks[&n.head].state);
     LedgerStats {
+        equivocations: by_sealer
+            .into_iter()
+            .map(|(sealer, (sites, detected_by))| EquivocationStat {
+                sealer,
+                sites: sites.len() as u64,
+                detected_by,
+            })
+            .collect(),
+        orphaned_blocks,
+        orphaned_txs_reincluded: reincluded,
+        orphaned_txs_dropped: orphan_txs.len() as u64 - reincluded,
+        mempool_replaced: ledger.nodes.iter().map(|n| n.mempool_replaced).sum(),
+        mempool_evicted: ledger.nodes.iter().map(|n| n.mempool_evicted).sum(),
+        mempool_max: ledger
+            .nodes
+            .iter()
+            .map(|n| n.mempool.len() as u64)
+            .max()
+            .unwrap_or(0),
+        stored_txs: ledger.txs.len() as u64,
+        rounds_timed_out: final_state.map_or(0, |s| s.rounds_timed_out),
+        timeout_refunded_units: final_state.map_or(0, |s| s.timeout_refunded_units),
         canonical_height: heights.iter().copied().max().unwrap_or(0),
         canonical_height_min: heights.iter().copied().min().unwrap_or(0),
         nodes_on_common_head: head_counts.values().copied().max().unwrap_or(0),

@@ -1,5 +1,5 @@
 //! One Clique-style proof-of-authority node per robot, gossiping over the radio graph
-//! (SPEC.md section 3).
+//! (docs/SPEC.md section 3).
 //!
 //! [`Ledger`] is the reduced state of every node of the swarm, folded from [`LedgerEvent`]s by
 //! [`Ledger::apply`], a pure reducer: the same events give the same state, bit for bit.
@@ -37,7 +37,7 @@ use serde::{Deserialize, Serialize};
 
 pub use block::{Block, BlockHash, BlockHeader, WireBlock, WireItem};
 pub use keys::{Keys, Sig};
-pub use metrics::LedgerStats;
+pub use metrics::{EquivocationStat, LedgerStats};
 pub use network::Network;
 pub use node::{Node, RejectReason, Rejection};
 pub use tx::{Tx, TxHash};
@@ -50,6 +50,35 @@ use crate::types::{Digest, RobotId, SimTime};
 /// nonce; further ahead it is refused as out of order ([`RejectReason::NonceGap`]). Bounds the
 /// mempool against a flood of future transactions.
 pub const MAX_NONCE_GAP: u64 = 64;
+
+/// Largest encoded block (header plus transactions) a node accepts or seals, in bytes: the
+/// role of Clique's gas limit. A `paper` submission encodes to about 14 KB, so a block holds
+/// some 35 of them, more than twice a round of 15.
+pub const MAX_BLOCK_BYTES: u64 = 512 * 1024;
+
+/// Largest foreign item ([`LedgerEvent::Inject`]) a node reads, in bytes; longer input is
+/// refused before it is decoded.
+pub const MAX_WIRE_BYTES: usize = MAX_BLOCK_BYTES as usize + 4096;
+
+/// Most pending transactions a node keeps per sender.
+pub const MEMPOOL_PER_SENDER: u32 = 16;
+
+/// Most pending transactions a node keeps in all. A full mempool admits a transaction only by
+/// evicting the highest nonce of the sender with the most pending, and only if that sender
+/// has more pending than the newcomer's sender (so a flooder cannot crowd out the others).
+pub const MEMPOOL_MAX: u32 = 256;
+
+/// Invalid block ids whose reason is cached (first in, first out).
+pub const MAX_INVALID_CACHE: usize = 4096;
+
+/// Rejections kept per node (the latest; the total is counted).
+pub const MAX_REJECTIONS_KEPT: usize = 256;
+
+/// Refused transaction ids remembered per node (first in, first out).
+pub const MAX_REFUSED_KEPT: usize = 1024;
+
+/// Equivocation evidence entries kept per node.
+pub const MAX_EVIDENCE: usize = 256;
 
 /// A block or a transaction, by id.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
@@ -105,6 +134,12 @@ pub enum LedgerEvent {
         /// The encoded item.
         bytes: Vec<u8>,
     },
+    /// `node` restarts after a crash (fault injection): its mempool and every message in
+    /// flight to it are lost; its chain (on disk) stays, and it resyncs by gossip.
+    Restart {
+        /// The node.
+        node: RobotId,
+    },
 }
 
 impl LedgerEvent {
@@ -116,6 +151,7 @@ impl LedgerEvent {
             LedgerEvent::Submit { .. } => 2,
             LedgerEvent::Seal { .. } => 3,
             LedgerEvent::Send { .. } => 4,
+            LedgerEvent::Restart { .. } => 1,
         }
     }
 }
@@ -257,7 +293,12 @@ pub struct Ledger {
     period_ms: u64,
     genesis: BlockHash,
     blocks: BTreeMap<BlockHash, BlockEntry>,
+    /// Valid blocks by (parent, signer): two entries are an equivocation.
+    sealed_on: BTreeMap<(BlockHash, RobotId), Vec<BlockHash>>,
     invalid_blocks: BTreeMap<BlockHash, RejectReason>,
+    invalid_order: std::collections::VecDeque<BlockHash>,
+    /// Each node's clock minus the true time, ms (faults).
+    skews_ms: Vec<i64>,
     txs: BTreeMap<TxHash, TxEntry>,
     nodes: Vec<Node>,
     flights: BTreeMap<u64, Flight>,
@@ -299,7 +340,10 @@ impl Ledger {
             children: 0,
         };
         Ledger {
-            keys: Keys::new(seed, robots),
+            keys: Keys::new(seed, robots).for_chain(genesis),
+            sealed_on: BTreeMap::new(),
+            invalid_order: std::collections::VecDeque::new(),
+            skews_ms: config.faults.skews_ms(robots),
             robots,
             period_ms,
             genesis,
@@ -390,7 +434,14 @@ impl Ledger {
         if epoch != self.epoch_at(parent_ms) {
             state.restart_round();
         }
+        state.enter_block(&self.epochs[epoch].params, timestamp_ms);
         epoch
+    }
+
+    /// A node's clock at true time `at` (its skew applied), in ms.
+    pub fn clock_ms(&self, node: RobotId, at: SimTime) -> u64 {
+        let skew = self.skews_ms.get(node as usize).copied().unwrap_or(0);
+        at.0.saturating_add_signed(skew)
     }
 
     /// The keys of the swarm (the driver signs with them in [`Ledger::make_tx`]).
@@ -469,9 +520,16 @@ impl Ledger {
         self.node(node).known_blocks.contains(hash)
     }
 
-    /// Whether the node has seen the transaction (whatever became of it).
+    /// Whether the node has the transaction (pending or in a known block) or refused it
+    /// recently (the bounded refused set): either way a peer need not send it.
     pub fn knows_tx(&self, node: RobotId, hash: &TxHash) -> bool {
-        self.node(node).known_txs.contains(hash)
+        let n = self.node(node);
+        n.known_txs.contains(hash) || n.refused_txs.contains(hash)
+    }
+
+    /// How many transactions the node holds (pending or in a known block).
+    pub fn known_tx_count(&self, node: RobotId) -> usize {
+        self.node(node).known_txs.len()
     }
 
     /// The node's pending transactions, in arrival order.
@@ -575,6 +633,8 @@ impl Ledger {
             }
         }
         let mut out = Vec::new();
+        // Header bytes: a generous bound on the encoded header (about 170 bytes).
+        let mut bytes = 256u64;
         while out.len() < block::MAX_BLOCK_TXS {
             let best = runs
                 .iter()
@@ -582,7 +642,15 @@ impl Ledger {
                 .filter_map(|(i, r)| r.front().map(|f| (f.0, i)))
                 .min();
             let Some((_, i)) = best else { break };
-            out.push(runs[i].pop_front().expect("front exists").1);
+            let hash = runs[i].pop_front().expect("front exists").1;
+            let size = u64::from(self.txs[&hash].size_bytes);
+            if bytes + size > MAX_BLOCK_BYTES {
+                // The rest of this sender's run waits for the next block (nonce order).
+                runs[i].clear();
+                continue;
+            }
+            bytes += size;
+            out.push(hash);
         }
         out
     }
@@ -709,6 +777,14 @@ impl Ledger {
                 self.nodes[flight.to as usize].version += 1;
             }
             LedgerEvent::Inject { node, bytes } => self.inject(*node, bytes, at, &mut applied),
+            LedgerEvent::Restart { node } => {
+                let n = &mut self.nodes[*node as usize];
+                n.mempool.clear();
+                n.head_since = at;
+                n.version += 1;
+                self.flights.retain(|_, f| f.to != *node);
+                applied.head_changes += 1;
+            }
         }
         Ok(applied)
     }
@@ -781,7 +857,28 @@ impl Ledger {
                     Err(LedgerError::UnknownMessage { message: *message })
                 }
             }
-            LedgerEvent::Inject { node, .. } => node_ok(*node),
+            LedgerEvent::Inject { node, .. } | LedgerEvent::Restart { node } => node_ok(*node),
+        }
+    }
+
+    /// A transaction's storage entry with its intrinsic checks (sender, size, signature).
+    fn tx_entry(&self, tx: &Tx, size: usize) -> TxEntry {
+        let intrinsic = if tx.sender >= self.robots {
+            Err(RejectReason::UnknownSender(tx.sender))
+        } else if size > tx::MAX_TX_BYTES {
+            Err(RejectReason::Malformed(format!(
+                "{size} bytes, more than the {} allowed",
+                tx::MAX_TX_BYTES
+            )))
+        } else if !tx.signature_ok(&self.keys) {
+            Err(RejectReason::BadSignature)
+        } else {
+            Ok(())
+        };
+        TxEntry {
+            tx: Arc::new(tx.clone()),
+            size_bytes: size as u32,
+            intrinsic,
         }
     }
 
@@ -790,24 +887,7 @@ impl Ledger {
         let bytes = tx.encode();
         let hash = Digest::of(&bytes);
         if !self.txs.contains_key(&hash) {
-            let intrinsic = if tx.sender >= self.robots {
-                Err(RejectReason::UnknownSender(tx.sender))
-            } else if bytes.len() > tx::MAX_TX_BYTES {
-                Err(RejectReason::Malformed(format!(
-                    "{} bytes, more than the {} allowed",
-                    bytes.len(),
-                    tx::MAX_TX_BYTES
-                )))
-            } else if !tx.signature_ok(&self.keys) {
-                Err(RejectReason::BadSignature)
-            } else {
-                Ok(())
-            };
-            let entry = TxEntry {
-                tx: Arc::new(tx.clone()),
-                size_bytes: bytes.len() as u32,
-                intrinsic,
-            };
+            let entry = self.tx_entry(tx, bytes.len());
             self.txs.insert(hash, entry);
         }
         hash
@@ -823,54 +903,111 @@ impl Ledger {
     ) {
         self.metrics.on_reject(&reason);
         let n = &mut self.nodes[node as usize];
-        n.rejections.push(Rejection { at, item, reason });
+        if let Some(ItemRef::Tx(hash)) = item {
+            if !n.known_txs.contains(&hash) {
+                n.remember_refused(hash);
+            }
+        }
+        n.rejections.push_back(Rejection { at, item, reason });
+        if n.rejections.len() > MAX_REJECTIONS_KEPT {
+            n.rejections.pop_front();
+        }
+        n.rejected_total += 1;
         n.version += 1;
         applied.rejected += 1;
     }
 
-    /// A node learns of a stored transaction.
+    /// A node learns of a stored transaction: intrinsic checks, nonce against its chain, then
+    /// the mempool's bounds (replacement rule, per-sender cap, global cap with eviction). Only
+    /// an admitted transaction becomes known; a refused one is remembered (bounded) as refused.
     fn receive_tx(&mut self, node: RobotId, hash: TxHash, at: SimTime, applied: &mut Applied) {
-        let n = &mut self.nodes[node as usize];
-        if !n.known_txs.insert(hash) {
+        let n = &self.nodes[node as usize];
+        if n.known_txs.contains(&hash) || n.refused_txs.contains(&hash) {
             applied.duplicates += 1;
             return;
         }
-        n.version += 1;
-        self.metrics.on_seen(&hash, at);
         let entry = &self.txs[&hash];
+        let item = Some(ItemRef::Tx(hash));
         if let Err(reason) = &entry.intrinsic {
             let reason = reason.clone();
-            return self.reject(node, Some(ItemRef::Tx(hash)), reason, at, applied);
+            return self.reject(node, item, reason, at, applied);
         }
         let (sender, nonce) = (entry.tx.sender, entry.tx.nonce);
-        let n = &mut self.nodes[node as usize];
         let expected = self.blocks[&n.head].next_nonce[sender as usize];
         if nonce < expected {
-            return self.reject(
-                node,
-                Some(ItemRef::Tx(hash)),
-                RejectReason::ReplayedNonce { nonce, expected },
-                at,
-                applied,
-            );
+            let reason = RejectReason::ReplayedNonce { nonce, expected };
+            return self.reject(node, item, reason, at, applied);
         }
         if nonce > expected + MAX_NONCE_GAP {
-            return self.reject(
-                node,
-                Some(ItemRef::Tx(hash)),
-                RejectReason::NonceGap { nonce, expected },
-                at,
-                applied,
-            );
+            let reason = RejectReason::NonceGap { nonce, expected };
+            return self.reject(node, item, reason, at, applied);
         }
+        // Pending per sender, and the pending transaction with the same nonce, if any.
+        let mut per_sender: BTreeMap<RobotId, Vec<(u64, TxHash)>> = BTreeMap::new();
+        for h in n.mempool.keys() {
+            let tx = &self.txs[h].tx;
+            per_sender
+                .entry(tx.sender)
+                .or_default()
+                .push((tx.nonce, *h));
+        }
+        let mine = per_sender.get(&sender).map_or(&[][..], |v| &v[..]);
+        let mut evict = None;
+        if let Some(&(_, same)) = mine.iter().find(|(k, _)| *k == nonce) {
+            if same < hash {
+                return self.reject(node, item, RejectReason::NonceTaken { nonce }, at, applied);
+            }
+            evict = Some((same, true));
+        } else if mine.len() as u32 >= MEMPOOL_PER_SENDER {
+            let reason = RejectReason::SenderCap {
+                sender,
+                pending: mine.len() as u32,
+            };
+            return self.reject(node, item, reason, at, applied);
+        } else if n.mempool.len() as u32 >= MEMPOOL_MAX {
+            // The sender with the most pending (the highest id on ties) gives up its highest
+            // nonce, if it has more pending than this sender would have.
+            let (victim, list) = per_sender
+                .iter()
+                .max_by_key(|(s, v)| (v.len(), **s))
+                .expect("a full mempool has senders");
+            if list.len() <= mine.len() + 1 {
+                let reason = RejectReason::MempoolFull {
+                    pending: n.mempool.len() as u32,
+                };
+                return self.reject(node, item, reason, at, applied);
+            }
+            let _ = victim;
+            let highest = list.iter().max().expect("not empty").1;
+            evict = Some((highest, false));
+        }
+        let n = &mut self.nodes[node as usize];
+        if let Some((old, replaced)) = evict {
+            // A replaced or evicted transaction leaves the node (as in geth's pool): it is no
+            // longer known, so a flood of admitted-then-evicted transactions cannot grow the
+            // node's memory. It joins the bounded refused set, so that peers do not send it
+            // again at once; it becomes known again if a block carries it.
+            n.mempool.remove(&old);
+            n.known_txs.remove(&old);
+            n.remember_refused(old);
+            if replaced {
+                n.mempool_replaced += 1;
+            } else {
+                n.mempool_evicted += 1;
+            }
+        }
+        n.known_txs.insert(hash);
+        n.version += 1;
         n.mempool.insert(hash, n.arrivals);
         n.arrivals += 1;
         applied.accepted += 1;
+        self.metrics.on_seen(&hash, at);
     }
 
-    /// Validates a block against its parent: header rules, signature, transactions (each
-    /// stored, intrinsically valid, with the next nonce of its sender) and execution. Pure.
-    fn validate(&self, header: &BlockHeader, txs: &[TxHash]) -> Result<BlockEntry, RejectReason> {
+    /// The checks of a header against its parent that need no body: signer, height,
+    /// timestamp, difficulty, recent signers, then the signature. Cheap (one signature check)
+    /// and done before any work on the body.
+    fn validate_header(&self, header: &BlockHeader) -> Result<&BlockEntry, RejectReason> {
         let parent = self
             .blocks
             .get(&header.parent)
@@ -902,9 +1039,26 @@ impl Ledger {
         if self.signed_recently(&header.parent, header.signer) {
             return Err(RejectReason::RecentSigner(header.signer));
         }
-        if header.tx_root != block::tx_root(txs) {
-            return Err(RejectReason::BadTxRoot);
+        if !self
+            .keys
+            .verify(header.signer, &header.signing_hash(), &header.signature)
+        {
+            return Err(RejectReason::BadSignature);
         }
+        Ok(parent)
+    }
+
+    /// Validates a block against its parent: header rules and signature first, then the body
+    /// (root, count, byte limit, each transaction stored or in `fresh`, intrinsically valid,
+    /// with the next nonce of its sender) and execution. Pure.
+    fn validate(
+        &self,
+        header: &BlockHeader,
+        txs: &[TxHash],
+        fresh: &BTreeMap<TxHash, TxEntry>,
+    ) -> Result<BlockEntry, RejectReason> {
+        let parent = self.validate_header(header)?;
+        let ph = &parent.block.header;
         if txs.len() > block::MAX_BLOCK_TXS {
             return Err(RejectReason::Malformed(format!(
                 "{} transactions, more than the {} allowed",
@@ -912,18 +1066,28 @@ impl Ledger {
                 block::MAX_BLOCK_TXS
             )));
         }
-        if !self
-            .keys
-            .verify(header.signer, &header.signing_hash(), &header.signature)
-        {
-            return Err(RejectReason::BadSignature);
+        if header.tx_root != block::tx_root(txs) {
+            return Err(RejectReason::BadTxRoot);
+        }
+        let mut size_bytes = u64::from(header.hash_and_size().1);
+        for hash in txs {
+            size_bytes += self
+                .txs
+                .get(hash)
+                .or_else(|| fresh.get(hash))
+                .map_or(0, |e| u64::from(e.size_bytes));
+        }
+        if size_bytes > MAX_BLOCK_BYTES {
+            return Err(RejectReason::Oversize {
+                bytes: size_bytes,
+                limit: MAX_BLOCK_BYTES,
+            });
         }
         let mut state = parent.state.clone();
         let epoch = self.enter_block(&mut state, ph.timestamp_ms, header.timestamp_ms);
         let params = &self.epochs[epoch].params;
         let mut next_nonce = parent.next_nonce.to_vec();
         let mut receipts = Vec::with_capacity(txs.len());
-        let mut size_bytes = u64::from(header.hash_and_size().1);
         for (index, hash) in txs.iter().enumerate() {
             let bad = |reason| RejectReason::BadTx {
                 index: index as u32,
@@ -932,6 +1096,7 @@ impl Ledger {
             let entry = self
                 .txs
                 .get(hash)
+                .or_else(|| fresh.get(hash))
                 .ok_or_else(|| bad(RejectReason::Malformed("unknown transaction".into())))?;
             entry.intrinsic.clone().map_err(bad)?;
             let tx = &entry.tx;
@@ -950,7 +1115,6 @@ impl Ledger {
             }
             next_nonce[tx.sender as usize] += 1;
             receipts.push(state.execute(params, tx.sender, tx.value_units, &tx.call));
-            size_bytes += u64::from(entry.size_bytes);
         }
         Ok(BlockEntry {
             block: Arc::new(Block {
@@ -979,14 +1143,14 @@ impl Ledger {
         let mut header = BlockHeader {
             parent: n.head,
             height,
-            timestamp_ms: at.0,
+            timestamp_ms: self.clock_ms(node, at),
             signer: node,
             difficulty: self.expected_difficulty(height, node),
             tx_root: block::tx_root(txs),
             signature: Sig::ZERO,
         };
         header.signature = self.keys.sign(node, &header.signing_hash());
-        let entry = self.validate(&header, txs)?;
+        let entry = self.validate(&header, txs, &BTreeMap::new())?;
         Ok((header.hash_and_size().0, entry))
     }
 
@@ -995,6 +1159,10 @@ impl Ledger {
             return;
         }
         let parent = entry.block.header.parent;
+        self.sealed_on
+            .entry((parent, entry.block.header.signer))
+            .or_default()
+            .push(hash);
         self.blocks.insert(hash, entry);
         self.blocks
             .get_mut(&parent)
@@ -1020,18 +1188,31 @@ impl Ledger {
             let reason = RejectReason::UnknownParent(header.parent);
             return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
         }
-        if header.timestamp_ms > at.0 {
+        let now_ms = self.clock_ms(node, at);
+        if header.timestamp_ms > now_ms {
             let reason = RejectReason::FutureBlock {
                 got_ms: header.timestamp_ms,
-                now_ms: at.0,
+                now_ms,
             };
             return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
         }
         self.accept_block(node, hash, at, applied);
     }
 
-    /// Foreign bytes arrive at a node.
+    /// Foreign bytes arrive at a node. Cheapest checks first, and nothing is stored before
+    /// it is known valid: the length, the decoding, then for a block its id (known, or cached
+    /// as invalid), its parent, its timestamp against the node's clock, its header rules and
+    /// signature, and only then its body (hashes, root, limits, execution); for a transaction,
+    /// its intrinsic checks. Only a valid block's transactions, and a transaction that passes
+    /// its intrinsic checks, enter the shared storage.
     fn inject(&mut self, node: RobotId, bytes: &[u8], at: SimTime, applied: &mut Applied) {
+        if bytes.len() > MAX_WIRE_BYTES {
+            let reason = RejectReason::Oversize {
+                bytes: bytes.len() as u64,
+                limit: MAX_WIRE_BYTES as u64,
+            };
+            return self.reject(node, None, reason, at, applied);
+        }
         let item: WireItem = match rmp_serde::from_slice(bytes) {
             Ok(item) => item,
             Err(e) => {
@@ -1046,18 +1227,33 @@ impl Ledger {
         };
         match item {
             WireItem::Tx(tx) => {
-                let hash = self.store_tx(&tx);
+                let encoded = tx.encode();
+                let hash = Digest::of(&encoded);
+                if self.txs.contains_key(&hash) {
+                    return self.receive_tx(node, hash, at, applied);
+                }
+                let n = &self.nodes[node as usize];
+                if n.known_txs.contains(&hash) || n.refused_txs.contains(&hash) {
+                    applied.duplicates += 1;
+                    return;
+                }
+                let entry = self.tx_entry(&tx, encoded.len());
+                if let Err(reason) = entry.intrinsic {
+                    return self.reject(node, Some(ItemRef::Tx(hash)), reason, at, applied);
+                }
+                self.txs.insert(hash, entry);
                 self.receive_tx(node, hash, at, applied);
             }
             WireItem::Block(wire) => {
                 let (hash, _) = wire.header.hash_and_size();
+                let item = Some(ItemRef::Block(hash));
                 if self.nodes[node as usize].known_blocks.contains(&hash) {
                     applied.duplicates += 1;
                     return;
                 }
                 if let Some(reason) = self.invalid_blocks.get(&hash) {
                     let reason = reason.clone();
-                    return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+                    return self.reject(node, item, reason, at, applied);
                 }
                 if !self.blocks.contains_key(&hash) {
                     if !self.nodes[node as usize]
@@ -1065,26 +1261,57 @@ impl Ledger {
                         .contains(&wire.header.parent)
                     {
                         let reason = RejectReason::UnknownParent(wire.header.parent);
-                        return self.reject(node, Some(ItemRef::Block(hash)), reason, at, applied);
+                        return self.reject(node, item, reason, at, applied);
                     }
-                    let tx_hashes: Vec<TxHash> =
-                        wire.txs.iter().map(|tx| self.store_tx(tx)).collect();
-                    match self.validate(&wire.header, &tx_hashes) {
-                        Ok(entry) => self.insert_valid(hash, entry),
+                    let now_ms = self.clock_ms(node, at);
+                    if wire.header.timestamp_ms > now_ms {
+                        let reason = RejectReason::FutureBlock {
+                            got_ms: wire.header.timestamp_ms,
+                            now_ms,
+                        };
+                        return self.reject(node, item, reason, at, applied);
+                    }
+                    let checked = if wire.txs.len() > block::MAX_BLOCK_TXS {
+                        Err(RejectReason::Malformed(format!(
+                            "{} transactions, more than the {} allowed",
+                            wire.txs.len(),
+                            block::MAX_BLOCK_TXS
+                        )))
+                    } else {
+                        self.validate_header(&wire.header).map(|_| ())
+                    };
+                    let result = checked.and_then(|()| {
+                        let mut fresh = BTreeMap::new();
+                        let mut ids = Vec::with_capacity(wire.txs.len());
+                        for tx in &wire.txs {
+                            let encoded = tx.encode();
+                            let id = Digest::of(&encoded);
+                            if !self.txs.contains_key(&id) {
+                                fresh.insert(id, self.tx_entry(tx, encoded.len()));
+                            }
+                            ids.push(id);
+                        }
+                        self.validate(&wire.header, &ids, &fresh)
+                            .map(|entry| (entry, fresh))
+                    });
+                    match result {
+                        Ok((entry, fresh)) => {
+                            self.txs.extend(fresh);
+                            self.insert_valid(hash, entry);
+                        }
                         Err(reason) => {
                             // A body that does not match the header's root says nothing about
                             // the header (whose id is the block's): never cached, so that a
                             // forged body cannot poison the honest block's id.
                             if reason.is_intrinsic() {
                                 self.invalid_blocks.insert(hash, reason.clone());
+                                self.invalid_order.push_back(hash);
+                                if self.invalid_order.len() > MAX_INVALID_CACHE {
+                                    let old = self.invalid_order.pop_front().expect("not empty");
+                                    self.invalid_blocks.remove(&old);
+                                }
                             }
-                            return self.reject(
-                                node,
-                                Some(ItemRef::Block(hash)),
-                                reason,
-                                at,
-                                applied,
-                            );
+                            return self.reject(node, item, reason, at, applied);
                         }
                     }
                 }
@@ -1114,7 +1341,25 @@ impl Ledger {
                 self.metrics.on_seen(tx, at);
             }
         }
+        // Equivocation: another block the same signer sealed on the same parent, known here.
+        // An honest sealer never seals twice on one parent (its head moves to its own child,
+        // which is heavier than the parent), so this is evidence, not a coincidence.
+        let twin = self
+            .sealed_on
+            .get(&(header.parent, header.signer))
+            .and_then(|v| {
+                v.iter()
+                    .find(|h| **h != hash && self.nodes[node as usize].known_blocks.contains(*h))
+                    .copied()
+            });
         let n = &mut self.nodes[node as usize];
+        if let Some(twin) = twin {
+            if n.evidence.len() < MAX_EVIDENCE {
+                n.evidence
+                    .entry((header.signer, header.parent))
+                    .or_insert((twin.min(hash), twin.max(hash)));
+            }
+        }
         if header.parent != n.head {
             n.side_blocks += 1;
         }
@@ -1236,6 +1481,90 @@ impl Ledger {
             }
         }
         Ok(state)
+    }
+
+    /// Checks one stored block against its parent from scratch, without any cache: linkage,
+    /// every Clique rule, the signatures (verified again), the byte and count limits, the
+    /// transaction root, the nonces, and the contract state after it against a fresh
+    /// execution of its transactions on the parent's state (which conserves tokens).
+    pub fn check_block(&self, hash: &BlockHash) -> Result<(), String> {
+        let entry = self
+            .blocks
+            .get(hash)
+            .ok_or_else(|| format!("block {hash:?} is not stored"))?;
+        let h = &entry.block.header;
+        if h.height == 0 {
+            return if *hash == self.genesis {
+                Ok(())
+            } else {
+                Err("a second genesis".into())
+            };
+        }
+        let fail = |what: &str| {
+            Err(format!(
+                "block {} at height {}: {what}",
+                hash.short(),
+                h.height
+            ))
+        };
+        let Some(parent) = self.blocks.get(&h.parent) else {
+            return fail("parent not stored");
+        };
+        let ph = &parent.block.header;
+        if h.height != ph.height + 1 || h.hash_and_size().0 != *hash {
+            return fail("broken linkage");
+        }
+        if h.signer >= self.robots || !self.keys.verify(h.signer, &h.signing_hash(), &h.signature) {
+            return fail("bad signer or signature");
+        }
+        if h.timestamp_ms < ph.timestamp_ms + self.period_ms {
+            return fail("sealed before the period elapsed");
+        }
+        if h.difficulty != self.expected_difficulty(h.height, h.signer) {
+            return fail("wrong difficulty");
+        }
+        let mut cursor = h.parent;
+        for _ in 0..self.robots / 2 {
+            let c = &self.blocks[&cursor].block.header;
+            if c.height == 0 {
+                break;
+            }
+            if c.signer == h.signer {
+                return fail("recent signer sealed again");
+            }
+            cursor = c.parent;
+        }
+        if h.tx_root != block::tx_root(&entry.block.txs) {
+            return fail("transaction root mismatch");
+        }
+        if entry.block.txs.len() > block::MAX_BLOCK_TXS || entry.size_bytes > MAX_BLOCK_BYTES {
+            return fail("over the block limits");
+        }
+        let mut state = parent.state.clone();
+        let epoch = self.enter_block(&mut state, ph.timestamp_ms, h.timestamp_ms);
+        let params = &self.epochs[epoch].params;
+        let mut nonces = parent.next_nonce.to_vec();
+        for tx in &entry.block.txs {
+            let Some(stored) = self.txs.get(tx) else {
+                return fail("transaction not stored");
+            };
+            let tx = &stored.tx;
+            if tx.sender >= self.robots
+                || !tx.signature_ok(&self.keys)
+                || tx.nonce != nonces[tx.sender as usize]
+            {
+                return fail("bad transaction signature or nonce");
+            }
+            nonces[tx.sender as usize] += 1;
+            state.execute(params, tx.sender, tx.value_units, &tx.call);
+        }
+        if state.digest() != entry.state.digest() || nonces[..] != entry.next_nonce[..] {
+            return fail("contract state differs from a fresh execution");
+        }
+        if entry.total_difficulty != parent.total_difficulty + h.difficulty {
+            return fail("total difficulty");
+        }
+        Ok(())
     }
 
     /// Checks a node's canonical chain from scratch: linkage, every Clique rule, every

@@ -28,11 +28,19 @@
 //!   after it is sent, so one hop per gossip round.
 //! - Simultaneous events come in the order (time, kind, node): deliveries, sealings, sends
 //!   (see [`LedgerEvent::kind_rank`]).
+//! - *Faults* ([`crate::faults`]): a crashed node neither seals nor receives (deliveries due
+//!   to it are dropped; its peers are cut by the driver), a loss burst raises the loss
+//!   probability of the messages sent in it, a delay window adds latency to them, and a node
+//!   with a skewed clock seals when *its* clock reaches the sealing time.
+//! - *Withholding* (a Byzantine ledger behaviour): the gossip of a withholding node leaves
+//!   out the blocks its policy hides from the receiver (and everything after them).
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use super::{BlockHash, ItemRef, Ledger, LedgerEvent};
+use crate::byzantine::ledger::WithholdPolicy;
 use crate::config::Config;
+use crate::faults::FaultSchedule;
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{RobotId, SimTime};
 
@@ -67,6 +75,9 @@ pub struct Network {
     seal_cache: Vec<Option<(BlockHash, SimTime, Option<SimTime>)>>,
     /// The number the last returned send will get once applied.
     awaiting_send: Option<u64>,
+    faults: FaultSchedule,
+    skews_ms: Vec<i64>,
+    withhold: Option<WithholdPolicy>,
 }
 
 impl Network {
@@ -93,7 +104,30 @@ impl Network {
             idle: vec![None; (robots as usize) * (robots as usize)],
             seal_cache: vec![None; robots as usize],
             awaiting_send: None,
+            faults: FaultSchedule::new(&config.faults, robots),
+            skews_ms: config.faults.skews_ms(robots),
+            withhold: None,
         }
+    }
+
+    /// Makes the gossip of withholding nodes follow `policy`.
+    pub fn set_withhold(&mut self, policy: Option<WithholdPolicy>) {
+        self.withhold = policy;
+    }
+
+    /// A node restarted: the messages in flight to it are gone (the ledger drops them too).
+    pub fn on_restart(&mut self, node: RobotId) {
+        let gone: Vec<_> = self
+            .flights
+            .keys()
+            .filter(|k| k.1 == node)
+            .copied()
+            .collect();
+        for key in gone {
+            self.flights.remove(&key);
+        }
+        self.in_flight.retain(|(to, _)| *to != node);
+        self.link_free.retain(|(_, to), _| *to != node);
     }
 
     /// A network that takes over a ledger replayed up to some time (a forked run): gossip
@@ -154,7 +188,11 @@ impl Network {
             } else {
                 self.sealing_delay_ms(node, &head)
             };
-            Some(SimTime(base + delay).max(since))
+            // The node's clock must read the sealing time (its own stamp), whatever its skew.
+            let skew = self.skews_ms.get(node as usize).copied().unwrap_or(0);
+            let local = base + delay;
+            let true_ms = local.saturating_add_signed(-skew);
+            Some(SimTime(true_ms).max(since))
         };
         self.seal_cache[node as usize] = Some((head, since, t));
         t
@@ -186,6 +224,9 @@ impl Network {
             let mut seal: Option<(SimTime, u8, RobotId)> = None;
             for node in 0..self.robots {
                 if let Some(t) = self.seal_time(ledger, node) {
+                    if self.faults.is_down(node, t.0) {
+                        continue;
+                    }
                     if seal.is_none_or(|s| (t, 3, node) < s) {
                         seal = Some((t, 3, node));
                     }
@@ -210,6 +251,11 @@ impl Network {
                     let (key, pending) = self.flights.pop_first().expect("a delivery is due");
                     for item in &pending.items {
                         self.in_flight.remove(&(key.1, *item));
+                    }
+                    if self.faults.is_down(key.1, key.0 .0) {
+                        // A crashed receiver: the message is dropped (the ledger forgets it
+                        // at the restart).
+                        continue;
                     }
                     return Some((key.0, LedgerEvent::Deliver { message: key.2 }));
                 }
@@ -255,6 +301,7 @@ impl Network {
         } else {
             (bytes * 1000).div_ceil(self.bandwidth_bytes_per_s).max(1)
         };
+        let airtime_ms = airtime_ms + self.faults.extra_delay_ms(self.batch_time.0);
         let link = self.link_free.entry((*from, *to)).or_insert(SimTime(0));
         let start = (*link).max(self.batch_time);
         let due = SimTime(start.0 + airtime_ms);
@@ -295,7 +342,8 @@ impl Network {
                     continue;
                 }
                 self.idle[slot] = None;
-                let lost = self.loss_rngs[a as usize].chance(self.packet_loss);
+                let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
+                let lost = self.loss_rngs[a as usize].chance(loss);
                 if !lost {
                     for item in &items {
                         self.in_flight.insert((b, *item));
@@ -327,6 +375,15 @@ impl Network {
             for hash in ledger.canonical_chain(a).iter().rev() {
                 if ledger.knows_block(b, hash) {
                     break;
+                }
+                if self
+                    .withhold
+                    .as_ref()
+                    .is_some_and(|w| w.hides(ledger, a, b, hash, self.batch_time))
+                {
+                    // Nothing at or above a hidden block can go.
+                    items.clear();
+                    continue;
                 }
                 if !self.in_flight.contains(&(b, ItemRef::Block(*hash))) {
                     items.push(ItemRef::Block(*hash));

@@ -2,7 +2,7 @@
 //! knows and what it rejected. Nodes hold only ids; the bodies live once in the ledger's shared
 //! storage.
 
-use std::collections::{BTreeMap, BTreeSet};
+use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
 use serde::{Deserialize, Serialize};
 
@@ -96,6 +96,35 @@ pub enum RejectReason {
         /// Why.
         reason: Box<RejectReason>,
     },
+    /// The mempool already holds a transaction of this sender with this nonce and a lower id
+    /// (the replacement rule keeps the lowest id, the one every sealer would pick).
+    #[error("nonce {nonce} already pending with a lower id")]
+    NonceTaken {
+        /// The nonce.
+        nonce: u64,
+    },
+    /// The sender already has the most pending transactions a node keeps per sender.
+    #[error("sender {sender} has {pending} pending transactions, the most kept per sender")]
+    SenderCap {
+        /// The sender.
+        sender: RobotId,
+        /// Its pending transactions.
+        pending: u32,
+    },
+    /// The mempool is full and the sender has at least as many pending as any other.
+    #[error("mempool full ({pending} pending)")]
+    MempoolFull {
+        /// Pending transactions at the node.
+        pending: u32,
+    },
+    /// The block's encoding exceeds the block byte limit.
+    #[error("block of {bytes} bytes exceeds the limit of {limit}")]
+    Oversize {
+        /// Encoded size.
+        bytes: u64,
+        /// The limit.
+        limit: u64,
+    },
 }
 
 impl RejectReason {
@@ -117,6 +146,10 @@ impl RejectReason {
             RejectReason::RecentSigner(_) => "recent_signer",
             RejectReason::BadTxRoot => "bad_tx_root",
             RejectReason::BadTx { .. } => "bad_tx",
+            RejectReason::NonceTaken { .. } => "nonce_taken",
+            RejectReason::SenderCap { .. } => "sender_cap",
+            RejectReason::MempoolFull { .. } => "mempool_full",
+            RejectReason::Oversize { .. } => "oversize",
         }
     }
 
@@ -131,6 +164,9 @@ impl RejectReason {
                 | RejectReason::BadTxRoot
                 | RejectReason::ReplayedNonce { .. }
                 | RejectReason::NonceGap { .. }
+                | RejectReason::NonceTaken { .. }
+                | RejectReason::SenderCap { .. }
+                | RejectReason::MempoolFull { .. }
         )
     }
 }
@@ -156,11 +192,27 @@ pub struct Node {
     pub(crate) known_blocks: BTreeSet<BlockHash>,
     /// The known blocks by total difficulty (for the liveness rule of fork choice).
     pub(crate) by_td: BTreeMap<u64, Vec<BlockHash>>,
+    /// The transactions the node holds: pending in its mempool or carried by a block it
+    /// knows. It grows with the chain (32 bytes per transaction, as geth's transaction index
+    /// does); a replaced or evicted pending transaction leaves it.
     pub(crate) known_txs: BTreeSet<TxHash>,
     /// Pending transactions and their arrival sequence numbers at this node.
     pub(crate) mempool: BTreeMap<TxHash, u64>,
     pub(crate) arrivals: u64,
-    pub(crate) rejections: Vec<Rejection>,
+    /// The latest rejections (at most [`super::MAX_REJECTIONS_KEPT`]).
+    pub(crate) rejections: VecDeque<Rejection>,
+    /// Rejections ever recorded.
+    pub(crate) rejected_total: u64,
+    /// Transactions refused recently (bounded, first in first out), so that a refused item
+    /// is not examined again; they are not `known_txs`, which holds admitted ones only.
+    pub(crate) refused_txs: BTreeSet<TxHash>,
+    pub(crate) refused_order: VecDeque<TxHash>,
+    /// Equivocation evidence: (signer, parent) -> two blocks the signer sealed on that parent
+    /// (at most [`super::MAX_EVIDENCE`] entries).
+    pub(crate) evidence: BTreeMap<(RobotId, BlockHash), (BlockHash, BlockHash)>,
+    /// Pending transactions replaced (replacement rule) or evicted (global cap).
+    pub(crate) mempool_replaced: u64,
+    pub(crate) mempool_evicted: u64,
     /// Bumped on every change of what the node knows (gossip skips unchanged pairs).
     pub(crate) version: u64,
     pub(crate) reorgs: u64,
@@ -171,6 +223,18 @@ pub struct Node {
 }
 
 impl Node {
+    /// Remembers a refused, replaced or evicted transaction in the bounded refused set (first
+    /// in, first out), so that it is not examined again while it is there.
+    pub(crate) fn remember_refused(&mut self, hash: TxHash) {
+        if self.refused_txs.insert(hash) {
+            self.refused_order.push_back(hash);
+            if self.refused_order.len() > super::MAX_REFUSED_KEPT {
+                let old = self.refused_order.pop_front().expect("not empty");
+                self.refused_txs.remove(&old);
+            }
+        }
+    }
+
     pub(crate) fn new(genesis: BlockHash) -> Node {
         Node {
             head: genesis,
@@ -181,7 +245,13 @@ impl Node {
             known_txs: BTreeSet::new(),
             mempool: BTreeMap::new(),
             arrivals: 0,
-            rejections: Vec::new(),
+            rejections: VecDeque::new(),
+            rejected_total: 0,
+            refused_txs: BTreeSet::new(),
+            refused_order: VecDeque::new(),
+            evidence: BTreeMap::new(),
+            mempool_replaced: 0,
+            mempool_evicted: 0,
             version: 0,
             reorgs: 0,
             deepest_reorg: 0,
@@ -190,9 +260,25 @@ impl Node {
         }
     }
 
-    /// The node's rejections, in order.
-    pub fn rejections(&self) -> &[Rejection] {
-        &self.rejections
+    /// The node's latest rejections, oldest first (at most [`super::MAX_REJECTIONS_KEPT`]).
+    pub fn rejections(&self) -> Vec<&Rejection> {
+        self.rejections.iter().collect()
+    }
+
+    /// Rejections ever recorded by the node.
+    pub fn rejected_total(&self) -> u64 {
+        self.rejected_total
+    }
+
+    /// Equivocation evidence held: (signer, parent) -> the two blocks it signed on the parent.
+    pub fn evidence(&self) -> &BTreeMap<(RobotId, BlockHash), (BlockHash, BlockHash)> {
+        &self.evidence
+    }
+
+    /// Pending transactions replaced by a lower id with the same nonce, and evicted by the
+    /// global cap.
+    pub fn mempool_churn(&self) -> (u64, u64) {
+        (self.mempool_replaced, self.mempool_evicted)
     }
 
     /// Reorganisations of the canonical chain so far.
@@ -228,7 +314,10 @@ impl Node {
         for n in [
             self.known_blocks.len() as u64,
             self.known_txs.len() as u64,
-            self.rejections.len() as u64,
+            self.rejected_total,
+            self.evidence.len() as u64,
+            self.mempool_replaced,
+            self.mempool_evicted,
             self.version,
             self.reorgs,
             self.deepest_reorg,

@@ -188,7 +188,10 @@ pub fn run_workload(
         }
         for robot in 0..robots {
             let offset_ms = period_ms * u64::from(robot) / u64::from(robots) / tick_ms * tick_ms;
-            if period_ms > 0 && t >= offset_ms + period_ms && (t - offset_ms) % period_ms == 0 {
+            if period_ms > 0
+                && t >= offset_ms + period_ms
+                && (t - offset_ms).is_multiple_of(period_ms)
+            {
                 let weights: Arc<[i64]> = (0..workload.weights)
                     .map(|_| (weights_rng.range(-0.5, 0.5) * scale).round() as i64)
                     .collect();

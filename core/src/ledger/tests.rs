@@ -651,7 +651,7 @@ fn a_partitioned_swarm_grows_two_chains_and_heals_to_one() {
     let (_, mut ledger, mut net) = setup(robots, 7);
     let mut log = Vec::new();
     let mut submit = |l: &Ledger, t: u64| {
-        if t % 20_000 == 0 && t > 0 {
+        if t.is_multiple_of(20_000) && t > 0 {
             let r = ((t / 20_000) % u64::from(robots)) as RobotId;
             vec![l.make_tx(r, 0, transfer((r + 2) % robots, 10))]
         } else {

@@ -4,7 +4,10 @@
 //! (rmp-serde), as Ethereum's transaction hash covers the signature: a forgery that copies an
 //! honest body with another signature is a different item and can never shadow the honest one
 //! in content-addressed storage. The signature covers [`Tx::signing_hash`], the blake3 hash of
-//! the encoding of the unsigned body.
+//! the encoding of the unsigned body *and of the chain identity* (the genesis block's id, held
+//! by [`Keys::chain`]): as with EIP-155, the identity is signed but not carried, so a
+//! transaction signed for another run (another genesis) fails the signature check here, and
+//! the encoded size (the paper's bytes per submission) does not change.
 
 use serde::{Deserialize, Serialize};
 
@@ -37,6 +40,7 @@ pub struct Tx {
 /// The signed part of a transaction, borrowed.
 #[derive(Serialize)]
 struct UnsignedTx<'a> {
+    chain: &'a Digest,
     sender: RobotId,
     nonce: u64,
     value_units: u64,
@@ -53,13 +57,14 @@ impl Tx {
             call,
             signature: Sig::ZERO,
         };
-        tx.signature = keys.sign(sender, &tx.signing_hash());
+        tx.signature = keys.sign(sender, &tx.signing_hash(&keys.chain()));
         tx
     }
 
-    /// The digest the sender signs: blake3 of the encoded unsigned body.
-    pub fn signing_hash(&self) -> Digest {
+    /// The digest the sender signs: blake3 of the encoded unsigned body on chain `chain`.
+    pub fn signing_hash(&self, chain: &Digest) -> Digest {
         let body = UnsignedTx {
+            chain,
             sender: self.sender,
             nonce: self.nonce,
             value_units: self.value_units,
@@ -84,9 +89,14 @@ impl Tx {
         (Digest::of(&bytes), bytes.len() as u32)
     }
 
-    /// Whether the signature is the sender's (false for an unknown sender).
+    /// Whether the signature is the sender's for the keys' chain (false for an unknown
+    /// sender or a transaction signed for another chain).
     pub fn signature_ok(&self, keys: &Keys) -> bool {
-        keys.verify(self.sender, &self.signing_hash(), &self.signature)
+        keys.verify(
+            self.sender,
+            &self.signing_hash(&keys.chain()),
+            &self.signature,
+        )
     }
 }
 
@@ -120,6 +130,18 @@ mod tests {
         assert!(!impostor.signature_ok(&keys));
         impostor.sender = 99;
         assert!(!impostor.signature_ok(&keys));
+        let other_chain = keys.clone().for_chain(Digest::of(b"another run"));
+        assert!(
+            !tx.signature_ok(&other_chain),
+            "a replay into another chain"
+        );
+        let there = Tx::signed(&other_chain, 1, 0, 5, tx.call.clone());
+        assert!(there.signature_ok(&other_chain) && !there.signature_ok(&keys));
+        assert_eq!(
+            there.encode().len(),
+            tx.encode().len(),
+            "the identity is not carried"
+        );
         assert_eq!(Tx::decode(&tx.encode()).unwrap(), tx);
         assert!(Tx::decode(&tx.encode()[..10]).is_err());
     }

@@ -1,5 +1,5 @@
 //! The robots' controller: a random walk at cruise speed with Braitenberg-style obstacle
-//! avoidance on the IR proximity sensors (SPEC.md section 1). It runs on the driver side: its
+//! avoidance on the IR proximity sensors (docs/SPEC.md section 1). It runs on the driver side: its
 //! decisions become [`TickEvent`]s that the physics reducer folds; its state is not part of
 //! the [`World`].
 //!

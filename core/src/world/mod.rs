@@ -1,4 +1,4 @@
-//! The world: arena, robots, physics, sensing and trajectory data (SPEC.md section 1).
+//! The world: arena, robots, physics, sensing and trajectory data (docs/SPEC.md section 1).
 //!
 //! [`World`] is the reduced state, folded tick by tick by [`World::apply`] from [`TickEvent`]s
 //! (every robot's wheel command); [`Controllers`] is the driver-side decision maker whose
@@ -342,7 +342,7 @@ impl World {
             }
             self.recorders[i].expire(&p.recording, now);
         }
-        if self.tick % p.peer_refresh_ticks == 0 {
+        if self.tick.is_multiple_of(p.peer_refresh_ticks) {
             for (peers, c) in self.peers.iter_mut().zip(&contacts) {
                 peers.clone_from(c);
             }
@@ -409,8 +409,9 @@ impl World {
     /// The fixed held-out set of noise-free samples: `data.heldout_samples` trajectories
     /// recorded by a ground-truth observer in an independent copy of the world (same arena and
     /// obstacles; robots placed and driven by streams derived from `Purpose::Heldout`), which
-    /// sees every robot's true position every tick. It depends only on the seed and the
-    /// configuration and is available from time 0.
+    /// sees every robot's true position, in windows spread evenly over the whole run. It
+    /// depends only on the seed and the configuration and is computed up front, so it is
+    /// available from time 0.
     pub fn heldout(&self) -> &[Sample] {
         &self.heldout
     }
@@ -564,8 +565,11 @@ fn place_robots(
 }
 
 /// The held-out set: an observer copy of the world (same obstacles, robots placed and driven
-/// from a seed derived with `Purpose::Heldout`) run until the ground-truth observer has
-/// `data.heldout_samples` trajectories.
+/// from a seed derived with `Purpose::Heldout`) in which a ground-truth observer records
+/// `data.heldout_samples` trajectories in windows spread evenly over the whole run, so that
+/// the held-out set is drawn from the same stretch of time as the robots' training data (a set
+/// taken from the first minutes only would measure the start of the run, when robots have just
+/// been placed).
 fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
     let wanted = config.data.heldout_samples as usize;
     if wanted == 0 {
@@ -577,24 +581,52 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
     let rec = Recording::new(&config.data);
     let n = copy.poses.len();
     let mut observer = HeldoutObserver::new(rec, n, wanted);
-    // Every robot yields one trajectory per window, so this many ticks are always enough.
-    let max_ticks = (wanted / n + 1) as u64 * u64::from(rec.trajectory_ticks);
-    for _ in 0..max_ticks {
-        if observer.done() {
-            break;
-        }
+    let starts = heldout_window_starts(wanted, n, config.ticks(), rec.trajectory_ticks);
+    let window_ticks = u64::from(rec.trajectory_ticks);
+    let last_tick = starts.last().map_or(0, |s| s + window_ticks);
+    let mut next = 0;
+    for tick in 0..last_tick {
         let event = controllers.decide(&copy);
         copy.apply(&event);
-        observer.observe(
-            copy.time(),
-            copy.poses.iter().map(|p| [p.x as f32, p.y as f32]),
-        );
+        // Tick `tick` moves the world to time `tick + 1`; a window observes the positions after
+        // each of its ticks.
+        let Some(&start) = starts.get(next) else {
+            break;
+        };
+        if tick >= start {
+            observer.observe(
+                copy.time(),
+                copy.poses.iter().map(|p| [p.x as f32, p.y as f32]),
+            );
+            if tick + 1 == start + window_ticks {
+                next += 1;
+            }
+        }
     }
     assert!(
         observer.done(),
         "the held-out observer has a sample per robot and window"
     );
     Ok(observer.into_samples())
+}
+
+/// The first tick of each held-out observation window: `ceil(wanted / robots)` windows of
+/// `window_ticks` ticks, each centred in its equal share of the run's `run_ticks`. When the run
+/// is too short for the windows to be apart, they follow each other from tick 0.
+fn heldout_window_starts(
+    wanted: usize,
+    robots: usize,
+    run_ticks: u64,
+    window_ticks: u32,
+) -> Vec<u64> {
+    let windows = wanted.div_ceil(robots.max(1)) as u64;
+    let window_ticks = u64::from(window_ticks);
+    let share = run_ticks / windows;
+    if share <= window_ticks {
+        return (0..windows).map(|k| k * window_ticks).collect();
+    }
+    let margin = (share - window_ticks) / 2;
+    (0..windows).map(|k| k * share + margin).collect()
 }
 
 /// Two independent normal draws times `sigma` (Box-Muller, both branches, `libm` only).

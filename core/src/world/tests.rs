@@ -337,6 +337,33 @@ fn events_of_the_wrong_size_are_errors() {
 }
 
 #[test]
+fn heldout_windows_spread_over_the_run() {
+    // The paper: 200 samples of 15 robots = 14 windows of 100 ticks over 50,000 ticks; each
+    // window centred in its 3571-tick share.
+    let starts = heldout_window_starts(200, 15, 50_000, 100);
+    assert_eq!(starts.len(), 14);
+    assert_eq!(starts[0], 1735);
+    assert_eq!(starts[1], 3571 + 1735);
+    assert_eq!(*starts.last().unwrap(), 13 * 3571 + 1735);
+    assert!(starts.last().unwrap() + 100 <= 50_000);
+    // A run too short to keep the windows apart: back to back from tick 0.
+    assert_eq!(heldout_window_starts(30, 15, 150, 100), vec![0, 100]);
+    assert_eq!(heldout_window_starts(31, 15, 250, 100), vec![0, 100, 200]);
+}
+
+#[test]
+fn the_heldout_set_comes_from_the_whole_run() {
+    let mut c = small(15, 5.0);
+    c.run.duration_s = 600.0;
+    let w = World::new(&c, 4).unwrap();
+    let times: Vec<u64> = w.heldout().iter().map(|s| s.time.0).collect();
+    // Two windows, each centred in its 300 s half: they end at 155 s and 455 s.
+    assert_eq!(times.len(), 20);
+    assert!(times[..15].iter().all(|&t| t == 155_000), "{times:?}");
+    assert!(times[15..].iter().all(|&t| t == 455_000), "{times:?}");
+}
+
+#[test]
 fn the_heldout_set_is_fixed_by_the_seed_and_noise_free() {
     let c = small(15, 5.0);
     let a = World::new(&c, 4).unwrap();

@@ -44,6 +44,8 @@ struct Plot<'a> {
     y_label: &'a str,
     kind: Kind,
     series: Vec<Series>,
+    /// The quantity cannot be negative (a size, a loss): the axis and the intervals stop at 0.
+    nonnegative: bool,
 }
 
 /// Draws every figure the statistics allow into `out`, returning them (for report.md).
@@ -58,7 +60,11 @@ pub fn draw_all(
         .iter()
         .find(|e| e.name == "e1-expiration")
         .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
-    for e in stats {
+    // e4-robustness has 225 points: its figures are heatmaps (`robustness.rs`).
+    for e in stats
+        .iter()
+        .filter(|e| e.name != super::robustness::EXPERIMENT)
+    {
         let mut emit = |stem: String, caption: String, plot: Plot| -> anyhow::Result<()> {
             if plot.series.iter().all(|s| s.points.is_empty()) {
                 return Ok(());
@@ -116,6 +122,7 @@ pub fn draw_all(
                 y_label: "average loss",
                 kind: Kind::Time { log_y: true },
                 series: loss,
+                nonnegative: true,
             },
         )?;
         // Tokens versus the number of Byzantine robots: only where that is the grid (and
@@ -149,6 +156,7 @@ pub fn draw_all(
                     x_label: &e.axis,
                     y_label: "tokens gained per robot",
                     kind: Kind::Versus,
+                    nonnegative: false,
                     series: vec![
                         Series {
                             label: "honest robots".into(),
@@ -173,6 +181,7 @@ pub fn draw_all(
                 x_label: "time (s)",
                 y_label: "chain size (MB)",
                 kind: Kind::Time { log_y: false },
+                nonnegative: true,
                 series: e
                     .points
                     .iter()
@@ -230,6 +239,7 @@ fn baselines(e: &ExperimentStats) -> Vec<(String, String, Plot<'_>)> {
                 y_label: "held-out loss",
                 kind: Kind::Time { log_y: true },
                 series,
+                nonnegative: true,
             },
         ));
     }
@@ -266,6 +276,7 @@ fn baselines(e: &ExperimentStats) -> Vec<(String, String, Plot<'_>)> {
                 y_label,
                 kind: Kind::Versus,
                 series,
+                nonnegative: true,
             },
         ));
     }
@@ -384,8 +395,56 @@ fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
         (xs.0, xs.1, ys.0 / 1.2, ys.1 * 1.2)
     } else {
         let pad = ((ys.1 - ys.0) * 0.08).max(1e-9);
-        (xs.0, xs.1, ys.0 - pad, ys.1 + pad)
+        let lo = ys.0 - pad;
+        (
+            xs.0,
+            xs.1,
+            if plot.nonnegative { lo.max(0.0) } else { lo },
+            ys.1 + pad,
+        )
     }
+}
+
+/// A tick label: up to 3 significant digits, never `-0` (a rounding of a tiny negative).
+fn tick(v: f64) -> String {
+    if v == 0.0 || v.abs() < 1e-12 {
+        return "0".to_string();
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).max(0) as usize;
+    let mut text = format!("{v:.digits$}");
+    if text.contains('.') {
+        text = text.trim_end_matches('0').trim_end_matches('.').to_string();
+    }
+    if text
+        .trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        "0".to_string()
+    } else {
+        text
+    }
+}
+
+/// The key points of a log axis over [lo, hi]: 1, 2 and 5 times each power of ten inside (or
+/// more steps when the range spans less than a decade), so values below 1 are labelled too.
+fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
+    let mut out = Vec::new();
+    let (e0, e1) = (lo.log10().floor() as i32, hi.log10().ceil() as i32);
+    let steps: &[f64] = if e1 - e0 <= 1 {
+        &[1.0, 1.5, 2.0, 3.0, 4.0, 5.0, 6.0, 8.0]
+    } else {
+        &[1.0, 2.0, 5.0]
+    };
+    for e in e0..=e1 {
+        for m in steps {
+            let v = m * 10f64.powi(e);
+            if v >= lo && v <= hi {
+                out.push(v);
+            }
+        }
+    }
+    out
 }
 
 /// Configures and draws the mesh: axis descriptions with text, no tick labels without.
@@ -397,7 +456,8 @@ macro_rules! draw_mesh {
             // Times in whole seconds, robot counts as integers.
             mesh.x_desc($plot.x_label)
                 .y_desc($plot.y_label)
-                .x_label_formatter(&|x: &f64| format!("{x:.0}"));
+                .x_label_formatter(&|x: &f64| format!("{x:.0}"))
+                .y_label_formatter(&|y: &f64| tick(*y));
         } else {
             mesh.x_labels(0).y_labels(0);
         }
@@ -424,7 +484,10 @@ fn draw_on<DB: DrawingBackend>(
     }
     match plot.kind {
         Kind::Time { log_y: true } => {
-            let mut chart = builder.build_cartesian_2d(x0..x1, (y0..y1).log_scale())?;
+            let mut chart = builder.build_cartesian_2d(
+                x0..x1,
+                (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
+            )?;
             draw_mesh!(chart, plot, text);
             draw_series(&mut chart, plot, text, y0)?;
         }
@@ -462,21 +525,31 @@ where
             Kind::Time { .. } => {
                 let lo = |st: &Stat| {
                     let v = st.mean - st.ci.unwrap_or(0.0);
-                    if log_y && v <= y_floor {
+                    if (log_y || plot.nonnegative) && v <= y_floor {
                         y_floor
                     } else {
                         v
                     }
                 };
-                let band: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .map(|(t, st)| (*t, st.mean + st.ci.unwrap_or(0.0)))
-                    .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
-                    .collect();
-                // Many overlapping bands turn grey: lighter when there are many series.
-                let alpha = if plot.series.len() > 4 { 0.08 } else { 0.18 };
-                chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(alpha))))?;
+                let hi = |st: &Stat| st.mean + st.ci.unwrap_or(0.0);
+                if plot.series.len() > 4 {
+                    // Eight filled bands overlap into one grey wash: with many series each
+                    // interval is drawn as two thin lines of its colour instead.
+                    for bound in [&hi as &dyn Fn(&Stat) -> f64, &lo] {
+                        chart.draw_series(LineSeries::new(
+                            s.points.iter().map(|(t, st)| (*t, bound(st))),
+                            colour.mix(0.45).stroke_width(1),
+                        ))?;
+                    }
+                } else {
+                    let band: Vec<(f64, f64)> = s
+                        .points
+                        .iter()
+                        .map(|(t, st)| (*t, hi(st)))
+                        .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
+                        .collect();
+                    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.18))))?;
+                }
                 let line = chart.draw_series(LineSeries::new(
                     s.points.iter().map(|(t, st)| (*t, st.mean)),
                     colour.stroke_width(2),
@@ -522,4 +595,52 @@ where
             .draw()?;
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stat(mean: f64, ci: f64) -> Stat {
+        Stat {
+            n: 3,
+            mean,
+            ci: Some(ci),
+        }
+    }
+
+    #[test]
+    fn ticks_are_tidy_and_log_axes_are_labelled_below_one() {
+        assert_eq!(tick(-0.0), "0");
+        assert_eq!(tick(-1e-15), "0");
+        assert_eq!(tick(0.25), "0.25");
+        assert_eq!(tick(1500.0), "1500");
+        assert_eq!(tick(-2.5), "-2.5");
+        let t = log_ticks(0.02, 0.3);
+        for v in [0.02, 0.05, 0.1, 0.2] {
+            assert!(t.iter().any(|x| (x - v).abs() < 1e-12), "{v} in {t:?}");
+        }
+        assert!(
+            log_ticks(0.11, 0.35).len() >= 3,
+            "{:?}",
+            log_ticks(0.11, 0.35)
+        );
+    }
+
+    #[test]
+    fn a_size_axis_never_goes_below_zero() {
+        let plot = Plot {
+            title: "chain".into(),
+            x_label: "t",
+            y_label: "MB",
+            kind: Kind::Time { log_y: false },
+            series: vec![Series {
+                label: "a".into(),
+                points: vec![(0.0, stat(0.0, 0.4)), (100.0, stat(1.0, 0.2))],
+            }],
+            nonnegative: true,
+        };
+        let (_, _, y0, _) = bounds(&plot);
+        assert_eq!(y0, 0.0);
+    }
 }

@@ -1,0 +1,139 @@
+//! The round deadline (`contract.round_timeout_s`; beyond the paper, whose contract has none,
+//! so every preset keeps it off).
+//!
+//! Without a deadline a round can stall for good: with 9 outliers in a swarm of 15 the quorum
+//! of 7 accepted models is never reached, the accepted stakes stay locked, and every honest
+//! resubmission is a duplicate. With one, the first block whose timestamp is at least
+//! `round_timeout_ms` after the round opened (genesis, or the block of the last aggregation or
+//! deadline) closes the round before its transactions run: no aggregation, the model and the
+//! round number stay, every *accepted* submission gets its stake back, and the outliers'
+//! stakes stay with the contract and roll into the next pool, as they would have at an
+//! aggregation. Everyone may submit again. Tokens are conserved (asserted).
+
+use super::{ContractParams, ContractState, Verdict};
+
+impl ContractState {
+    /// Enters a block with timestamp `timestamp_ms` under `params`: records the block time and
+    /// closes the open round if its deadline has passed.
+    pub fn enter_block(&mut self, params: &ContractParams, timestamp_ms: u64) {
+        self.block_time_ms = timestamp_ms;
+        if params.round_timeout_ms == 0
+            || timestamp_ms < self.round_opened_ms.saturating_add(params.round_timeout_ms)
+        {
+            return;
+        }
+        if self.submissions.is_empty() {
+            // Nothing to refund: the round simply opens again from here.
+            self.round_opened_ms = timestamp_ms;
+            return;
+        }
+        let before = self.total_units();
+        for s in std::mem::take(&mut self.submissions) {
+            if s.verdict != Verdict::Accepted {
+                continue;
+            }
+            self.holdings_units = self
+                .holdings_units
+                .checked_sub(s.stake_units)
+                .expect("the contract holds the open round's stakes");
+            let balance = &mut self.balances[s.sender as usize];
+            *balance = balance
+                .checked_add(s.stake_units)
+                .expect("conserved supply fits u64");
+            self.timeout_refunded_units += s.stake_units;
+        }
+        self.rounds_timed_out += 1;
+        self.round_opened_ms = timestamp_ms;
+        assert_eq!(self.total_units(), before, "a deadline conserves tokens");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use std::sync::Arc;
+
+    use super::*;
+    use crate::contract::{Call, Outcome};
+
+    const TOKEN: u64 = 1_000_000_000;
+
+    fn params(timeout_ms: u64) -> ContractParams {
+        ContractParams {
+            robots: 15,
+            initial_units: 21 * TOKEN,
+            stake_units: 5 * TOKEN,
+            security: true,
+            quorum: 7,
+            outlier_threshold_units: 50_000_000,
+            reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
+            genesis_weights: vec![0i64; 4].into(),
+            round_timeout_ms: timeout_ms,
+            robust: None,
+            options: Default::default(),
+            engine: Default::default(),
+        }
+    }
+
+    fn submit(w: i64) -> Call {
+        Call::SubmitModel {
+            weights: Arc::from(vec![w; 4]),
+            samples: 10,
+        }
+    }
+
+    /// Nine outliers and six honest models in a swarm of 15: the quorum of 7 is never reached.
+    fn stalled(p: &ContractParams) -> ContractState {
+        let mut s = ContractState::genesis(p);
+        s.enter_block(p, 10_000);
+        for r in 0..9 {
+            let got = s.execute(p, r, 5 * TOKEN, &submit(400_000_000));
+            assert!(matches!(got, Outcome::Outlier { .. }), "{got:?}");
+        }
+        for r in 9..15 {
+            let got = s.execute(p, r, 5 * TOKEN, &submit(1_000));
+            assert!(matches!(got, Outcome::Accepted { .. }), "{got:?}");
+        }
+        s
+    }
+
+    #[test]
+    fn a_stalled_round_closes_at_its_deadline_and_refunds_the_accepted_stakes() {
+        let p = params(300_000);
+        let mut s = stalled(&p);
+        assert_eq!(s.holdings_units, 75 * TOKEN, "15 stakes locked");
+        s.enter_block(&p, 299_999);
+        assert_eq!(s.submissions.len(), 15, "not yet");
+        s.enter_block(&p, 300_000);
+        assert!(s.submissions.is_empty());
+        assert_eq!(s.rounds_timed_out, 1);
+        assert_eq!(s.round, 0, "no aggregation: the model keeps its version");
+        assert_eq!(
+            s.timeout_refunded_units,
+            30 * TOKEN,
+            "six accepted stakes back"
+        );
+        assert_eq!(
+            s.holdings_units,
+            45 * TOKEN,
+            "the nine outliers' stakes stay"
+        );
+        for r in 9..15 {
+            assert_eq!(s.balances[r], 21 * TOKEN);
+        }
+        assert_eq!(s.total_units(), p.total_units());
+        // Everyone may submit again; the next deadline counts from the close.
+        let again = s.execute(&p, 9, 5 * TOKEN, &submit(1_000));
+        assert!(matches!(again, Outcome::Accepted { .. }), "{again:?}");
+        s.enter_block(&p, 599_999);
+        assert_eq!(s.rounds_timed_out, 1);
+    }
+
+    #[test]
+    fn without_a_deadline_the_round_stays_stalled() {
+        let p = params(0);
+        let mut s = stalled(&p);
+        s.enter_block(&p, 10_000_000);
+        assert_eq!(s.submissions.len(), 15);
+        assert_eq!(s.holdings_units, 75 * TOKEN);
+    }
+}

@@ -1,0 +1,339 @@
+//! Differential tests: random rounds through the native contract and the bytecode; every
+//! outcome, balance, the shared weights and the whole state digest must agree after every call.
+
+use std::sync::Arc;
+
+use rand_core::{RngCore, SeedableRng};
+use rand_pcg::Pcg64;
+
+use super::super::options::*;
+use super::super::{Call, ContractParams, ContractState, Outcome};
+use super::*;
+
+const TOKEN: u64 = 1_000_000_000;
+
+/// A small random draw in `0..n`.
+fn below(rng: &mut Pcg64, n: u64) -> u64 {
+    rng.next_u64() % n
+}
+
+fn chance(rng: &mut Pcg64, percent: u64) -> bool {
+    below(rng, 100) < percent
+}
+
+/// Random rules: swarm size, quorum, reward weights, threshold, security and options.
+fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
+    let robots = 2 + below(rng, 9) as u32;
+    let quorum = 1 + below(rng, u64::from(robots)) as u32;
+    let mut reward_weights: Vec<i64> = (0..quorum).map(|_| below(rng, 11) as i64 - 4).collect();
+    if !reward_weights.iter().any(|&k| k > 0) {
+        reward_weights[0] = 1 + below(rng, 5) as i64;
+    }
+    let options = if chance(rng, 50) {
+        ContractOptions::default()
+    } else {
+        ContractOptions {
+            median: if chance(rng, 50) {
+                MedianRule::Mean
+            } else {
+                MedianRule::Lower
+            },
+            fedavg_rounding: if chance(rng, 50) {
+                FedAvgRounding::Truncate
+            } else {
+                FedAvgRounding::Nearest
+            },
+            int48_products: chance(rng, 50),
+            threshold: if chance(rng, 50) {
+                ThresholdRule::Strict
+            } else {
+                ThresholdRule::Inclusive
+            },
+            rank_key: if chance(rng, 50) {
+                RankKey::Mae
+            } else {
+                RankKey::Distance
+            },
+            rank_ties: if chance(rng, 50) {
+                RankTies::Quicksort
+            } else {
+                RankTies::Stable
+            },
+            payout_rounding: if chance(rng, 50) {
+                PayoutRounding::Ratio1e9
+            } else {
+                PayoutRounding::Exact
+            },
+            pool: if chance(rng, 50) {
+                PoolRule::Round
+            } else {
+                PoolRule::Carry
+            },
+        }
+    };
+    let genesis: Vec<i64> = (0..len)
+        .map(|_| below(rng, 2_000_000_001) as i64 - 1_000_000_000)
+        .collect();
+    ContractParams {
+        robots,
+        initial_units: (5 + below(rng, 30)) * TOKEN + below(rng, 7),
+        stake_units: (1 + below(rng, 6)) * TOKEN + below(rng, 3),
+        security: chance(rng, 85),
+        quorum,
+        outlier_threshold_units: [0, 1, 1_000, 50_000_000][below(rng, 4) as usize],
+        reward_weights,
+        genesis_weights: genesis.into(),
+        round_timeout_ms: 0,
+        robust: None,
+        options,
+        engine: ContractEngine::Native,
+    }
+}
+
+/// A random call: mostly honest submissions near the shared model, with outliers, exact
+/// threshold distances, ties, duplicates, malformed models, wrong stakes, unknown senders and
+/// transfers (which also drain balances below the stake).
+fn random_call(rng: &mut Pcg64, p: &ContractParams, s: &ContractState) -> (RobotId, u64, Call) {
+    let robots = u64::from(p.robots);
+    let sender = if chance(rng, 3) {
+        p.robots + below(rng, 3) as u32
+    } else {
+        below(rng, robots) as u32
+    };
+    let mut value = p.stake_units;
+    if chance(rng, 5) {
+        value = below(rng, p.stake_units + 1);
+    } else if chance(rng, 3) {
+        value = p.stake_units + 1 + below(rng, 10);
+    }
+    if chance(rng, 8) {
+        let to = if chance(rng, 10) {
+            p.robots + 1
+        } else {
+            below(rng, robots) as u32
+        };
+        let balance = s.balances.get(sender as usize).copied().unwrap_or(0);
+        let amount = if chance(rng, 20) {
+            balance + 1 + below(rng, 5)
+        } else {
+            below(rng, balance + 1)
+        };
+        let value = if chance(rng, 10) { 1 } else { 0 };
+        return (
+            sender,
+            value,
+            Call::Transfer {
+                to,
+                amount_units: amount,
+            },
+        );
+    }
+    let n = p.model_len() as u64;
+    let max = p.max_distance_units() as u64;
+    // Shapes of the model: near (within the threshold), exactly at it, just past it, far, a
+    // copy of the shared model (ties), or hostile.
+    let mut w: Vec<i64> = s.weights.to_vec();
+    match below(rng, 10) {
+        0..=4 => {
+            let budget = max.max(1);
+            for x in w.iter_mut() {
+                let step = below(rng, 2 * (budget / n).max(1) + 1) as i64 - (budget / n) as i64;
+                *x = (*x + step).clamp(-(1 << 46), 1 << 46);
+            }
+        }
+        5 => {
+            // Exactly at the threshold (in the first weight), or one unit past it.
+            let extra = below(rng, 2);
+            w[0] = w[0].saturating_add((max + extra) as i64).min((1 << 47) - 1);
+        }
+        6 => {}
+        7 => {
+            for x in w.iter_mut() {
+                *x = below(rng, 1 << 47) as i64 - (1 << 46);
+            }
+        }
+        8 => {
+            let i = below(rng, n) as usize;
+            w[i] = [
+                1 << 47,
+                -(1 << 47),
+                (1 << 47) - 1,
+                -(1 << 47) + 1,
+                i64::MIN,
+                i64::MAX,
+            ][below(rng, 6) as usize];
+        }
+        _ => {
+            if chance(rng, 50) {
+                w.push(0);
+            } else {
+                w.pop();
+            }
+        }
+    }
+    let samples = match below(rng, 12) {
+        0 => 0,
+        1 => u64::from(u32::MAX) + below(rng, 3),
+        2 => 1 + below(rng, 1 << 24),
+        _ => 1 + below(rng, 400),
+    };
+    (
+        sender,
+        value,
+        Call::SubmitModel {
+            weights: Arc::from(w),
+            samples,
+        },
+    )
+}
+
+fn assert_same(native: &ContractState, evm: &ContractState, context: &str) {
+    assert_eq!(native.balances, evm.balances, "balances: {context}");
+    assert_eq!(
+        native.holdings_units, evm.holdings_units,
+        "holdings: {context}"
+    );
+    assert_eq!(native.round, evm.round, "round: {context}");
+    assert_eq!(native.weights, evm.weights, "weights: {context}");
+    assert_eq!(
+        native.submissions, evm.submissions,
+        "submissions: {context}"
+    );
+    assert_eq!(native.last_round, evm.last_round, "last round: {context}");
+    assert_eq!(native.digest(), evm.digest(), "digest: {context}");
+}
+
+/// Runs random calls through both engines until `rounds` aggregations happened; returns the
+/// calls made.
+fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
+    let mut rng = Pcg64::seed_from_u64(seed);
+    let (mut done, mut calls) = (0u64, 0u64);
+    while done < rounds {
+        let p = random_params(&mut rng, len);
+        let pe = ContractParams {
+            engine: ContractEngine::Evm,
+            ..p.clone()
+        };
+        let mut native = ContractState::genesis(&p);
+        let mut evm = ContractState::genesis(&pe);
+        assert_same(&native, &evm, "genesis");
+        // A scenario ends after some rounds, or when its balances no longer allow any.
+        let target = done + 1 + below(&mut rng, 12);
+        let mut stalled = 0;
+        while done < target && stalled < 200 {
+            // A new block now and then: the block time, and the round's opening time after an
+            // aggregation, are part of the state (and its digest) in both engines.
+            if chance(&mut rng, 30) {
+                let now_ms = native.block_time_ms + 1 + below(&mut rng, 20_000);
+                native.enter_block(&p, now_ms);
+                evm.enter_block(&pe, now_ms);
+            }
+            let (sender, value, call) = random_call(&mut rng, &p, &native);
+            let a = native.execute(&p, sender, value, &call);
+            let b = evm.execute(&pe, sender, value, &call);
+            let context =
+                format!("seed {seed}, call {calls}: {p:?}, sender {sender}, value {value}");
+            assert_eq!(a, b, "outcome: {context}");
+            assert_same(&native, &evm, &context);
+            calls += 1;
+            stalled += 1;
+            if matches!(a, Outcome::Aggregated { .. }) {
+                done += 1;
+                stalled = 0;
+            }
+            if chance(&mut rng, 1) {
+                native.restart_round();
+                evm.restart_round();
+                assert_same(&native, &evm, &format!("restart: {context}"));
+            }
+        }
+        if stalled >= 200 {
+            // Drained swarms stop aggregating; a new scenario continues the count.
+            continue;
+        }
+    }
+    (done, calls)
+}
+
+#[test]
+fn a_thousand_random_rounds_agree_on_every_call() {
+    let (rounds, calls) = differential(19, 1000, 6);
+    assert!(rounds >= 1000);
+    assert!(calls >= rounds);
+}
+
+#[test]
+fn full_size_models_agree() {
+    // The paper's model length: 2848 weights, a few rounds.
+    differential(7, 6, 2848);
+}
+
+#[test]
+fn changed_rules_are_configured_on_the_evm() {
+    let mut rng = Pcg64::seed_from_u64(3);
+    let p = random_params(&mut rng, 4);
+    let pe = ContractParams {
+        engine: ContractEngine::Evm,
+        ..p.clone()
+    };
+    let mut native = ContractState::genesis(&p);
+    let mut evm = ContractState::genesis(&pe);
+    let q = ContractParams {
+        security: !p.security,
+        stake_units: p.stake_units + 7,
+        options: ContractOptions::authors(),
+        ..p.clone()
+    };
+    let qe = ContractParams {
+        engine: ContractEngine::Evm,
+        ..q.clone()
+    };
+    for i in 0..200 {
+        let (params, params_evm) = if i < 100 { (&p, &pe) } else { (&q, &qe) };
+        if i == 100 {
+            native.restart_round();
+            evm.restart_round();
+        }
+        let (sender, value, call) = random_call(&mut rng, params, &native);
+        let a = native.execute(params, sender, value, &call);
+        let b = evm.execute(params_evm, sender, value, &call);
+        assert_eq!(a, b, "call {i}");
+        assert_same(&native, &evm, &format!("call {i}"));
+    }
+    let gas = &evm.evm.as_ref().expect("evm state").gas;
+    assert_eq!(gas["configure"].calls, 1, "{gas:?}");
+}
+
+#[test]
+fn the_binding_matches_the_committed_abi() {
+    let artefact: serde_json::Value = serde_json::from_str(ARTEFACT_JSON).expect("json");
+    let abi = artefact["abi"].as_array().expect("an abi array");
+    let signature = |item: &serde_json::Value| -> String {
+        let inputs: Vec<&str> = item["inputs"]
+            .as_array()
+            .expect("inputs")
+            .iter()
+            .map(|i| i["type"].as_str().expect("type"))
+            .collect();
+        format!(
+            "{}({})",
+            item["name"].as_str().unwrap_or(""),
+            inputs.join(",")
+        )
+    };
+    let names: Vec<String> = abi.iter().map(signature).collect();
+    for used in [
+        "submitModel(int64[],uint64,uint64)",
+        "transfer(address,uint64,uint64)",
+        "restartRound()",
+        "configure(uint64,bool,uint32,uint256,int64[],uint256)",
+        "state()",
+        "getModel()",
+        "getSubmissions()",
+        "Paid(uint32,uint32,int64,uint64)",
+        "Aggregated(uint64,uint64,uint64)",
+        "(address[],uint64,int64[],uint64,bool,uint32,uint256,int64[],uint256)",
+    ] {
+        assert!(names.iter().any(|n| n == used), "{used} not in {names:?}");
+    }
+}

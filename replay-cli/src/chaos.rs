@@ -1,0 +1,131 @@
+//! `swarmfl chaos`: a seeded fault campaign (see `swarmfl_core::chaos` for what each seed draws
+//! and the invariants checked at every block). A violation prints its seed and the one command
+//! that replays it; the exit code is then 1.
+
+use std::process::ExitCode;
+use std::time::Instant;
+
+use rayon::prelude::*;
+use serde::Serialize;
+use swarmfl_core::chaos::{self, Outcome, Violation};
+
+#[derive(Serialize)]
+struct SeedViolation {
+    seed: u64,
+    command: String,
+    #[serde(flatten)]
+    violation: Violation,
+}
+
+#[derive(Serialize)]
+struct Report {
+    runs: u64,
+    duration_s: f64,
+    first_seed: u64,
+    violations: Vec<SeedViolation>,
+    wall_s: f64,
+    blocks_checked: u64,
+    liveness_checked: u64,
+    max_deepest_reorg: u64,
+    equivocations_detected: u64,
+    bounds: Bounds,
+}
+
+#[derive(Serialize)]
+struct Bounds {
+    prefix_bound_blocks: u64,
+    settle_s: u64,
+    liveness_s: u64,
+}
+
+/// The command that replays seed `seed` alone.
+fn command(seed: u64, duration_s: f64) -> String {
+    format!("swarmfl chaos --seeds 1 --first-seed {seed} --duration {duration_s}")
+}
+
+/// Runs seeds `first..first + seeds` with runs of `duration_s`.
+pub fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<ExitCode> {
+    anyhow::ensure!(seeds > 0, "--seeds must be at least 1");
+    anyhow::ensure!(
+        duration_s.is_finite() && duration_s >= 1.0,
+        "--duration must be at least 1 (seconds), got {duration_s}"
+    );
+    let start = Instant::now();
+    let results: Vec<(u64, anyhow::Result<Outcome>)> = (first..first + seeds)
+        .into_par_iter()
+        .map(|seed| {
+            let config = chaos::draw(seed, duration_s);
+            let outcome = chaos::check(config, seed).map_err(anyhow::Error::from);
+            if !json {
+                match &outcome {
+                    Ok(o) => match &o.violation {
+                        None => eprintln!(
+                            "seed {seed}: ok ({} blocks checked, height {}, deepest reorg {}, \
+                             {} equivocations, {} rounds)",
+                            o.blocks_checked, o.height, o.deepest_reorg, o.equivocations, o.rounds
+                        ),
+                        Some(v) => eprintln!(
+                            "seed {seed}: VIOLATION {} at {} ms: {}",
+                            v.invariant, v.at_ms, v.detail
+                        ),
+                    },
+                    Err(e) => eprintln!("seed {seed}: error {e:#}"),
+                }
+            }
+            (seed, outcome)
+        })
+        .collect();
+    let mut report = Report {
+        runs: seeds,
+        duration_s,
+        first_seed: first,
+        violations: Vec::new(),
+        wall_s: 0.0,
+        blocks_checked: 0,
+        liveness_checked: 0,
+        max_deepest_reorg: 0,
+        equivocations_detected: 0,
+        bounds: Bounds {
+            prefix_bound_blocks: chaos::PREFIX_BOUND_BLOCKS,
+            settle_s: chaos::SETTLE_MS / 1000,
+            liveness_s: chaos::LIVENESS_MS / 1000,
+        },
+    };
+    for (seed, outcome) in results {
+        let outcome = outcome.map_err(|e| e.context(format!("seed {seed}")))?;
+        report.blocks_checked += outcome.blocks_checked;
+        report.liveness_checked += u64::from(outcome.liveness_checked);
+        report.max_deepest_reorg = report.max_deepest_reorg.max(outcome.deepest_reorg);
+        report.equivocations_detected += outcome.equivocations;
+        if let Some(violation) = outcome.violation {
+            report.violations.push(SeedViolation {
+                seed,
+                command: command(seed, duration_s),
+                violation,
+            });
+        }
+    }
+    report.wall_s = start.elapsed().as_secs_f64();
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!(
+            "{} runs of {duration_s} s, {} blocks checked, {} violations, {:.1} s wall",
+            report.runs,
+            report.blocks_checked,
+            report.violations.len(),
+            report.wall_s
+        );
+        for v in &report.violations {
+            println!(
+                "seed {}: {} at {} ms: {}\n  replay: {}",
+                v.seed, v.violation.invariant, v.violation.at_ms, v.violation.detail, v.command
+            );
+        }
+    }
+    Ok(if report.violations.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}

@@ -1,0 +1,381 @@
+//! `swarmfl view LOG --out run.html`: one self-contained HTML file to watch a run in a browser
+//! (no network, no server): the arena with obstacles, robots with ids, Byzantine marks and radio
+//! links, animated over time with a scrubber that also jumps by block height; beside it each
+//! robot's tokens, the loss per round and the chain (forks and reorgs) up to the current time.
+//!
+//! Two folds of the log: [`inspect::index_run`] for the final canonical chain, its balances
+//! and rounds; then a second fold that samples frames. Thinning: frames every
+//! `duration / 2000` s (a whole number of ticks; every tick for short runs) plus one frame at
+//! the sealing of every block of the final canonical chain, so the picture at a block is the
+//! log's state at that block exactly (what `swarmfl inspect --block H` prints). Positions are
+//! stored in millimetres and headings in degrees (integers), radio links as a bit set per
+//! frame: a paper run (5000 s, 15 robots) makes a file of about 1 MB.
+//!
+//! The page writes its state into `<pre id="status">` (JSON: the time shown, the canonical
+//! height, every robot's position and tokens, script errors), so a headless browser's
+//! `--dump-dom` can check it against the log (`scripts/view_check.sh`).
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use anyhow::Context;
+use swarmfl_core::event::{CheckpointCause, Record};
+use swarmfl_core::inspect::{self, expr::Env};
+use swarmfl_core::log::{LogError, LogReader};
+use swarmfl_core::replay;
+use swarmfl_core::sim::State;
+use swarmfl_core::world::Obstacle;
+use swarmfl_core::Digest;
+
+/// Most uniform frames of a view (block frames come on top).
+const MAX_FRAMES: u64 = 2000;
+
+/// What `view` wrote.
+pub struct ViewOutcome {
+    /// Frames in the file.
+    pub frames: usize,
+    /// Blocks of every node (forks included).
+    pub blocks: usize,
+    /// Size of the HTML file in bytes.
+    pub bytes: usize,
+    /// Seconds between uniform frames.
+    pub frame_s: f64,
+}
+
+/// Writes the viewer of `log` into `out`.
+pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
+    let index = inspect::index_run(log, None)?;
+    crate::inspect::warn_if_truncated(&index);
+    let name = log.display().to_string();
+    let config = index.config.clone();
+    let robots = config.world.robots as usize;
+    let canonical: BTreeMap<Digest, u64> = index.chain.iter().map(|r| (r.hash, r.height)).collect();
+
+    // Uniform frames every `every_ticks` ticks.
+    let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
+    let total_ticks = config.ticks().max(1);
+    let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
+    let frame_ms = every_ticks * tick_ms;
+
+    let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+    let header_config = replay::header_config(&reader, &name)?;
+    let mut state = State::genesis(&header_config, index.seed)
+        .map_err(|e| anyhow::anyhow!("{name}: cannot start the run of the header: {e}"))?;
+
+    let mut ids: BTreeMap<Digest, u32> = BTreeMap::new();
+    let genesis = state.ledger.head(0).0;
+    ids.insert(genesis, 0);
+    let mut blocks = String::from("[[0,-1,0,-1,0]");
+    let mut frames = Frames::default();
+    frames.push(&state, &ids, 0);
+    let mut next_frame_ms = frame_ms;
+    let mut heads: Vec<Digest> = vec![genesis; robots];
+    let mut reorgs = String::from("[");
+    let mut reorg_count = 0usize;
+    let records_in_prefix = index.records;
+    loop {
+        if reader.index() >= records_in_prefix {
+            break;
+        }
+        let record = match reader.next_record() {
+            Ok(Some(r)) => r,
+            Ok(None) => break,
+            Err(LogError::Truncated { .. }) => break,
+            Err(e) => return Err(replay::ReplayError::from(e).into()),
+        };
+        let at = reader.index() - 1;
+        replay::fold_record(&mut state, &name, at, &record)?;
+        let ledger_event = matches!(
+            &record,
+            Record::Event {
+                event: swarmfl_core::event::Event::Ledger(_),
+                ..
+            }
+        );
+        if ledger_event {
+            for (node, old) in heads.iter_mut().enumerate() {
+                let (new, height) = state.ledger.head(node as u32);
+                if new == *old {
+                    continue;
+                }
+                // A reorg: the new head does not descend from the old one.
+                let old_height = state.ledger.block(old).map_or(0, |e| e.block.header.height);
+                let mut cursor = new;
+                let mut h = height;
+                while h > old_height {
+                    match state.ledger.block(&cursor) {
+                        Some(e) => cursor = e.block.header.parent,
+                        None => break,
+                    }
+                    h -= 1;
+                }
+                if cursor != *old {
+                    // Depth: blocks of the old branch abandoned.
+                    let mut a = *old;
+                    let mut b = cursor;
+                    let mut depth = 0u64;
+                    while a != b {
+                        let (Some(ea), Some(eb)) = (state.ledger.block(&a), state.ledger.block(&b))
+                        else {
+                            break;
+                        };
+                        a = ea.block.header.parent;
+                        b = eb.block.header.parent;
+                        depth += 1;
+                    }
+                    let _ = write!(
+                        reorgs,
+                        "{}[{},{node},{depth}]",
+                        if reorg_count == 0 { "" } else { "," },
+                        record.time().0
+                    );
+                    reorg_count += 1;
+                }
+                *old = new;
+            }
+        }
+        match &record {
+            Record::Checkpoint(cp) => {
+                if let CheckpointCause::Block { node, height } = cp.cause {
+                    let (hash, _) = state.ledger.head(node);
+                    if !ids.contains_key(&hash) {
+                        let id = ids.len() as u32;
+                        ids.insert(hash, id);
+                        let parent = state
+                            .ledger
+                            .block(&hash)
+                            .and_then(|e| ids.get(&e.block.header.parent).copied())
+                            .map_or(-1, i64::from);
+                        let _ = write!(blocks, ",[{id},{parent},{height},{node},{}]", cp.time.0);
+                    }
+                    if canonical.get(&hash) == Some(&height) {
+                        frames.push(&state, &ids, cp.time.0);
+                    }
+                }
+            }
+            Record::Event { time, event } => {
+                if matches!(event, swarmfl_core::event::Event::Tick(_)) {
+                    let now = time.0 + tick_ms;
+                    if now >= next_frame_ms {
+                        frames.push(&state, &ids, now);
+                        next_frame_ms = (now / frame_ms + 1) * frame_ms;
+                    }
+                }
+            }
+        }
+    }
+    blocks.push(']');
+    reorgs.push(']');
+
+    // The final canonical chain: block ids, times and balances (tokens) after each block.
+    let mut chain = String::from("[");
+    let mut balances = String::from("[");
+    for (k, row) in index.chain.iter().enumerate() {
+        let id = ids.get(&row.hash).copied().unwrap_or(0);
+        let _ = write!(
+            chain,
+            "{}[{id},{}]",
+            if k == 0 { "" } else { "," },
+            row.time.0
+        );
+        let state = index.contract_at(row.height);
+        let list: Vec<String> = state
+            .balances
+            .iter()
+            .map(|&u| format!("{:.3}", index.tokens(u)))
+            .collect();
+        let _ = write!(
+            balances,
+            "{}[{}]",
+            if k == 0 { "" } else { "," },
+            list.join(",")
+        );
+    }
+    chain.push(']');
+    balances.push(']');
+    let values = index.values();
+    let mut rounds = String::from("[");
+    for (k, r) in index.rounds().iter().enumerate() {
+        let heldout = values.at(r.block).ident("heldout_loss").unwrap_or(f64::NAN);
+        let _ = write!(
+            rounds,
+            "{}[{},{},{},{},{}]",
+            if k == 0 { "" } else { "," },
+            r.round,
+            r.block,
+            (r.time_s * 1000.0).round() as u64,
+            json_num(r.loss),
+            json_num(heldout)
+        );
+    }
+    rounds.push(']');
+
+    let arena = state.world.arena();
+    let obstacles: Vec<String> = arena
+        .obstacles
+        .iter()
+        .map(|o| match *o {
+            Obstacle::Cylinder { x, y, radius_m } => format!("[\"c\",{x},{y},{radius_m}]"),
+            Obstacle::Box { x, y, half_side_m } => format!("[\"b\",{x},{y},{half_side_m}]"),
+        })
+        .collect();
+    let byzantine: Vec<&str> = index
+        .byzantine
+        .iter()
+        .map(|&b| if b { "1" } else { "0" })
+        .collect();
+    let title = format!(
+        "{} — preset {}, seed {}, {} robots, {} s",
+        log.display(),
+        config.preset,
+        index.seed,
+        robots,
+        config.run.duration_s
+    );
+    // A block's frame may be taken after the frame of the tick's end: order by time (stable,
+    // so a block's frame follows a tick frame of the same time and wins at that time).
+    let mut order: Vec<usize> = (0..frames.t.len()).collect();
+    order.sort_by_key(|&k| frames.t[k]);
+    let pick = |v: &[String]| {
+        order
+            .iter()
+            .map(|&k| v[k].as_str())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let times = order
+        .iter()
+        .map(|&k| frames.t[k].to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    let frame_count = frames.t.len();
+    let data = format!(
+        "{{\"title\":{},\"robots\":{robots},\"half\":{},\"radius\":{},\"range\":{},\
+         \"duration_ms\":{},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
+         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"blocks\":{blocks},\
+         \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{reorgs},\
+         \"truncated\":{}}}",
+        serde_json::to_string(&title)?,
+        arena.half_side_m,
+        config.world.robot_radius_m,
+        config.world.rab_range_m,
+        total_ticks * tick_ms,
+        obstacles.join(","),
+        byzantine.join(","),
+        times,
+        pick(&frames.pose),
+        pick(&frames.links),
+        pick(&frames.heads),
+        serde_json::to_string(&index.truncated)?,
+    );
+    let html = TEMPLATE
+        .replace("__TITLE__", &html_escape(&title))
+        // `</` cannot appear inside the data: JSON strings escape it.
+        .replace("__DATA__", &data.replace("</", "<\\/"));
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the folder {}", dir.display()))?;
+    }
+    std::fs::write(out, &html).with_context(|| format!("cannot write {}", out.display()))?;
+    Ok(ViewOutcome {
+        frames: frame_count,
+        blocks: ids.len(),
+        bytes: html.len(),
+        frame_s: frame_ms as f64 / 1000.0,
+    })
+}
+
+fn json_num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v}")
+    } else {
+        "null".to_string()
+    }
+}
+
+fn html_escape(s: &str) -> String {
+    s.replace('&', "&amp;")
+        .replace('<', "&lt;")
+        .replace('>', "&gt;")
+}
+
+/// The sampled frames, each field already JSON text.
+#[derive(Default)]
+struct Frames {
+    t: Vec<u64>,
+    pose: Vec<String>,
+    links: Vec<String>,
+    heads: Vec<String>,
+}
+
+impl Frames {
+    fn push(&mut self, state: &State, ids: &BTreeMap<Digest, u32>, time_ms: u64) {
+        let world = &state.world;
+        let n = world.poses().len();
+        self.t.push(time_ms);
+        let mut pose = String::from("[");
+        for (i, p) in world.poses().iter().enumerate() {
+            let deg = p.theta.to_degrees().rem_euclid(360.0).round() as i64 % 360;
+            let _ = write!(
+                pose,
+                "{}{},{},{deg}",
+                if i == 0 { "" } else { "," },
+                (p.x * 1000.0).round() as i64,
+                (p.y * 1000.0).round() as i64
+            );
+        }
+        pose.push(']');
+        self.pose.push(pose);
+        // Links as a bit set over the pairs (i < j) in row order, in hex.
+        let pairs = n * n.saturating_sub(1) / 2;
+        let mut bits = vec![0u8; pairs.div_ceil(4)];
+        for (i, j) in world.links() {
+            let (i, j) = (i.min(j) as usize, i.max(j) as usize);
+            if i == j || j >= n {
+                continue;
+            }
+            let k = i * (2 * n - i - 1) / 2 + (j - i - 1);
+            bits[k / 4] |= 1 << (k % 4);
+        }
+        let hex: String = bits
+            .iter()
+            .map(|&b| char::from_digit(u32::from(b), 16).expect("a nibble"))
+            .collect();
+        self.links.push(format!("\"{hex}\""));
+        let heads: Vec<String> = (0..n as u32)
+            .map(|r| {
+                let h = state.ledger.head(r).0;
+                ids.get(&h).map_or("0".to_string(), |id| id.to_string())
+            })
+            .collect();
+        self.heads.push(format!("[{}]", heads.join(",")));
+    }
+}
+
+const TEMPLATE: &str = include_str!("view.html");
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn link_bits_number_the_pairs_in_row_order() {
+        // The page decodes pair k of robots i < j with the same formula.
+        let n = 5usize;
+        let mut k_expected = 0;
+        for i in 0..n {
+            for j in i + 1..n {
+                assert_eq!(i * (2 * n - i - 1) / 2 + (j - i - 1), k_expected);
+                k_expected += 1;
+            }
+        }
+        assert_eq!(k_expected, n * (n - 1) / 2);
+        let html = TEMPLATE;
+        assert!(html.contains("__DATA__") && html.contains("id=\"status\""));
+        assert!(
+            !html.contains("http://") && !html.contains("https://"),
+            "no network"
+        );
+    }
+}

@@ -1,0 +1,70 @@
+#!/usr/bin/env bash
+# Renders `swarmfl view` in headless Chromium and checks the page against the log:
+#   1. the page runs without script errors (it writes its state into <pre id="status">, which
+#      --dump-dom reads);
+#   2. opened at a block (URL hash #block=H), it shows the log's state at that block: every
+#      robot's position and tokens equal what `swarmfl inspect LOG --block H --json` prints;
+#   3. a screenshot at that moment is taken (SCREENSHOT=path keeps it, e.g. docs/view.png).
+# Usage: scripts/view_check.sh [LOG]   (default: a fresh smoke run; SWARMFL=path/to/swarmfl)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+bin=${SWARMFL:-target/release/swarmfl}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+log=${1:-}
+if [ -z "$log" ]; then
+  "$bin" run --preset smoke --seed 3 --out "$work/run" --quiet
+  log=$work/run/run.swlog
+fi
+"$bin" view "$log" --out "$work/run.html"
+last=$("$bin" inspect "$log" --block 0 --json --no-index | python3 -c 'import json,sys; print(json.load(sys.stdin)["last_height"])')
+height=$(( last * 2 / 3 ))
+"$bin" inspect "$log" --block "$height" --json --no-index > "$work/inspect.json"
+
+chrome=$(command -v chromium || command -v chromium-browser || command -v google-chrome || true)
+if [ -z "$chrome" ]; then
+  echo "view_check: no chromium found (apt-get install -y chromium)" >&2
+  exit 1
+fi
+flags=(--headless --no-sandbox --disable-gpu --disable-quic --no-first-run
+  --disable-background-networking --disable-component-update --disable-sync
+  --user-data-dir="$work/profile")
+url="file://$(cd "$work" && pwd)/run.html#block=$height"
+"$chrome" "${flags[@]}" --virtual-time-budget=5000 --dump-dom "$url" > "$work/dom.html" 2> "$work/chrome.log"
+"$chrome" "${flags[@]}" --window-size=1240,900 --virtual-time-budget=5000 \
+  --screenshot="$work/view.png" "$url" >> "$work/chrome.log" 2>&1
+
+python3 - "$work/dom.html" "$work/inspect.json" "$height" <<'EOF'
+import html, json, re, sys
+dom = open(sys.argv[1]).read()
+m = re.search(r'<pre id="status">(.*?)</pre>', dom, re.S)
+if not m:
+    sys.exit("view_check: the page has no status element: it did not render")
+status = json.loads(html.unescape(m.group(1)))
+if status.get("loading"):
+    sys.exit("view_check: the page's script did not run (status still 'loading')")
+if not status["ok"] or status["errors"]:
+    sys.exit(f"view_check: script errors: {status['errors']}")
+want = json.load(open(sys.argv[2]))
+height = int(sys.argv[3])
+if status["height"] != height:
+    sys.exit(f"view_check: page shows block {status['height']}, asked for {height}")
+world = {r["robot"]: r for r in want["world"]["robots"]}
+tokens = {b["robot"]: b["tokens"] for b in want["contract"]["balances"]}
+bad = []
+for r in status["robots"]:
+    w = world[r["id"]]
+    if abs(r["x"] - w["x"]) > 0.0006 or abs(r["y"] - w["y"]) > 0.0006:
+        bad.append(f"robot {r['id']} at ({r['x']}, {r['y']}), log ({w['x']:.4f}, {w['y']:.4f})")
+    if abs(r["tokens"] - tokens[r["id"]]) > 0.0006:
+        bad.append(f"robot {r['id']} tokens {r['tokens']}, log {tokens[r['id']]}")
+if bad:
+    sys.exit("view_check: the page differs from the log:\n  " + "\n  ".join(bad))
+print(f"view_check: block {height} at t = {status['time_s']} s: {len(status['robots'])} robots' "
+      f"positions and tokens match `swarmfl inspect`; no script errors")
+EOF
+test -s "$work/view.png" || { echo "view_check: no screenshot" >&2; cat "$work/chrome.log" >&2; exit 1; }
+if [ -n "${SCREENSHOT:-}" ]; then
+  cp "$work/view.png" "$SCREENSHOT"
+  echo "view_check: screenshot in $SCREENSHOT"
+fi
