@@ -203,7 +203,8 @@ enum Command {
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]
     Sweep {
-        /// The experiment: e1-expiration, e1-faulty, e2-faulty, e2-malicious or e3-smart.
+        /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
+        /// e3-smart or e4-robustness.
         experiment: String,
         /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
         #[arg(long)]
@@ -345,11 +346,13 @@ const SWEEP_HELP: &str =
     "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
 
 Experiments, points and default runs (seeds 1..=runs):
+  e0-baselines   {chain,gossip,central}-{clean,faulty-1,malicious-3} (learn.aggregation) 5 runs
   e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs
   e1-faulty      faulty-1 (security off, 1 faulty robot, expiration 750 s)            10 runs
   e2-faulty      byzantine-0..7 (byzantine.count; kind none for 0)                    20 runs
   e2-malicious   byzantine-0..7                                                        20 runs
   e3-smart       byzantine-0..7                                                        18 runs
+  e4-robustness  <rule>--<attack>--<count>: 9 rules x (clean + 12 attacks x {3, 7})     3 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,
