@@ -322,3 +322,18 @@ fn what_needs_a_chain_is_refused_naming_the_key() {
     }
     c.validate().unwrap();
 }
+
+#[test]
+fn the_ideal_server_is_off_the_radio_so_a_partition_changes_no_record() {
+    let mut c = Preset::Smoke.config();
+    c.run.duration_s = 150.0;
+    c.learn.aggregation = Aggregation::Central;
+    let mut cut = c.clone();
+    cut.set("faults.partitions=[{kind=\"split\", start_s=0, end_s=150}]")
+        .unwrap();
+    cut.validate().unwrap();
+    let plain: Vec<crate::event::Record> = crate::sim::Sim::new(c, 2).unwrap().collect();
+    let parted: Vec<crate::event::Record> = crate::sim::Sim::new(cut, 2).unwrap().collect();
+    assert!(plain.iter().any(|r| r.kind() == "upload"), "robots upload");
+    assert_eq!(plain, parted);
+}
