@@ -144,6 +144,41 @@ pub struct LearnConfig {
     pub training_duration_s: f64,
     /// Fewest training samples a robot needs before it trains and submits.
     pub min_train_samples: u32,
+    /// How the robots' models are aggregated: through the blockchain (`chain`, the paper's
+    /// system), Flow-FL-style gossip of a virtual-stigmergy store (`gossip`) or an ideal
+    /// central server (`central`). See `aggregation` (ARCHITECTURE.md) for the baselines.
+    #[serde(default)]
+    pub aggregation: Aggregation,
+    /// `gossip` only: a robot leaves out of its average the stored models whose mean absolute
+    /// weight distance to its own current model exceeds `contract.outlier_threshold`
+    /// (Flow-FL has no such filter: off by default).
+    #[serde(default)]
+    pub gossip_outlier_filter: bool,
+}
+
+/// How the robots' trained models become their next starting model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Aggregation {
+    /// Transactions to the smart contract on every robot's chain (the paper's system).
+    #[default]
+    Chain,
+    /// Flow-FL: a virtual-stigmergy store replicated by neighbour gossip; each robot averages
+    /// the newest models it holds.
+    Gossip,
+    /// An ideal server that receives every model instantly and aggregates FedAvg.
+    Central,
+}
+
+impl Aggregation {
+    /// The name used in configurations and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Aggregation::Chain => "chain",
+            Aggregation::Gossip => "gossip",
+            Aggregation::Central => "central",
+        }
+    }
 }
 
 /// The per-robot proof-of-authority nodes and the radio between them.
@@ -473,11 +508,14 @@ pub enum Preset {
     E4Robustness,
     /// Issue 16: smart robots against a defence of the reward rule (`contract.defence`).
     E5SmartDefence,
+    /// Baselines: the chain (security on) against Flow-FL gossip and a central server; sweep
+    /// `learn.aggregation` and the Byzantine robots.
+    E0Baselines,
 }
 
 impl Preset {
     /// Every preset, in the order `swarmfl presets` lists them.
-    pub const ALL: [Preset; 11] = [
+    pub const ALL: [Preset; 12] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
@@ -489,6 +527,7 @@ impl Preset {
         Preset::E3Smart,
         Preset::E4Robustness,
         Preset::E5SmartDefence,
+        Preset::E0Baselines,
     ];
 
     /// The preset's name as written on the command line.
@@ -505,6 +544,7 @@ impl Preset {
             Preset::E3Smart => "e3-smart",
             Preset::E4Robustness => "e4-robustness",
             Preset::E5SmartDefence => "e5-smart-defence",
+            Preset::E0Baselines => "e0-baselines",
         }
     }
 
@@ -535,6 +575,10 @@ impl Preset {
             }
             Preset::E5SmartDefence => {
                 "Exp. 5: smart robots against the agreement defence; sweep byzantine.count 0..7"
+            }
+            Preset::E0Baselines => {
+                "Baselines: chain vs Flow-FL gossip vs central server, SGD 0.01; sweep \
+                 learn.aggregation x {0, 1 faulty, 3 malicious}"
             }
         }
     }
@@ -606,6 +650,11 @@ impl Preset {
                 c.byzantine.count = 1;
                 c.contract.defence = Defence::Agreement;
             }
+            Preset::E0Baselines => {
+                // The paper's system (security on, learning rate 0.01, docs/SPEC.md section
+                // 2) at its full 5000 s; the sweep varies learn.aggregation and the Byzantine
+                // robots.
+            }
         }
         c
     }
@@ -666,6 +715,8 @@ impl Config {
                 training_period_s: 100.0,
                 training_duration_s: 0.0,
                 min_train_samples: 1,
+                aggregation: Aggregation::Chain,
+                gossip_outlier_filter: false,
             },
             ledger: LedgerConfig {
                 block_period_s: 10.0,
@@ -1215,9 +1266,6 @@ impl Config {
             });
         }
         crate::contract::options::check_rule_options(c)?;
-        if c.contract.engine == ContractEngine::Evm {
-            crate::contract::evm::supports(c)?;
-        }
         int(
             "byzantine.count",
             c.byzantine.count.into(),
@@ -1250,6 +1298,12 @@ impl Config {
                 value,
                 allowed,
             });
+        }
+        crate::aggregation::supports(c)?;
+        // After the aggregation: a baseline refuses the engine naming learn.aggregation, in
+        // builds with or without the evm feature.
+        if c.contract.engine == ContractEngine::Evm {
+            crate::contract::evm::supports(c)?;
         }
         int(
             "byzantine.claimed_samples",

@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use crate::aggregation::AggregationEvent;
 use crate::ledger::LedgerEvent;
 use crate::metrics::LearnReport;
 use crate::types::{Digest, RobotId, SimTime};
@@ -57,6 +58,9 @@ pub enum Event {
     /// The run's configuration changes here (a fork): the contract's rules for blocks sealed
     /// after this time, and everything the agents decide from now on.
     Reconfigure(Reconfiguration),
+    /// A baseline aggregation's event (`learn.aggregation` = `gossip` or `central`): a
+    /// stigmergy write, send or delivery, a merge, an upload.
+    Aggregation(AggregationEvent),
 }
 
 /// A change of configuration in the middle of a run, at the end of a tick.
@@ -86,6 +90,7 @@ impl Event {
             },
             Event::Learn(_) => "learn",
             Event::Reconfigure(_) => "reconfigure",
+            Event::Aggregation(e) => e.kind(),
         }
     }
 }
@@ -108,6 +113,10 @@ pub struct Checkpoint {
     pub contract: Digest,
     /// Digest of the metrics accumulated so far.
     pub metrics: Digest,
+    /// Digest of a baseline aggregation's state (stigmergy replicas or central server); absent
+    /// in `chain` runs, so their records are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aggregation: Option<Digest>,
 }
 
 /// Why a checkpoint was written.
@@ -163,6 +172,9 @@ impl Checkpoint {
         }
         if self.metrics != other.metrics {
             return Some("metrics".to_string());
+        }
+        if self.aggregation != other.aggregation {
+            return Some("aggregation (stigmergy replicas or central server)".to_string());
         }
         if self.time != other.time || self.cause != other.cause {
             return Some("checkpoint time or cause".to_string());

@@ -38,6 +38,16 @@ pub enum ForkError {
         /// The parent's seed.
         seed: u64,
     },
+    /// The parent has no blocks to fork at (a baseline aggregation).
+    #[error("{path}: a learn.aggregation = {aggregation} run has no blocks to fork at; forks need learn.aggregation = chain; for a what-if, start a new run: `swarmfl run --seed {seed} --set KEY=VALUE ...` with the parent's configuration")]
+    NoBlocks {
+        /// The parent log.
+        path: String,
+        /// Its aggregation.
+        aggregation: &'static str,
+        /// The parent's seed.
+        seed: u64,
+    },
     /// An override is malformed or changes a key that cannot change mid-run.
     #[error("fork of {path} at block {height}: {reason}")]
     Override {
@@ -130,6 +140,13 @@ pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan
     let seed = parent_header.seed;
     if height == 0 {
         return Err(ForkError::AtGenesis { path: name, seed });
+    }
+    if root.learn.aggregation != crate::config::Aggregation::Chain {
+        return Err(ForkError::NoBlocks {
+            path: name,
+            aggregation: root.learn.aggregation.name(),
+            seed,
+        });
     }
     let blocks = match inspect::read_sidecar(parent) {
         Some(sidecar) => sidecar.blocks,

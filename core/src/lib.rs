@@ -7,6 +7,7 @@
 //! ([`log`]). Replaying the log through the same reducers rebuilds every state bit-exactly.
 //! See ARCHITECTURE.md for the map and the invariants.
 
+pub mod aggregation;
 pub mod byzantine;
 pub mod chaos;
 pub mod config;

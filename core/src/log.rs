@@ -732,6 +732,7 @@ mod tests {
                     nodes: vec![],
                     contract: Digest::default(),
                     metrics: Digest::default(),
+                    aggregation: None,
                     params: Digest::default(),
                 })
             } else {

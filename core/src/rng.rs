@@ -45,6 +45,9 @@ pub enum Purpose {
     Faults = 14,
     /// A Byzantine robot's ledger misbehaviour (spam contents, targets).
     LedgerAttack = 15,
+    /// Packet loss on the virtual-stigmergy gossip links from a robot (`learn.aggregation =
+    /// "gossip"`).
+    Stigmergy = 16,
 }
 
 /// A deterministic random number generator (PCG 128/64, "Pcg64") with portable float draws.

@@ -20,8 +20,9 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
+use crate::aggregation::{self, AggregationEvent, AggregationState, AggregationSummary, Gossiper};
 use crate::byzantine::{self, ledger::LedgerAgents};
-use crate::config::{ByzantineKind, Config, LedgerBehaviour};
+use crate::config::{Aggregation, ByzantineKind, Config, LedgerBehaviour};
 use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
@@ -100,6 +101,8 @@ pub struct State {
     pub ledger: Ledger,
     /// What the robots measured.
     pub metrics: Metrics,
+    /// A baseline aggregation's state (`learn.aggregation` other than `chain`; idle otherwise).
+    pub aggregation: AggregationState,
     /// Digest of the fixed parameters (contract parameters and genesis block).
     pub params: Digest,
 }
@@ -153,10 +156,9 @@ pub fn apply_ledger_side(
             metrics.apply(time, report);
             Ok(())
         }
-        Event::Tick(_) | Event::Reconfigure(_) => Err(ApplyError::Invalid(format!(
-            "a {} event needs the whole state",
-            event.kind()
-        ))),
+        Event::Tick(_) | Event::Reconfigure(_) | Event::Aggregation(_) => Err(ApplyError::Invalid(
+            format!("a {} event needs the whole state", event.kind()),
+        )),
     }
 }
 
@@ -173,7 +175,9 @@ impl State {
     /// The state at time 0 of the run `(config, seed)`.
     pub fn genesis(config: &Config, seed: u64) -> Result<State, SimError> {
         let world = World::new(config, seed)?;
-        let params = ContractParams::from_config(config, genesis_weights(config, seed)?);
+        let genesis = genesis_weights(config, seed)?;
+        let aggregation = AggregationState::new(config, genesis.clone());
+        let params = ContractParams::from_config(config, genesis);
         let mut digest = blake3::Hasher::new();
         digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
         let ledger = Ledger::new(config, seed, params);
@@ -182,6 +186,7 @@ impl State {
             world,
             ledger,
             metrics: Metrics::default(),
+            aggregation,
             params: digest.finalize().into(),
         })
     }
@@ -191,6 +196,7 @@ impl State {
         match event {
             Event::Tick(tick) => apply_tick(&mut self.world, time, tick),
             Event::Reconfigure(change) => self.reconfigure(time, change),
+            Event::Aggregation(e) => self.aggregation.apply(time, e).map_err(ApplyError::Invalid),
             Event::Ledger(_) | Event::Learn(_) => {
                 apply_ledger_side(&mut self.ledger, &mut self.metrics, time, event)
             }
@@ -245,6 +251,8 @@ impl State {
             nodes: (0..robots).map(|r| self.ledger.node_digest(r)).collect(),
             contract: contract.finalize().into(),
             metrics: self.metrics.digest(),
+            aggregation: (self.aggregation.kind() != Aggregation::Chain)
+                .then(|| self.aggregation.digest()),
         }
     }
 }
@@ -350,6 +358,9 @@ pub struct RunSummary {
     pub contract: ContractSummary,
     /// Tokens per group at the end.
     pub tokens: TokenSummary,
+    /// How models were aggregated, token conservation, and bytes sent and stored per robot.
+    #[serde(default)]
+    pub aggregation: AggregationSummary,
 }
 
 impl RunSummary {
@@ -369,6 +380,25 @@ impl RunSummary {
             state.world.heldout(),
             &byzantine,
         );
+        let (contract, aggregation) = match config.learn.aggregation {
+            Aggregation::Chain => {
+                let summary = aggregation::summary::chain_summary(
+                    config,
+                    &state.ledger.stats(),
+                    contract
+                        .final_heldout_loss
+                        .unwrap_or(contract.heldout_loss_initial),
+                );
+                (contract, summary)
+            }
+            Aggregation::Gossip | Aggregation::Central => aggregation::summary::summarise(
+                config,
+                &state.aggregation,
+                &state.metrics,
+                state.world.heldout(),
+                &byzantine,
+            ),
+        };
         RunSummary {
             format: crate::log::FORMAT_VERSION,
             seed,
@@ -390,6 +420,7 @@ impl RunSummary {
             ledger: LedgerSummary::new(state.ledger.stats()),
             contract,
             tokens,
+            aggregation,
         }
     }
 }
@@ -433,7 +464,31 @@ struct Waiting {
 /// A submission waiting for its training to finish (`learn.training_duration_s`).
 struct Pending {
     report: LearnReport,
-    tx: Option<Tx>,
+    submission: Option<Submission>,
+}
+
+/// How a model is submitted: a transaction to the contract, or a baseline's write or upload.
+enum Submission {
+    Tx(Tx),
+    Baseline(AggregationEvent),
+}
+
+/// What a robot starts a learning phase from, whatever the aggregation: the shared model at
+/// its own chain's head, its stigmergy merge, or the server's model.
+struct Start {
+    weights: Arc<[i64]>,
+    digest: Digest,
+    round: u64,
+}
+
+impl From<aggregation::StartView> for Start {
+    fn from(view: aggregation::StartView) -> Start {
+        Start {
+            weights: view.weights,
+            digest: view.digest,
+            round: view.round,
+        }
+    }
 }
 
 /// The robots' learning loop: schedule, training, forging, submitting (driver side).
@@ -528,6 +583,8 @@ pub struct Sim {
     seed: u64,
     state: State,
     network: Network,
+    /// The stigmergy's gossip scheduler (`learn.aggregation = "gossip"`; idle otherwise).
+    gossiper: Gossiper,
     ahead: LookAhead,
     learners: Learners,
     tick_ms: u64,
@@ -575,6 +632,7 @@ impl Sim {
         Ok(Sim {
             total_ticks: config.ticks(),
             network,
+            gossiper: Gossiper::new(&config, seed),
             faults: FaultSchedule::new(&config.faults, config.world.robots),
             agents,
             ahead,
@@ -721,21 +779,25 @@ impl Sim {
 
         self.switch(Part::Ledger);
         let peers = self.peers(now);
-        for (restart_ms, robot) in self.faults.restart_times(time.0, now.0) {
-            self.ledger_until(SimTime(restart_ms - 1), &peers);
-            self.network.on_restart(robot);
-            self.emit(
-                SimTime(restart_ms),
-                Event::Ledger(LedgerEvent::Restart { node: robot }),
-            );
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.ledger_tick(time, now, &peers),
+            Aggregation::Gossip => {
+                while let Some((at, event)) =
+                    self.gossiper
+                        .next_event(&self.state.aggregation.stigmergy, now, &peers)
+                {
+                    self.emit(at, Event::Aggregation(event));
+                }
+            }
+            // The ideal server is not on the radio: uploads and downloads are instant.
+            Aggregation::Central => {}
         }
-        self.ledger_until(now, &peers);
-        let faults = &self.faults;
-        let injections = self.agents.on_tick(&self.state.ledger, now, &peers, &|r| {
-            faults.is_down(r, now.0)
-        });
-        for event in injections {
-            self.emit(now, Event::Ledger(event));
+        if self.config.learn.aggregation != Aggregation::Chain
+            && now.0.is_multiple_of(self.period_checkpoint_ms())
+        {
+            // No blocks: a checkpoint every block period pins the state for replay, inspect
+            // and bisect by time.
+            self.checkpoint(now, CheckpointCause::Periodic);
         }
 
         self.switch(Part::Learning);
@@ -749,6 +811,32 @@ impl Sim {
             let (change, config) = self.reconfigurations.pop_front().expect("checked");
             self.reconfigure(now, change, config);
         }
+    }
+
+    /// The ledger's part of the tick from `time` to `now`: restarts of crashed nodes, the
+    /// sealings, gossip and deliveries due, the Byzantine nodes' injections.
+    fn ledger_tick(&mut self, time: SimTime, now: SimTime, peers: &[Vec<RobotId>]) {
+        for (restart_ms, robot) in self.faults.restart_times(time.0, now.0) {
+            self.ledger_until(SimTime(restart_ms - 1), peers);
+            self.network.on_restart(robot);
+            self.emit(
+                SimTime(restart_ms),
+                Event::Ledger(LedgerEvent::Restart { node: robot }),
+            );
+        }
+        self.ledger_until(now, peers);
+        let faults = &self.faults;
+        let injections = self.agents.on_tick(&self.state.ledger, now, peers, &|r| {
+            faults.is_down(r, now.0)
+        });
+        for event in injections {
+            self.emit(now, Event::Ledger(event));
+        }
+    }
+
+    /// The checkpoint period of a run without blocks: the block period, in ms.
+    fn period_checkpoint_ms(&self) -> u64 {
+        ((self.config.ledger.block_period_s * 1000.0).round() as u64).max(1)
     }
 
     /// The radio's peer sets at `now` with the links the faults cut removed.
@@ -869,7 +957,7 @@ impl Sim {
             match self.byzantine_plan(r, w, now, last_chance, &mut jobs) {
                 Some(plan) => plans.push((r, w.phase, w.started_ms, plan)),
                 None if last_chance => {
-                    let base_round = self.state.ledger.head_state(r).round;
+                    let base_round = self.current(r).round;
                     let report = LearnReport {
                         robot: r,
                         base_round,
@@ -892,6 +980,14 @@ impl Sim {
             self.learners.next_due_ms[i] += self.learners.period_ms;
             let captured = self.ahead.upcoming.remove(&(due_ms, r));
             let speculated = self.ahead.speculated.remove(&(r, phase));
+            if self.config.learn.aggregation != Aggregation::Chain {
+                // A baseline robot merges its replica (gossip) or downloads the server's model
+                // (central) as its phase begins, Byzantine or not: that is an event.
+                self.emit(
+                    now,
+                    Event::Aggregation(AggregationEvent::Merge { robot: r }),
+                );
+            }
             if self.learners.byzantine[i] {
                 let w = Waiting {
                     phase,
@@ -905,7 +1001,7 @@ impl Sim {
                 }
                 continue;
             }
-            let view = self.state.ledger.head_state(r);
+            let view = self.current(r);
             let base_round = view.round;
             let plan = if let Some(reason) = self.cannot_submit(r, now) {
                 Plan::Skip { reason, base_round }
@@ -925,9 +1021,7 @@ impl Sim {
                 let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
                     >= min_train;
                 match (data, speculated) {
-                    (Some(_), Some((digest, outcome)))
-                        if trainable && digest == view.weights_digest =>
-                    {
+                    (Some(_), Some((digest, outcome))) if trainable && digest == view.digest => {
                         Plan::Ready {
                             outcome,
                             base_round,
@@ -1004,30 +1098,62 @@ impl Sim {
                 base_round,
                 action,
             };
-            self.learners.pending.insert(
-                (submit_at, r, phase),
-                Pending {
-                    report,
-                    tx: submission,
-                },
-            );
+            self.learners
+                .pending
+                .insert((submit_at, r, phase), Pending { report, submission });
         }
     }
 
-    /// Why `robot` cannot submit now, in its own node's view: its balance is below the stake
-    /// (when the rule stakes), or it already submitted in the current round.
+    /// Why `robot` cannot submit now, in its own node's view: it is down, its balance is below
+    /// the stake (when the rule stakes), or it already submitted in the current round.
     fn cannot_submit(&self, robot: RobotId, now: SimTime) -> Option<SkipReason> {
-        let view = self.state.ledger.head_state(robot);
         if self.faults.is_down(robot, now.0) {
             Some(SkipReason::Crashed)
-        } else if self.config.rule().stakes()
-            && view.balances[robot as usize] < self.learners.stake_units
+        } else if self.config.learn.aggregation == Aggregation::Chain
+            && self.config.rule().stakes()
+            && self.state.ledger.head_state(robot).balances[robot as usize]
+                < self.learners.stake_units
         {
             Some(SkipReason::InsufficientStake)
-        } else if view.has_submitted(robot) {
+        } else if self.submitted(robot) {
             Some(SkipReason::AlreadySubmitted)
         } else {
             None
+        }
+    }
+
+    /// Whether `robot`'s model already waits in the open round: on its own chain, or at the
+    /// server. A stigmergy write never waits (each phase overwrites the robot's key).
+    fn submitted(&self, robot: RobotId) -> bool {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.state.ledger.head_state(robot).has_submitted(robot),
+            Aggregation::Gossip => false,
+            Aggregation::Central => self.state.aggregation.server.has_pending(robot),
+        }
+    }
+
+    /// What `robot` starts from now: the shared model at its own chain's head, its model after
+    /// its last merge (`gossip`), or the server's model (`central`).
+    fn current(&self, robot: RobotId) -> Start {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => {
+                let head = self.state.ledger.head_state(robot);
+                Start {
+                    weights: head.weights.clone(),
+                    digest: head.weights_digest,
+                    round: head.round,
+                }
+            }
+            _ => Start::from(self.state.aggregation.current(robot)),
+        }
+    }
+
+    /// What `robot` would start from if its phase began now (for speculative training): as
+    /// [`Sim::current`], except that a `gossip` robot would merge its replica as it is now.
+    fn preview(&self, robot: RobotId) -> Start {
+        match self.config.learn.aggregation {
+            Aggregation::Chain => self.current(robot),
+            _ => Start::from(self.state.aggregation.preview(robot)),
         }
     }
 
@@ -1041,7 +1167,19 @@ impl Sim {
         last_chance: bool,
         jobs: &mut Vec<TrainJob>,
     ) -> Option<Plan> {
-        let chain = self.state.ledger.head_state(robot);
+        // Without a chain, the attack reads the same kind of view built from what the robot
+        // holds: its stigmergy replica, or the server (`AggregationState::attacker_view`).
+        let baseline;
+        let chain = match self.config.learn.aggregation {
+            Aggregation::Chain => self.state.ledger.head_state(robot),
+            Aggregation::Gossip | Aggregation::Central => {
+                baseline = self
+                    .state
+                    .aggregation
+                    .attacker_view(robot, self.state.ledger.current_params());
+                &baseline
+            }
+        };
         let base_round = chain.round;
         if let Some(reason) = self.cannot_submit(robot, now) {
             return Some(Plan::Skip { reason, base_round });
@@ -1101,28 +1239,41 @@ impl Sim {
         })
     }
 
-    /// The signed submission of `weights` claiming `samples`, from `robot`'s own node.
-    fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> Tx {
-        let call = Call::SubmitModel {
-            weights: Arc::from(weights),
-            samples,
-        };
-        self.state
-            .ledger
-            .make_tx(robot, self.learners.stake_units, call)
+    /// The submission of `weights` claiming `samples` by `robot` and its identity in the
+    /// learning report: a transaction signed by its own node, or a baseline's write or upload.
+    fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> (Digest, Submission) {
+        let weights: Arc<[i64]> = Arc::from(weights);
+        if self.config.learn.aggregation == Aggregation::Chain {
+            let call = Call::SubmitModel { weights, samples };
+            let tx = self
+                .state
+                .ledger
+                .make_tx(robot, self.learners.stake_units, call);
+            return (tx.hash_and_size().0, Submission::Tx(tx));
+        }
+        let a = &self.state.aggregation;
+        (
+            a.next_hash(robot, samples, weights.clone()),
+            Submission::Baseline(a.submission(robot, samples, weights)),
+        )
     }
 
     /// The report and submission of a forged model claiming `claimed` samples (a model that
     /// does not convert to fixed point is skipped, as an honest one is).
-    fn forged(&self, robot: RobotId, weights: &[f32], claimed: u32) -> (LearnAction, Option<Tx>) {
+    fn forged(
+        &self,
+        robot: RobotId,
+        weights: &[f32],
+        claimed: u32,
+    ) -> (LearnAction, Option<Submission>) {
         match learn::to_fixed(weights, self.config.contract.weight_scale) {
             Ok(fixed) => {
-                let tx = self.submission(robot, fixed, u64::from(claimed));
+                let (tx, submission) = self.submission(robot, fixed, u64::from(claimed));
                 let action = LearnAction::Forged {
-                    tx: tx.hash_and_size().0,
+                    tx,
                     claimed_samples: claimed,
                 };
-                (action, Some(tx))
+                (action, Some(submission))
             }
             Err(_) => (
                 LearnAction::Skipped {
@@ -1134,18 +1285,19 @@ impl Sim {
     }
 
     /// The report and submission of an honest training.
-    fn trained(&self, robot: RobotId, outcome: &TrainOutcome) -> (LearnAction, Option<Tx>) {
+    fn trained(&self, robot: RobotId, outcome: &TrainOutcome) -> (LearnAction, Option<Submission>) {
         match learn::to_fixed(&outcome.weights, self.config.contract.weight_scale) {
             Ok(fixed) => {
-                let tx = self.submission(robot, fixed, u64::from(outcome.train_samples));
+                let (tx, submission) =
+                    self.submission(robot, fixed, u64::from(outcome.train_samples));
                 let action = LearnAction::Trained {
-                    tx: tx.hash_and_size().0,
+                    tx,
                     train_samples: outcome.train_samples,
                     val_samples: outcome.val_samples,
                     val_loss: outcome.val_loss,
                     final_train_loss: outcome.final_train_loss,
                 };
-                (action, Some(tx))
+                (action, Some(submission))
             }
             Err(_) => (
                 LearnAction::Skipped {
@@ -1172,15 +1324,15 @@ impl Sim {
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
         {
             debug_assert!(due_ms > now.0, "due phases were taken out");
-            let view = self.state.ledger.head_state(r);
+            let view = self.preview(r);
             let unchanged = self
                 .ahead
                 .speculated
                 .get(&(r, *phase))
-                .is_some_and(|(digest, _)| *digest == view.weights_digest);
+                .is_some_and(|(digest, _)| *digest == view.digest);
             let trainable =
                 learn::split_point(samples.len(), self.config.learn.train_fraction) >= min_train;
-            if unchanged || !trainable || view.has_submitted(r) {
+            if unchanged || !trainable || self.submitted(r) {
                 continue;
             }
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
@@ -1193,7 +1345,7 @@ impl Sim {
                 data,
                 dropout: rng::substream(self.seed, Purpose::Dropout, r, *phase),
             });
-            keys.push(((r, *phase), view.weights_digest));
+            keys.push(((r, *phase), view.digest));
         }
         keys
     }
@@ -1206,11 +1358,15 @@ impl Sim {
             if at > now.0 {
                 break;
             }
-            let Pending { report, tx } = entry.remove();
+            let Pending { report, submission } = entry.remove();
             // A training finished between ticks is submitted at the tick that follows.
             self.emit(now, Event::Learn(report));
-            if let Some(tx) = tx {
-                self.emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
+            match submission {
+                Some(Submission::Tx(tx)) => {
+                    self.emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
+                }
+                Some(Submission::Baseline(event)) => self.emit(now, Event::Aggregation(event)),
+                None => {}
             }
         }
     }

@@ -4,7 +4,7 @@
 //! runs cover every rule and every attack; `scripts/rules-attacks-smoke.sh` runs all 108 pairs
 //! at `smoke` length through the CLI.
 
-use swarmfl_core::config::{ByzantineKind, Preset};
+use swarmfl_core::config::{Aggregation, ByzantineKind, Preset};
 use swarmfl_core::contract::rules::ALL_RULES;
 use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
@@ -67,4 +67,66 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
             kind.name()
         );
     });
+}
+
+/// Without a chain the attacks read a view built from the robot's stigmergy replica or the
+/// server (`AggregationState::attacker_view`): every attack acts under `gossip` and `central`
+/// (attack i under the aggregation i mod 2), and the baseline runs replay bit-exactly.
+#[test]
+fn every_attack_acts_under_gossip_and_central_and_replays_bit_exactly() {
+    let aggregations = [Aggregation::Gossip, Aggregation::Central];
+    for (i, kind) in ByzantineKind::ALL[1..].iter().copied().enumerate() {
+        let aggregation = aggregations[i % 2];
+        let mut config = Preset::Smoke.config();
+        config.run.duration_s = 250.0;
+        config.learn.aggregation = aggregation;
+        config.byzantine.kind = kind;
+        config.byzantine.count = 4;
+        config.validate().expect("a valid configuration");
+        let seed = 11;
+        let mut state = State::genesis(&config, seed).expect("genesis");
+        let (mut forged, mut checkpoints) = (0, 0);
+        for record in Sim::new(config.clone(), seed).expect("a run") {
+            match record {
+                Record::Event { time, event } => {
+                    if let Event::Learn(r) = &event {
+                        forged += usize::from(matches!(r.action, LearnAction::Forged { .. }));
+                    }
+                    assert!(
+                        !matches!(event, Event::Ledger(_)),
+                        "a {} run has no ledger events",
+                        aggregation.name()
+                    );
+                    state
+                        .apply(time, &event)
+                        .expect("the run's own events fold");
+                }
+                Record::Checkpoint(c) => {
+                    assert!(
+                        c.aggregation.is_some(),
+                        "baseline checkpoints pin its state"
+                    );
+                    assert_eq!(
+                        state.checkpoint(c.time, c.cause),
+                        c,
+                        "{} vs {}: checkpoint {checkpoints} differs on replay",
+                        aggregation.name(),
+                        kind.name()
+                    );
+                    checkpoints += 1;
+                }
+            }
+        }
+        assert!(
+            checkpoints > 10,
+            "{}: {checkpoints} checkpoints",
+            kind.name()
+        );
+        assert!(
+            forged > 0,
+            "{} vs {}: the Byzantine robots never submitted",
+            aggregation.name(),
+            kind.name()
+        );
+    }
 }

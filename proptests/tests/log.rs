@@ -55,6 +55,7 @@ fn record(spec: &Spec) -> Record {
             nodes: (0..*nodes).map(|i| Digest::of(&[i])).collect(),
             contract: Digest::of(&time_ms.to_le_bytes()),
             metrics: Digest::default(),
+            aggregation: None,
             params: Digest::default(),
         }),
         Spec::Tick { time_ms, commands } => Record::Event {

@@ -3,6 +3,7 @@
 use std::path::Path;
 use std::time::Instant;
 
+use swarmfl_core::aggregation::timeline;
 use swarmfl_core::inspect::{self, BlockReport, Expr, SubmissionInfo};
 use swarmfl_core::RobotId;
 
@@ -248,6 +249,9 @@ pub fn warn_if_truncated(index: &inspect::RunIndex) {
 /// Prints the first block where `expr` holds.
 pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Result<bool> {
     let predicate = Expr::parse(expr)?;
+    if is_baseline(log)? {
+        return bisect_by_time(log, expr, &predicate, monotone, json);
+    }
     let start = Instant::now();
     let index = inspect::index_run(log, None)?;
     warn_if_truncated(&index);
@@ -383,4 +387,95 @@ fn describe(index: &inspect::RunIndex, height: Option<u64>) -> String {
         ),
         None => "no block".to_string(),
     }
+}
+
+/// Whether the log is a baseline run (`learn.aggregation` other than `chain`): no blocks, so
+/// it is inspected and bisected by time.
+fn is_baseline(log: &Path) -> anyhow::Result<bool> {
+    let reader = swarmfl_core::log::LogReader::open(log)?;
+    let config = swarmfl_core::replay::header_config(&reader, &log.display().to_string())?;
+    Ok(config.learn.aggregation != swarmfl_core::config::Aggregation::Chain)
+}
+
+/// `bisect` over the checkpoints of a baseline run (one every block period).
+fn bisect_by_time(
+    log: &Path,
+    expr: &str,
+    predicate: &Expr,
+    monotone: bool,
+    json: bool,
+) -> anyhow::Result<bool> {
+    let start = Instant::now();
+    let (hit, evaluations) = timeline::bisect_by_time(log, predicate, monotone)?;
+    let took_ms = start.elapsed().as_secs_f64() * 1000.0;
+    if json {
+        println!(
+            "{}",
+            serde_json::to_string_pretty(&serde_json::json!({
+                "expression": expr,
+                "monotone": monotone,
+                "by": "time",
+                "hit": hit.as_ref().map(|(t, values)| serde_json::json!({"time_s": t, "values": values})),
+                "evaluations": evaluations,
+                "ms": took_ms,
+            }))?
+        );
+    } else {
+        match &hit {
+            Some((t, values)) => {
+                println!(
+                    "first checkpoint where `{expr}` holds: t = {t:.1} s (a baseline run: by time)"
+                );
+                for (name, value) in values {
+                    println!("  {name} = {value}");
+                }
+                println!("{evaluations} evaluations; {took_ms:.0} ms");
+            }
+            None => println!("`{expr}` holds at no checkpoint of the run"),
+        }
+    }
+    Ok(hit.is_some())
+}
+
+/// `inspect --time T` of a baseline run: each robot's replica, bytes and model at the last
+/// checkpoint at or before T.
+pub fn inspect_time(log: &Path, time_s: f64, json: bool) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        time_s.is_finite() && time_s >= 0.0,
+        "--time must be a non-negative number of seconds, got {time_s}"
+    );
+    let start = Instant::now();
+    let r = timeline::report_at(log, swarmfl_core::SimTime::from_secs(time_s))?;
+    let took_ms = start.elapsed().as_secs_f64() * 1000.0;
+    if json {
+        let mut value = serde_json::to_value(&r)?;
+        value["inspect_ms"] = serde_json::json!(took_ms);
+        println!("{}", serde_json::to_string_pretty(&value)?);
+        return Ok(());
+    }
+    println!(
+        "t = {:.1} s ({} aggregation): {} aggregations, last loss {:.5}, held-out loss {:.5} (mean over honest robots)",
+        r.time_s,
+        r.aggregation.name(),
+        r.round,
+        r.loss,
+        r.heldout_loss
+    );
+    for robot in &r.robots {
+        let entries: Vec<String> = robot
+            .entries
+            .iter()
+            .map(|(k, c)| format!("{k}:{c}"))
+            .collect();
+        println!(
+            "  robot {:>3} ({:<9}) held-out {:.5}  sent {:>10} B  entries [{}]",
+            robot.robot,
+            mark(robot.byzantine),
+            robot.heldout_loss,
+            robot.bytes_sent,
+            entries.join(" ")
+        );
+    }
+    println!("inspect took {took_ms:.0} ms");
+    Ok(())
 }

@@ -135,8 +135,12 @@ enum Command {
         /// The log (run.swlog).
         log: PathBuf,
         /// Height on the final canonical chain (the best node's chain at the end; 0 = genesis).
+        #[arg(long, required_unless_present = "time", conflicts_with = "time")]
+        block: Option<u64>,
+        /// A baseline run (`learn.aggregation` gossip or central, no blocks): the state at the
+        /// last checkpoint at or before this simulated time, s.
         #[arg(long)]
-        block: u64,
+        time: Option<f64>,
         /// Narrow to one robot's view too (its node, balance, data, last learning phase).
         #[arg(long)]
         robot: Option<u32>,
@@ -147,7 +151,9 @@ enum Command {
         #[arg(long)]
         no_index: bool,
     },
-    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none).
+    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none);
+    /// in a baseline run (no blocks), the first checkpoint by time (time, round, loss,
+    /// heldout_loss).
     #[command(after_long_help = BISECT_HELP)]
     Bisect {
         /// The log (run.swlog).
@@ -198,8 +204,8 @@ enum Command {
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]
     Sweep {
-        /// The experiment: e1-expiration, e1-faulty, e2-faulty, e2-malicious, e3-smart,
-        /// e4-robustness or e5-smart-defence.
+        /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
+        /// e3-smart, e4-robustness or e5-smart-defence.
         experiment: String,
         /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
         #[arg(long)]
@@ -341,6 +347,7 @@ const SWEEP_HELP: &str =
     "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
 
 Experiments, points and default runs (seeds 1..=runs):
+  e0-baselines   {chain,gossip,central}-{clean,faulty-1,malicious-3} (learn.aggregation) 5 runs
   e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs
   e1-faulty      faulty-1 (security off, 1 faulty robot, expiration 750 s)            10 runs
   e2-faulty      byzantine-0..7 (byzantine.count; kind none for 0)                    20 runs
@@ -457,10 +464,15 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Inspect {
             log,
             block,
+            time,
             robot,
             json,
             no_index,
-        } => inspect::inspect(&log, block, robot, json, !no_index)?,
+        } => match (block, time) {
+            (Some(block), _) => inspect::inspect(&log, block, robot, json, !no_index)?,
+            (None, Some(time)) => inspect::inspect_time(&log, time, json)?,
+            (None, None) => anyhow::bail!("give --block HEIGHT or --time SECONDS"),
+        },
         Command::Bisect {
             log,
             until,

@@ -255,6 +255,9 @@ pub struct PointStats {
     pub seeds: Vec<u64>,
     /// Loss over time (empty without `contract` sections).
     pub loss: Curve,
+    /// Held-out loss of the aggregated model over time (the last aggregation at or before each
+    /// bin's end; `gossip`: of whichever robot merged last).
+    pub heldout: Curve,
     /// Chain size over time in MB (empty without `ledger` sections).
     pub chain_mb: Curve,
     /// Scalar metrics by name (only those present in the results).
@@ -353,6 +356,7 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
         .filter_map(|r| r.summary.get("sim_time_s").and_then(Value::as_f64))
         .fold(0.0f64, f64::max);
     let mut loss_runs: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
+    let mut heldout_runs: Vec<(Vec<f64>, Vec<f64>)> = Vec::new();
     let mut chain_runs: Vec<Vec<(f64, f64)>> = Vec::new();
     let mut walls = Vec::new();
     for r in runs {
@@ -365,12 +369,21 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
         if let Some(c) = s.get("contract").filter(|c| c.is_object()) {
             push("rounds", c.get("rounds").and_then(Value::as_f64));
             push("final_loss", c.get("final_loss").and_then(Value::as_f64));
-            if let Some(h) = f64s(c.get("heldout_loss_by_round")) {
-                push("final_heldout_loss", h.last().copied());
+            // The summary's own final held-out loss (gossip: the mean over honest robots), else
+            // the last aggregation's.
+            let heldout = f64s(c.get("heldout_loss_by_round"));
+            push(
+                "final_heldout_loss",
+                c.get("final_heldout_loss")
+                    .and_then(Value::as_f64)
+                    .or_else(|| heldout.as_ref().and_then(|h| h.last().copied())),
+            );
+            let times = f64s(c.get("round_times_s"));
+            if let (Some(t), Some(l)) = (&times, f64s(c.get("loss_by_round"))) {
+                loss_runs.push((t.clone(), l));
             }
-            if let (Some(t), Some(l)) = (f64s(c.get("round_times_s")), f64s(c.get("loss_by_round")))
-            {
-                loss_runs.push((t, l));
+            if let (Some(t), Some(h)) = (times, heldout) {
+                heldout_runs.push((t, h));
             }
             if let Some(sub) = c.get("submissions") {
                 push("accepted", sub.get("accepted").and_then(Value::as_f64));
@@ -408,11 +421,20 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
                 chain_runs.push(v);
             }
         }
+        if let Some(a) = s.get("aggregation").filter(|a| a.is_object()) {
+            let mb = |key: &str| a.get(key).and_then(Value::as_f64).map(|b| b / 1e6);
+            push("sent_mb_per_robot", mb("bytes_sent_per_robot_mean"));
+            push("stored_mb_per_robot", mb("bytes_stored_per_robot_mean"));
+        }
         if let Some(w) = s.get("wall_s").and_then(Value::as_f64) {
             walls.push(w);
         }
     }
     let loss_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = loss_runs
+        .iter()
+        .map(|(t, l)| Box::new(move |at: f64| loss_at(t, l, at)) as Box<dyn Fn(f64) -> Option<f64>>)
+        .collect();
+    let heldout_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = heldout_runs
         .iter()
         .map(|(t, l)| Box::new(move |at: f64| loss_at(t, l, at)) as Box<dyn Fn(f64) -> Option<f64>>)
         .collect();
@@ -428,6 +450,7 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
         x,
         seeds: runs.iter().map(|r| r.seed).collect(),
         loss: curve(sim_time_s, &loss_fns),
+        heldout: curve(sim_time_s, &heldout_fns),
         chain_mb: curve(sim_time_s, &chain_fns),
         metrics: metric_values
             .into_iter()
@@ -459,7 +482,11 @@ pub fn numbers_csv(stats: &[ExperimentStats]) -> (String, String) {
                     ci(s)
                 );
             }
-            for (metric, c) in [("loss", &p.loss), ("chain_mb", &p.chain_mb)] {
+            for (metric, c) in [
+                ("loss", &p.loss),
+                ("heldout_loss", &p.heldout),
+                ("chain_mb", &p.chain_mb),
+            ] {
                 for (t, s) in c {
                     let _ = writeln!(
                         series,

@@ -199,6 +199,20 @@ pub fn print_summary(outcome: &RunOutcome) {
         t["total_units_start"],
         t["total_units_end"]
     );
+    let a = &s["aggregation"];
+    if a.is_object() {
+        let mb = |v: &serde_json::Value| {
+            v.as_f64()
+                .map_or("-".to_string(), |x| format!("{:.3}", x / 1e6))
+        };
+        println!(
+            "aggregation: {}; sent {} MB/robot, stored {} MB/robot; conservation {}",
+            a["kind"].as_str().unwrap_or("?"),
+            mb(&a["bytes_sent_per_robot_mean"]),
+            mb(&a["bytes_stored_per_robot_mean"]),
+            a["conservation"].as_str().unwrap_or("?")
+        );
+    }
     let l = &s["ledger"];
     println!(
         "ledger:     height {}, forks {}, reorgs {} (deepest {}), tx delay median {} s p95 {} s, {:.0} B/submission",

@@ -24,7 +24,8 @@ use crate::progress::Progress;
 use crate::run;
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 7] = [
+pub const EXPERIMENTS: [&str; 8] = [
+    "e0-baselines",
     "e1-expiration",
     "e1-faulty",
     "e2-faulty",
@@ -95,6 +96,12 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             .collect()
     };
     Ok(match name {
+        "e0-baselines" => Experiment {
+            name: "e0-baselines",
+            axis: "Byzantine robots",
+            points: baselines_grid(),
+            runs: 5,
+        },
         "e1-expiration" => Experiment {
             name: "e1-expiration",
             axis: "data expiration (s)",
@@ -155,6 +162,46 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             EXPERIMENTS.join(", ")
         ),
     })
+}
+
+/// The aggregations the baselines experiment compares, in grid order.
+pub const AGGREGATIONS: [&str; 3] = ["chain", "gossip", "central"];
+
+/// The grid of `e0-baselines`: each aggregation (`chain` with security on) without Byzantine
+/// robots, with one faulty robot and with three malicious ones. A point's name is
+/// `<aggregation>-<condition>` and its x the number of Byzantine robots.
+fn baselines_grid() -> Vec<Point> {
+    let conditions: [(&str, u32, &[&str]); 3] = [
+        ("clean", 0, &["byzantine.count=0", "byzantine.kind=none"]),
+        (
+            "faulty-1",
+            1,
+            &["byzantine.count=1", "byzantine.kind=faulty"],
+        ),
+        (
+            "malicious-3",
+            3,
+            &["byzantine.count=3", "byzantine.kind=malicious"],
+        ),
+    ];
+    AGGREGATIONS
+        .iter()
+        .flat_map(|aggregation| {
+            conditions.iter().map(move |(condition, count, overrides)| {
+                let mut all = vec![format!("learn.aggregation={aggregation}")];
+                all.extend(overrides.iter().map(|o| o.to_string()));
+                Point {
+                    name: format!("{aggregation}-{condition}"),
+                    x: f64::from(*count),
+                    overrides: all,
+                    tags: vec![
+                        ("aggregation", aggregation.to_string()),
+                        ("condition", condition.to_string()),
+                    ],
+                }
+            })
+        })
+        .collect()
 }
 
 /// The grid of `e4-robustness`, rule-major: per rule its clean point (no Byzantine robot),
@@ -699,6 +746,7 @@ mod tests {
                 assert_eq!(t.seed, (i % runs as usize) as u64 + 1);
             }
         };
+        check("e0-baselines", 9, 5);
         check("e1-expiration", 5, 5);
         check("e1-faulty", 1, 10);
         check("e2-faulty", 8, 20);
@@ -719,6 +767,10 @@ mod tests {
                     assert_eq!(config.data.expiration_s, point.x);
                 } else {
                     assert_eq!(f64::from(config.byzantine.count), point.x);
+                }
+                if name == "e0-baselines" {
+                    let aggregation = point.name.split('-').next().unwrap();
+                    assert_eq!(config.learn.aggregation.name(), aggregation);
                 }
             }
         }

@@ -80,6 +80,12 @@ pub fn draw_all(
             });
             Ok(())
         };
+        if e.name == "e0-baselines" {
+            for (stem, caption, plot) in baselines(e) {
+                emit(stem, caption, plot)?;
+            }
+            continue;
+        }
         // Loss over time, one line per point.
         let mut loss: Vec<Series> = e
             .points
@@ -197,8 +203,89 @@ pub fn draw_all(
     Ok(figures)
 }
 
+/// The figures of `e0-baselines`: per Byzantine condition, the held-out loss over time of
+/// the three aggregations; bytes sent and stored per robot versus the number of Byzantine
+/// robots, one series per aggregation.
+fn baselines(e: &ExperimentStats) -> Vec<(String, String, Plot<'_>)> {
+    let mut figures = Vec::new();
+    let aggregations = ["chain", "gossip", "central"];
+    for (condition, what) in [
+        ("clean", "no Byzantine robots"),
+        ("faulty-1", "one faulty robot"),
+        ("malicious-3", "three malicious robots"),
+    ] {
+        let series = aggregations
+            .iter()
+            .filter_map(|a| {
+                let name = format!("{a}-{condition}");
+                e.points.iter().find(|p| p.point == name).map(|p| Series {
+                    label: if *a == "chain" {
+                        "chain (security on)".to_string()
+                    } else {
+                        a.to_string()
+                    },
+                    points: p.heldout.clone(),
+                })
+            })
+            .collect();
+        figures.push((
+            format!("e0-baselines-heldout-{condition}"),
+            format!(
+                "e0-baselines: held-out loss of the aggregated model over time, {what} \
+                 (mean, 95 % CI band, log scale; gossip: the robot that merged last)"
+            ),
+            Plot {
+                title: format!("e0-baselines: held-out loss, {what}"),
+                x_label: "time (s)",
+                y_label: "held-out loss",
+                kind: Kind::Time { log_y: true },
+                series,
+                nonnegative: true,
+            },
+        ));
+    }
+    for (key, what, y_label) in [
+        (
+            "sent_mb_per_robot",
+            "bytes each robot sends for aggregation",
+            "sent per robot (MB)",
+        ),
+        (
+            "stored_mb_per_robot",
+            "bytes each robot stores for aggregation at the end",
+            "stored per robot (MB)",
+        ),
+    ] {
+        let series = aggregations
+            .iter()
+            .map(|a| Series {
+                label: a.to_string(),
+                points: e
+                    .points
+                    .iter()
+                    .filter(|p| p.point.starts_with(&format!("{a}-")))
+                    .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
+                    .collect(),
+            })
+            .collect();
+        figures.push((
+            format!("e0-baselines-{}", key.replace('_', "-")),
+            format!("e0-baselines: {what} versus the number of Byzantine robots (mean, 95 % CI)"),
+            Plot {
+                title: format!("e0-baselines: {y_label}"),
+                x_label: &e.axis,
+                y_label,
+                kind: Kind::Versus,
+                series,
+                nonnegative: true,
+            },
+        ));
+    }
+    figures
+}
+
 fn label(experiment: &str, point: &str, x: f64) -> String {
-    if x.is_nan() {
+    if x.is_nan() || experiment == "e0-baselines" {
         return point.to_string();
     }
     match experiment {
