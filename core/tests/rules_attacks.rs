@@ -4,13 +4,47 @@
 //! runs cover every rule and every attack; `scripts/rules-attacks-smoke.sh` runs all 108 pairs
 //! at `smoke` length through the CLI.
 
-use swarmfl_core::config::{Aggregation, ByzantineKind, Preset};
+use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset};
 use swarmfl_core::contract::rules::ALL_RULES;
 use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
 use swarmfl_core::sim::{Sim, State};
 
 use rayon::prelude::*;
+
+/// Runs `config` with seed 11, folds every event into a state made from the header and checks
+/// each checkpoint against the fold; `check` sees every record first. Returns the forged
+/// submissions and the checkpoints. `label` names the run in failures.
+fn run_and_fold(config: &Config, label: &str, mut check: impl FnMut(&Record)) -> (usize, usize) {
+    config.validate().expect("a valid configuration");
+    let seed = 11;
+    let mut state = State::genesis(config, seed).expect("genesis");
+    let (mut forged, mut checkpoints) = (0, 0);
+    for record in Sim::new(config.clone(), seed).expect("a run") {
+        check(&record);
+        match record {
+            Record::Event { time, event } => {
+                if let Event::Learn(r) = &event {
+                    forged += usize::from(matches!(r.action, LearnAction::Forged { .. }));
+                }
+                state
+                    .apply(time, &event)
+                    .expect("the run's own events fold");
+            }
+            Record::Checkpoint(c) => {
+                assert_eq!(
+                    state.checkpoint(c.time, c.cause),
+                    c,
+                    "{label}: checkpoint {checkpoints} differs on replay"
+                );
+                checkpoints += 1;
+            }
+        }
+    }
+    assert!(checkpoints > 10, "{label}: {checkpoints} checkpoints");
+    assert!(forged > 0, "{label}: the Byzantine robots never submitted");
+    (forged, checkpoints)
+}
 
 #[test]
 fn every_rule_and_attack_runs_and_replays_bit_exactly() {
@@ -29,42 +63,10 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
         config.contract.assumed_f = 1;
         config.byzantine.kind = kind;
         config.byzantine.count = 4;
-        config.validate().expect("a valid configuration");
-        let seed = 11;
-        let mut state = State::genesis(&config, seed).expect("genesis");
-        let (mut forged, mut checkpoints) = (0, 0);
-        for record in Sim::new(config.clone(), seed).expect("a run") {
-            match record {
-                Record::Event { time, event } => {
-                    if let Event::Learn(r) = &event {
-                        forged += usize::from(matches!(r.action, LearnAction::Forged { .. }));
-                    }
-                    state
-                        .apply(time, &event)
-                        .expect("the run's own events fold");
-                }
-                Record::Checkpoint(c) => {
-                    assert_eq!(
-                        state.checkpoint(c.time, c.cause),
-                        c,
-                        "{} vs {}: checkpoint {checkpoints} differs on replay",
-                        rule.name(),
-                        kind.name()
-                    );
-                    checkpoints += 1;
-                }
-            }
-        }
-        assert!(
-            checkpoints > 10,
-            "{}: {checkpoints} checkpoints",
-            kind.name()
-        );
-        assert!(
-            forged > 0,
-            "{} vs {}: the Byzantine robots never submitted",
-            rule.name(),
-            kind.name()
+        run_and_fold(
+            &config,
+            &format!("{} vs {}", rule.name(), kind.name()),
+            |_| {},
         );
     });
 }
@@ -75,58 +77,29 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
 #[test]
 fn every_attack_acts_under_gossip_and_central_and_replays_bit_exactly() {
     let aggregations = [Aggregation::Gossip, Aggregation::Central];
-    for (i, kind) in ByzantineKind::ALL[1..].iter().copied().enumerate() {
+    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL[1..]
+        .iter()
+        .copied()
+        .enumerate()
+        .collect();
+    kinds.into_par_iter().for_each(|(i, kind)| {
         let aggregation = aggregations[i % 2];
         let mut config = Preset::Smoke.config();
         config.run.duration_s = 250.0;
         config.learn.aggregation = aggregation;
         config.byzantine.kind = kind;
         config.byzantine.count = 4;
-        config.validate().expect("a valid configuration");
-        let seed = 11;
-        let mut state = State::genesis(&config, seed).expect("genesis");
-        let (mut forged, mut checkpoints) = (0, 0);
-        for record in Sim::new(config.clone(), seed).expect("a run") {
-            match record {
-                Record::Event { time, event } => {
-                    if let Event::Learn(r) = &event {
-                        forged += usize::from(matches!(r.action, LearnAction::Forged { .. }));
-                    }
-                    assert!(
-                        !matches!(event, Event::Ledger(_)),
-                        "a {} run has no ledger events",
-                        aggregation.name()
-                    );
-                    state
-                        .apply(time, &event)
-                        .expect("the run's own events fold");
-                }
-                Record::Checkpoint(c) => {
-                    assert!(
-                        c.aggregation.is_some(),
-                        "baseline checkpoints pin its state"
-                    );
-                    assert_eq!(
-                        state.checkpoint(c.time, c.cause),
-                        c,
-                        "{} vs {}: checkpoint {checkpoints} differs on replay",
-                        aggregation.name(),
-                        kind.name()
-                    );
-                    checkpoints += 1;
-                }
-            }
-        }
-        assert!(
-            checkpoints > 10,
-            "{}: {checkpoints} checkpoints",
-            kind.name()
-        );
-        assert!(
-            forged > 0,
-            "{} vs {}: the Byzantine robots never submitted",
-            aggregation.name(),
-            kind.name()
-        );
-    }
+        let label = format!("{} vs {}", aggregation.name(), kind.name());
+        run_and_fold(&config, &label, |record| match record {
+            Record::Event { event, .. } => assert!(
+                !matches!(event, Event::Ledger(_)),
+                "a {} run has no ledger events",
+                aggregation.name()
+            ),
+            Record::Checkpoint(c) => assert!(
+                c.aggregation.is_some(),
+                "baseline checkpoints pin its state"
+            ),
+        });
+    });
 }
