@@ -270,15 +270,17 @@ pub fn tanhf_lane(x_in: f32) -> f32 {
 
     let arg = if w > 0x3e82_c578 { 2. * x } else { -2. * x };
     let t = expm1f_for_tanh(arg);
-    let big = 1. + 0. / x;
-    let upper = 1. - 2. / (t + 2.);
-    // libm's lower branch is -t / (t + 2); negating the dividend negates a correctly rounded
-    // quotient exactly, so it is -(t / (t + 2)): one division serves both branches.
-    let quotient = t / (t + 2.);
+    // libm's 1 + 0 / x for |x| > 10 is 1, or x's NaN quieted (as 1 + x gives it): no division.
+    let big = if x.is_nan() { x + 1. } else { 1. };
+    // libm's middle branch is 1 - 2 / (t + 2), its lower branch -t / (t + 2); negating the
+    // dividend negates a correctly rounded quotient exactly, so that is -(t / (t + 2)). A lane
+    // needs only one of the quotients: one division with the lane's dividend serves all three.
+    let dividend = if w > 0x3f0c_9f54 { 2. } else { t };
+    let quotient = dividend / (t + 2.);
     let tt = if w > 0x4120_0000 {
         big
     } else if w > 0x3f0c_9f54 {
-        upper
+        1. - quotient
     } else if w > 0x3e82_c578 {
         quotient
     } else if w >= 0x0080_0000 {
