@@ -42,8 +42,50 @@ use super::ModelShape;
 /// weight-row load; gradients are still added in sample order, so the bits do not depend on it.
 pub(crate) const GROUP: usize = 8;
 
-/// Samples per register tile (`S`): each weight-row segment loaded serves this many samples.
-pub(crate) const TILE_SAMPLES: usize = 4;
+/// The two matrix products of training, as one compiled variant computes them: the portable
+/// loops below ([`Tiled`]) or the explicit-SIMD ones of `simd.rs`. Every variant gives the same
+/// bits (same terms, same order); they differ in speed only.
+pub(crate) trait Mat {
+    /// [`rows_acc`]: `out[s][j] += a[s][0] m[0][j] + a[s][1] m[1][j] + ...` (k ascending).
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize);
+    /// [`outer_acc`]: per sample in order, `grad[r][j] += P_s[r][j]`.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    unsafe fn outer_acc(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        samples: usize,
+    );
+}
+
+/// The portable loops in register tiles of `S` samples by `L` lanes (vectorised by the
+/// compiler for whatever the build targets).
+pub(crate) struct Tiled<const S: usize, const L: usize>;
+
+impl<const S: usize, const L: usize> Mat for Tiled<S, L> {
+    #[inline(always)]
+    unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        rows_acc::<S, L>(out, a, m, n)
+    }
+    #[inline(always)]
+    unsafe fn outer_acc(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        samples: usize,
+    ) {
+        outer_acc::<S, L>(grad, a, d, steps, group, samples)
+    }
+}
 
 /// `out[s][j] += a[s][0] m[0][j] + a[s][1] m[1][j] + ...` (k ascending) for every row `s` of
 /// `out` (`samples x n`) and `a` (`samples x k`), with `m` row-major `k x n`. Samples run in
@@ -254,36 +296,53 @@ fn outer_tile<const S: usize, const L: usize>(
     }
 }
 
-/// The first `n` samples of step `t` of a step-major buffer, row-major.
+/// The first `n` samples of step `t` of a step-major buffer, row-major. (Plain index
+/// arithmetic on the array's contiguous data: `ArrayBase::slice` costs a call per step here.)
 #[inline(always)]
 fn step(a: &Array3<f32>, t: usize, n: usize) -> &[f32] {
-    a.slice(s![t, ..n, ..])
-        .to_slice()
-        .expect("workspace arrays have the standard layout")
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    &a.as_slice()
+        .expect("workspace arrays have the standard layout")[at..at + n * width]
 }
 
 /// [`step`], mutable.
 #[inline(always)]
 fn step_mut(a: &mut Array3<f32>, t: usize, n: usize) -> &mut [f32] {
-    a.slice_mut(s![t, ..n, ..])
-        .into_slice()
-        .expect("workspace arrays have the standard layout")
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    &mut a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout")[at..at + n * width]
+}
+
+/// Steps `t` and `t + 1` of a step-major buffer (first `n` samples of each), the second mutable.
+#[inline(always)]
+fn step_pair_mut(a: &mut Array3<f32>, t: usize, n: usize) -> (&[f32], &mut [f32]) {
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    let all = a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout");
+    let (this, next) = all[at..].split_at_mut(group * width);
+    (&this[..n * width], &mut next[..n * width])
 }
 
 /// The first `n` rows of a matrix, row-major.
 #[inline(always)]
 fn head(a: &Array2<f32>, n: usize) -> &[f32] {
-    a.slice(s![..n, ..])
-        .to_slice()
-        .expect("workspace arrays have the standard layout")
+    let width = a.ncols();
+    &a.as_slice()
+        .expect("workspace arrays have the standard layout")[..n * width]
 }
 
 /// [`head`], mutable.
 #[inline(always)]
 fn head_mut(a: &mut Array2<f32>, n: usize) -> &mut [f32] {
-    a.slice_mut(s![..n, ..])
-        .into_slice()
-        .expect("workspace arrays have the standard layout")
+    let width = a.ncols();
+    &mut a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout")[..n * width]
 }
 
 /// The contiguous data of a standard-layout view.
@@ -397,14 +456,13 @@ impl Workspace {
     }
 
     /// Forward pass of up to [`GROUP`] samples (`inputs`: samples x steps x 2), each with its
-    /// dropout mask, in register tiles of `S` samples by `L` lanes; leaves the outputs in `y`
-    /// and every intermediate for the backward pass.
+    /// dropout mask, with the matrix products of `M`; leaves the outputs in `y` and every
+    /// intermediate for the backward pass.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
-    pub(crate) fn forward<const S: usize, const L: usize>(
-        &mut self,
-        w: &[f32],
-        inputs: ArrayView3<f32>,
-    ) {
+    pub(crate) unsafe fn forward<M: Mat>(&mut self, w: &[f32], inputs: ArrayView3<f32>) {
         let n = inputs.len_of(ndarray::Axis(0));
         assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
@@ -436,18 +494,15 @@ impl Workspace {
         for t in 0..t_n {
             let z = step_mut(&mut self.gates, t, n);
             z.fill(0.0);
-            rows_acc::<S, L>(z, step(&self.xh, t, n), lstm, g);
+            // SAFETY: the caller guarantees the CPU runs `M`.
+            unsafe { M::rows_acc(z, step(&self.xh, t, n), lstm, g) };
             for zi in z.chunks_exact_mut(g) {
                 sigmoid_in_place(&mut zi[..2 * h]);
                 tanh_in_place(&mut zi[2 * h..3 * h]);
                 sigmoid_in_place(&mut zi[3 * h..]);
             }
             let z = step(&self.gates, t, n);
-            let (c_prev, c_next) = self
-                .cs
-                .multi_slice_mut((s![t, ..n, ..], s![t + 1, ..n, ..]));
-            let c_prev = c_prev.into_slice().expect("standard layout");
-            let c_next = c_next.into_slice().expect("standard layout");
+            let (c_prev, c_next) = step_pair_mut(&mut self.cs, t, n);
             for i in 0..n {
                 let (zi, cp, cn) = (
                     &z[i * g..(i + 1) * g],
@@ -488,7 +543,8 @@ impl Workspace {
         }
         let y = head_mut(&mut self.y, n);
         y.fill(0.0);
-        rows_acc::<S, L>(y, head(&self.hd1, n), dense, o);
+        // SAFETY: as above.
+        unsafe { M::rows_acc(y, head(&self.hd1, n), dense, o) };
     }
 
     /// The output of sample `s` of the last [`Workspace::forward`].
@@ -516,10 +572,13 @@ impl Workspace {
     }
 
     /// Backward pass of the first `n` samples of the last forward pass, with output gradients
-    /// `dy`, in register tiles of `S` samples by `L` lanes; adds their gradients into `grad`,
-    /// sample after sample.
+    /// `dy`, with the matrix products of `M`; adds their gradients into `grad`, sample after
+    /// sample.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
-    pub(crate) fn backward<const S: usize, const L: usize>(&mut self, n: usize) {
+    pub(crate) unsafe fn backward<M: Mat>(&mut self, n: usize) {
         assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
         let (t_n, h, g) = (sh.steps_in(), sh.units(), sh.gates());
@@ -529,22 +588,28 @@ impl Workspace {
             .expect("standard layout")
             .split_at_mut(sh.dense_offset());
         // Dense layer: gradient of [kernel; bias] and of the (masked) last hidden state.
-        outer_acc::<S, L>(
-            grad_dense,
-            self.hd1.as_slice().expect("standard layout"),
-            self.dy.as_slice().expect("standard layout"),
-            1,
-            GROUP,
-            n,
-        );
+        // SAFETY: the caller guarantees the CPU runs `M`.
+        unsafe {
+            M::outer_acc(
+                grad_dense,
+                self.hd1.as_slice().expect("standard layout"),
+                self.dy.as_slice().expect("standard layout"),
+                1,
+                GROUP,
+                n,
+            )
+        };
         let dh = head_mut(&mut self.dh, n);
         dh.fill(0.0);
-        rows_acc::<S, L>(
-            dh,
-            head(&self.dy, n),
-            self.dense_t.as_slice().expect("standard layout"),
-            h,
-        );
+        // SAFETY: as above.
+        unsafe {
+            M::rows_acc(
+                dh,
+                head(&self.dy, n),
+                self.dense_t.as_slice().expect("standard layout"),
+                h,
+            )
+        };
         for (dh, m) in dh.iter_mut().zip(head(&self.mask, n)) {
             *dh *= *m;
         }
@@ -577,16 +642,20 @@ impl Workspace {
             if t > 0 {
                 let dh = head_mut(&mut self.dh, n);
                 dh.fill(0.0);
-                rows_acc::<S, L>(dh, step(&self.dz, t, n), rec_t, h);
+                // SAFETY: as above.
+                unsafe { M::rows_acc(dh, step(&self.dz, t, n), rec_t, h) };
             }
         }
-        outer_acc::<S, L>(
-            grad_lstm,
-            self.xh.as_slice().expect("standard layout"),
-            self.dz.as_slice().expect("standard layout"),
-            t_n,
-            GROUP,
-            n,
-        );
+        // SAFETY: the caller guarantees the CPU runs `M`.
+        unsafe {
+            M::outer_acc(
+                grad_lstm,
+                self.xh.as_slice().expect("standard layout"),
+                self.dz.as_slice().expect("standard layout"),
+                t_n,
+                GROUP,
+                n,
+            )
+        };
     }
 }

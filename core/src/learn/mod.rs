@@ -22,6 +22,8 @@ pub mod fixed;
 pub mod init;
 pub(crate) mod kernels;
 pub mod math;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 #[cfg(test)]
 mod tests;
 
@@ -35,7 +37,7 @@ use crate::rng::Rng;
 
 pub use fixed::{from_fixed, to_fixed, FixedPointError};
 pub use init::init_weights;
-use kernels::{Workspace, GROUP, TILE_SAMPLES};
+use kernels::{Mat, Tiled, Workspace, GROUP};
 
 /// Coordinates per waypoint (x, y).
 const POINT_DIMS: usize = 2;
@@ -415,7 +417,8 @@ pub fn predict(shape: &ModelShape, weights: &[f32], data: &TrainData) -> Vec<f32
     let mut ws = Workspace::new(shape);
     let mut out = Vec::with_capacity(data.len() * shape.outputs());
     for (first, last) in groups(0, data.len()) {
-        ws.forward::<TILE_SAMPLES, LANES_BASELINE>(weights, data.inputs(first, last));
+        // SAFETY: the portable kernels run on any CPU.
+        unsafe { ws.forward::<Portable>(weights, data.inputs(first, last)) };
         for s in 0..last - first {
             out.extend_from_slice(ws.output(s));
         }
@@ -437,11 +440,13 @@ pub fn gradient(shape: &ModelShape, weights: &[f32], data: &TrainData) -> (Vec<f
     let scale = grad_scale(data.len(), shape.outputs());
     let mut sse = 0.0;
     for (first, last) in groups(0, data.len()) {
-        ws.forward::<TILE_SAMPLES, LANES_BASELINE>(weights, data.inputs(first, last));
+        // SAFETY: the portable kernels run on any CPU.
+        unsafe { ws.forward::<Portable>(weights, data.inputs(first, last)) };
         for (s, i) in (first..last).enumerate() {
             sse += ws.error(s, data.target(i), scale);
         }
-        ws.backward::<TILE_SAMPLES, LANES_BASELINE>(last - first);
+        // SAFETY: as above.
+        unsafe { ws.backward::<Portable>(last - first) };
     }
     (
         ws.grad.to_vec(),
@@ -479,14 +484,9 @@ pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
         .collect()
 }
 
-/// Output lanes per register tile of each compiled variant (with [`TILE_SAMPLES`] samples):
-/// 4 x 8 lanes are 8 of the 16 SSE registers, 4 x 16 lanes 8 of the 16 AVX2 registers,
-/// 4 x 64 lanes 16 of the 32 AVX-512 registers (the rest hold weight rows and broadcasts).
-const LANES_BASELINE: usize = 8;
-#[cfg(target_arch = "x86_64")]
-const LANES_AVX2: usize = 16;
-#[cfg(target_arch = "x86_64")]
-const LANES_AVX512: usize = 64;
+/// The portable matrix kernels (baseline x86-64 and other targets): tiles of 4 samples x 8
+/// lanes, 8 of the 16 SSE registers. AVX2 and AVX-512 use the explicit-SIMD kernels of `simd`.
+type Portable = Tiled<4, 8>;
 
 /// SGD settings of one training.
 struct Sgd {
@@ -512,7 +512,8 @@ fn dispatch_train(
 ) -> f64 {
     match kernel.resolve() {
         Resolved::Baseline => {
-            train_loop::<TILE_SAMPLES, LANES_BASELINE>(ws, weights, data, sgd, dropout)
+            // SAFETY: the portable kernels run on any CPU.
+            unsafe { train_loop::<Portable>(ws, weights, data, sgd, dropout) }
         }
         // SAFETY: `resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
@@ -532,7 +533,8 @@ unsafe fn train_avx512(
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
-    train_loop::<TILE_SAMPLES, LANES_AVX512>(ws, weights, data, sgd, dropout)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { train_loop::<simd::Avx512>(ws, weights, data, sgd, dropout) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -544,12 +546,16 @@ unsafe fn train_avx2(
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
-    train_loop::<TILE_SAMPLES, LANES_AVX2>(ws, weights, data, sgd, dropout)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { train_loop::<simd::Avx2>(ws, weights, data, sgd, dropout) }
 }
 
 /// The epochs of SGD; returns the last epoch's training loss.
+///
+/// # Safety
+/// The CPU has the instruction set `M` is compiled for.
 #[inline(always)]
-fn train_loop<const S: usize, const L: usize>(
+unsafe fn train_loop<M: Mat>(
     ws: &mut Workspace,
     weights: &mut Array1<f32>,
     data: &TrainData,
@@ -577,11 +583,13 @@ fn train_loop<const S: usize, const L: usize>(
                         *m = if keep { keep_scale } else { 0.0 };
                     }
                 }
-                ws.forward::<S, L>(w, data.inputs(first, last));
+                // SAFETY: this function's caller guarantees the CPU runs `M`.
+                unsafe { ws.forward::<M>(w, data.inputs(first, last)) };
                 for (s, i) in (first..last).enumerate() {
                     epoch_sse += ws.error(s, data.target(i), scale);
                 }
-                ws.backward::<S, L>(last - first);
+                // SAFETY: as above.
+                unsafe { ws.backward::<M>(last - first) };
             }
             weights.zip_mut_with(&ws.grad, |w, g| *w -= *g * sgd.lr);
             start = end;
@@ -605,7 +613,8 @@ fn loss_range_with(
     let mut ws = Workspace::new(shape);
     match kernel.resolve() {
         Resolved::Baseline => {
-            loss_loop::<TILE_SAMPLES, LANES_BASELINE>(&mut ws, weights, data, from, to)
+            // SAFETY: the portable kernels run on any CPU.
+            unsafe { loss_loop::<Portable>(&mut ws, weights, data, from, to) }
         }
         // SAFETY: `resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
@@ -625,7 +634,8 @@ unsafe fn loss_avx512(
     from: usize,
     to: usize,
 ) -> f64 {
-    loss_loop::<TILE_SAMPLES, LANES_AVX512>(ws, weights, data, from, to)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { loss_loop::<simd::Avx512>(ws, weights, data, from, to) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -637,11 +647,16 @@ unsafe fn loss_avx2(
     from: usize,
     to: usize,
 ) -> f64 {
-    loss_loop::<TILE_SAMPLES, LANES_AVX2>(ws, weights, data, from, to)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { loss_loop::<simd::Avx2>(ws, weights, data, from, to) }
 }
 
+/// Mean squared error over the samples `from..to` (dropout off).
+///
+/// # Safety
+/// The CPU has the instruction set `M` is compiled for.
 #[inline(always)]
-fn loss_loop<const S: usize, const L: usize>(
+unsafe fn loss_loop<M: Mat>(
     ws: &mut Workspace,
     weights: &[f32],
     data: &TrainData,
@@ -651,7 +666,8 @@ fn loss_loop<const S: usize, const L: usize>(
     ws.mask.fill(1.0);
     let mut sse = 0.0f64;
     for (first, last) in groups(from, to) {
-        ws.forward::<S, L>(weights, data.inputs(first, last));
+        // SAFETY: this function's caller guarantees the CPU runs `M`.
+        unsafe { ws.forward::<M>(weights, data.inputs(first, last)) };
         for (s, i) in (first..last).enumerate() {
             sse += ws.error(s, data.target(i), 0.0);
         }

@@ -1,5 +1,7 @@
 //! Tests of the learning module against TensorFlow/Keras, finite differences, and itself.
 
+// The reference loops index several arrays at the same position; iterators would hide that.
+#![allow(clippy::needless_range_loop)]
 use super::*;
 use crate::rng::{stream, Purpose};
 
@@ -508,7 +510,8 @@ fn blocked_products_equal_the_per_sample_order() {
     let mut rng = stream(11, Purpose::ModelInit, 1);
     type Rows = fn(&mut [f32], &[f32], &[f32], usize);
     type Outer = fn(&mut [f32], &[f32], &[f32], usize, usize, usize);
-    let tiles: [(&str, Rows, Outer); 6] = [
+    #[allow(unused_mut)]
+    let mut tiles: Vec<(&str, Rows, Outer)> = vec![
         ("1x1", rows_acc::<1, 1>, outer_acc::<1, 1>),
         ("4x8", rows_acc::<4, 8>, outer_acc::<4, 8>),
         ("4x16", rows_acc::<4, 16>, outer_acc::<4, 16>),
@@ -516,6 +519,47 @@ fn blocked_products_equal_the_per_sample_order() {
         ("3x32", rows_acc::<3, 32>, outer_acc::<3, 32>),
         ("8x16", rows_acc::<8, 16>, outer_acc::<8, 16>),
     ];
+    #[cfg(target_arch = "x86_64")]
+    {
+        use super::kernels::Mat;
+        use super::simd::{Avx2, Avx512};
+        #[target_feature(enable = "avx512f")]
+        unsafe fn rows_512(o: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+            // SAFETY: this function requires AVX-512F.
+            unsafe { Avx512::rows_acc(o, a, m, n) }
+        }
+        #[target_feature(enable = "avx512f")]
+        unsafe fn outer_512(g: &mut [f32], a: &[f32], d: &[f32], t: usize, gr: usize, s: usize) {
+            // SAFETY: this function requires AVX-512F.
+            unsafe { Avx512::outer_acc(g, a, d, t, gr, s) }
+        }
+        #[target_feature(enable = "avx2")]
+        unsafe fn rows_256(o: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+            // SAFETY: this function requires AVX2.
+            unsafe { Avx2::rows_acc(o, a, m, n) }
+        }
+        #[target_feature(enable = "avx2")]
+        unsafe fn outer_256(g: &mut [f32], a: &[f32], d: &[f32], t: usize, gr: usize, s: usize) {
+            // SAFETY: this function requires AVX2.
+            unsafe { Avx2::outer_acc(g, a, d, t, gr, s) }
+        }
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F (checked on the line above).
+            tiles.push((
+                "avx512",
+                |o, a, m, n| unsafe { rows_512(o, a, m, n) },
+                |g, a, d, t, gr, s| unsafe { outer_512(g, a, d, t, gr, s) },
+            ));
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked on the line above).
+            tiles.push((
+                "avx2",
+                |o, a, m, n| unsafe { rows_256(o, a, m, n) },
+                |g, a, d, t, gr, s| unsafe { outer_256(g, a, d, t, gr, s) },
+            ));
+        }
+    }
     for case in 0..40 {
         let samples = 1 + rng.below(11) as usize;
         let group = samples + rng.below(3) as usize;
@@ -552,7 +596,7 @@ fn blocked_products_equal_the_per_sample_order() {
                 }
             }
         }
-        for (name, rows, outer) in tiles {
+        for &(name, rows, outer) in &tiles {
             let mut got = init.clone();
             rows(&mut got, &a, &m, n);
             assert_eq!(
@@ -811,7 +855,7 @@ fn blocked_training_equals_the_per_sample_trainer() {
             let got = train_with(kernel, &shape, &cfg, &start, &data, dropout.clone());
             assert_eq!(
                 bits(&[got]),
-                bits(&[want.clone()]),
+                bits(std::slice::from_ref(&want)),
                 "case {case}: {shape:?}, {samples} samples, batch {}, kernel {kernel:?}",
                 cfg.batch_size
             );
