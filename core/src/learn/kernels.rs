@@ -1,12 +1,14 @@
-//! The training kernels: forward pass, backpropagation through time and the SGD step of one
-//! mini-batch, on preallocated buffers.
+//! The training kernels: forward pass, backpropagation through time and the gradient of a
+//! group of samples, on preallocated `ndarray` buffers.
 //!
 //! Every sum has a fixed order, written out in the loops below; the loops are vectorised across
 //! *independent* output lanes only (the 64 gate pre-activations, the 96 dense outputs, the 16
 //! units of a back-propagated hidden gradient), so SIMD never reassociates a sum. There is no
-//! fused multiply-add (Rust never contracts `a * b + c`), no BLAS and no ndarray `dot`.
+//! fused multiply-add (Rust never contracts `a * b + c`), no BLAS and no ndarray `dot`: the
+//! arrays are `ndarray` arrays, but the products run on their contiguous rows (`as_slice`) in
+//! the loops written here.
 //!
-//! Fixed orders, per lane `j` of the output:
+//! Fixed orders, per sample and per lane `j` of the output:
 //! - gate pre-activation `z_t[j] = ((0 + x_t[0] W[0][j] + ... + x_t[D-1] W[D-1][j]) + h_{t-1}[0]
 //!   U[0][j] + ... + h_{t-1}[H-1] U[H-1][j]) + b[j]`, i.e. one accumulation over the stacked
 //!   row vector `[x_t, h_{t-1}, 1]` against the stacked matrix `[kernel; recurrent; bias]`, which
@@ -17,146 +19,391 @@
 //! - weight gradients: per sample, `P[r][j] = 0 + a_0[r] d_0[j] + ... + a_{T-1}[r] d_{T-1}[j]`
 //!   over time steps t ascending, then `grad[r][j] += P[r][j]` for the samples of the batch in
 //!   data order; the SGD step is `w -= grad * lr`, as Keras' SGD.
+//!
+//! Register blocking: the samples of a group ([`GROUP`]) advance through the time steps in
+//! lockstep, stored step-major (`steps x samples x width`), and every matrix product runs in
+//! tiles of `S` samples by `L` output lanes: one segment of a weight row is loaded once and
+//! multiplied into the accumulators of all `S` samples, which stay in registers for the whole
+//! sum. A tile only decides which sums run side by side, never the order of the terms within a
+//! sum, so every tile shape gives the same bits (the tests compare every shape with the plain
+//! per-sample loops, and whole trainings with a plain per-sample trainer).
 
 // Index loops read several arrays at the same position; iterators would hide that.
 #![allow(clippy::needless_range_loop)]
 
+use ndarray::{s, Array1, Array2, Array3, ArrayView2, ArrayView3};
+
 use super::math::{sigmoid_in_place, tanh_in_place};
 use super::ModelShape;
 
-/// `out[j] += a[0] m[0][j] + a[1] m[1][j] + ...` (k ascending) for a row-major `m` of
-/// `a.len()` rows and `out.len()` columns.
+/// Samples that advance through the time steps together (the forward and backward passes of a
+/// group are interleaved step by step). More samples per group means more independent sums in
+/// flight (one sample alone is bound by the latency of its recurrence) and more samples per
+/// weight-row load; gradients are still added in sample order, so the bits do not depend on it.
+pub(crate) const GROUP: usize = 8;
+
+/// The two matrix products of training, as one compiled variant computes them: the portable
+/// loops below ([`Tiled`]) or the explicit-SIMD ones of `simd.rs`. Every variant gives the same
+/// bits (same terms, same order); they differ in speed only.
+pub(crate) trait Mat {
+    /// [`rows_acc`]: `out[s][j] += a[s][0] m[0][j] + a[s][1] m[1][j] + ...` (k ascending).
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize);
+    /// [`outer_acc`]: per sample in order, `grad[r][j] += P_s[r][j]`.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    unsafe fn outer_acc(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        samples: usize,
+    );
+}
+
+/// The portable loops in register tiles of `S` samples by `L` lanes (vectorised by the
+/// compiler for whatever the build targets).
+pub(crate) struct Tiled<const S: usize, const L: usize>;
+
+impl<const S: usize, const L: usize> Mat for Tiled<S, L> {
+    #[inline(always)]
+    unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        rows_acc::<S, L>(out, a, m, n)
+    }
+    #[inline(always)]
+    unsafe fn outer_acc(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        samples: usize,
+    ) {
+        outer_acc::<S, L>(grad, a, d, steps, group, samples)
+    }
+}
+
+/// `out[s][j] += a[s][0] m[0][j] + a[s][1] m[1][j] + ...` (k ascending) for every row `s` of
+/// `out` (`samples x n`) and `a` (`samples x k`), with `m` row-major `k x n`. Samples run in
+/// tiles of `S`, lanes in blocks of `L` (then 16, 8, 1 for the remainders).
 #[inline(always)]
-pub(crate) fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32]) {
-    let n = out.len();
-    debug_assert_eq!(m.len(), a.len() * n);
+pub(crate) fn rows_acc<const S: usize, const L: usize>(
+    out: &mut [f32],
+    a: &[f32],
+    m: &[f32],
+    n: usize,
+) {
+    let samples = out.len() / n;
+    let k = m.len() / n;
+    assert!(
+        out.len() == samples * n && a.len() == samples * k && m.len() == k * n,
+        "rows_acc: {samples} x {n} output, {} inputs, {} matrix entries",
+        a.len(),
+        m.len()
+    );
+    let mut s0 = 0;
+    while s0 + S <= samples {
+        rows_lanes::<S, L>(out, a, m, n, k, s0);
+        s0 += S;
+    }
+    while s0 < samples {
+        rows_lanes::<1, L>(out, a, m, n, k, s0);
+        s0 += 1;
+    }
+}
+
+#[inline(always)]
+fn rows_lanes<const S: usize, const L: usize>(
+    out: &mut [f32],
+    a: &[f32],
+    m: &[f32],
+    n: usize,
+    k: usize,
+    s0: usize,
+) {
     let mut j0 = 0;
-    while j0 + 32 <= n {
-        rows_acc_block::<32>(out, a, m, n, j0);
-        j0 += 32;
+    while j0 + L <= n {
+        rows_tile::<S, L>(out, a, m, n, k, s0, j0);
+        j0 += L;
     }
-    if j0 + 16 <= n {
-        rows_acc_block::<16>(out, a, m, n, j0);
-        j0 += 16;
+    if L > 16 {
+        while j0 + 16 <= n {
+            rows_tile::<S, 16>(out, a, m, n, k, s0, j0);
+            j0 += 16;
+        }
     }
-    while j0 + 8 <= n {
-        rows_acc_block::<8>(out, a, m, n, j0);
-        j0 += 8;
+    if L > 8 {
+        while j0 + 8 <= n {
+            rows_tile::<S, 8>(out, a, m, n, k, s0, j0);
+            j0 += 8;
+        }
     }
     while j0 < n {
-        rows_acc_block::<1>(out, a, m, n, j0);
+        rows_tile::<S, 1>(out, a, m, n, k, s0, j0);
         j0 += 1;
     }
 }
 
+/// One tile: samples `s0..s0 + S`, lanes `j0..j0 + L`, accumulated over all `k` rows.
 #[inline(always)]
-fn rows_acc_block<const L: usize>(out: &mut [f32], a: &[f32], m: &[f32], n: usize, j0: usize) {
-    let target: &mut [f32; L] = (&mut out[j0..j0 + L]).try_into().expect("block of L lanes");
-    let mut acc = *target;
-    for (k, &ak) in a.iter().enumerate() {
-        let row: &[f32; L] = m[k * n + j0..k * n + j0 + L]
-            .try_into()
-            .expect("block of L lanes");
-        for l in 0..L {
-            acc[l] += ak * row[l];
+fn rows_tile<const S: usize, const L: usize>(
+    out: &mut [f32],
+    a: &[f32],
+    m: &[f32],
+    n: usize,
+    k: usize,
+    s0: usize,
+    j0: usize,
+) {
+    let a: &[f32] = &a[s0 * k..(s0 + S) * k];
+    let mut acc = [[0f32; L]; S];
+    for s in 0..S {
+        acc[s].copy_from_slice(&out[(s0 + s) * n + j0..(s0 + s) * n + j0 + L]);
+    }
+    for (kk, row) in m.chunks_exact(n).enumerate() {
+        let row: &[f32; L] = row[j0..j0 + L].try_into().expect("block of L lanes");
+        for s in 0..S {
+            let ak = a[s * k + kk];
+            for l in 0..L {
+                acc[s][l] += ak * row[l];
+            }
         }
     }
-    *target = acc;
-}
-
-/// `grad[r][j] += sum over t ascending of a[t][r] d[t][j]`, the partial sum over t starting
-/// from 0 and added to `grad` once. `a` is `steps x rows`, `d` is `steps x n`, `grad` is
-/// `rows x n`, all row-major.
-#[inline(always)]
-pub(crate) fn outer_acc(grad: &mut [f32], a: &[f32], d: &[f32], steps: usize, rows: usize) {
-    let n = d.len() / steps;
-    debug_assert_eq!(a.len(), steps * rows);
-    debug_assert_eq!(grad.len(), rows * n);
-    for r in 0..rows {
-        let g = &mut grad[r * n..(r + 1) * n];
-        let mut j0 = 0;
-        while j0 + 32 <= n {
-            outer_block::<32>(g, a, d, steps, rows, r, n, j0);
-            j0 += 32;
-        }
-        if j0 + 16 <= n {
-            outer_block::<16>(g, a, d, steps, rows, r, n, j0);
-            j0 += 16;
-        }
-        while j0 + 8 <= n {
-            outer_block::<8>(g, a, d, steps, rows, r, n, j0);
-            j0 += 8;
-        }
-        while j0 < n {
-            outer_block::<1>(g, a, d, steps, rows, r, n, j0);
-            j0 += 1;
-        }
+    for s in 0..S {
+        out[(s0 + s) * n + j0..(s0 + s) * n + j0 + L].copy_from_slice(&acc[s]);
     }
 }
 
-#[allow(clippy::too_many_arguments)]
+/// For each sample `s < samples` in order: `grad[r][j] += P_s[r][j]` with the partial sum over
+/// time steps `P_s[r][j] = 0 + a[0][s][r] d[0][s][j] + ... + a[T-1][s][r] d[T-1][s][j]`.
+/// `a` is `steps x group x rows`, `d` is `steps x group x n` (step-major group buffers, of
+/// which the first `samples` samples are used), `grad` is `rows x n`.
 #[inline(always)]
-fn outer_block<const L: usize>(
-    g: &mut [f32],
+pub(crate) fn outer_acc<const S: usize, const L: usize>(
+    grad: &mut [f32],
     a: &[f32],
     d: &[f32],
     steps: usize,
-    rows: usize,
-    r: usize,
-    n: usize,
-    j0: usize,
+    group: usize,
+    samples: usize,
 ) {
-    let mut acc = [0f32; L];
-    for t in 0..steps {
-        let s = a[t * rows + r];
-        let row: &[f32; L] = d[t * n + j0..t * n + j0 + L]
-            .try_into()
-            .expect("block of L lanes");
-        for l in 0..L {
-            acc[l] += s * row[l];
+    let rows = a.len() / (steps * group);
+    let n = grad.len() / rows;
+    assert!(
+        samples <= group
+            && a.len() == steps * group * rows
+            && d.len() == steps * group * n
+            && grad.len() == rows * n,
+        "outer_acc: {rows} x {n} gradient, {steps} steps of {samples} of {group} samples"
+    );
+    let dims = OuterDims {
+        steps,
+        group,
+        rows,
+        n,
+    };
+    for r in 0..rows {
+        let g = &mut grad[r * n..(r + 1) * n];
+        let mut s0 = 0;
+        while s0 + S <= samples {
+            outer_lanes::<S, L>(g, a, d, &dims, r, s0);
+            s0 += S;
         }
-    }
-    let target: &mut [f32; L] = (&mut g[j0..j0 + L]).try_into().expect("block of L lanes");
-    for l in 0..L {
-        target[l] += acc[l];
+        while s0 < samples {
+            outer_lanes::<1, L>(g, a, d, &dims, r, s0);
+            s0 += 1;
+        }
     }
 }
 
-/// Samples processed together: their forward and backward passes are interleaved step by step,
-/// so that the CPU overlaps their independent dependency chains (one sample alone is bound by
-/// the latency of its recurrence). Each sample's arithmetic is unchanged by the grouping, and
-/// gradients are still added in sample order: the bits do not depend on the group size.
-pub(crate) const GROUP: usize = 4;
+/// Sizes of an [`outer_acc`].
+struct OuterDims {
+    steps: usize,
+    group: usize,
+    rows: usize,
+    n: usize,
+}
 
-/// Every buffer one training needs, allocated once; per-sample buffers exist [`GROUP`] times.
+#[inline(always)]
+fn outer_lanes<const S: usize, const L: usize>(
+    g: &mut [f32],
+    a: &[f32],
+    d: &[f32],
+    dims: &OuterDims,
+    r: usize,
+    s0: usize,
+) {
+    let n = dims.n;
+    let mut j0 = 0;
+    while j0 + L <= n {
+        outer_tile::<S, L>(g, a, d, dims, r, s0, j0);
+        j0 += L;
+    }
+    if L > 16 {
+        while j0 + 16 <= n {
+            outer_tile::<S, 16>(g, a, d, dims, r, s0, j0);
+            j0 += 16;
+        }
+    }
+    if L > 8 {
+        while j0 + 8 <= n {
+            outer_tile::<S, 8>(g, a, d, dims, r, s0, j0);
+            j0 += 8;
+        }
+    }
+    while j0 < n {
+        outer_tile::<S, 1>(g, a, d, dims, r, s0, j0);
+        j0 += 1;
+    }
+}
+
+/// One tile: row `r`, samples `s0..s0 + S`, lanes `j0..j0 + L`; the samples' partial sums
+/// are added to `g` in sample order.
+#[inline(always)]
+fn outer_tile<const S: usize, const L: usize>(
+    g: &mut [f32],
+    a: &[f32],
+    d: &[f32],
+    dims: &OuterDims,
+    r: usize,
+    s0: usize,
+    j0: usize,
+) {
+    let (group, rows, n) = (dims.group, dims.rows, dims.n);
+    let mut acc = [[0f32; L]; S];
+    for t in 0..dims.steps {
+        let a_t = &a[t * group * rows..(t + 1) * group * rows];
+        let d_t = &d[t * group * n..(t + 1) * group * n];
+        for s in 0..S {
+            let x = a_t[(s0 + s) * rows + r];
+            let row: &[f32; L] = d_t[(s0 + s) * n + j0..(s0 + s) * n + j0 + L]
+                .try_into()
+                .expect("block of L lanes");
+            for l in 0..L {
+                acc[s][l] += x * row[l];
+            }
+        }
+    }
+    let target: &mut [f32; L] = (&mut g[j0..j0 + L]).try_into().expect("block of L lanes");
+    for s in 0..S {
+        for l in 0..L {
+            target[l] += acc[s][l];
+        }
+    }
+}
+
+/// The first `n` samples of step `t` of a step-major buffer, row-major. (Plain index
+/// arithmetic on the array's contiguous data: `ArrayBase::slice` costs a call per step here.)
+#[inline(always)]
+fn step(a: &Array3<f32>, t: usize, n: usize) -> &[f32] {
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    &a.as_slice()
+        .expect("workspace arrays have the standard layout")[at..at + n * width]
+}
+
+/// [`step`], mutable.
+#[inline(always)]
+fn step_mut(a: &mut Array3<f32>, t: usize, n: usize) -> &mut [f32] {
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    &mut a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout")[at..at + n * width]
+}
+
+/// Steps `t` and `t + 1` of a step-major buffer (first `n` samples of each), the second mutable.
+#[inline(always)]
+fn step_pair_mut(a: &mut Array3<f32>, t: usize, n: usize) -> (&[f32], &mut [f32]) {
+    let (_, group, width) = a.dim();
+    let at = t * group * width;
+    let all = a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout");
+    let (this, next) = all[at..].split_at_mut(group * width);
+    (&this[..n * width], &mut next[..n * width])
+}
+
+/// The first `n` rows of a matrix, row-major.
+#[inline(always)]
+fn head(a: &Array2<f32>, n: usize) -> &[f32] {
+    let width = a.ncols();
+    &a.as_slice()
+        .expect("workspace arrays have the standard layout")[..n * width]
+}
+
+/// [`head`], mutable.
+#[inline(always)]
+fn head_mut(a: &mut Array2<f32>, n: usize) -> &mut [f32] {
+    let width = a.ncols();
+    &mut a
+        .as_slice_mut()
+        .expect("workspace arrays have the standard layout")[..n * width]
+}
+
+/// The contiguous data of a standard-layout view.
+#[inline(always)]
+fn flat<'a>(a: ArrayView2<'a, f32>) -> &'a [f32] {
+    a.to_slice().expect("weights are row-major views")
+}
+
+/// The two layers of a flat weight (or gradient) vector as matrices, without copies: the
+/// stacked LSTM matrix `[kernel; recurrent; bias]` (`rows_lstm x gates`) and the stacked dense
+/// matrix `[kernel; bias]` (`(units + 1) x outputs`).
+pub(crate) struct Layers<'a> {
+    pub(crate) lstm: ArrayView2<'a, f32>,
+    pub(crate) dense: ArrayView2<'a, f32>,
+}
+
+impl<'a> Layers<'a> {
+    pub(crate) fn new(shape: &ModelShape, flat: &'a [f32]) -> Layers<'a> {
+        let (lstm, dense) = flat.split_at(shape.dense_offset());
+        Layers {
+            lstm: ArrayView2::from_shape((shape.rows_lstm(), shape.gates()), lstm)
+                .expect("flat weights have the model's length"),
+            dense: ArrayView2::from_shape((shape.units() + 1, shape.outputs()), dense)
+                .expect("flat weights have the model's length"),
+        }
+    }
+}
+
+/// Every buffer one training needs, allocated once. Per-sample buffers hold [`GROUP`] samples;
+/// those read per time step are step-major (`steps x GROUP x width`), so that a step of the
+/// whole group is one contiguous row-major matrix.
 pub(crate) struct Workspace {
     pub(crate) shape: ModelShape,
-    /// Per sample, per step t: the stacked row `[x_t, h_{t-1}, 1]` (`steps x rows_lstm`).
-    xh: Vec<f32>,
-    /// Per sample, per step: activated gates i, f, g, o (`steps x gates`).
-    gates: Vec<f32>,
-    /// Per sample: cell states c_0 = 0, c_1, ..., c_T (`(steps + 1) x units`).
-    cs: Vec<f32>,
-    /// Per sample: tanh(c_t) for t = 1..T (`steps x units`).
-    tanh_c: Vec<f32>,
-    /// Per sample: gate pre-activation gradients per step (`steps x gates`).
-    dz: Vec<f32>,
-    /// Per sample: `[h_T * mask, 1]`.
-    hd1: Vec<f32>,
-    /// Per sample: the dense output.
-    y: Vec<f32>,
+    /// Per step t, per sample: the stacked row `[x_t, h_{t-1}, 1]` (`steps x GROUP x rows_lstm`).
+    xh: Array3<f32>,
+    /// Per step, per sample: activated gates i, f, g, o (`steps x GROUP x gates`).
+    gates: Array3<f32>,
+    /// Cell states c_0 = 0, c_1, ..., c_T (`(steps + 1) x GROUP x units`).
+    cs: Array3<f32>,
+    /// tanh(c_t) for t = 1..T (`steps x GROUP x units`).
+    tanh_c: Array3<f32>,
+    /// Gate pre-activation gradients (`steps x GROUP x gates`).
+    dz: Array3<f32>,
+    /// Per sample: `[h_T * mask, 1]` (`GROUP x (units + 1)`).
+    hd1: Array2<f32>,
+    /// Per sample: the dense output (`GROUP x outputs`).
+    y: Array2<f32>,
     /// Per sample: gradient of the loss with respect to the dense output.
-    dy: Vec<f32>,
-    dh: Vec<f32>,
-    dc: Vec<f32>,
-    /// Per sample: dropout mask (0 or 1 / (1 - p)).
-    pub(crate) mask: Vec<f32>,
+    dy: Array2<f32>,
+    /// Per sample: gradient with respect to the hidden state of the current step.
+    dh: Array2<f32>,
+    /// Per sample: gradient with respect to the cell state of the current step.
+    dc: Array2<f32>,
+    /// Per sample: dropout mask (0 or 1 / (1 - p)) (`GROUP x units`).
+    pub(crate) mask: Array2<f32>,
     /// Recurrent kernel transposed (`gates x units`).
-    rec_t: Vec<f32>,
+    rec_t: Array2<f32>,
     /// Dense kernel transposed (`outputs x units`).
-    dense_t: Vec<f32>,
-    /// Gradient of the batch, flat layout.
-    pub(crate) grad: Vec<f32>,
+    dense_t: Array2<f32>,
+    /// Gradient of the batch, flat layout (see [`Layers`] for its matrices).
+    pub(crate) grad: Array1<f32>,
 }
 
 impl Workspace {
@@ -174,53 +421,49 @@ impl Workspace {
         );
         Workspace {
             shape: shape.clone(),
-            xh: vec![0.0; GROUP * t * r1],
-            gates: vec![0.0; GROUP * t * g],
-            cs: vec![0.0; GROUP * (t + 1) * h],
-            tanh_c: vec![0.0; GROUP * t * h],
-            dz: vec![0.0; GROUP * t * g],
-            hd1: vec![0.0; GROUP * (h + 1)],
-            y: vec![0.0; GROUP * o],
-            dy: vec![0.0; GROUP * o],
-            dh: vec![0.0; GROUP * h],
-            dc: vec![0.0; GROUP * h],
-            mask: vec![1.0; GROUP * h],
-            rec_t: vec![0.0; g * h],
-            dense_t: vec![0.0; o * h],
-            grad: vec![0.0; shape.weights()],
+            xh: Array3::zeros((t, GROUP, r1)),
+            gates: Array3::zeros((t, GROUP, g)),
+            cs: Array3::zeros((t + 1, GROUP, h)),
+            tanh_c: Array3::zeros((t, GROUP, h)),
+            dz: Array3::zeros((t, GROUP, g)),
+            hd1: Array2::zeros((GROUP, h + 1)),
+            y: Array2::zeros((GROUP, o)),
+            dy: Array2::zeros((GROUP, o)),
+            dh: Array2::zeros((GROUP, h)),
+            dc: Array2::zeros((GROUP, h)),
+            mask: Array2::ones((GROUP, h)),
+            rec_t: Array2::zeros((g, h)),
+            dense_t: Array2::zeros((o, h)),
+            grad: Array1::zeros(shape.weights()),
         }
     }
 
     /// Refreshes the transposed copies of the weights (once per batch: weights are constant
     /// within a batch).
-    #[inline(always)]
     pub(crate) fn transpose_weights(&mut self, w: &[f32]) {
-        let s = &self.shape;
-        let (d, h, g, o) = (s.input_dims(), s.units(), s.gates(), s.outputs());
-        for u in 0..h {
-            for j in 0..g {
-                self.rec_t[j * h + u] = w[(d + u) * g + j];
-            }
-        }
-        let dense = &w[s.dense_offset()..];
-        for k in 0..h {
-            for j in 0..o {
-                self.dense_t[j * h + k] = dense[k * o + j];
-            }
-        }
+        let layers = Layers::new(&self.shape, w);
+        let (d, h) = (self.shape.input_dims(), self.shape.units());
+        self.rec_t.assign(&layers.lstm.slice(s![d..d + h, ..]).t());
+        self.dense_t.assign(&layers.dense.slice(s![..h, ..]).t());
     }
 
     /// The dropout mask of sample `s` of the group.
     pub(crate) fn mask_mut(&mut self, s: usize) -> &mut [f32] {
-        let h = self.shape.units();
-        &mut self.mask[s * h..(s + 1) * h]
+        self.mask
+            .row_mut(s)
+            .into_slice()
+            .expect("workspace arrays have the standard layout")
     }
 
-    /// Forward pass of up to [`GROUP`] samples (`inputs[s]`: steps x 2 values), each with its
-    /// dropout mask; leaves the outputs in `y` and every intermediate for the backward pass.
+    /// Forward pass of up to [`GROUP`] samples (`inputs`: samples x steps x 2), each with its
+    /// dropout mask, with the matrix products of `M`; leaves the outputs in `y` and every
+    /// intermediate for the backward pass.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
-    pub(crate) fn forward(&mut self, w: &[f32], inputs: &[&[f32]]) {
-        let n = inputs.len();
+    pub(crate) unsafe fn forward<M: Mat>(&mut self, w: &[f32], inputs: ArrayView3<f32>) {
+        let n = inputs.len_of(ndarray::Axis(0));
         assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
         let (t_n, d, h, g, r1, o) = (
@@ -231,71 +474,85 @@ impl Workspace {
             sh.rows_lstm(),
             sh.outputs(),
         );
-        let lstm = &w[..r1 * g];
-        let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
-        for s in 0..n {
-            self.cs[s * c_n..s * c_n + h].fill(0.0);
-        }
+        assert_eq!(inputs.dim(), (n, t_n, d), "inputs of another model shape");
+        let layers = Layers::new(sh, w);
+        let (lstm, dense) = (flat(layers.lstm), flat(layers.dense));
+        // The stacked rows' constant parts: x_t for every step, h_{-1} = 0, the bias input 1.
+        let x = inputs.to_slice().expect("a range of samples is contiguous");
         for t in 0..t_n {
-            for (s, x) in inputs.iter().enumerate() {
-                let xh = &mut self.xh[s * xh_n + t * r1..s * xh_n + (t + 1) * r1];
-                xh[..d].copy_from_slice(&x[t * d..(t + 1) * d]);
+            let xh = step_mut(&mut self.xh, t, n);
+            for i in 0..n {
+                let row = &mut xh[i * r1..(i + 1) * r1];
+                row[..d].copy_from_slice(&x[(i * t_n + t) * d..(i * t_n + t + 1) * d]);
                 if t == 0 {
-                    xh[d..d + h].fill(0.0);
+                    row[d..d + h].fill(0.0);
                 }
-                xh[d + h] = 1.0;
-                let z = &mut self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
-                z.fill(0.0);
-                rows_acc(z, xh, lstm);
+                row[d + h] = 1.0;
             }
-            for s in 0..n {
-                let z = &mut self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
-                sigmoid_in_place(&mut z[..2 * h]);
-                tanh_in_place(&mut z[2 * h..3 * h]);
-                sigmoid_in_place(&mut z[3 * h..]);
+        }
+        step_mut(&mut self.cs, 0, n).fill(0.0);
+        for t in 0..t_n {
+            let z = step_mut(&mut self.gates, t, n);
+            z.fill(0.0);
+            // SAFETY: the caller guarantees the CPU runs `M`.
+            unsafe { M::rows_acc(z, step(&self.xh, t, n), lstm, g) };
+            for zi in z.chunks_exact_mut(g) {
+                sigmoid_in_place(&mut zi[..2 * h]);
+                tanh_in_place(&mut zi[2 * h..3 * h]);
+                sigmoid_in_place(&mut zi[3 * h..]);
             }
-            for s in 0..n {
-                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
-                let cs = &mut self.cs[s * c_n + t * h..s * c_n + (t + 2) * h];
-                let (c_prev, c_next) = cs.split_at_mut(h);
-                let tc = &mut self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
+            let z = step(&self.gates, t, n);
+            let (c_prev, c_next) = step_pair_mut(&mut self.cs, t, n);
+            for i in 0..n {
+                let (zi, cp, cn) = (
+                    &z[i * g..(i + 1) * g],
+                    &c_prev[i * h..(i + 1) * h],
+                    &mut c_next[i * h..(i + 1) * h],
+                );
                 for u in 0..h {
-                    c_next[u] = z[h + u] * c_prev[u] + z[u] * z[2 * h + u];
-                    tc[u] = c_next[u];
+                    cn[u] = zi[h + u] * cp[u] + zi[u] * zi[2 * h + u];
                 }
-                tanh_in_place(tc);
             }
-            for s in 0..n {
-                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
-                let tc = &self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
-                let h_out: &mut [f32] = if t + 1 < t_n {
-                    let at = s * xh_n + (t + 1) * r1 + d;
-                    &mut self.xh[at..at + h]
-                } else {
-                    &mut self.hd1[s * (h + 1)..s * (h + 1) + h]
-                };
+            let tc = step_mut(&mut self.tanh_c, t, n);
+            tc.copy_from_slice(c_next);
+            tanh_in_place(tc);
+            let tc = step(&self.tanh_c, t, n);
+            // h_t = o * tanh(c_t) goes into the next step's stacked row, or after the last step
+            // into the dense layer's input.
+            let (h_out, stride, at) = if t + 1 < t_n {
+                (step_mut(&mut self.xh, t + 1, n), r1, d)
+            } else {
+                (head_mut(&mut self.hd1, n), h + 1, 0)
+            };
+            for i in 0..n {
+                let (zi, tci) = (&z[i * g..(i + 1) * g], &tc[i * h..(i + 1) * h]);
+                let hi = &mut h_out[i * stride + at..i * stride + at + h];
                 for u in 0..h {
-                    h_out[u] = z[3 * h + u] * tc[u];
+                    hi[u] = zi[3 * h + u] * tci[u];
                 }
             }
         }
-        let dense = &w[r1 * g..r1 * g + (h + 1) * o];
-        for s in 0..n {
-            let hd1 = &mut self.hd1[s * (h + 1)..(s + 1) * (h + 1)];
+        let mask = head(&self.mask, n);
+        let hd1 = head_mut(&mut self.hd1, n);
+        for i in 0..n {
+            let row = &mut hd1[i * (h + 1)..(i + 1) * (h + 1)];
             for u in 0..h {
-                hd1[u] *= self.mask[s * h + u];
+                row[u] *= mask[i * h + u];
             }
-            hd1[h] = 1.0;
-            let y = &mut self.y[s * o..(s + 1) * o];
-            y.fill(0.0);
-            rows_acc(y, hd1, dense);
+            row[h] = 1.0;
         }
+        let y = head_mut(&mut self.y, n);
+        y.fill(0.0);
+        // SAFETY: as above.
+        unsafe { M::rows_acc(y, head(&self.hd1, n), dense, o) };
     }
 
     /// The output of sample `s` of the last [`Workspace::forward`].
     pub(crate) fn output(&self, s: usize) -> &[f32] {
-        let o = self.shape.outputs();
-        &self.y[s * o..(s + 1) * o]
+        self.y
+            .row(s)
+            .to_slice()
+            .expect("workspace arrays have the standard layout")
     }
 
     /// Squared error of sample `s` of the last forward pass against `target`, summed in f64
@@ -303,8 +560,8 @@ impl Workspace {
     #[inline(always)]
     pub(crate) fn error(&mut self, s: usize, target: &[f32], grad_scale: f32) -> f64 {
         let o = self.shape.outputs();
-        let y = &self.y[s * o..(s + 1) * o];
-        let dy = &mut self.dy[s * o..(s + 1) * o];
+        let y = &self.y.as_slice().expect("standard layout")[s * o..(s + 1) * o];
+        let dy = &mut self.dy.as_slice_mut().expect("standard layout")[s * o..(s + 1) * o];
         let mut sse = 0.0f64;
         for j in 0..o {
             let e = y[j] - target[j];
@@ -315,79 +572,90 @@ impl Workspace {
     }
 
     /// Backward pass of the first `n` samples of the last forward pass, with output gradients
-    /// `dy`; adds their gradients into `grad`, sample after sample.
+    /// `dy`, with the matrix products of `M`; adds their gradients into `grad`, sample after
+    /// sample.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
-    pub(crate) fn backward(&mut self, n: usize) {
+    pub(crate) unsafe fn backward<M: Mat>(&mut self, n: usize) {
         assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
-        let (t_n, h, g, r1, o) = (
-            sh.steps_in(),
-            sh.units(),
-            sh.gates(),
-            sh.rows_lstm(),
-            sh.outputs(),
-        );
-        let dense_off = sh.dense_offset();
-        let (xh_n, g_n, c_n, tc_n) = (t_n * r1, t_n * g, (t_n + 1) * h, t_n * h);
+        let (t_n, h, g) = (sh.steps_in(), sh.units(), sh.gates());
+        let (grad_lstm, grad_dense) = self
+            .grad
+            .as_slice_mut()
+            .expect("standard layout")
+            .split_at_mut(sh.dense_offset());
         // Dense layer: gradient of [kernel; bias] and of the (masked) last hidden state.
-        for s in 0..n {
-            outer_acc(
-                &mut self.grad[dense_off..],
-                &self.hd1[s * (h + 1)..(s + 1) * (h + 1)],
-                &self.dy[s * o..(s + 1) * o],
+        // SAFETY: the caller guarantees the CPU runs `M`.
+        unsafe {
+            M::outer_acc(
+                grad_dense,
+                self.hd1.as_slice().expect("standard layout"),
+                self.dy.as_slice().expect("standard layout"),
                 1,
-                h + 1,
-            );
+                GROUP,
+                n,
+            )
+        };
+        let dh = head_mut(&mut self.dh, n);
+        dh.fill(0.0);
+        // SAFETY: as above.
+        unsafe {
+            M::rows_acc(
+                dh,
+                head(&self.dy, n),
+                self.dense_t.as_slice().expect("standard layout"),
+                h,
+            )
+        };
+        for (dh, m) in dh.iter_mut().zip(head(&self.mask, n)) {
+            *dh *= *m;
         }
-        for s in 0..n {
-            let dh = &mut self.dh[s * h..(s + 1) * h];
-            dh.fill(0.0);
-            rows_acc(dh, &self.dy[s * o..(s + 1) * o], &self.dense_t);
-            for u in 0..h {
-                dh[u] *= self.mask[s * h + u];
-            }
-        }
-        self.dc[..n * h].fill(0.0);
+        head_mut(&mut self.dc, n).fill(0.0);
+        let rec_t = self.rec_t.as_slice().expect("standard layout");
         for t in (0..t_n).rev() {
-            for s in 0..n {
-                let z = &self.gates[s * g_n + t * g..s * g_n + (t + 1) * g];
-                let c_prev = &self.cs[s * c_n + t * h..s * c_n + (t + 1) * h];
-                let tc = &self.tanh_c[s * tc_n + t * h..s * tc_n + (t + 1) * h];
-                let dz = &mut self.dz[s * g_n + t * g..s * g_n + (t + 1) * g];
-                let dh_s = &self.dh[s * h..(s + 1) * h];
-                let dc_s = &mut self.dc[s * h..(s + 1) * h];
+            let z = step(&self.gates, t, n);
+            let c_prev = step(&self.cs, t, n);
+            let tc = step(&self.tanh_c, t, n);
+            let dz = step_mut(&mut self.dz, t, n);
+            let dh = head(&self.dh, n);
+            let dc = head_mut(&mut self.dc, n);
+            for i in 0..n {
+                let zi = &z[i * g..(i + 1) * g];
+                let (cp, tci) = (&c_prev[i * h..(i + 1) * h], &tc[i * h..(i + 1) * h]);
+                let dzi = &mut dz[i * g..(i + 1) * g];
+                let (dhi, dci) = (&dh[i * h..(i + 1) * h], &mut dc[i * h..(i + 1) * h]);
                 for u in 0..h {
-                    let (i, f, gg, oo) = (z[u], z[h + u], z[2 * h + u], z[3 * h + u]);
-                    let dh = dh_s[u];
-                    let d_o = dh * tc[u];
-                    let dc = dc_s[u] + dh * oo * (1.0 - tc[u] * tc[u]);
-                    dz[u] = dc * gg * (i * (1.0 - i));
-                    dz[h + u] = dc * c_prev[u] * (f * (1.0 - f));
-                    dz[2 * h + u] = dc * i * (1.0 - gg * gg);
-                    dz[3 * h + u] = d_o * (oo * (1.0 - oo));
-                    dc_s[u] = dc * f;
+                    let (ig, fg, gg, og) = (zi[u], zi[h + u], zi[2 * h + u], zi[3 * h + u]);
+                    let dhu = dhi[u];
+                    let d_o = dhu * tci[u];
+                    let dcu = dci[u] + dhu * og * (1.0 - tci[u] * tci[u]);
+                    dzi[u] = dcu * gg * (ig * (1.0 - ig));
+                    dzi[h + u] = dcu * cp[u] * (fg * (1.0 - fg));
+                    dzi[2 * h + u] = dcu * ig * (1.0 - gg * gg);
+                    dzi[3 * h + u] = d_o * (og * (1.0 - og));
+                    dci[u] = dcu * fg;
                 }
             }
             if t > 0 {
-                for s in 0..n {
-                    let dh = &mut self.dh[s * h..(s + 1) * h];
-                    dh.fill(0.0);
-                    rows_acc(
-                        dh,
-                        &self.dz[s * g_n + t * g..s * g_n + (t + 1) * g],
-                        &self.rec_t,
-                    );
-                }
+                let dh = head_mut(&mut self.dh, n);
+                dh.fill(0.0);
+                // SAFETY: as above.
+                unsafe { M::rows_acc(dh, step(&self.dz, t, n), rec_t, h) };
             }
         }
-        for s in 0..n {
-            outer_acc(
-                &mut self.grad[..r1 * g],
-                &self.xh[s * xh_n..(s + 1) * xh_n],
-                &self.dz[s * g_n..(s + 1) * g_n],
+        // SAFETY: the caller guarantees the CPU runs `M`.
+        unsafe {
+            M::outer_acc(
+                grad_lstm,
+                self.xh.as_slice().expect("standard layout"),
+                self.dz.as_slice().expect("standard layout"),
                 t_n,
-                r1,
-            );
-        }
+                GROUP,
+                n,
+            )
+        };
     }
 }

@@ -100,6 +100,48 @@ pub fn expf_lane(x_in: f32) -> f32 {
     r
 }
 
+/// `libm::expf` for arguments with 2^-13 < |x| < 87 only, where none of libm's special cases
+/// (tiny, overflow, underflow, NaN) applies and the scale factor 2^k is a normal number: the
+/// same IEEE operations as [`expf_lane`] takes for those arguments, without computing the
+/// candidates it would discard (`y * 1.0` is exact, so `y * 2^k` is its result for every k).
+/// Outside that range the result is unspecified (never undefined behaviour).
+#[inline(always)]
+fn expf_normal(x_in: f32) -> f32 {
+    let bits = x_in.to_bits();
+    let sign = (bits >> 31) as i32;
+    let hx = bits & 0x7fff_ffff;
+    let half = if sign != 0 { -0.5f32 } else { 0.5f32 };
+    // In range, |q| < 126; the clamp only keeps out-of-range lanes well defined.
+    let q = (INV_LN2 * x_in + half).clamp(-256.0, 256.0);
+    let q = if q.is_nan() { 0.0 } else { q };
+    // SAFETY: q is finite and within [-256, 256], so the truncation fits an i32.
+    let k_far: i32 = unsafe { q.to_int_unchecked() };
+    let k = if hx > 0x3f85_1592 {
+        k_far
+    } else if hx > 0x3eb1_7218 {
+        1 - sign - sign
+    } else {
+        0
+    };
+    let kf = k as f32;
+    let hi = x_in - kf * EXP_LN2_HI;
+    let lo = kf * EXP_LN2_LO;
+    let x = hi - lo;
+    let xx = x * x;
+    let c = x - xx * (EXP_P1 + xx * EXP_P2);
+    let y = 1. + (x * c / (2. - c) - lo + hi);
+    y * pow2(k.clamp(-126, 127))
+}
+
+/// True if every value of the chunk is an argument [`expf_normal`] handles (as `x` or `-x`).
+#[inline(always)]
+fn all_expf_normal(values: &[f32; LANES]) -> bool {
+    values.iter().fold(true, |ok, v| {
+        let hx = v.to_bits() & 0x7fff_ffff;
+        ok & (hx > 0x3900_0000) & (hx < 0x42ae_0000)
+    })
+}
+
 /// `libm::expm1f` of one value, written branch-free.
 #[inline(always)]
 pub fn expm1f_lane(x_in: f32) -> f32 {
@@ -270,15 +312,17 @@ pub fn tanhf_lane(x_in: f32) -> f32 {
 
     let arg = if w > 0x3e82_c578 { 2. * x } else { -2. * x };
     let t = expm1f_for_tanh(arg);
-    let big = 1. + 0. / x;
-    let upper = 1. - 2. / (t + 2.);
-    // libm's lower branch is -t / (t + 2); negating the dividend negates a correctly rounded
-    // quotient exactly, so it is -(t / (t + 2)): one division serves both branches.
-    let quotient = t / (t + 2.);
+    // libm's 1 + 0 / x for |x| > 10 is 1, or x's NaN quieted (as 1 + x gives it): no division.
+    let big = if x.is_nan() { x + 1. } else { 1. };
+    // libm's middle branch is 1 - 2 / (t + 2), its lower branch -t / (t + 2); negating the
+    // dividend negates a correctly rounded quotient exactly, so that is -(t / (t + 2)). A lane
+    // needs only one of the quotients: one division with the lane's dividend serves all three.
+    let dividend = if w > 0x3f0c_9f54 { 2. } else { t };
+    let quotient = dividend / (t + 2.);
     let tt = if w > 0x4120_0000 {
         big
     } else if w > 0x3f0c_9f54 {
-        upper
+        1. - quotient
     } else if w > 0x3e82_c578 {
         quotient
     } else if w >= 0x0080_0000 {
@@ -325,11 +369,31 @@ macro_rules! slice_op {
     };
 }
 
-slice_op!(
-    /// Replaces every value by its sigmoid (bit-identical to [`sigmoid_libm`]).
-    sigmoid_in_place,
-    sigmoid_lane
-);
+/// Replaces every value by its sigmoid (bit-identical to [`sigmoid_libm`]). Chunks whose
+/// values all lie in 2^-13 < |x| < 87 (nearly all of them in training) take [`expf_normal`],
+/// which skips the special cases; the rest take the full port.
+#[inline(always)]
+pub fn sigmoid_in_place(values: &mut [f32]) {
+    let mut chunks = values.chunks_exact_mut(LANES);
+    for chunk in &mut chunks {
+        let mut lanes = [0f32; LANES];
+        lanes.copy_from_slice(chunk);
+        if all_expf_normal(&lanes) {
+            for v in lanes.iter_mut() {
+                *v = 1.0 / (1.0 + expf_normal(-*v));
+            }
+        } else {
+            for v in lanes.iter_mut() {
+                *v = sigmoid_lane(*v);
+            }
+        }
+        chunk.copy_from_slice(&lanes);
+    }
+    for v in chunks.into_remainder() {
+        *v = sigmoid_lane(*v);
+    }
+}
+
 slice_op!(
     /// Replaces every value by its `tanhf` (bit-identical to `libm::tanhf`).
     tanh_in_place,
@@ -467,10 +531,11 @@ mod tests {
             65_537
         };
         type Pair = (&'static str, fn(&mut [f32]), fn(f32) -> f32);
-        let pairs: [Pair; 3] = [
+        let pairs: [Pair; 4] = [
             ("expf", exp_in_place, libm::expf),
             ("expm1f", expm1_in_place, libm::expm1f),
             ("tanhf", tanh_in_place, libm::tanhf),
+            ("sigmoid", sigmoid_in_place, sigmoid_libm),
         ];
         for (name, lanes, reference) in pairs {
             let mut start: u64 = 0;

@@ -4,7 +4,9 @@
 //! Dense(2 * `target_waypoints`), read as (`target_waypoints`, 2). Its weights are one flat
 //! `Vec<f32>` in the Keras layout (LSTM kernel `2 x 4H`, recurrent kernel `H x 4H`, bias `4H`,
 //! Dense kernel `H x O`, Dense bias `O`; gate order i, f, c, o; row-major): 2848 values for the
-//! paper's sizes.
+//! paper's sizes. Training holds them, their gradient, the data and every activation in
+//! `ndarray` arrays (the layers are `Array2` views of the flat vector; the data and the
+//! per-step activations `Array3`), and runs its products on their contiguous rows.
 //!
 //! Training is a pure function of (shape, config, start weights, data, dropout stream): plain
 //! SGD on the mean squared error with full backpropagation through time, in `f32` as
@@ -20,9 +22,12 @@ pub mod fixed;
 pub mod init;
 pub(crate) mod kernels;
 pub mod math;
+#[cfg(target_arch = "x86_64")]
+mod simd;
 #[cfg(test)]
 mod tests;
 
+use ndarray::{s, Array1, Array2, Array3, ArrayView3, Axis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -32,7 +37,7 @@ use crate::rng::Rng;
 
 pub use fixed::{from_fixed, to_fixed, FixedPointError};
 pub use init::init_weights;
-use kernels::{Workspace, GROUP};
+use kernels::{Mat, Tiled, Workspace, GROUP};
 
 /// Coordinates per waypoint (x, y).
 const POINT_DIMS: usize = 2;
@@ -146,14 +151,14 @@ pub enum LearnError {
     },
 }
 
-/// A data set in the model's layout: per sample, `input_steps` (x, y) inputs and
-/// `2 * output_steps` targets, oldest sample first.
+/// A data set in the model's layout, oldest sample first: the inputs as a `samples x
+/// input_steps x 2` array of (x, y), the targets as `samples x 2 * output_steps`. A batch is a
+/// view of a range of samples.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainData {
     shape: ModelShape,
-    inputs: Vec<f32>,
-    targets: Vec<f32>,
-    len: usize,
+    inputs: Array3<f32>,
+    targets: Array2<f32>,
 }
 
 impl TrainData {
@@ -174,11 +179,12 @@ impl TrainData {
             inputs.extend(sample.points[..n_in].iter().flatten());
             targets.extend(sample.points[n_in..n_in + n_out].iter().flatten());
         }
+        let inputs = Array3::from_shape_vec((samples.len(), n_in, POINT_DIMS), inputs);
+        let targets = Array2::from_shape_vec((samples.len(), shape.outputs()), targets);
         Ok(TrainData {
             shape: shape.clone(),
-            inputs,
-            targets,
-            len: samples.len(),
+            inputs: inputs.expect("input_steps points per sample"),
+            targets: targets.expect("target_waypoints points per sample"),
         })
     }
 
@@ -191,32 +197,46 @@ impl TrainData {
             return None;
         }
         let len = inputs.len() / n_in;
-        (targets.len() == len * n_out).then(|| TrainData {
+        if targets.len() != len * n_out {
+            return None;
+        }
+        Some(TrainData {
             shape: shape.clone(),
-            inputs,
-            targets,
-            len,
+            inputs: Array3::from_shape_vec((len, shape.steps_in(), POINT_DIMS), inputs).ok()?,
+            targets: Array2::from_shape_vec((len, n_out), targets).ok()?,
         })
     }
 
     /// Number of samples.
     pub fn len(&self) -> usize {
-        self.len
+        self.inputs.len_of(Axis(0))
     }
 
     /// True if there are no samples.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.len() == 0
     }
 
-    fn input(&self, i: usize) -> &[f32] {
-        let n = self.shape.input_len();
-        &self.inputs[i * n..(i + 1) * n]
+    /// The first `n` samples (all of them if there are fewer).
+    pub fn head(&self, n: usize) -> TrainData {
+        let n = n.min(self.len());
+        TrainData {
+            shape: self.shape.clone(),
+            inputs: self.inputs.slice(s![..n, .., ..]).to_owned(),
+            targets: self.targets.slice(s![..n, ..]).to_owned(),
+        }
+    }
+
+    /// The inputs of samples `from..to` (`samples x input_steps x 2`).
+    fn inputs(&self, from: usize, to: usize) -> ArrayView3<'_, f32> {
+        self.inputs.slice(s![from..to, .., ..])
     }
 
     fn target(&self, i: usize) -> &[f32] {
-        let n = self.shape.outputs();
-        &self.targets[i * n..(i + 1) * n]
+        self.targets
+            .row(i)
+            .to_slice()
+            .expect("owned arrays have the standard layout")
     }
 }
 
@@ -346,7 +366,7 @@ pub fn train_with(
     );
     let n_train = split_point(data.len(), cfg.train_fraction);
     let n_val = data.len() - n_train;
-    let mut weights = start.to_vec();
+    let mut weights = Array1::from(start.to_vec());
     let mut final_train_loss = f64::NAN;
     if n_train > 0 && cfg.epochs > 0 && cfg.batch_size > 0 {
         let mut ws = Workspace::new(shape);
@@ -359,6 +379,7 @@ pub fn train_with(
         };
         final_train_loss = dispatch_train(kernel, &mut ws, &mut weights, data, &sgd, &mut dropout);
     }
+    let weights = weights.to_vec();
     let val_loss = if n_val > 0 {
         loss_range_with(kernel, shape, &weights, data, n_train, data.len())
     } else {
@@ -394,11 +415,13 @@ pub fn predict(shape: &ModelShape, weights: &[f32], data: &TrainData) -> Vec<f32
     );
     assert_eq!(&data.shape, shape, "data built for another model shape");
     let mut ws = Workspace::new(shape);
-    ws.transpose_weights(weights);
     let mut out = Vec::with_capacity(data.len() * shape.outputs());
-    for i in 0..data.len() {
-        ws.forward(weights, &[data.input(i)]);
-        out.extend_from_slice(ws.output(0));
+    for (first, last) in groups(0, data.len()) {
+        // SAFETY: the portable kernels run on any CPU.
+        unsafe { ws.forward::<Portable>(weights, data.inputs(first, last)) };
+        for s in 0..last - first {
+            out.extend_from_slice(ws.output(s));
+        }
     }
     out
 }
@@ -416,12 +439,26 @@ pub fn gradient(shape: &ModelShape, weights: &[f32], data: &TrainData) -> (Vec<f
     ws.transpose_weights(weights);
     let scale = grad_scale(data.len(), shape.outputs());
     let mut sse = 0.0;
-    for i in 0..data.len() {
-        ws.forward(weights, &[data.input(i)]);
-        sse += ws.error(0, data.target(i), scale);
-        ws.backward(1);
+    for (first, last) in groups(0, data.len()) {
+        // SAFETY: the portable kernels run on any CPU.
+        unsafe { ws.forward::<Portable>(weights, data.inputs(first, last)) };
+        for (s, i) in (first..last).enumerate() {
+            sse += ws.error(s, data.target(i), scale);
+        }
+        // SAFETY: as above.
+        unsafe { ws.backward::<Portable>(last - first) };
     }
-    (ws.grad.clone(), sse / (data.len() * shape.outputs()) as f64)
+    (
+        ws.grad.to_vec(),
+        sse / (data.len() * shape.outputs()) as f64,
+    )
+}
+
+/// The groups of at most [`GROUP`] consecutive samples that cover `from..to`, in order.
+fn groups(from: usize, to: usize) -> impl Iterator<Item = (usize, usize)> {
+    (from..to)
+        .step_by(GROUP)
+        .map(move |first| (first, (first + GROUP).min(to)))
 }
 
 /// One robot's training, for [`train_many`].
@@ -447,6 +484,10 @@ pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
         .collect()
 }
 
+/// The portable matrix kernels (baseline x86-64 and other targets): tiles of 4 samples x 8
+/// lanes, 8 of the 16 SSE registers. AVX2 and AVX-512 use the explicit-SIMD kernels of `simd`.
+type Portable = Tiled<4, 8>;
+
 /// SGD settings of one training.
 struct Sgd {
     epochs: u32,
@@ -464,13 +505,16 @@ fn grad_scale(batch: usize, outputs: usize) -> f32 {
 fn dispatch_train(
     kernel: Kernel,
     ws: &mut Workspace,
-    weights: &mut [f32],
+    weights: &mut Array1<f32>,
     data: &TrainData,
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
     match kernel.resolve() {
-        Resolved::Baseline => train_loop(ws, weights, data, sgd, dropout),
+        Resolved::Baseline => {
+            // SAFETY: the portable kernels run on any CPU.
+            unsafe { train_loop::<Portable>(ws, weights, data, sgd, dropout) }
+        }
         // SAFETY: `resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
         Resolved::Avx2 => unsafe { train_avx2(ws, weights, data, sgd, dropout) },
@@ -484,31 +528,36 @@ fn dispatch_train(
 #[target_feature(enable = "avx512f")]
 unsafe fn train_avx512(
     ws: &mut Workspace,
-    weights: &mut [f32],
+    weights: &mut Array1<f32>,
     data: &TrainData,
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
-    train_loop(ws, weights, data, sgd, dropout)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { train_loop::<simd::Avx512>(ws, weights, data, sgd, dropout) }
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 unsafe fn train_avx2(
     ws: &mut Workspace,
-    weights: &mut [f32],
+    weights: &mut Array1<f32>,
     data: &TrainData,
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
-    train_loop(ws, weights, data, sgd, dropout)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { train_loop::<simd::Avx2>(ws, weights, data, sgd, dropout) }
 }
 
 /// The epochs of SGD; returns the last epoch's training loss.
+///
+/// # Safety
+/// The CPU has the instruction set `M` is compiled for.
 #[inline(always)]
-fn train_loop(
+unsafe fn train_loop<M: Mat>(
     ws: &mut Workspace,
-    weights: &mut [f32],
+    weights: &mut Array1<f32>,
     data: &TrainData,
     sgd: &Sgd,
     dropout: &mut Rng,
@@ -522,30 +571,27 @@ fn train_loop(
         while start < sgd.samples {
             let end = (start + sgd.batch).min(sgd.samples);
             let scale = grad_scale(end - start, outputs);
-            ws.transpose_weights(weights);
+            let w = weights
+                .as_slice()
+                .expect("owned arrays have the standard layout");
+            ws.transpose_weights(w);
             ws.grad.fill(0.0);
-            let mut first = start;
-            while first < end {
-                let last = (first + GROUP).min(end);
-                let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
-                for (s, i) in (first..last).enumerate() {
+            for (first, last) in groups(start, end) {
+                for s in 0..last - first {
                     for m in ws.mask_mut(s) {
                         let keep = dropout.uniform_f32() >= sgd.dropout;
                         *m = if keep { keep_scale } else { 0.0 };
                     }
-                    inputs[s] = data.input(i);
                 }
-                let n = last - first;
-                ws.forward(weights, &inputs[..n]);
+                // SAFETY: this function's caller guarantees the CPU runs `M`.
+                unsafe { ws.forward::<M>(w, data.inputs(first, last)) };
                 for (s, i) in (first..last).enumerate() {
                     epoch_sse += ws.error(s, data.target(i), scale);
                 }
-                ws.backward(n);
-                first = last;
+                // SAFETY: as above.
+                unsafe { ws.backward::<M>(last - first) };
             }
-            for (w, g) in weights.iter_mut().zip(&ws.grad) {
-                *w -= *g * sgd.lr;
-            }
+            weights.zip_mut_with(&ws.grad, |w, g| *w -= *g * sgd.lr);
             start = end;
         }
     }
@@ -566,7 +612,10 @@ fn loss_range_with(
     }
     let mut ws = Workspace::new(shape);
     match kernel.resolve() {
-        Resolved::Baseline => loss_loop(&mut ws, weights, data, from, to),
+        Resolved::Baseline => {
+            // SAFETY: the portable kernels run on any CPU.
+            unsafe { loss_loop::<Portable>(&mut ws, weights, data, from, to) }
+        }
         // SAFETY: `resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
         Resolved::Avx2 => unsafe { loss_avx2(&mut ws, weights, data, from, to) },
@@ -585,7 +634,8 @@ unsafe fn loss_avx512(
     from: usize,
     to: usize,
 ) -> f64 {
-    loss_loop(ws, weights, data, from, to)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { loss_loop::<simd::Avx512>(ws, weights, data, from, to) }
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -597,25 +647,30 @@ unsafe fn loss_avx2(
     from: usize,
     to: usize,
 ) -> f64 {
-    loss_loop(ws, weights, data, from, to)
+    // SAFETY: this function's caller checked the CPU.
+    unsafe { loss_loop::<simd::Avx2>(ws, weights, data, from, to) }
 }
 
+/// Mean squared error over the samples `from..to` (dropout off).
+///
+/// # Safety
+/// The CPU has the instruction set `M` is compiled for.
 #[inline(always)]
-fn loss_loop(ws: &mut Workspace, weights: &[f32], data: &TrainData, from: usize, to: usize) -> f64 {
+unsafe fn loss_loop<M: Mat>(
+    ws: &mut Workspace,
+    weights: &[f32],
+    data: &TrainData,
+    from: usize,
+    to: usize,
+) -> f64 {
     ws.mask.fill(1.0);
     let mut sse = 0.0f64;
-    let mut first = from;
-    while first < to {
-        let last = (first + GROUP).min(to);
-        let mut inputs: [&[f32]; GROUP] = [&[]; GROUP];
-        for (s, i) in (first..last).enumerate() {
-            inputs[s] = data.input(i);
-        }
-        ws.forward(weights, &inputs[..last - first]);
+    for (first, last) in groups(from, to) {
+        // SAFETY: this function's caller guarantees the CPU runs `M`.
+        unsafe { ws.forward::<M>(weights, data.inputs(first, last)) };
         for (s, i) in (first..last).enumerate() {
             sse += ws.error(s, data.target(i), 0.0);
         }
-        first = last;
     }
     sse / ((to - from) * ws.shape.outputs()) as f64
 }

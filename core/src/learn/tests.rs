@@ -1,5 +1,7 @@
 //! Tests of the learning module against TensorFlow/Keras, finite differences, and itself.
 
+// The reference loops index several arrays at the same position; iterators would hide that.
+#![allow(clippy::needless_range_loop)]
 use super::*;
 use crate::rng::{stream, Purpose};
 
@@ -151,12 +153,7 @@ fn gradient_matches_central_finite_differences() {
         .map(|v| v + (rng.normal() * 0.05) as f32)
         .collect();
     let n = 10;
-    let data = TrainData::from_flat(
-        &shape,
-        fx.data.inputs[..n * shape.input_len()].to_vec(),
-        fx.data.targets[..n * shape.outputs()].to_vec(),
-    )
-    .expect("sizes");
+    let data = fx.data.head(n);
     let (grad, _) = gradient(&shape, &w, &data);
     // Per block of the layout: the weight with the largest gradient and a few others.
     let blocks = [
@@ -266,12 +263,7 @@ fn small_jobs() -> Vec<TrainJob> {
     (0..4u32)
         .map(|robot| {
             let n = 20 + 5 * robot as usize;
-            let data = TrainData::from_flat(
-                &shape,
-                fx.data.inputs[..n * shape.input_len()].to_vec(),
-                fx.data.targets[..n * shape.outputs()].to_vec(),
-            )
-            .expect("sizes");
+            let data = fx.data.head(n);
             TrainJob {
                 shape: shape.clone(),
                 cfg: learn_cfg(2, 0.01, 0.2, 0.8),
@@ -402,26 +394,15 @@ fn split_and_degenerate_inputs() {
     assert!(loss(&shape, &fx.init, &empty).is_nan());
 
     // One sample: nothing to train on, one to validate.
-    let one = TrainData::from_flat(
-        &shape,
-        fx.data.inputs[..shape.input_len()].to_vec(),
-        fx.data.targets[..shape.outputs()].to_vec(),
-    )
-    .expect("sizes");
+    let one = fx.data.head(1);
     let o = train(&shape, &cfg, &fx.init, &one, stream(0, Purpose::Dropout, 0));
     assert_eq!((o.train_samples, o.val_samples), (0, 1));
     assert_eq!(o.weights, fx.init);
     assert!(o.val_loss.is_finite());
 
     // NaN in the data: no panic, NaN comes out, and the fixed point refuses it.
-    let mut inputs = fx.data.inputs[..5 * shape.input_len()].to_vec();
-    inputs[3] = f32::NAN;
-    let nan = TrainData::from_flat(
-        &shape,
-        inputs,
-        fx.data.targets[..5 * shape.outputs()].to_vec(),
-    )
-    .expect("sizes");
+    let mut nan = fx.data.head(5);
+    nan.inputs[[0, 1, 1]] = f32::NAN;
     let o = train(&shape, &cfg, &fx.init, &nan, stream(0, Purpose::Dropout, 0));
     assert!(o.final_train_loss.is_nan());
     assert!(matches!(
@@ -504,3 +485,399 @@ fn training_bits_are_pinned_across_builds() {
 
 const PINNED_TRAINING_DIGEST: &str =
     "fdc30e2970a74c42304dbe2d6440af92f0bf1cf71372d6403bd41a1804201096";
+
+/// Random values for the equivalence tests: normal, with exact zeros and negative zeros mixed
+/// in (so that `0 + (-0)` and `0 * w` cases are exercised).
+fn random_values(rng: &mut Rng, n: usize, scale: f64) -> Vec<f32> {
+    (0..n)
+        .map(|_| match rng.below(10) {
+            0 => 0.0,
+            1 => -0.0,
+            _ => (rng.normal() * scale) as f32,
+        })
+        .collect()
+}
+
+fn to_bits(v: &[f32]) -> Vec<u32> {
+    v.iter().map(|x| x.to_bits()).collect()
+}
+
+/// The register-blocked products equal the plain per-sample loops bit for bit, for every tile
+/// shape, on random sizes whose sample counts and widths are not multiples of the tiles.
+#[test]
+fn blocked_products_equal_the_per_sample_order() {
+    use super::kernels::{outer_acc, rows_acc};
+    let mut rng = stream(11, Purpose::ModelInit, 1);
+    type Rows = fn(&mut [f32], &[f32], &[f32], usize);
+    type Outer = fn(&mut [f32], &[f32], &[f32], usize, usize, usize);
+    #[allow(unused_mut)]
+    let mut tiles: Vec<(&str, Rows, Outer)> = vec![
+        ("1x1", rows_acc::<1, 1>, outer_acc::<1, 1>),
+        ("4x8", rows_acc::<4, 8>, outer_acc::<4, 8>),
+        ("4x16", rows_acc::<4, 16>, outer_acc::<4, 16>),
+        ("4x64", rows_acc::<4, 64>, outer_acc::<4, 64>),
+        ("3x32", rows_acc::<3, 32>, outer_acc::<3, 32>),
+        ("8x16", rows_acc::<8, 16>, outer_acc::<8, 16>),
+    ];
+    #[cfg(target_arch = "x86_64")]
+    {
+        use super::kernels::Mat;
+        use super::simd::{Avx2, Avx512};
+        #[target_feature(enable = "avx512f")]
+        unsafe fn rows_512(o: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+            // SAFETY: this function requires AVX-512F.
+            unsafe { Avx512::rows_acc(o, a, m, n) }
+        }
+        #[target_feature(enable = "avx512f")]
+        unsafe fn outer_512(g: &mut [f32], a: &[f32], d: &[f32], t: usize, gr: usize, s: usize) {
+            // SAFETY: this function requires AVX-512F.
+            unsafe { Avx512::outer_acc(g, a, d, t, gr, s) }
+        }
+        #[target_feature(enable = "avx2")]
+        unsafe fn rows_256(o: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+            // SAFETY: this function requires AVX2.
+            unsafe { Avx2::rows_acc(o, a, m, n) }
+        }
+        #[target_feature(enable = "avx2")]
+        unsafe fn outer_256(g: &mut [f32], a: &[f32], d: &[f32], t: usize, gr: usize, s: usize) {
+            // SAFETY: this function requires AVX2.
+            unsafe { Avx2::outer_acc(g, a, d, t, gr, s) }
+        }
+        if std::arch::is_x86_feature_detected!("avx512f") {
+            // SAFETY: the CPU has AVX-512F (checked on the line above).
+            tiles.push((
+                "avx512",
+                |o, a, m, n| unsafe { rows_512(o, a, m, n) },
+                |g, a, d, t, gr, s| unsafe { outer_512(g, a, d, t, gr, s) },
+            ));
+        }
+        if std::arch::is_x86_feature_detected!("avx2") {
+            // SAFETY: the CPU has AVX2 (checked on the line above).
+            tiles.push((
+                "avx2",
+                |o, a, m, n| unsafe { rows_256(o, a, m, n) },
+                |g, a, d, t, gr, s| unsafe { outer_256(g, a, d, t, gr, s) },
+            ));
+        }
+    }
+    for case in 0..40 {
+        let samples = 1 + rng.below(11) as usize;
+        let group = samples + rng.below(3) as usize;
+        let k = 1 + rng.below(40) as usize;
+        let n = 1 + rng.below(150) as usize;
+        let steps = 1 + rng.below(5) as usize;
+        // rows_acc: out[s][j] += sum over kk ascending of a[s][kk] m[kk][j].
+        let a = random_values(&mut rng, samples * k, 1.0);
+        let m = random_values(&mut rng, k * n, 1.0);
+        let init = random_values(&mut rng, samples * n, 1.0);
+        let mut want = init.clone();
+        for s in 0..samples {
+            for j in 0..n {
+                let mut acc = want[s * n + j];
+                for kk in 0..k {
+                    acc += a[s * k + kk] * m[kk * n + j];
+                }
+                want[s * n + j] = acc;
+            }
+        }
+        // outer_acc: per sample in order, grad[r][j] += (0 + sum over t of a[t][s][r] d[t][s][j]).
+        let oa = random_values(&mut rng, steps * group * k, 1.0);
+        let od = random_values(&mut rng, steps * group * n, 1.0);
+        let grad0 = random_values(&mut rng, k * n, 1.0);
+        let mut want_grad = grad0.clone();
+        for s in 0..samples {
+            for r in 0..k {
+                for j in 0..n {
+                    let mut p = 0.0f32;
+                    for t in 0..steps {
+                        p += oa[(t * group + s) * k + r] * od[(t * group + s) * n + j];
+                    }
+                    want_grad[r * n + j] += p;
+                }
+            }
+        }
+        for &(name, rows, outer) in &tiles {
+            let mut got = init.clone();
+            rows(&mut got, &a, &m, n);
+            assert_eq!(
+                to_bits(&got),
+                to_bits(&want),
+                "rows_acc {name}, case {case}: {samples} samples, k {k}, n {n}"
+            );
+            let mut got = grad0.clone();
+            outer(&mut got, &oa, &od, steps, group, samples);
+            assert_eq!(
+                to_bits(&got),
+                to_bits(&want_grad),
+                "outer_acc {name}, case {case}: {samples} of {group} samples, {k} x {n}, {steps} steps"
+            );
+        }
+    }
+}
+
+/// What a plain forward pass keeps for its backward pass (one sample).
+struct RefPass {
+    xh: Vec<Vec<f32>>,
+    gates: Vec<Vec<f32>>,
+    cs: Vec<Vec<f32>>,
+    tanh_c: Vec<Vec<f32>>,
+    hd1: Vec<f32>,
+    y: Vec<f32>,
+}
+
+/// The unblocked forward pass of one sample, in the orders of the kernels' documentation,
+/// with the `libm` activations.
+fn ref_forward(shape: &ModelShape, w: &[f32], x: &[f32], mask: &[f32]) -> RefPass {
+    let (t_n, d, h, g, r1, o) = (
+        shape.steps_in(),
+        shape.input_dims(),
+        shape.units(),
+        shape.gates(),
+        shape.rows_lstm(),
+        shape.outputs(),
+    );
+    let mut pass = RefPass {
+        xh: Vec::new(),
+        gates: Vec::new(),
+        cs: vec![vec![0.0; h]],
+        tanh_c: Vec::new(),
+        hd1: Vec::new(),
+        y: vec![0.0; o],
+    };
+    let mut h_prev = vec![0.0f32; h];
+    for t in 0..t_n {
+        let mut xh = x[t * d..(t + 1) * d].to_vec();
+        xh.extend(&h_prev);
+        xh.push(1.0);
+        let mut z = vec![0.0f32; g];
+        for j in 0..g {
+            for k in 0..r1 {
+                z[j] += xh[k] * w[k * g + j];
+            }
+        }
+        for j in 0..g {
+            z[j] = if (2 * h..3 * h).contains(&j) {
+                libm::tanhf(z[j])
+            } else {
+                math::sigmoid_libm(z[j])
+            };
+        }
+        let c_prev = &pass.cs[t];
+        let c: Vec<f32> = (0..h)
+            .map(|u| z[h + u] * c_prev[u] + z[u] * z[2 * h + u])
+            .collect();
+        let tc: Vec<f32> = c.iter().map(|v| libm::tanhf(*v)).collect();
+        h_prev = (0..h).map(|u| z[3 * h + u] * tc[u]).collect();
+        pass.xh.push(xh);
+        pass.gates.push(z);
+        pass.cs.push(c);
+        pass.tanh_c.push(tc);
+    }
+    pass.hd1 = (0..h).map(|u| h_prev[u] * mask[u]).collect();
+    pass.hd1.push(1.0);
+    let dense = &w[shape.dense_offset()..];
+    for j in 0..o {
+        for k in 0..=h {
+            pass.y[j] += pass.hd1[k] * dense[k * o + j];
+        }
+    }
+    pass
+}
+
+/// The unblocked backward pass of one sample: adds its gradient into `grad`.
+fn ref_backward(
+    shape: &ModelShape,
+    w: &[f32],
+    pass: &RefPass,
+    dy: &[f32],
+    mask: &[f32],
+    grad: &mut [f32],
+) {
+    let (t_n, d, h, g, r1, o) = (
+        shape.steps_in(),
+        shape.input_dims(),
+        shape.units(),
+        shape.gates(),
+        shape.rows_lstm(),
+        shape.outputs(),
+    );
+    let off = shape.dense_offset();
+    for k in 0..=h {
+        for j in 0..o {
+            let p = 0.0f32 + pass.hd1[k] * dy[j];
+            grad[off + k * o + j] += p;
+        }
+    }
+    let mut dh = vec![0.0f32; h];
+    for u in 0..h {
+        for j in 0..o {
+            dh[u] += dy[j] * w[off + u * o + j];
+        }
+        dh[u] *= mask[u];
+    }
+    let mut dc = vec![0.0f32; h];
+    let mut dz = vec![vec![0.0f32; g]; t_n];
+    for t in (0..t_n).rev() {
+        let z = &pass.gates[t];
+        let tc = &pass.tanh_c[t];
+        for u in 0..h {
+            let (i, f, gg, oo) = (z[u], z[h + u], z[2 * h + u], z[3 * h + u]);
+            let d_o = dh[u] * tc[u];
+            let dcu = dc[u] + dh[u] * oo * (1.0 - tc[u] * tc[u]);
+            dz[t][u] = dcu * gg * (i * (1.0 - i));
+            dz[t][h + u] = dcu * pass.cs[t][u] * (f * (1.0 - f));
+            dz[t][2 * h + u] = dcu * i * (1.0 - gg * gg);
+            dz[t][3 * h + u] = d_o * (oo * (1.0 - oo));
+            dc[u] = dcu * f;
+        }
+        if t > 0 {
+            for u in 0..h {
+                dh[u] = 0.0;
+                for j in 0..g {
+                    dh[u] += dz[t][j] * w[(d + u) * g + j];
+                }
+            }
+        }
+    }
+    for r in 0..r1 {
+        for j in 0..g {
+            let mut p = 0.0f32;
+            for t in 0..t_n {
+                p += pass.xh[t][r] * dz[t][j];
+            }
+            grad[r * g + j] += p;
+        }
+    }
+}
+
+/// The plain trainer the blocked kernels replaced: one sample at a time, scalar loops.
+fn ref_train(
+    shape: &ModelShape,
+    cfg: &LearnConfig,
+    start: &[f32],
+    data: &TrainData,
+    mut dropout: Rng,
+) -> TrainOutcome {
+    let (h, o) = (shape.units(), shape.outputs());
+    let input = |i: usize| data.inputs.slice(ndarray::s![i, .., ..]).to_owned();
+    let n_train = split_point(data.len(), cfg.train_fraction);
+    let (lr, p) = (cfg.learning_rate as f32, cfg.dropout as f32);
+    let keep_scale = 1.0f32 / (1.0f32 - p);
+    let mut w = start.to_vec();
+    let mut final_train_loss = f64::NAN;
+    if n_train > 0 && cfg.epochs > 0 && cfg.batch_size > 0 {
+        let batch = cfg.batch_size as usize;
+        for _ in 0..cfg.epochs {
+            let mut sse = 0.0f64;
+            for start in (0..n_train).step_by(batch) {
+                let end = (start + batch).min(n_train);
+                let scale = 2.0f32 / ((end - start) * o) as f32;
+                let mut grad = vec![0.0f32; w.len()];
+                for i in start..end {
+                    let mask: Vec<f32> = (0..h)
+                        .map(|_| {
+                            if dropout.uniform_f32() >= p {
+                                keep_scale
+                            } else {
+                                0.0
+                            }
+                        })
+                        .collect();
+                    let x = input(i);
+                    let pass = ref_forward(shape, &w, x.as_slice().expect("owned"), &mask);
+                    let target = data.target(i);
+                    let mut dy = vec![0.0f32; o];
+                    // Each sample's squared errors are summed first, then added to the total.
+                    let mut sample_sse = 0.0f64;
+                    for j in 0..o {
+                        let e = pass.y[j] - target[j];
+                        sample_sse += f64::from(e) * f64::from(e);
+                        dy[j] = e * scale;
+                    }
+                    sse += sample_sse;
+                    ref_backward(shape, &w, &pass, &dy, &mask, &mut grad);
+                }
+                for (wk, gk) in w.iter_mut().zip(&grad) {
+                    *wk -= *gk * lr;
+                }
+            }
+            final_train_loss = sse / (n_train * o) as f64;
+        }
+    }
+    let n_val = data.len() - n_train;
+    let mut val_sse = 0.0f64;
+    for i in n_train..data.len() {
+        let x = input(i);
+        let pass = ref_forward(shape, &w, x.as_slice().expect("owned"), &vec![1.0; h]);
+        let mut sample_sse = 0.0f64;
+        for (y, t) in pass.y.iter().zip(data.target(i)) {
+            let e = y - t;
+            sample_sse += f64::from(e) * f64::from(e);
+        }
+        val_sse += sample_sse;
+    }
+    TrainOutcome {
+        weights: w,
+        train_samples: n_train as u32,
+        val_samples: n_val as u32,
+        val_loss: if n_val > 0 {
+            val_sse / (n_val * o) as f64
+        } else {
+            f64::NAN
+        },
+        final_train_loss,
+    }
+}
+
+/// Whole trainings with the blocked kernels (every compiled variant) equal the plain
+/// per-sample trainer bit for bit, on random model shapes, sample counts and batch sizes that
+/// are not multiples of the group or the tile (remainder groups and tiles).
+#[test]
+fn blocked_training_equals_the_per_sample_trainer() {
+    let mut rng = stream(12, Purpose::ModelInit, 2);
+    for case in 0..10 {
+        let shape = ModelShape {
+            units: 1 + rng.below(20) as u32,
+            input_steps: 1 + rng.below(6) as u32,
+            output_steps: 1 + rng.below(9) as u32,
+        };
+        let samples = 1 + rng.below(30) as usize;
+        let inputs = random_values(&mut rng, samples * shape.input_len(), 1.0);
+        let targets = random_values(&mut rng, samples * shape.outputs(), 1.0);
+        let data = TrainData::from_flat(&shape, inputs, targets).expect("sizes");
+        let start = random_values(&mut rng, shape.weights(), 0.4);
+        let mut cfg = learn_cfg(2, 0.05, 0.3, 0.8);
+        cfg.batch_size = 1 + rng.below(13) as u32;
+        let dropout = stream(case as u64, Purpose::Dropout, 0);
+        let want = ref_train(&shape, &cfg, &start, &data, dropout.clone());
+        assert!(want.weights.iter().all(|w| w.is_finite()));
+        for kernel in [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512] {
+            let got = train_with(kernel, &shape, &cfg, &start, &data, dropout.clone());
+            assert_eq!(
+                bits(&[got]),
+                bits(std::slice::from_ref(&want)),
+                "case {case}: {shape:?}, {samples} samples, batch {}, kernel {kernel:?}",
+                cfg.batch_size
+            );
+        }
+        let grad = gradient(&shape, &start, &data).0;
+        let pass_grad = {
+            let mut grad = vec![0.0f32; shape.weights()];
+            let scale = 2.0f32 / (samples * shape.outputs()) as f32;
+            for i in 0..samples {
+                let x = data.inputs.slice(ndarray::s![i, .., ..]).to_owned();
+                let ones = vec![1.0; shape.units()];
+                let pass = ref_forward(&shape, &start, x.as_slice().expect("owned"), &ones);
+                let dy: Vec<f32> = pass
+                    .y
+                    .iter()
+                    .zip(data.target(i))
+                    .map(|(y, t)| (y - t) * scale)
+                    .collect();
+                ref_backward(&shape, &start, &pass, &dy, &ones, &mut grad);
+            }
+            grad
+        };
+        assert_eq!(to_bits(&grad), to_bits(&pass_grad), "gradient, case {case}");
+    }
+}
