@@ -31,10 +31,10 @@ trait Vector: Copy {
     /// Lanes per vector.
     const W: usize;
     unsafe fn zero() -> Self;
-    /// Loads `W` values from `src[..W]` (unaligned).
-    unsafe fn load(src: &[f32]) -> Self;
-    /// Stores the lanes into `dst[..W]` (unaligned).
-    unsafe fn store(self, dst: &mut [f32]);
+    /// Loads `W` values from `src` (unaligned); `src..src + W` must be in bounds.
+    unsafe fn load_ptr(src: *const f32) -> Self;
+    /// Stores the lanes at `dst` (unaligned); `dst..dst + W` must be in bounds.
+    unsafe fn store_ptr(self, dst: *mut f32);
     unsafe fn splat(x: f32) -> Self;
     /// `self + x * m`, lane-wise: a rounded multiply, then a rounded add.
     unsafe fn mul_then_add(self, x: Self, m: Self) -> Self;
@@ -49,14 +49,12 @@ impl Vector for __m512 {
         _mm512_setzero_ps()
     }
     #[inline(always)]
-    unsafe fn load(src: &[f32]) -> Self {
-        assert!(src.len() >= 16);
-        _mm512_loadu_ps(src.as_ptr())
+    unsafe fn load_ptr(src: *const f32) -> Self {
+        _mm512_loadu_ps(src)
     }
     #[inline(always)]
-    unsafe fn store(self, dst: &mut [f32]) {
-        assert!(dst.len() >= 16);
-        _mm512_storeu_ps(dst.as_mut_ptr(), self)
+    unsafe fn store_ptr(self, dst: *mut f32) {
+        _mm512_storeu_ps(dst, self)
     }
     #[inline(always)]
     unsafe fn splat(x: f32) -> Self {
@@ -79,14 +77,12 @@ impl Vector for __m256 {
         _mm256_setzero_ps()
     }
     #[inline(always)]
-    unsafe fn load(src: &[f32]) -> Self {
-        assert!(src.len() >= 8);
-        _mm256_loadu_ps(src.as_ptr())
+    unsafe fn load_ptr(src: *const f32) -> Self {
+        _mm256_loadu_ps(src)
     }
     #[inline(always)]
-    unsafe fn store(self, dst: &mut [f32]) {
-        assert!(dst.len() >= 8);
-        _mm256_storeu_ps(dst.as_mut_ptr(), self)
+    unsafe fn store_ptr(self, dst: *mut f32) {
+        _mm256_storeu_ps(dst, self)
     }
     #[inline(always)]
     unsafe fn splat(x: f32) -> Self {
@@ -115,21 +111,30 @@ unsafe fn rows_tile<V: Vector, const S: usize, const B: usize>(
     s0: usize,
     j0: usize,
 ) {
+    // The tile's extents, checked once; the loops below then index by pointer, without a
+    // bounds check per term (the checks cost as much as the arithmetic in the 8 x 16 tile).
+    assert!(
+        (s0 + S) * n <= out.len()
+            && (s0 + S) * k <= a.len()
+            && j0 + B * V::W <= n
+            && k * n <= m.len(),
+        "rows tile out of bounds"
+    );
+    let (out_p, a_p, m_p) = (out.as_mut_ptr(), a.as_ptr(), m.as_ptr());
     let mut acc = [[V::zero(); B]; S];
     for s in 0..S {
         for b in 0..B {
-            acc[s][b] = V::load(&out[(s0 + s) * n + j0 + b * V::W..]);
+            acc[s][b] = V::load_ptr(out_p.add((s0 + s) * n + j0 + b * V::W));
         }
     }
-    let a = &a[s0 * k..(s0 + S) * k];
     for kk in 0..k {
-        let row = &m[kk * n + j0..kk * n + j0 + B * V::W];
+        let row = m_p.add(kk * n + j0);
         let mut r = [V::zero(); B];
         for b in 0..B {
-            r[b] = V::load(&row[b * V::W..]);
+            r[b] = V::load_ptr(row.add(b * V::W));
         }
         for s in 0..S {
-            let x = V::splat(a[s * k + kk]);
+            let x = V::splat(*a_p.add((s0 + s) * k + kk));
             for b in 0..B {
                 acc[s][b] = acc[s][b].mul_then_add(x, r[b]);
             }
@@ -137,7 +142,7 @@ unsafe fn rows_tile<V: Vector, const S: usize, const B: usize>(
     }
     for s in 0..S {
         for b in 0..B {
-            acc[s][b].store(&mut out[(s0 + s) * n + j0 + b * V::W..]);
+            acc[s][b].store_ptr(out_p.add((s0 + s) * n + j0 + b * V::W));
         }
     }
 }
@@ -217,16 +222,28 @@ unsafe fn outer_tile<V: Vector, const R: usize, const B: usize>(
     r0: usize,
     j0: usize,
 ) {
+    // The tile's extents, checked once (the last step's rows and lanes are the furthest).
+    assert!(o.steps >= 1, "outer tile of no step");
+    let last = (o.steps - 1) * o.group + s;
+    assert!(
+        last * o.rows + r0 + R <= a.len()
+            && last * o.n + j0 + B * V::W <= d.len()
+            && r0 + R <= o.rows
+            && j0 + B * V::W <= o.n
+            && (r0 + R) * o.n <= grad.len(),
+        "outer tile out of bounds"
+    );
+    let (a_p, d_p, g_p) = (a.as_ptr(), d.as_ptr(), grad.as_mut_ptr());
     let mut acc = [[V::zero(); B]; R];
     for t in 0..o.steps {
-        let at = &a[(t * o.group + s) * o.rows + r0..(t * o.group + s) * o.rows + r0 + R];
-        let dt = &d[(t * o.group + s) * o.n + j0..(t * o.group + s) * o.n + j0 + B * V::W];
+        let at = a_p.add((t * o.group + s) * o.rows + r0);
+        let dt = d_p.add((t * o.group + s) * o.n + j0);
         let mut dv = [V::zero(); B];
         for b in 0..B {
-            dv[b] = V::load(&dt[b * V::W..]);
+            dv[b] = V::load_ptr(dt.add(b * V::W));
         }
         for i in 0..R {
-            let x = V::splat(at[i]);
+            let x = V::splat(*at.add(i));
             for b in 0..B {
                 acc[i][b] = acc[i][b].mul_then_add(x, dv[b]);
             }
@@ -234,8 +251,8 @@ unsafe fn outer_tile<V: Vector, const R: usize, const B: usize>(
     }
     for i in 0..R {
         for b in 0..B {
-            let at = (r0 + i) * o.n + j0 + b * V::W;
-            V::load(&grad[at..]).add(acc[i][b]).store(&mut grad[at..]);
+            let at = g_p.add((r0 + i) * o.n + j0 + b * V::W);
+            V::load_ptr(at).add(acc[i][b]).store_ptr(at);
         }
     }
 }
