@@ -87,7 +87,8 @@ fn peak_rss_kib() -> anyhow::Result<u64> {
 }
 
 /// The hidden `bench-scale-one` command: one run at `robots`, its figures as one JSON line on
-/// stdout. The log and summary go to a temporary directory, removed afterwards.
+/// stdout and the run's progress on stderr. The log and summary go to a temporary directory,
+/// removed afterwards.
 pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
     let config = scaled_config(robots, duration_s)?;
     let world = config.world.clone();
@@ -96,7 +97,8 @@ pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
         std::process::id()
     ));
     let cpu0 = crate::run::process_cpu_s();
-    let outcome = crate::run::run(config, SEED, &dir, true);
+    // Progress on stderr (inherited from the parent): a large swarm takes minutes.
+    let outcome = crate::run::run(config, SEED, &dir, false);
     let cpu_s = crate::run::process_cpu_s() - cpu0;
     // The directory goes whatever happened; the run's error, if any, is the one reported.
     let removed = std::fs::remove_dir_all(&dir);
