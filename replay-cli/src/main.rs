@@ -1,5 +1,6 @@
 //! The `swarmfl` command: run, replay and inspect swarmfl simulations.
 
+mod bench_scale;
 mod bench_train;
 mod bench_world;
 mod chaos;
@@ -269,6 +270,24 @@ enum Command {
         /// Print machine-readable JSON.
         #[arg(long)]
         json: bool,
+        /// `scale` only: the swarm sizes, comma-separated.
+        #[arg(long, value_name = "N,N,..")]
+        robots: Option<String>,
+        /// `scale` only: simulated seconds per size (default 300; the 960-robot size then took
+        /// about 9 min on a 2-core machine in December 2026, the others under 20 s each).
+        #[arg(long)]
+        duration_s: Option<f64>,
+    },
+    /// One size of `bench scale`, run in a child process so that its peak RSS is its own:
+    /// prints one JSON line.
+    #[command(hide = true)]
+    BenchScaleOne {
+        /// Robots.
+        #[arg(long)]
+        robots: u32,
+        /// Simulated seconds.
+        #[arg(long)]
+        duration_s: f64,
     },
 }
 
@@ -320,6 +339,10 @@ enum BenchTarget {
     World,
     /// One local training of the reference workload.
     Train,
+    /// Whole `paper` runs at the paper's density at growing swarm sizes (default 15, 60, 240,
+    /// 960 robots, 300 simulated s each): wall, CPU and per-part time per robot-simulated-second,
+    /// peak RSS per size.
+    Scale,
 }
 
 /// The long help of `swarmfl sweep`: the task list and sharding.
@@ -552,13 +575,25 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
             print!("{}", config.to_toml());
         }
         Command::Bench {
-            target: BenchTarget::World,
+            target,
             json,
-        } => bench_world::run(json)?,
-        Command::Bench {
-            target: BenchTarget::Train,
-            json,
-        } => bench_train::run(json)?,
+            robots,
+            duration_s,
+        } => match target {
+            BenchTarget::Scale => bench_scale::run(
+                &bench_scale::parse_robots(
+                    robots.as_deref().unwrap_or(bench_scale::DEFAULT_ROBOTS),
+                )?,
+                duration_s.unwrap_or(bench_scale::DEFAULT_DURATION_S),
+                json,
+            )?,
+            _ if robots.is_some() || duration_s.is_some() => {
+                anyhow::bail!("--robots and --duration-s belong to `bench scale` only")
+            }
+            BenchTarget::World => bench_world::run(json)?,
+            BenchTarget::Train => bench_train::run(json)?,
+        },
+        Command::BenchScaleOne { robots, duration_s } => bench_scale::one(robots, duration_s)?,
     }
     Ok(ExitCode::SUCCESS)
 }

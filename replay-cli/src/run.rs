@@ -11,24 +11,31 @@ use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
 
 use crate::progress::Progress;
 
-/// Wall time per part of the driver, shared with the driver's profiler hook.
+/// Wall time and process CPU time per part of the driver, shared with the driver's profiler
+/// hook. The CPU time is the whole process's (every thread), so a part that trains on the
+/// rayon pool is charged the CPU of all its workers.
 #[derive(Clone, Default)]
 struct Timing(std::sync::Arc<std::sync::Mutex<TimingState>>);
 
 #[derive(Default)]
 struct TimingState {
-    current: Option<(Part, Instant)>,
-    totals: std::collections::BTreeMap<Part, f64>,
+    /// The part being timed, since when (wall) and the process CPU seconds then.
+    current: Option<(Part, Instant, f64)>,
+    /// Wall seconds and process CPU seconds per part.
+    totals: std::collections::BTreeMap<Part, (f64, f64)>,
 }
 
 impl Profiler for Timing {
     fn switch(&mut self, part: Part) {
         let now = Instant::now();
+        let cpu = process_cpu_s();
         let mut t = self.0.lock().expect("timing lock");
-        if let Some((previous, since)) = t.current.take() {
-            *t.totals.entry(previous).or_insert(0.0) += now.duration_since(since).as_secs_f64();
+        if let Some((previous, since, cpu_since)) = t.current.take() {
+            let total = t.totals.entry(previous).or_insert((0.0, 0.0));
+            total.0 += now.duration_since(since).as_secs_f64();
+            total.1 += cpu - cpu_since;
         }
-        t.current = Some((part, now));
+        t.current = Some((part, now, cpu));
     }
 }
 
@@ -37,15 +44,35 @@ impl Timing {
         let mut t = self.clone();
         t.switch(Part::Log);
         let t = self.0.lock().expect("timing lock");
-        let get = |p: Part| t.totals.get(&p).copied().unwrap_or(0.0);
+        let wall = |p: Part| t.totals.get(&p).map_or(0.0, |v| v.0);
+        let cpu = |p: Part| t.totals.get(&p).map_or(0.0, |v| v.1);
         serde_json::json!({
-            "world_s": get(Part::World),
-            "ledger_s": get(Part::Ledger),
-            "learning_s": get(Part::Learning),
-            "checkpoint_s": get(Part::Checkpoint),
-            "log_and_summary_s": get(Part::Log),
+            "world_s": wall(Part::World),
+            "ledger_s": wall(Part::Ledger),
+            "learning_s": wall(Part::Learning),
+            "checkpoint_s": wall(Part::Checkpoint),
+            "log_and_summary_s": wall(Part::Log),
+            "world_cpu_s": cpu(Part::World),
+            "ledger_cpu_s": cpu(Part::Ledger),
+            "learning_cpu_s": cpu(Part::Learning),
+            "checkpoint_cpu_s": cpu(Part::Checkpoint),
+            "log_and_summary_cpu_s": cpu(Part::Log),
         })
     }
+}
+
+/// CPU time of the whole process (all threads) in seconds; NaN if the clock is unavailable.
+pub fn process_cpu_s() -> f64 {
+    let mut ts = libc::timespec {
+        tv_sec: 0,
+        tv_nsec: 0,
+    };
+    // SAFETY: clock_gettime only writes the timespec we pass.
+    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    if rc != 0 {
+        return f64::NAN;
+    }
+    ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
 /// What a finished run reports.

@@ -34,7 +34,7 @@ use super::node::{Node, RejectReason};
 use super::tx::{Tx, TxHash};
 use super::{BlockEntry, BlockHash, Ledger};
 use crate::contract::Call;
-use crate::types::SimTime;
+use crate::types::{RobotId, SimTime};
 
 /// Period of the chain-size samples, in simulated milliseconds (100 s).
 pub const SAMPLE_PERIOD_MS: u64 = 100_000;
@@ -183,7 +183,11 @@ struct Submission {
     at: SimTime,
     size_bytes: u32,
     is_model: bool,
-    seen_by: u32,
+    /// The nodes that have seen it, one bit per robot: a node can learn a transaction twice
+    /// (a full mempool evicts it and a block carries it back), and counts once.
+    seen_by: Vec<u64>,
+    /// How many bits of `seen_by` are set.
+    seen_count: u32,
     all_seen_at: Option<SimTime>,
     included_own_at: Option<SimTime>,
 }
@@ -224,18 +228,25 @@ impl Tracker {
             at,
             size_bytes,
             is_model: matches!(tx.call, Call::SubmitModel { .. }),
-            seen_by: 0,
+            seen_by: vec![0; self.robots.div_ceil(64) as usize],
+            seen_count: 0,
             all_seen_at: None,
             included_own_at: None,
         });
     }
 
-    /// A node saw the transaction for the first time.
-    pub(crate) fn on_seen(&mut self, hash: &TxHash, at: SimTime) {
+    /// `node` learnt the transaction (admitted it, or accepted a block carrying it while not
+    /// knowing it). Only its first time counts: it may learn the transaction again after its
+    /// mempool evicted it.
+    pub(crate) fn on_seen(&mut self, hash: &TxHash, node: RobotId, at: SimTime) {
         if let Some(s) = self.submissions.get_mut(hash) {
-            s.seen_by += 1;
-            assert!(s.seen_by <= self.robots, "a node saw a transaction twice");
-            if s.seen_by == self.robots {
+            let (word, bit) = ((node / 64) as usize, 1u64 << (node % 64));
+            if s.seen_by[word] & bit != 0 {
+                return;
+            }
+            s.seen_by[word] |= bit;
+            s.seen_count += 1;
+            if s.seen_count == self.robots {
                 s.all_seen_at = Some(at);
             }
         }
@@ -454,5 +465,35 @@ mod tests {
             &(1..=100).map(|i| i * 1000).collect::<Vec<_>>(),
             (100, 50.0, 95.0),
         );
+    }
+
+    #[test]
+    fn a_transaction_learnt_again_after_an_eviction_counts_its_node_once() {
+        // 960 robots at the paper's density filled mempools (MEMPOOL_MAX): a node evicted a
+        // transaction, a block carried it back, and the node was counted twice (a panic, and
+        // before it an early "seen by all").
+        let keys = crate::ledger::keys::Keys::new(1, 70);
+        let tx = Tx::signed(
+            &keys,
+            3,
+            0,
+            0,
+            Call::Transfer {
+                to: 1,
+                amount_units: 1,
+            },
+        );
+        let (hash, size) = tx.hash_and_size();
+        let mut t = Tracker::new(70);
+        t.on_submit(hash, &tx, size, SimTime(0));
+        for node in 0..69 {
+            t.on_seen(&hash, node, SimTime(10));
+        }
+        t.on_seen(&hash, 65, SimTime(20));
+        assert_eq!(t.submissions[&hash].all_seen_at, None);
+        t.on_seen(&hash, 69, SimTime(30));
+        assert_eq!(t.submissions[&hash].all_seen_at, Some(SimTime(30)));
+        t.on_seen(&hash, 0, SimTime(40));
+        assert_eq!(t.submissions[&hash].seen_count, 70);
     }
 }

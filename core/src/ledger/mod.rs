@@ -1001,7 +1001,7 @@ impl Ledger {
         n.mempool.insert(hash, n.arrivals);
         n.arrivals += 1;
         applied.accepted += 1;
-        self.metrics.on_seen(&hash, at);
+        self.metrics.on_seen(&hash, node, at);
     }
 
     /// The checks of a header against its parent that need no body: signer, height,
@@ -1338,7 +1338,7 @@ impl Ledger {
         applied.accepted += 1;
         for tx in &tx_ids {
             if self.nodes[node as usize].known_txs.insert(*tx) {
-                self.metrics.on_seen(tx, at);
+                self.metrics.on_seen(tx, node, at);
             }
         }
         // Equivocation: another block the same signer sealed on the same parent, known here.
