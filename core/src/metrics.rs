@@ -258,6 +258,37 @@ pub fn best_node(ledger: &Ledger) -> RobotId {
         .expect("a swarm has at least one robot")
 }
 
+/// The held-out loss of on-chain (fixed-point) weights: the mean squared error of the model
+/// they encode over the run's held-out set, NaN when that set is empty.
+pub(crate) struct HeldoutLoss {
+    shape: ModelShape,
+    scale: u64,
+    data: Option<TrainData>,
+}
+
+impl HeldoutLoss {
+    /// The evaluator of `heldout` under `config`'s model and weight scale.
+    pub(crate) fn new(config: &Config, heldout: &[crate::data::Sample]) -> HeldoutLoss {
+        let shape = ModelShape::from_config(config);
+        let data = TrainData::new(&shape, heldout)
+            .ok()
+            .filter(|d| !d.is_empty());
+        HeldoutLoss {
+            shape,
+            scale: config.contract.weight_scale,
+            data,
+        }
+    }
+
+    /// The held-out loss of `weights` (fixed point).
+    pub(crate) fn of(&self, weights: &[i64]) -> f64 {
+        match &self.data {
+            Some(data) => learn::loss(&self.shape, &learn::from_fixed(weights, self.scale), data),
+            None => f64::NAN,
+        }
+    }
+}
+
 /// Computes the contract and token sections from the final canonical chain.
 pub fn summarise(
     config: &Config,
@@ -266,17 +297,9 @@ pub fn summarise(
     heldout: &[crate::data::Sample],
     byzantine: &[bool],
 ) -> (ContractSummary, TokenSummary) {
-    let shape = ModelShape::from_config(config);
     let scale = config.contract.weight_scale;
-    let heldout = TrainData::new(&shape, heldout)
-        .ok()
-        .filter(|d| !d.is_empty());
-    let heldout_loss = |weights: &[i64]| -> f64 {
-        match &heldout {
-            Some(data) => learn::loss(&shape, &learn::from_fixed(weights, scale), data),
-            None => f64::NAN,
-        }
-    };
+    let heldout = HeldoutLoss::new(config, heldout);
+    let heldout_loss = |weights: &[i64]| heldout.of(weights);
     let best = best_node(ledger);
     let chain = ledger.canonical_chain(best);
     let mut s = ContractSummary {

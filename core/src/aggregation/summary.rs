@@ -10,8 +10,8 @@ use serde::{Deserialize, Serialize};
 use super::AggregationState;
 use crate::config::{Aggregation, Config};
 use crate::data::Sample;
-use crate::learn::{self, ModelShape, TrainData};
 use crate::ledger::LedgerStats;
+use crate::metrics::HeldoutLoss;
 use crate::metrics::{ContractSummary, Metrics};
 
 /// The `aggregation` section of `summary.json`.
@@ -96,17 +96,8 @@ pub fn summarise(
     heldout: &[Sample],
     byzantine: &[bool],
 ) -> (ContractSummary, AggregationSummary) {
-    let shape = ModelShape::from_config(config);
-    let scale = config.contract.weight_scale;
-    let heldout = TrainData::new(&shape, heldout)
-        .ok()
-        .filter(|d| !d.is_empty());
-    let heldout_loss = |weights: &[i64]| -> f64 {
-        match &heldout {
-            Some(data) => learn::loss(&shape, &learn::from_fixed(weights, scale), data),
-            None => f64::NAN,
-        }
-    };
+    let heldout = HeldoutLoss::new(config, heldout);
+    let heldout_loss = |weights: &[i64]| heldout.of(weights);
     let is_byzantine = |r: u32| byzantine.get(r as usize).copied().unwrap_or(false);
     let records: Vec<_> = state
         .aggregations

@@ -239,32 +239,9 @@ pub fn bisect_by_time(
     if points.is_empty() {
         return Ok((None, 0));
     }
-    let last = points.len() - 1;
-    let found = if monotone {
-        if !holds(last)? {
-            None
-        } else {
-            let (mut lo, mut hi) = (0usize, last);
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                if holds(mid)? {
-                    hi = mid;
-                } else {
-                    lo = mid + 1;
-                }
-            }
-            Some(hi)
-        }
-    } else {
-        let mut found = None;
-        for i in 0..=last {
-            if holds(i)? {
-                found = Some(i);
-                break;
-            }
-        }
-        found
-    };
+    let found =
+        crate::inspect::first_holding(points.len() as u64 - 1, monotone, |i| holds(i as usize))?
+            .map(|i| i as usize);
     Ok((
         found.map(|i| {
             let env = PointEnv {

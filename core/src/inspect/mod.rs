@@ -41,6 +41,7 @@
 //! The predicate language of `bisect` is in [`expr`] (grammar in its module docs).
 
 pub mod expr;
+
 #[cfg(test)]
 mod tests;
 
@@ -937,33 +938,7 @@ pub fn bisect(
             .holds(&values.at(h))
             .map_err(|source| InspectError::Eval { block: h, source })
     };
-    let last = values.len() as u64 - 1;
-    let found = if monotone {
-        if !holds(last)? {
-            None
-        } else {
-            // Invariant: the predicate holds at `hi`; it does not hold below `lo`.
-            let (mut lo, mut hi) = (0u64, last);
-            while lo < hi {
-                let mid = lo + (hi - lo) / 2;
-                if holds(mid)? {
-                    hi = mid;
-                } else {
-                    lo = mid + 1;
-                }
-            }
-            Some(hi)
-        }
-    } else {
-        let mut found = None;
-        for h in 0..=last {
-            if holds(h)? {
-                found = Some(h);
-                break;
-            }
-        }
-        found
-    };
+    let found = first_holding(values.len() as u64 - 1, monotone, &mut holds)?;
     Ok(found.map(|h| {
         let env = values.at(h);
         BisectHit {
@@ -973,6 +948,38 @@ pub fn bisect(
             evaluations,
         }
     }))
+}
+
+/// The first point in `0..=last` where `holds` is true, or None. With `monotone` (the
+/// predicate, once true, stays true) a binary search that evaluates it about log2(last) + 1
+/// times; otherwise a scan from 0. Evaluation errors stop the search.
+pub(crate) fn first_holding<E>(
+    last: u64,
+    monotone: bool,
+    mut holds: impl FnMut(u64) -> Result<bool, E>,
+) -> Result<Option<u64>, E> {
+    if !monotone {
+        for i in 0..=last {
+            if holds(i)? {
+                return Ok(Some(i));
+            }
+        }
+        return Ok(None);
+    }
+    if !holds(last)? {
+        return Ok(None);
+    }
+    // Invariant: the predicate holds at `hi`; it does not hold below `lo`.
+    let (mut lo, mut hi) = (0u64, last);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if holds(mid)? {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    Ok(Some(hi))
 }
 
 /// How a predicate behaves over the whole final canonical chain.
