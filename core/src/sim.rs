@@ -241,7 +241,7 @@ impl State {
         let robots = self.ledger.robots();
         let mut contract = blake3::Hasher::new();
         for r in 0..robots {
-            contract.update(&self.ledger.head_state(r).digest().0);
+            contract.update(&self.ledger.head_state_digest(r).0);
         }
         Checkpoint {
             time,

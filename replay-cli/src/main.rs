@@ -273,8 +273,8 @@ enum Command {
         /// `scale` only: the swarm sizes, comma-separated.
         #[arg(long, value_name = "N,N,..")]
         robots: Option<String>,
-        /// `scale` only: simulated seconds per size (default 300; the 960-robot size then took
-        /// about 9 min on a 2-core machine in December 2026, the others under 20 s each).
+        /// `scale` only: simulated seconds per size (default 300; the 960-robot size then takes
+        /// about 1.5 min on a 2-core machine, the others under 20 s each).
         #[arg(long)]
         duration_s: Option<f64>,
     },

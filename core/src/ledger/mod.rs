@@ -12,7 +12,8 @@
 //! (see `Ledger::unstick`).
 //!
 //! Storage is shared: a block or transaction is stored once, by id, whatever the number of
-//! nodes that know it; each node holds only ids. The contract state after a block is a pure
+//! nodes that know it; each node holds only ids of blocks, and which transactions it holds
+//! is one bit per node in the transaction's entry. The contract state after a block is a pure
 //! function of the block's chain, so it is computed once, when the block is first validated,
 //! and kept with the block: a reorganisation costs no re-execution at all (the states of the
 //! new branch were computed when its blocks arrived), and every node reads the same state.
@@ -248,6 +249,13 @@ pub struct BlockEntry {
     pub chain_bytes: u64,
     /// The contract state after the block.
     pub state: ContractState,
+    /// `state.digest()`, computed once (checkpoints read it for every node's head).
+    pub state_digest: Digest,
+    /// Clique's recent signers of a child: bit `s` is set when robot `s` sealed one of the
+    /// last floor(N/2) blocks of the chain ending with this one (genesis excluded). One bit
+    /// per robot, computed once, so that [`Ledger::signed_recently`] costs one lookup instead
+    /// of a walk of up to N/2 ancestors.
+    pub recent_signers: Arc<[u64]>,
     /// Each sender's next nonce after the block.
     pub next_nonce: Arc<[u64]>,
     /// The outcome of each transaction, in block order.
@@ -265,6 +273,32 @@ pub struct TxEntry {
     pub size_bytes: u32,
     /// The checks that depend only on the transaction (sender id, size, signature), done once.
     pub intrinsic: Result<(), RejectReason>,
+    /// The nodes that hold the transaction (pending in their mempool, or carried by a block
+    /// they know), one bit per robot: every node's set of known transactions, kept once per
+    /// transaction rather than once per node (N bits instead of N ids).
+    held_by: Box<[u64]>,
+}
+
+impl TxEntry {
+    /// Whether `node` holds the transaction (pending, or in a block it knows).
+    pub fn held_by(&self, node: RobotId) -> bool {
+        self.held_by
+            .get((node / 64) as usize)
+            .is_some_and(|word| word & (1u64 << (node % 64)) != 0)
+    }
+
+    /// Marks whether `node` holds the transaction; returns whether that changed.
+    fn set_held_by(&mut self, node: RobotId, held: bool) -> bool {
+        let bit = 1u64 << (node % 64);
+        let word = &mut self.held_by[(node / 64) as usize];
+        let was = *word & bit != 0;
+        if held {
+            *word |= bit;
+        } else {
+            *word &= !bit;
+        }
+        was != held
+    }
 }
 
 /// A message in flight.
@@ -274,6 +308,39 @@ struct Flight {
     to: RobotId,
     items: Vec<ItemRef>,
 }
+
+/// The nodes whose head or head time changed, in order, for the driver's sealing schedule
+/// ([`Network`] reads it instead of looking at every node at every step). Bounded: a reader
+/// that fell behind what it keeps looks at every node. Not part of the reduced state's
+/// digest: it records when the state changed, not what it is.
+#[derive(Clone, Debug, Default)]
+struct HeadJournal {
+    /// The position of `nodes[0]`.
+    start: u64,
+    nodes: std::collections::VecDeque<RobotId>,
+}
+
+impl HeadJournal {
+    fn push(&mut self, node: RobotId) {
+        self.nodes.push_back(node);
+        if self.nodes.len() > HEAD_JOURNAL_KEPT {
+            self.nodes.pop_front();
+            self.start += 1;
+        }
+    }
+
+    fn end(&self) -> u64 {
+        self.start + self.nodes.len() as u64
+    }
+
+    fn since(&self, since: u64) -> Option<impl Iterator<Item = RobotId> + '_> {
+        let skip = since.checked_sub(self.start)?;
+        (since <= self.end()).then(|| self.nodes.iter().skip(skip as usize).copied())
+    }
+}
+
+/// Head changes the ledger's journal keeps (see `HeadJournal`).
+const HEAD_JOURNAL_KEPT: usize = 1 << 16;
 
 /// The contract parameters for blocks sealed after a time.
 #[derive(Clone, Debug)]
@@ -305,6 +372,7 @@ pub struct Ledger {
     messages_sent: u64,
     now: SimTime,
     metrics: metrics::Tracker,
+    head_journal: HeadJournal,
 }
 
 impl Ledger {
@@ -326,6 +394,7 @@ impl Ledger {
             signature: Sig::ZERO,
         };
         let (genesis, size) = header.hash_and_size();
+        let state = ContractState::genesis(&params);
         let entry = BlockEntry {
             block: Arc::new(Block {
                 header,
@@ -334,7 +403,9 @@ impl Ledger {
             size_bytes: u64::from(size),
             total_difficulty: 0,
             chain_bytes: u64::from(size),
-            state: ContractState::genesis(&params),
+            state_digest: state.digest(),
+            state,
+            recent_signers: vec![0u64; robots.div_ceil(64) as usize].into(),
             next_nonce: vec![0u64; robots as usize].into(),
             receipts: Arc::from(Vec::new()),
             children: 0,
@@ -355,6 +426,7 @@ impl Ledger {
             messages_sent: 0,
             now: SimTime(0),
             metrics: metrics::Tracker::new(robots),
+            head_journal: HeadJournal::default(),
             epochs: vec![Epoch {
                 after_ms: 0,
                 params,
@@ -485,6 +557,11 @@ impl Ledger {
         &self.blocks[&self.node(node).head].state
     }
 
+    /// The digest of the contract state at the node's head (computed once per block).
+    pub fn head_state_digest(&self, node: RobotId) -> Digest {
+        self.blocks[&self.node(node).head].state_digest
+    }
+
     /// The node's canonical chain, genesis first.
     pub fn canonical_chain(&self, node: RobotId) -> &[BlockHash] {
         &self.node(node).canonical
@@ -523,25 +600,121 @@ impl Ledger {
     /// Whether the node has the transaction (pending or in a known block) or refused it
     /// recently (the bounded refused set): either way a peer need not send it.
     pub fn knows_tx(&self, node: RobotId, hash: &TxHash) -> bool {
-        let n = self.node(node);
-        n.known_txs.contains(hash) || n.refused_txs.contains(hash)
+        self.holds_tx(node, hash) || self.node(node).refused_txs.contains(hash)
+    }
+
+    /// Whether the node holds the transaction: pending, or carried by a block it knows (then
+    /// it is stored).
+    pub fn holds_tx(&self, node: RobotId, hash: &TxHash) -> bool {
+        self.txs.get(hash).is_some_and(|e| e.held_by(node))
     }
 
     /// How many transactions the node holds (pending or in a known block).
     pub fn known_tx_count(&self, node: RobotId) -> usize {
-        self.node(node).known_txs.len()
+        self.node(node).held_txs as usize
+    }
+
+    /// Marks that `node` holds the stored transaction `hash`; returns whether it is new to it.
+    fn hold_tx(&mut self, node: RobotId, hash: &TxHash) -> bool {
+        let entry = self
+            .txs
+            .get_mut(hash)
+            .expect("a held transaction is stored");
+        let fresh = entry.set_held_by(node, true);
+        if fresh {
+            self.nodes[node as usize].held_txs += 1;
+        }
+        fresh
+    }
+
+    /// Marks that `node` no longer holds the stored transaction `hash`.
+    fn release_tx(&mut self, node: RobotId, hash: &TxHash) {
+        let entry = self
+            .txs
+            .get_mut(hash)
+            .expect("a held transaction is stored");
+        if entry.set_held_by(node, false) {
+            self.nodes[node as usize].held_txs -= 1;
+        }
+    }
+
+    /// Remembers a refused, replaced or evicted transaction in the node's bounded refused set
+    /// (first in, first out), so that it is not examined again while it is there. What the
+    /// bound pushes out and the node does not hold is logged as forgotten.
+    fn remember_refused(&mut self, node: RobotId, hash: TxHash) {
+        let n = &mut self.nodes[node as usize];
+        if n.refused_txs.insert(hash) {
+            n.refused_order.push_back(hash);
+            if n.refused_order.len() > MAX_REFUSED_KEPT {
+                let old = n.refused_order.pop_front().expect("not empty");
+                n.refused_txs.remove(&old);
+                let held = self.txs.get(&old).is_some_and(|e| e.held_by(node));
+                if !held {
+                    self.nodes[node as usize].forgotten.push(old);
+                }
+            }
+        }
     }
 
     /// The node's pending transactions, in arrival order.
     pub fn mempool(&self, node: RobotId) -> Vec<TxHash> {
-        let mut v: Vec<(u64, TxHash)> = self
-            .node(node)
-            .mempool
-            .iter()
-            .map(|(h, a)| (*a, *h))
-            .collect();
-        v.sort_unstable();
-        v.into_iter().map(|(_, h)| h).collect()
+        self.mempool_arrived_from(node, 0).map(|(_, h)| h).collect()
+    }
+
+    /// The node's pending transactions that arrived at it at or after arrival number `from`,
+    /// as (arrival number, id) in arrival order. Arrival numbers only grow: a transaction
+    /// that enters the mempool again gets a new one.
+    pub fn mempool_arrived_from(
+        &self,
+        node: RobotId,
+        from: u64,
+    ) -> impl Iterator<Item = (u64, TxHash)> + '_ {
+        self.node(node).mempool.arrived_from(from)
+    }
+
+    /// The node's next arrival number (every pending transaction's is lower).
+    pub fn mempool_arrivals(&self, node: RobotId) -> u64 {
+        self.node(node).arrivals
+    }
+
+    /// How many transactions the node forgot (see [`Ledger::knows_tx`]: a transaction it
+    /// knew or had refused, and no longer does); while this count stays, a transaction it
+    /// knows stays known.
+    pub fn forgotten_txs(&self, node: RobotId) -> u64 {
+        self.node(node).forgotten.end()
+    }
+
+    /// The transactions the node forgot from number `since` on (numbered from 0 in order),
+    /// or None when its bounded log (the latest [`node::FORGET_LOG_KEPT`]) no longer reaches
+    /// back to it.
+    pub fn forgotten_txs_since(
+        &self,
+        node: RobotId,
+        since: u64,
+    ) -> Option<impl Iterator<Item = &TxHash> + '_> {
+        self.node(node).forgotten.since(since)
+    }
+
+    /// The arrival number at `node` of a pending transaction.
+    pub fn mempool_arrival(&self, node: RobotId, hash: &TxHash) -> Option<u64> {
+        self.node(node).mempool.arrival(hash)
+    }
+
+    /// The total difficulty of the node's head.
+    pub fn head_total_difficulty(&self, node: RobotId) -> u64 {
+        self.node(node).head_td
+    }
+
+    /// Where the journal of head changes ends now (see [`Ledger::head_changes_since`]).
+    pub fn head_journal_end(&self) -> u64 {
+        self.head_journal.end()
+    }
+
+    /// The nodes whose head or head time changed after position `since` of the journal of
+    /// head changes, oldest first (a node may appear more than once); None when the bounded
+    /// journal no longer holds that position (the caller must then look at every node).
+    pub fn head_changes_since(&self, since: u64) -> Option<impl Iterator<Item = RobotId> + '_> {
+        self.head_journal.since(since)
     }
 
     /// The change counter of the node's knowledge.
@@ -571,24 +744,45 @@ impl Ledger {
     }
 
     /// Clique's recent-signer rule: whether `signer` sealed one of the last floor(N/2) blocks
-    /// of the chain ending at `parent` (so that it may not seal a child of `parent`).
+    /// of the chain ending at `parent` (so that it may not seal a child of `parent`). False
+    /// when `parent` is not stored.
     pub fn signed_recently(&self, parent: &BlockHash, signer: RobotId) -> bool {
+        self.blocks.get(parent).is_some_and(|entry| {
+            entry
+                .recent_signers
+                .get((signer / 64) as usize)
+                .is_some_and(|word| word & (1u64 << (signer % 64)) != 0)
+        })
+    }
+
+    /// The recent signers (see [`BlockEntry::recent_signers`]) of a block sealed by `signer`
+    /// on the stored block `parent`: the signer itself and the signers of the floor(N/2) - 1
+    /// blocks of the chain ending at `parent`, genesis excluded. Walks the ancestors once per
+    /// new block.
+    fn recent_signers_after(&self, parent: &BlockHash, signer: RobotId) -> Arc<[u64]> {
+        let mut bits = vec![0u64; self.robots.div_ceil(64) as usize];
+        let mut set = |s: RobotId| {
+            if let Some(word) = bits.get_mut((s / 64) as usize) {
+                *word |= 1u64 << (s % 64);
+            }
+        };
         let limit = self.robots / 2;
+        if limit > 0 {
+            set(signer);
+        }
         let mut cursor = *parent;
-        for _ in 0..limit {
+        for _ in 1..limit {
             let Some(entry) = self.blocks.get(&cursor) else {
-                return false;
+                break;
             };
             let header = &entry.block.header;
             if header.height == 0 {
-                return false;
+                break;
             }
-            if header.signer == signer {
-                return true;
-            }
+            set(header.signer);
             cursor = header.parent;
         }
-        false
+        bits.into()
     }
 
     /// The difficulty a block at `height` sealed by `signer` must have: 2 in turn (height mod
@@ -608,30 +802,29 @@ impl Ledger {
     pub fn sealable_txs(&self, node: RobotId) -> Vec<TxHash> {
         let n = self.node(node);
         let next = &self.blocks[&n.head].next_nonce;
-        let mut by_sender: BTreeMap<RobotId, BTreeMap<(u64, TxHash), u64>> = BTreeMap::new();
-        for (hash, arrival) in &n.mempool {
-            let tx = &self.txs[hash].tx;
-            by_sender
-                .entry(tx.sender)
-                .or_default()
-                .insert((tx.nonce, *hash), *arrival);
-        }
+        // Per sender (in id order), the run of consecutive nonces from the next expected one.
         let mut runs: Vec<std::collections::VecDeque<(u64, TxHash)>> = Vec::new();
-        for (sender, pending) in by_sender {
-            let mut expected = next[sender as usize];
-            let mut run = std::collections::VecDeque::new();
-            for ((nonce, hash), arrival) in pending {
-                if nonce == expected {
-                    run.push_back((arrival, hash));
-                    expected += 1;
-                } else if nonce > expected {
-                    break;
+        let mut current: Option<(RobotId, u64, bool)> = None;
+        for (sender, nonce, hash) in n.mempool.by_sender() {
+            let (_, expected, open) = match &mut current {
+                Some(c) if c.0 == sender => c,
+                _ => {
+                    runs.push(std::collections::VecDeque::new());
+                    current.insert((sender, next[sender as usize], true))
                 }
+            };
+            if !*open {
+                continue;
             }
-            if !run.is_empty() {
-                runs.push(run);
+            if nonce == *expected {
+                let arrival = n.mempool.arrival(&hash).expect("indexed as pending");
+                runs.last_mut().expect("pushed").push_back((arrival, hash));
+                *expected += 1;
+            } else if nonce > *expected {
+                *open = false;
             }
         }
+        runs.retain(|run| !run.is_empty());
         let mut out = Vec::new();
         // Header bytes: a generous bound on the encoded header (about 170 bytes).
         let mut bytes = 256u64;
@@ -661,15 +854,7 @@ impl Ledger {
     pub fn make_tx(&self, robot: RobotId, value_units: u64, call: Call) -> Tx {
         let n = self.node(robot);
         let mut nonce = self.blocks[&n.head].next_nonce[robot as usize];
-        let mut pending: Vec<u64> = n
-            .mempool
-            .keys()
-            .map(|h| &self.txs[h].tx)
-            .filter(|tx| tx.sender == robot)
-            .map(|tx| tx.nonce)
-            .collect();
-        pending.sort_unstable();
-        for p in pending {
+        for (p, _) in n.mempool.of_sender(robot) {
             if p == nonce {
                 nonce += 1;
             }
@@ -782,6 +967,7 @@ impl Ledger {
                 n.mempool.clear();
                 n.head_since = at;
                 n.version += 1;
+                self.head_journal.push(*node);
                 self.flights.retain(|_, f| f.to != *node);
                 applied.head_changes += 1;
             }
@@ -814,7 +1000,7 @@ impl Ledger {
                     });
                 }
                 for h in txs {
-                    if !n.known_txs.contains(h) || !self.txs.contains_key(h) {
+                    if !self.holds_tx(*node, h) {
                         return Err(LedgerError::UnknownItem {
                             node: *node,
                             item: ItemRef::Tx(*h),
@@ -839,7 +1025,7 @@ impl Ledger {
                 for item in items {
                     let known = match item {
                         ItemRef::Block(h) => n.known_blocks.contains(h),
-                        ItemRef::Tx(h) => n.known_txs.contains(h) && self.txs.contains_key(h),
+                        ItemRef::Tx(h) => self.holds_tx(*from, h),
                     };
                     if !known {
                         return Err(LedgerError::UnknownItem {
@@ -879,6 +1065,7 @@ impl Ledger {
             tx: Arc::new(tx.clone()),
             size_bytes: size as u32,
             intrinsic,
+            held_by: vec![0u64; self.robots.div_ceil(64) as usize].into(),
         }
     }
 
@@ -902,12 +1089,12 @@ impl Ledger {
         applied: &mut Applied,
     ) {
         self.metrics.on_reject(&reason);
-        let n = &mut self.nodes[node as usize];
         if let Some(ItemRef::Tx(hash)) = item {
-            if !n.known_txs.contains(&hash) {
-                n.remember_refused(hash);
+            if !self.holds_tx(node, &hash) {
+                self.remember_refused(node, hash);
             }
         }
+        let n = &mut self.nodes[node as usize];
         n.rejections.push_back(Rejection { at, item, reason });
         if n.rejections.len() > MAX_REJECTIONS_KEPT {
             n.rejections.pop_front();
@@ -921,11 +1108,11 @@ impl Ledger {
     /// the mempool's bounds (replacement rule, per-sender cap, global cap with eviction). Only
     /// an admitted transaction becomes known; a refused one is remembered (bounded) as refused.
     fn receive_tx(&mut self, node: RobotId, hash: TxHash, at: SimTime, applied: &mut Applied) {
-        let n = &self.nodes[node as usize];
-        if n.known_txs.contains(&hash) || n.refused_txs.contains(&hash) {
+        if self.knows_tx(node, &hash) {
             applied.duplicates += 1;
             return;
         }
+        let n = &self.nodes[node as usize];
         let entry = &self.txs[&hash];
         let item = Some(ItemRef::Tx(hash));
         if let Err(reason) = &entry.intrinsic {
@@ -942,63 +1129,59 @@ impl Ledger {
             let reason = RejectReason::NonceGap { nonce, expected };
             return self.reject(node, item, reason, at, applied);
         }
-        // Pending per sender, and the pending transaction with the same nonce, if any.
-        let mut per_sender: BTreeMap<RobotId, Vec<(u64, TxHash)>> = BTreeMap::new();
-        for h in n.mempool.keys() {
-            let tx = &self.txs[h].tx;
-            per_sender
-                .entry(tx.sender)
-                .or_default()
-                .push((tx.nonce, *h));
-        }
-        let mine = per_sender.get(&sender).map_or(&[][..], |v| &v[..]);
+        // The sender's pending transactions, and the one with the same nonce (the lowest id
+        // if several), if any.
+        let mine_len = n.mempool.count_of(sender) as usize;
+        let same = n.mempool.lowest_with_nonce(sender, nonce);
         let mut evict = None;
-        if let Some(&(_, same)) = mine.iter().find(|(k, _)| *k == nonce) {
+        if let Some(same) = same {
             if same < hash {
                 return self.reject(node, item, RejectReason::NonceTaken { nonce }, at, applied);
             }
             evict = Some((same, true));
-        } else if mine.len() as u32 >= MEMPOOL_PER_SENDER {
+        } else if mine_len as u32 >= MEMPOOL_PER_SENDER {
             let reason = RejectReason::SenderCap {
                 sender,
-                pending: mine.len() as u32,
+                pending: mine_len as u32,
             };
             return self.reject(node, item, reason, at, applied);
         } else if n.mempool.len() as u32 >= MEMPOOL_MAX {
             // The sender with the most pending (the highest id on ties) gives up its highest
             // nonce, if it has more pending than this sender would have.
-            let (victim, list) = per_sender
-                .iter()
-                .max_by_key(|(s, v)| (v.len(), **s))
-                .expect("a full mempool has senders");
-            if list.len() <= mine.len() + 1 {
+            let (victim, count) = n.mempool.busiest().expect("a full mempool has senders");
+            if count as usize <= mine_len + 1 {
                 let reason = RejectReason::MempoolFull {
                     pending: n.mempool.len() as u32,
                 };
                 return self.reject(node, item, reason, at, applied);
             }
-            let _ = victim;
-            let highest = list.iter().max().expect("not empty").1;
+            let highest = n
+                .mempool
+                .of_sender(victim)
+                .next_back()
+                .expect("the busiest sender has pending transactions")
+                .1;
             evict = Some((highest, false));
         }
-        let n = &mut self.nodes[node as usize];
         if let Some((old, replaced)) = evict {
             // A replaced or evicted transaction leaves the node (as in geth's pool): it is no
             // longer known, so a flood of admitted-then-evicted transactions cannot grow the
             // node's memory. It joins the bounded refused set, so that peers do not send it
             // again at once; it becomes known again if a block carries it.
-            n.mempool.remove(&old);
-            n.known_txs.remove(&old);
-            n.remember_refused(old);
+            self.nodes[node as usize].mempool.remove(&old);
+            self.release_tx(node, &old);
+            self.remember_refused(node, old);
+            let n = &mut self.nodes[node as usize];
             if replaced {
                 n.mempool_replaced += 1;
             } else {
                 n.mempool_evicted += 1;
             }
         }
-        n.known_txs.insert(hash);
+        self.hold_tx(node, &hash);
+        let n = &mut self.nodes[node as usize];
         n.version += 1;
-        n.mempool.insert(hash, n.arrivals);
+        n.mempool.insert(hash, sender, nonce, n.arrivals);
         n.arrivals += 1;
         applied.accepted += 1;
         self.metrics.on_seen(&hash, node, at);
@@ -1124,7 +1307,9 @@ impl Ledger {
             size_bytes,
             total_difficulty: parent.total_difficulty + header.difficulty,
             chain_bytes: parent.chain_bytes + size_bytes,
+            state_digest: state.digest(),
             state,
+            recent_signers: self.recent_signers_after(&header.parent, header.signer),
             next_nonce: next_nonce.into(),
             receipts: receipts.into(),
             children: 0,
@@ -1232,8 +1417,8 @@ impl Ledger {
                 if self.txs.contains_key(&hash) {
                     return self.receive_tx(node, hash, at, applied);
                 }
-                let n = &self.nodes[node as usize];
-                if n.known_txs.contains(&hash) || n.refused_txs.contains(&hash) {
+                // Not stored, so not held: only a refusal can make it known.
+                if self.nodes[node as usize].refused_txs.contains(&hash) {
                     applied.duplicates += 1;
                     return;
                 }
@@ -1337,7 +1522,7 @@ impl Ledger {
         n.version += 1;
         applied.accepted += 1;
         for tx in &tx_ids {
-            if self.nodes[node as usize].known_txs.insert(*tx) {
+            if self.hold_tx(node, tx) {
                 self.metrics.on_seen(tx, node, at);
             }
         }
@@ -1428,25 +1613,24 @@ impl Ledger {
         }
         n.canonical.extend(branch.iter().rev());
         n.head = new_head;
+        n.head_td = self.blocks[&new_head].total_difficulty;
         n.head_since = at;
         n.version += 1;
+        self.head_journal.push(node);
         // Transactions of abandoned blocks return to the mempool; then the mempool keeps only
         // what is still pending on the new chain.
         for b in &abandoned {
             for tx in &self.blocks[b].block.txs {
                 let n = &mut self.nodes[node as usize];
-                if !n.mempool.contains_key(tx) {
-                    n.mempool.insert(*tx, n.arrivals);
+                if !n.mempool.contains(tx) {
+                    let body = &self.txs[tx].tx;
+                    n.mempool.insert(*tx, body.sender, body.nonce, n.arrivals);
                     n.arrivals += 1;
                 }
             }
         }
         let next = self.blocks[&new_head].next_nonce.clone();
-        let txs = &self.txs;
-        self.nodes[node as usize].mempool.retain(|h, _| {
-            let tx = &txs[h].tx;
-            tx.nonce >= next[tx.sender as usize]
-        });
+        self.nodes[node as usize].mempool.retain_from_nonces(&next);
         for b in branch.iter().rev() {
             for tx in &self.blocks[b].block.txs {
                 if self.txs[tx].tx.sender == node {
@@ -1534,6 +1718,22 @@ impl Ledger {
             }
             cursor = c.parent;
         }
+        // The cached recent signers against a walk of the block's own chain.
+        let mut recent = vec![0u64; self.robots.div_ceil(64) as usize];
+        let mut cursor = *hash;
+        for _ in 0..self.robots / 2 {
+            let c = &self.blocks[&cursor].block.header;
+            if c.height == 0 {
+                break;
+            }
+            if let Some(word) = recent.get_mut((c.signer / 64) as usize) {
+                *word |= 1u64 << (c.signer % 64);
+            }
+            cursor = c.parent;
+        }
+        if recent[..] != entry.recent_signers[..] {
+            return fail("cached recent signers differ from the chain's");
+        }
         if h.tx_root != block::tx_root(&entry.block.txs) {
             return fail("transaction root mismatch");
         }
@@ -1558,7 +1758,10 @@ impl Ledger {
             nonces[tx.sender as usize] += 1;
             state.execute(params, tx.sender, tx.value_units, &tx.call);
         }
-        if state.digest() != entry.state.digest() || nonces[..] != entry.next_nonce[..] {
+        if state.digest() != entry.state.digest()
+            || entry.state_digest != entry.state.digest()
+            || nonces[..] != entry.next_nonce[..]
+        {
             return fail("contract state differs from a fresh execution");
         }
         if entry.total_difficulty != parent.total_difficulty + h.difficulty {

@@ -37,7 +37,7 @@
 
 use std::collections::{BTreeMap, BTreeSet, VecDeque};
 
-use super::{BlockHash, ItemRef, Ledger, LedgerEvent};
+use super::{BlockHash, ItemRef, Ledger, LedgerEvent, TxHash};
 use crate::byzantine::ledger::WithholdPolicy;
 use crate::config::Config;
 use crate::faults::FaultSchedule;
@@ -48,6 +48,39 @@ use crate::types::{RobotId, SimTime};
 #[derive(Clone, Debug)]
 struct Pending {
     items: Vec<ItemRef>,
+}
+
+/// The sealings due: each node's sealing time on its current head, and the nodes that are up
+/// then, by time. Updated from the ledger's journal of head changes, so a poll looks only at
+/// the nodes whose head or head time changed since the last one.
+#[derive(Clone, Debug, Default)]
+struct SealSchedule {
+    /// Per node, its sealing time on its head (None: it may not seal there).
+    times: Vec<Option<SimTime>>,
+    /// (time, node) for every node with a sealing time at which it is up.
+    due: BTreeSet<(SimTime, RobotId)>,
+    /// The position of the ledger's head journal read so far (None: nothing read yet).
+    journal: Option<u64>,
+}
+
+/// What the gossip remembers of an ordered pair (a, b) of peers between rounds. Everything
+/// but `idle` is a cache that can be dropped at any time.
+#[derive(Clone, Copy, Debug)]
+struct PairMemo {
+    /// The (a, b) knowledge versions last found with nothing to send: unchanged versions
+    /// mean still nothing to send.
+    idle: Option<(u64, u64)>,
+    /// Every transaction of `a`'s mempool with an arrival number below `cursor` was, when the
+    /// pair was last looked at, known to `b`, refused by `b` or in flight to `b`. It stays so
+    /// unless `b` forgets it (the ledger logs what each node forgets; `forgets` is the
+    /// position in `b`'s log then) or the network drops a message to `b` (`drops` is `b`'s
+    /// drop count then): a transaction in flight arrives, and is then known or refused. A
+    /// transaction that enters the mempool again gets a new arrival number, above the cursor.
+    cursor: u64,
+    forgets: u64,
+    drops: u64,
+    /// The gossip round that last looked at the pair.
+    round: u64,
 }
 
 /// The driver-side scheduler of sealings, gossip and deliveries.
@@ -67,12 +100,21 @@ pub struct Network {
     /// Messages in flight by (delivery time, receiver, number).
     flights: BTreeMap<(SimTime, RobotId, u64), Pending>,
     in_flight: BTreeSet<(RobotId, ItemRef)>,
+    /// Per directed link, when it is free again (entries in the past are dropped: a free
+    /// link and a missing one are the same).
     link_free: BTreeMap<(RobotId, RobotId), SimTime>,
-    /// Per ordered pair, the (sender, receiver) knowledge versions last found with nothing
-    /// to send: unchanged versions mean still nothing to send.
-    idle: Vec<Option<(u64, u64)>>,
-    /// Per node, the sealing time computed for (head, head_since).
-    seal_cache: Vec<Option<(BlockHash, SimTime, Option<SimTime>)>>,
+    /// Per sender `a`, what the gossip remembers of each receiver `b` (ascending): pairs out
+    /// of range for a while are forgotten when nothing of theirs is still valid, so memory
+    /// follows the links, not the square of the swarm.
+    pairs: Vec<Vec<(RobotId, PairMemo)>>,
+    /// A reusable buffer for a sender's peers.
+    peer_buffer: Vec<RobotId>,
+    /// Gossip rounds so far.
+    rounds: u64,
+    /// Per node, the messages in flight to it that the network dropped undelivered (a crashed
+    /// receiver, a restart): their items are neither known to it nor in flight any more.
+    dropped: Vec<u64>,
+    seals: SealSchedule,
     /// The number the last returned send will get once applied.
     awaiting_send: Option<u64>,
     faults: FaultSchedule,
@@ -101,8 +143,14 @@ impl Network {
             flights: BTreeMap::new(),
             in_flight: BTreeSet::new(),
             link_free: BTreeMap::new(),
-            idle: vec![None; (robots as usize) * (robots as usize)],
-            seal_cache: vec![None; robots as usize],
+            pairs: vec![Vec::new(); robots as usize],
+            peer_buffer: Vec::new(),
+            rounds: 0,
+            dropped: vec![0; robots as usize],
+            seals: SealSchedule {
+                times: vec![None; robots as usize],
+                ..SealSchedule::default()
+            },
             awaiting_send: None,
             faults: FaultSchedule::new(&config.faults, robots),
             skews_ms: config.faults.skews_ms(robots),
@@ -125,6 +173,9 @@ impl Network {
             .collect();
         for key in gone {
             self.flights.remove(&key);
+        }
+        if let Some(d) = self.dropped.get_mut(node as usize) {
+            *d += 1;
         }
         self.in_flight.retain(|(to, _)| *to != node);
         self.link_free.retain(|(_, to), _| *to != node);
@@ -164,16 +215,12 @@ impl Network {
         ((u128::from(x) * u128::from(self.wiggle_max_ms)) >> 64) as u64
     }
 
-    /// When `node` will seal on its current head, if it may.
-    pub fn seal_time(&mut self, ledger: &Ledger, node: RobotId) -> Option<SimTime> {
+    /// When `node` will seal on its current head, if it may: a function of its head, the
+    /// time it adopted it and the run's constants only.
+    pub fn seal_time(&self, ledger: &Ledger, node: RobotId) -> Option<SimTime> {
         let (head, height) = ledger.head(node);
         let since = ledger.head_since(node);
-        if let Some((h, s, t)) = self.seal_cache[node as usize] {
-            if h == head && s == since {
-                return t;
-            }
-        }
-        let t = if ledger.signed_recently(&head, node) {
+        if ledger.signed_recently(&head, node) {
             None
         } else {
             let parent_ms = ledger
@@ -193,9 +240,54 @@ impl Network {
             let local = base + delay;
             let true_ms = local.saturating_add_signed(-skew);
             Some(SimTime(true_ms).max(since))
-        };
-        self.seal_cache[node as usize] = Some((head, since, t));
-        t
+        }
+    }
+
+    /// Brings the sealing schedule up to the ledger: the nodes whose head or head time
+    /// changed since the last call (all of them the first time, or when the ledger's journal
+    /// no longer reaches back to the last call).
+    fn update_seals(&mut self, ledger: &Ledger) {
+        match self
+            .seals
+            .journal
+            .and_then(|since| ledger.head_changes_since(since))
+        {
+            Some(nodes) => {
+                for node in nodes {
+                    self.reschedule(ledger, node);
+                }
+            }
+            None => {
+                for node in 0..self.robots {
+                    self.reschedule(ledger, node);
+                }
+            }
+        }
+        self.seals.journal = Some(ledger.head_journal_end());
+    }
+
+    /// Recomputes one node's sealing time and its place among the sealings due.
+    fn reschedule(&mut self, ledger: &Ledger, node: RobotId) {
+        if let Some(t) = self.seals.times[node as usize].take() {
+            self.seals.due.remove(&(t, node));
+        }
+        let t = self.seal_time(ledger, node);
+        self.seals.times[node as usize] = t;
+        if let Some(t) = t {
+            if !self.faults.is_down(node, t.0) {
+                self.seals.due.insert((t, node));
+            }
+        }
+    }
+
+    /// The next sealing: the earliest (time, node) over the nodes that are up at their
+    /// sealing time, by a look at every node (tests compare the schedule with it).
+    #[cfg(test)]
+    fn next_seal_by_scan(&self, ledger: &Ledger) -> Option<(SimTime, RobotId)> {
+        (0..self.robots)
+            .filter_map(|node| self.seal_time(ledger, node).map(|t| (t, node)))
+            .filter(|&(t, node)| !self.faults.is_down(node, t.0))
+            .min()
     }
 
     /// The next event due at or before `until`, or None. `peers[a]` lists the robots `a` can
@@ -218,20 +310,18 @@ impl Network {
             self.robots,
             "network and ledger disagree on robots"
         );
+        // The ledger does not change until this call returns.
+        self.update_seals(ledger);
+        #[cfg(test)]
+        assert_eq!(
+            self.seals.due.first().copied(),
+            self.next_seal_by_scan(ledger),
+            "the sealing schedule differs from a look at every node"
+        );
         loop {
             // Candidates as (time, kind rank, node).
             let delivery = self.flights.keys().next().map(|&(t, to, _)| (t, 0u8, to));
-            let mut seal: Option<(SimTime, u8, RobotId)> = None;
-            for node in 0..self.robots {
-                if let Some(t) = self.seal_time(ledger, node) {
-                    if self.faults.is_down(node, t.0) {
-                        continue;
-                    }
-                    if seal.is_none_or(|s| (t, 3, node) < s) {
-                        seal = Some((t, 3, node));
-                    }
-                }
-            }
+            let seal = self.seals.due.first().map(|&(t, node)| (t, 3u8, node));
             let gossip_time = if self.batch.is_empty() {
                 self.next_gossip
             } else {
@@ -255,6 +345,7 @@ impl Network {
                     if self.faults.is_down(key.1, key.0 .0) {
                         // A crashed receiver: the message is dropped (the ledger forgets it
                         // at the restart).
+                        self.dropped[key.1 as usize] += 1;
                         continue;
                     }
                     return Some((key.0, LedgerEvent::Deliver { message: key.2 }));
@@ -318,57 +409,185 @@ impl Network {
 
     /// Computes the sends of one gossip round at `batch_time`.
     fn gossip_round(&mut self, ledger: &Ledger, peers: &[Vec<RobotId>]) {
-        let n = self.robots as usize;
+        self.rounds += 1;
+        // Links free before now are as good as unused.
+        if self.link_free.len() > 4 * self.robots as usize {
+            let now = self.batch_time;
+            self.link_free.retain(|_, free| *free > now);
+        }
+        let mut list = std::mem::take(&mut self.peer_buffer);
         for a in 0..self.robots {
-            let Some(list) = peers.get(a as usize) else {
+            let Some(reach) = peers.get(a as usize) else {
                 continue;
             };
-            let mut list: Vec<RobotId> = list
-                .iter()
-                .copied()
-                .filter(|&b| b != a && b < self.robots)
-                .collect();
+            list.clear();
+            list.extend(reach.iter().copied().filter(|&b| b != a && b < self.robots));
             list.sort_unstable();
             list.dedup();
-            for b in list {
-                let versions = (ledger.node_version(a), ledger.node_version(b));
-                let slot = a as usize * n + b as usize;
-                if self.idle[slot] == Some(versions) {
-                    continue;
-                }
-                let items = self.items_to_send(ledger, a, b);
-                if items.is_empty() {
-                    self.idle[slot] = Some(versions);
-                    continue;
-                }
-                self.idle[slot] = None;
-                let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
-                let lost = self.loss_rngs[a as usize].chance(loss);
-                if !lost {
-                    for item in &items {
-                        self.in_flight.insert((b, *item));
-                    }
-                }
-                self.batch.push_back(LedgerEvent::Send {
-                    from: a,
-                    to: b,
-                    items,
-                    lost,
-                });
+            for &b in &list {
+                self.gossip_pair(ledger, a, b);
             }
+            self.forget_pairs(ledger, a, list.len());
         }
+        self.peer_buffer = list;
     }
 
-    /// What `a` has for `b`: missing blocks of a heavier chain, then unseen transactions.
-    fn items_to_send(&self, ledger: &Ledger, a: RobotId, b: RobotId) -> Vec<ItemRef> {
+    /// The memory of the pair (a, b), made if missing.
+    fn pair_memo(&mut self, ledger: &Ledger, a: RobotId, b: RobotId) -> &mut PairMemo {
+        let memos = &mut self.pairs[a as usize];
+        let i = match memos.binary_search_by_key(&b, |m| m.0) {
+            Ok(i) => i,
+            Err(i) => {
+                let memo = PairMemo {
+                    idle: None,
+                    cursor: 0,
+                    forgets: ledger.forgotten_txs(b),
+                    drops: self.dropped[b as usize],
+                    round: 0,
+                };
+                memos.insert(i, (b, memo));
+                i
+            }
+        };
+        &mut memos[i].1
+    }
+
+    /// What `a` sends `b` this round, if anything.
+    fn gossip_pair(&mut self, ledger: &Ledger, a: RobotId, b: RobotId) {
+        let versions = (ledger.node_version(a), ledger.node_version(b));
+        let drops = self.dropped[b as usize];
+        let rounds = self.rounds;
+        let memo = self.pair_memo(ledger, a, b);
+        memo.round = rounds;
+        if memo.idle == Some(versions) {
+            return;
+        }
+        let memo = *memo;
+        let (items, first_tx_arrival) = self.items_to_send(ledger, a, b, &memo, drops);
+        #[cfg(test)]
+        assert_eq!(
+            items,
+            self.items_to_send_by_scan(ledger, a, b),
+            "the gossip from {a} to {b} differs from a look at the whole mempool"
+        );
+        let lost = !items.is_empty() && {
+            let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
+            self.loss_rngs[a as usize].chance(loss)
+        };
+        let memo = self.pair_memo(ledger, a, b);
+        memo.forgets = ledger.forgotten_txs(b);
+        memo.drops = drops;
+        // Sent transactions are in flight from now on; lost ones are not, and are looked at
+        // again next round.
+        memo.cursor = match (lost, first_tx_arrival) {
+            (true, Some(first)) => first,
+            _ => ledger.mempool_arrivals(a),
+        };
+        if items.is_empty() {
+            memo.idle = Some(versions);
+            return;
+        }
+        memo.idle = None;
+        if !lost {
+            for item in &items {
+                self.in_flight.insert((b, *item));
+            }
+        }
+        self.batch.push_back(LedgerEvent::Send {
+            from: a,
+            to: b,
+            items,
+            lost,
+        });
+    }
+
+    /// Forgets the pairs of sender `a` not looked at lately whose idle mark no longer holds
+    /// (only their cursors go, which costs one look at the whole mempool when they meet
+    /// again), when `a` remembers many more pairs than its `peers`.
+    fn forget_pairs(&mut self, ledger: &Ledger, a: RobotId, peers: usize) {
+        let memos = &mut self.pairs[a as usize];
+        if memos.len() <= 2 * peers + 8 {
+            return;
+        }
+        let recent = self.rounds.saturating_sub(PAIR_ROUNDS_KEPT);
+        let version_a = ledger.node_version(a);
+        memos.retain(|(b, memo)| {
+            memo.round > recent || memo.idle == Some((version_a, ledger.node_version(*b)))
+        });
+    }
+
+    /// What `a` has for `b`: missing blocks of a heavier chain, then unseen transactions;
+    /// with the arrival number at `a` of the first transaction. Of the transactions that
+    /// arrived at `a` before the pair's cursor only those `b` forgot since are looked at (all
+    /// of them if the network dropped a message to `b` since, or `b`'s log of forgotten
+    /// transactions no longer reaches back); see [`PairMemo::cursor`].
+    fn items_to_send(
+        &self,
+        ledger: &Ledger,
+        a: RobotId,
+        b: RobotId,
+        memo: &PairMemo,
+        drops: u64,
+    ) -> (Vec<ItemRef>, Option<u64>) {
+        let mut items = self.blocks_to_send(ledger, a, b);
+        let mut first_tx_arrival = None;
+        let mut from = memo.cursor;
+        let forgotten = ledger.forgotten_txs_since(b, memo.forgets);
+        let mut again: Vec<(u64, TxHash)> = Vec::new();
+        match forgotten {
+            Some(txs) if memo.drops == drops => {
+                for tx in txs {
+                    if let Some(arrival) = ledger.mempool_arrival(a, tx) {
+                        if arrival < from {
+                            again.push((arrival, *tx));
+                        }
+                    }
+                }
+                again.sort_unstable();
+                again.dedup();
+            }
+            _ => from = 0,
+        }
+        let unseen = |tx: &TxHash| {
+            !ledger.knows_tx(b, tx) && !self.in_flight.contains(&(b, ItemRef::Tx(*tx)))
+        };
+        let looked_at = again
+            .into_iter()
+            .chain(ledger.mempool_arrived_from(a, from));
+        for (arrival, tx) in looked_at {
+            if unseen(&tx) {
+                first_tx_arrival.get_or_insert(arrival);
+                items.push(ItemRef::Tx(tx));
+            }
+        }
+        (items, first_tx_arrival)
+    }
+
+    /// [`Network::items_to_send`] by a look at `a`'s whole mempool (tests compare them).
+    #[cfg(test)]
+    fn items_to_send_by_scan(&self, ledger: &Ledger, a: RobotId, b: RobotId) -> Vec<ItemRef> {
+        let mut items = self.blocks_to_send(ledger, a, b);
+        for tx in ledger.mempool(a) {
+            if !ledger.knows_tx(b, &tx) && !self.in_flight.contains(&(b, ItemRef::Tx(tx))) {
+                items.push(ItemRef::Tx(tx));
+            }
+        }
+        items
+    }
+
+    /// The blocks of `a`'s canonical chain that `b` lacks, ancestors first, if `b` wants them.
+    fn blocks_to_send(&self, ledger: &Ledger, a: RobotId, b: RobotId) -> Vec<ItemRef> {
         let mut items = Vec::new();
         let (head_a, _) = ledger.head(a);
         let (head_b, _) = ledger.head(b);
-        let td = |h: &BlockHash| ledger.block(h).expect("heads are stored").total_difficulty;
+        let (td_a, td_b) = (
+            ledger.head_total_difficulty(a),
+            ledger.head_total_difficulty(b),
+        );
         // `b` fetches a heavier chain, or an equally heavy one when it may not seal on its own
         // head but may on `a`'s (see the liveness rule of fork choice in `Ledger`).
-        let wanted = td(&head_a) > td(&head_b)
-            || (td(&head_a) == td(&head_b)
+        let wanted = td_a > td_b
+            || (td_a == td_b
                 && ledger.signed_recently(&head_b, b)
                 && !ledger.signed_recently(&head_a, b));
         if wanted && !ledger.knows_block(b, &head_a) {
@@ -391,11 +610,10 @@ impl Network {
             }
             items.reverse();
         }
-        for tx in ledger.mempool(a) {
-            if !ledger.knows_tx(b, &tx) && !self.in_flight.contains(&(b, ItemRef::Tx(tx))) {
-                items.push(ItemRef::Tx(tx));
-            }
-        }
         items
     }
 }
+
+/// Gossip rounds a pair's memory is kept after the pair was last looked at (10 s at the
+/// paper's tick), unless its idle mark still holds.
+const PAIR_ROUNDS_KEPT: u64 = 100;

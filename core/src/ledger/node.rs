@@ -182,29 +182,219 @@ pub struct Rejection {
     pub reason: RejectReason,
 }
 
+/// A pending transaction's place in a mempool.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Pending {
+    arrival: u64,
+    sender: RobotId,
+    nonce: u64,
+}
+
+/// A node's pending transactions, indexed the three ways the ledger and the gossip read them:
+/// by id (with the arrival number at this node), by arrival, and by sender then nonce. The
+/// indexes are kept together so that no reader rebuilds one per call; each is one flat map,
+/// so a mempool of many senders costs no allocation per sender.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct Mempool {
+    by_id: BTreeMap<TxHash, Pending>,
+    by_arrival: BTreeMap<u64, TxHash>,
+    /// (sender, nonce, id).
+    by_sender: BTreeSet<(RobotId, u64, TxHash)>,
+    /// Pending count per sender with pending transactions.
+    counts: BTreeMap<RobotId, u32>,
+    /// (pending count, sender) for every sender with pending transactions.
+    load: BTreeSet<(u32, RobotId)>,
+}
+
+/// The lowest and highest ids, to bound ranges of `(sender, nonce, id)`.
+const ID_MIN: TxHash = Digest([0; 32]);
+const ID_MAX: TxHash = Digest([u8::MAX; 32]);
+
+impl Mempool {
+    /// Pending transactions.
+    pub(crate) fn len(&self) -> usize {
+        self.by_id.len()
+    }
+
+    /// Whether `hash` is pending.
+    pub(crate) fn contains(&self, hash: &TxHash) -> bool {
+        self.by_id.contains_key(hash)
+    }
+
+    /// The arrival number of a pending transaction.
+    pub(crate) fn arrival(&self, hash: &TxHash) -> Option<u64> {
+        self.by_id.get(hash).map(|p| p.arrival)
+    }
+
+    /// (id, arrival number) in id order.
+    pub(crate) fn iter(&self) -> impl Iterator<Item = (&TxHash, u64)> + '_ {
+        self.by_id.iter().map(|(h, p)| (h, p.arrival))
+    }
+
+    /// (arrival number, id) of the transactions that arrived at or after `from`, in arrival
+    /// order.
+    pub(crate) fn arrived_from(&self, from: u64) -> impl Iterator<Item = (u64, TxHash)> + '_ {
+        self.by_arrival.range(from..).map(|(a, h)| (*a, *h))
+    }
+
+    /// How many transactions `sender` has pending.
+    pub(crate) fn count_of(&self, sender: RobotId) -> u32 {
+        self.counts.get(&sender).copied().unwrap_or(0)
+    }
+
+    /// A sender's pending transactions as (nonce, id), in that order.
+    pub(crate) fn of_sender(
+        &self,
+        sender: RobotId,
+    ) -> impl DoubleEndedIterator<Item = (u64, TxHash)> + '_ {
+        self.by_sender
+            .range((sender, 0, ID_MIN)..=(sender, u64::MAX, ID_MAX))
+            .map(|&(_, nonce, hash)| (nonce, hash))
+    }
+
+    /// The pending transaction of `sender` with `nonce` and the lowest id, if any.
+    pub(crate) fn lowest_with_nonce(&self, sender: RobotId, nonce: u64) -> Option<TxHash> {
+        self.by_sender
+            .range((sender, nonce, ID_MIN)..=(sender, nonce, ID_MAX))
+            .next()
+            .map(|&(_, _, hash)| hash)
+    }
+
+    /// Every pending transaction as (sender, nonce, id), in that order.
+    pub(crate) fn by_sender(&self) -> impl Iterator<Item = (RobotId, u64, TxHash)> + '_ {
+        self.by_sender.iter().copied()
+    }
+
+    /// The sender with the most pending transactions (the highest id on ties) and its count.
+    pub(crate) fn busiest(&self) -> Option<(RobotId, u32)> {
+        self.load.last().map(|&(count, sender)| (sender, count))
+    }
+
+    fn set_count(&mut self, sender: RobotId, before: u32, after: u32) {
+        if before > 0 {
+            self.load.remove(&(before, sender));
+        }
+        if after > 0 {
+            self.load.insert((after, sender));
+            self.counts.insert(sender, after);
+        } else {
+            self.counts.remove(&sender);
+        }
+    }
+
+    /// Adds a transaction that is not pending.
+    pub(crate) fn insert(&mut self, hash: TxHash, sender: RobotId, nonce: u64, arrival: u64) {
+        let pending = Pending {
+            arrival,
+            sender,
+            nonce,
+        };
+        let old = self.by_id.insert(hash, pending);
+        assert!(old.is_none(), "a transaction enters a mempool twice");
+        let fresh = self.by_arrival.insert(arrival, hash).is_none();
+        assert!(fresh, "two pending transactions with one arrival number");
+        self.by_sender.insert((sender, nonce, hash));
+        let before = self.count_of(sender);
+        self.set_count(sender, before, before + 1);
+    }
+
+    /// Removes a pending transaction; false if it was not pending.
+    pub(crate) fn remove(&mut self, hash: &TxHash) -> bool {
+        let Some(p) = self.by_id.remove(hash) else {
+            return false;
+        };
+        self.by_arrival.remove(&p.arrival);
+        self.by_sender.remove(&(p.sender, p.nonce, *hash));
+        let before = self.count_of(p.sender);
+        self.set_count(p.sender, before, before - 1);
+        true
+    }
+
+    /// Keeps only the transactions whose nonce is at least their sender's `next[sender]`.
+    pub(crate) fn retain_from_nonces(&mut self, next: &[u64]) {
+        let stale: Vec<TxHash> = self
+            .by_sender
+            .iter()
+            .filter(|(sender, nonce, _)| *nonce < next.get(*sender as usize).copied().unwrap_or(0))
+            .map(|&(_, _, hash)| hash)
+            .collect();
+        for hash in stale {
+            self.remove(&hash);
+        }
+    }
+
+    /// Empties the mempool.
+    pub(crate) fn clear(&mut self) {
+        *self = Mempool::default();
+    }
+}
+
+/// The latest transactions a node forgot, numbered from 0 in order (the gossip asks what a
+/// peer forgot since it last looked). Keeps [`FORGET_LOG_KEPT`]; a reader that fell further
+/// behind must assume anything was forgotten. Not part of the node's digest.
+#[derive(Clone, Debug, Default)]
+pub(crate) struct ForgetLog {
+    /// The number of `txs[0]`.
+    start: u64,
+    txs: VecDeque<TxHash>,
+}
+
+/// Forgotten transactions a node's log keeps.
+pub const FORGET_LOG_KEPT: usize = 64;
+
+impl ForgetLog {
+    pub(crate) fn push(&mut self, hash: TxHash) {
+        self.txs.push_back(hash);
+        if self.txs.len() > FORGET_LOG_KEPT {
+            self.txs.pop_front();
+            self.start += 1;
+        }
+    }
+
+    /// The number the next forgotten transaction will get.
+    pub(crate) fn end(&self) -> u64 {
+        self.start + self.txs.len() as u64
+    }
+
+    /// The transactions forgotten from number `since` on, or None if the log no longer
+    /// reaches back to it.
+    pub(crate) fn since(&self, since: u64) -> Option<impl Iterator<Item = &TxHash> + '_> {
+        let skip = since.checked_sub(self.start)?;
+        (since <= self.end()).then(|| self.txs.iter().skip(skip as usize))
+    }
+}
+
 /// One robot's node.
 #[derive(Clone, Debug)]
 pub struct Node {
     pub(crate) head: BlockHash,
     pub(crate) head_since: SimTime,
+    /// The head's total difficulty (kept here: the gossip compares it for every pair).
+    pub(crate) head_td: u64,
     /// The canonical chain by height: `canonical[h]` is the block at height h.
     pub(crate) canonical: Vec<BlockHash>,
     pub(crate) known_blocks: BTreeSet<BlockHash>,
     /// The known blocks by total difficulty (for the liveness rule of fork choice).
     pub(crate) by_td: BTreeMap<u64, Vec<BlockHash>>,
-    /// The transactions the node holds: pending in its mempool or carried by a block it
-    /// knows. It grows with the chain (32 bytes per transaction, as geth's transaction index
-    /// does); a replaced or evicted pending transaction leaves it.
-    pub(crate) known_txs: BTreeSet<TxHash>,
+    /// How many transactions the node holds: pending in its mempool or carried by a block it
+    /// knows. Which ones is one bit per node in each transaction's storage entry
+    /// ([`super::TxEntry::held_by`]), so a node's index grows by a bit, not an id, per
+    /// transaction; a replaced or evicted pending transaction leaves it.
+    pub(crate) held_txs: u64,
     /// Pending transactions and their arrival sequence numbers at this node.
-    pub(crate) mempool: BTreeMap<TxHash, u64>,
+    pub(crate) mempool: Mempool,
+    /// The next arrival number (it never decreases, not even at a restart).
     pub(crate) arrivals: u64,
+    /// The transactions the node forgot: that left the refused set (its bound) while not
+    /// held, so that [`super::Ledger::knows_tx`] turned false. An evicted or replaced
+    /// transaction is not forgotten: it leaves the held ones for `refused_txs`.
+    pub(crate) forgotten: ForgetLog,
     /// The latest rejections (at most [`super::MAX_REJECTIONS_KEPT`]).
     pub(crate) rejections: VecDeque<Rejection>,
     /// Rejections ever recorded.
     pub(crate) rejected_total: u64,
     /// Transactions refused recently (bounded, first in first out), so that a refused item
-    /// is not examined again; they are not `known_txs`, which holds admitted ones only.
+    /// is not examined again; they are not held, which admitted ones only are.
     pub(crate) refused_txs: BTreeSet<TxHash>,
     pub(crate) refused_order: VecDeque<TxHash>,
     /// Equivocation evidence: (signer, parent) -> two blocks the signer sealed on that parent
@@ -223,28 +413,18 @@ pub struct Node {
 }
 
 impl Node {
-    /// Remembers a refused, replaced or evicted transaction in the bounded refused set (first
-    /// in, first out), so that it is not examined again while it is there.
-    pub(crate) fn remember_refused(&mut self, hash: TxHash) {
-        if self.refused_txs.insert(hash) {
-            self.refused_order.push_back(hash);
-            if self.refused_order.len() > super::MAX_REFUSED_KEPT {
-                let old = self.refused_order.pop_front().expect("not empty");
-                self.refused_txs.remove(&old);
-            }
-        }
-    }
-
     pub(crate) fn new(genesis: BlockHash) -> Node {
         Node {
             head: genesis,
             head_since: SimTime(0),
+            head_td: 0,
             canonical: vec![genesis],
             known_blocks: BTreeSet::from([genesis]),
             by_td: BTreeMap::from([(0, vec![genesis])]),
-            known_txs: BTreeSet::new(),
-            mempool: BTreeMap::new(),
+            held_txs: 0,
+            mempool: Mempool::default(),
             arrivals: 0,
+            forgotten: ForgetLog::default(),
             rejections: VecDeque::new(),
             rejected_total: 0,
             refused_txs: BTreeSet::new(),
@@ -303,17 +483,19 @@ impl Node {
 
     /// A digest of the node's view: head, mempool and counts.
     pub(crate) fn digest(&self, id: RobotId) -> Digest {
-        let mut h = blake3::Hasher::new();
-        h.update(&id.to_le_bytes());
-        h.update(&self.head.0);
-        h.update(&self.head_since.0.to_le_bytes());
-        for (tx, arrival) in &self.mempool {
-            h.update(&tx.0);
-            h.update(&arrival.to_le_bytes());
+        // The bytes are gathered first and hashed at once: blake3 hashes a long input on
+        // several lanes, but takes small updates one block at a time. Same bytes, same digest.
+        let mut bytes = Vec::with_capacity(44 + 40 * self.mempool.len() + 88);
+        bytes.extend_from_slice(&id.to_le_bytes());
+        bytes.extend_from_slice(&self.head.0);
+        bytes.extend_from_slice(&self.head_since.0.to_le_bytes());
+        for (tx, arrival) in self.mempool.iter() {
+            bytes.extend_from_slice(&tx.0);
+            bytes.extend_from_slice(&arrival.to_le_bytes());
         }
         for n in [
             self.known_blocks.len() as u64,
-            self.known_txs.len() as u64,
+            self.held_txs,
             self.rejected_total,
             self.evidence.len() as u64,
             self.mempool_replaced,
@@ -324,8 +506,92 @@ impl Node {
             self.side_blocks,
             self.stored_bytes,
         ] {
-            h.update(&n.to_le_bytes());
+            bytes.extend_from_slice(&n.to_le_bytes());
         }
-        h.finalize().into()
+        Digest::of(&bytes)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::rng::{self, Purpose};
+
+    /// A pending transaction in the plain model: (id, sender, nonce, arrival).
+    type Plain = (TxHash, RobotId, u64, u64);
+
+    /// The mempool's indexes against a plain list after every step.
+    fn check(pool: &Mempool, plain: &[Plain]) {
+        let mut by_id: Vec<(TxHash, u64)> = plain.iter().map(|p| (p.0, p.3)).collect();
+        by_id.sort_unstable();
+        let got: Vec<(TxHash, u64)> = pool.iter().map(|(h, a)| (*h, a)).collect();
+        assert_eq!(got, by_id);
+        for from in [0, 3, 10, 40] {
+            let mut want: Vec<(u64, TxHash)> = plain
+                .iter()
+                .filter(|p| p.3 >= from)
+                .map(|p| (p.3, p.0))
+                .collect();
+            want.sort_unstable();
+            assert_eq!(pool.arrived_from(from).collect::<Vec<_>>(), want);
+        }
+        let mut by_sender: Vec<(RobotId, u64, TxHash)> =
+            plain.iter().map(|p| (p.1, p.2, p.0)).collect();
+        by_sender.sort_unstable();
+        assert_eq!(pool.by_sender().collect::<Vec<_>>(), by_sender);
+        let mut busiest = None;
+        for sender in 0..5 {
+            let mine: Vec<(u64, TxHash)> = by_sender
+                .iter()
+                .filter(|p| p.0 == sender)
+                .map(|p| (p.1, p.2))
+                .collect();
+            assert_eq!(pool.count_of(sender) as usize, mine.len());
+            assert_eq!(pool.of_sender(sender).collect::<Vec<_>>(), mine);
+            for nonce in 0..6 {
+                let lowest = mine.iter().find(|m| m.0 == nonce).map(|m| m.1);
+                assert_eq!(pool.lowest_with_nonce(sender, nonce), lowest);
+            }
+            if !mine.is_empty() {
+                busiest = busiest.max(Some((mine.len() as u32, sender)));
+            }
+        }
+        assert_eq!(pool.busiest(), busiest.map(|(c, s)| (s, c)));
+        assert_eq!(pool.len(), plain.len());
+    }
+
+    #[test]
+    fn the_mempool_indexes_agree_with_a_plain_list() {
+        let mut r = rng::stream(7, Purpose::Network, 0);
+        let mut pool = Mempool::default();
+        let mut plain: Vec<Plain> = Vec::new();
+        let mut arrivals = 0;
+        for step in 0..2000u64 {
+            match r.below(10) {
+                0..=5 => {
+                    let hash = Digest::of(&step.to_le_bytes());
+                    let (sender, nonce) = (r.below(5) as RobotId, r.below(6));
+                    pool.insert(hash, sender, nonce, arrivals);
+                    plain.push((hash, sender, nonce, arrivals));
+                    arrivals += 1;
+                }
+                6..=7 if !plain.is_empty() => {
+                    let gone = plain.swap_remove(r.below(plain.len() as u64) as usize);
+                    assert!(pool.remove(&gone.0));
+                    assert!(!pool.remove(&gone.0));
+                }
+                8 => {
+                    let next: Vec<u64> = (0..4).map(|_| r.below(4)).collect();
+                    pool.retain_from_nonces(&next);
+                    plain.retain(|p| p.2 >= next.get(p.1 as usize).copied().unwrap_or(0));
+                }
+                9 if r.chance(0.05) => {
+                    pool.clear();
+                    plain.clear();
+                }
+                _ => {}
+            }
+            check(&pool, &plain);
+        }
     }
 }

@@ -869,3 +869,45 @@ fn a_network_resumes_a_replayed_ledger_deterministically() {
         .iter()
         .any(|(_, e)| matches!(e, LedgerEvent::Seal { .. })));
 }
+
+#[test]
+fn a_peer_that_forgot_a_refused_transaction_is_sent_it_again() {
+    // Node 1 refuses node 0's transaction (the same nonce with a lower id is pending there),
+    // then forgets the refusal when more than MAX_REFUSED_KEPT others follow: the gossip, which
+    // skips what a peer has seen, must offer it again. Node 1 never gossips to node 0.
+    let (_, mut ledger, mut net) = setup(3, 29);
+    let keys = ledger.keys().clone();
+    let mut pair: Vec<Tx> = (1..=2)
+        .map(|amount| Tx::signed(&keys, 2, 0, 0, transfer(1, amount)))
+        .collect();
+    pair.sort_by_key(|tx| tx.hash_and_size().0);
+    let (low, high) = (pair[0].clone(), pair[1].clone());
+    let high_id = high.hash_and_size().0;
+    let inject = |ledger: &mut Ledger, node: RobotId, at_ms: u64, tx: &Tx| {
+        let bytes = WireItem::Tx(tx.clone()).encode();
+        ledger
+            .apply(SimTime(at_ms), &LedgerEvent::Inject { node, bytes })
+            .unwrap();
+    };
+    inject(&mut ledger, 1, 0, &low);
+    inject(&mut ledger, 0, 0, &high);
+    let peers = vec![vec![1], vec![], vec![]];
+    let mut log = Vec::new();
+    drain(&mut ledger, &mut net, SimTime(1_000), &peers, &mut log).unwrap();
+    assert_eq!(last_rejection(&ledger, 1), Some("nonce_taken"));
+    assert!(ledger.knows_tx(1, &high_id));
+    for i in 0..MAX_REFUSED_KEPT as u64 {
+        let mut forged = Tx::signed(&keys, 2, 1, 0, transfer(0, i));
+        forged.call = transfer(1, i);
+        inject(&mut ledger, 1, 1_100, &forged);
+    }
+    assert!(!ledger.knows_tx(1, &high_id), "the refusal is forgotten");
+    let sent_before = log.len();
+    drain(&mut ledger, &mut net, SimTime(2_000), &peers, &mut log).unwrap();
+    let offered = log[sent_before..].iter().any(|(_, e)| {
+        matches!(e, LedgerEvent::Send { from: 0, to: 1, items, .. }
+            if items == &vec![ItemRef::Tx(high_id)])
+    });
+    assert!(offered, "{:?}", &log[sent_before..]);
+    assert_eq!(last_rejection(&ledger, 1), Some("nonce_taken"));
+}
