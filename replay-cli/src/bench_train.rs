@@ -2,8 +2,10 @@
 //!
 //! Workload: 300 samples of 80 waypoints (240 train, 60 validate), the paper's model, 20 epochs
 //! of SGD in batches of 20 with the `reference` preset's learning rate, dropout 0.2; then the
-//! validation loss. Single-threaded: one training never uses rayon. Timed over
-//! [`REPETITIONS`] runs; the median is reported. The FLOP count counts every add and multiply
+//! validation loss. One training on two threads when rayon's pool has two (`learn/pair.rs`:
+//! the groups of each batch side by side, same bits), and the same on one thread for
+//! comparison; CPU times are the calling thread's. Timed over [`REPETITIONS`] runs; the median
+//! is reported. The FLOP count counts every add and multiply
 //! of the forward and backward passes (and each sigmoid/tanh as one), see
 //! `ModelShape::flops_per_train_sample`.
 
@@ -11,7 +13,7 @@ use std::time::Instant;
 
 use swarmfl_core::config::Preset;
 use swarmfl_core::data::Sample;
-use swarmfl_core::learn::{self, Kernel, ModelShape, TrainData};
+use swarmfl_core::learn::{self, Kernel, ModelShape, Threads, TrainData};
 use swarmfl_core::rng::{stream, Purpose};
 use swarmfl_core::world::{Controllers, World};
 
@@ -57,6 +59,7 @@ fn thread_cpu_ms() -> f64 {
 /// Median wall time, median thread CPU time (ms) and the validation loss of the last run.
 fn median_ms(
     kernel: Kernel,
+    threads: Threads,
     shape: &ModelShape,
     data: &TrainData,
     start: &[f32],
@@ -68,7 +71,7 @@ fn median_ms(
     for rep in 0..REPETITIONS {
         let dropout = stream(1, Purpose::Dropout, rep as u32);
         let (t0, c0) = (Instant::now(), thread_cpu_ms());
-        let out = learn::train_with(kernel, shape, &cfg, start, data, dropout);
+        let out = learn::train_threads(kernel, threads, shape, &cfg, start, data, dropout);
         cpu.push(thread_cpu_ms() - c0);
         wall.push(t0.elapsed().as_secs_f64() * 1e3);
         val_loss = out.val_loss;
@@ -93,9 +96,18 @@ pub fn run(json: bool) -> anyhow::Result<()> {
     let flop_eval = shape.flops_per_eval_sample();
     let total_flop = train_passes * flop_train + n_val * flop_eval;
 
-    let (auto_ms, auto_cpu_ms, val_loss) = median_ms(Kernel::Auto, &shape, &data, &start);
-    let (avx2_ms, avx2_cpu_ms, _) = median_ms(Kernel::Avx2, &shape, &data, &start);
-    let (base_ms, base_cpu_ms, _) = median_ms(Kernel::Baseline, &shape, &data, &start);
+    let (auto_ms, auto_cpu_ms, val_loss) =
+        median_ms(Kernel::Auto, Threads::Auto, &shape, &data, &start);
+    let (one_ms, one_cpu_ms, one_val_loss) =
+        median_ms(Kernel::Auto, Threads::One, &shape, &data, &start);
+    anyhow::ensure!(
+        one_val_loss.to_bits() == val_loss.to_bits(),
+        "one thread and two gave different validation losses ({one_val_loss} and {val_loss}): \
+         a determinism bug, please report it"
+    );
+    let (avx2_ms, avx2_cpu_ms, _) = median_ms(Kernel::Avx2, Threads::Auto, &shape, &data, &start);
+    let (base_ms, base_cpu_ms, _) =
+        median_ms(Kernel::Baseline, Threads::Auto, &shape, &data, &start);
     let passes_per_s = (train_passes + n_val) as f64 / (auto_ms / 1e3);
     let gflops = total_flop as f64 / (auto_ms / 1e3) / 1e9;
     let base_gflops = total_flop as f64 / (base_ms / 1e3) / 1e9;
@@ -103,10 +115,12 @@ pub fn run(json: bool) -> anyhow::Result<()> {
         "workload": "real simulated trajectories (reference preset world, seed 2026: the first robot to hold 300 samples), 240 train + 60 validation samples, 20 epochs, batch 20",
         "learning_rate": cfg.learning_rate,
         "repetitions": REPETITIONS,
-        "threads": 1,
+        "threads": rayon::current_num_threads().min(2),
         "kernel": format!("{} (run-time dispatch)", Kernel::Auto.describe()),
         "local_training_median_ms": auto_ms,
         "local_training_median_cpu_ms": auto_cpu_ms,
+        "one_thread_median_ms": one_ms,
+        "one_thread_median_cpu_ms": one_cpu_ms,
         "avx2_kernel": Kernel::Avx2.describe(),
         "avx2_kernel_median_ms": avx2_ms,
         "avx2_kernel_median_cpu_ms": avx2_cpu_ms,
@@ -125,12 +139,14 @@ pub fn run(json: bool) -> anyhow::Result<()> {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
-            "local training (240 + 60 samples, 20 epochs, batch 20), 1 thread, {REPETITIONS} runs"
+            "local training (240 + 60 samples, 20 epochs, batch 20), {} thread(s), {REPETITIONS} runs",
+            report["threads"]
         );
         println!(
-            "  median            {auto_ms:.1} ms wall, {auto_cpu_ms:.1} ms CPU ({})",
+            "  median            {auto_ms:.1} ms wall, {auto_cpu_ms:.1} ms CPU of this thread ({})",
             report["kernel"].as_str().unwrap_or("")
         );
+        println!("  one thread        {one_ms:.1} ms wall, {one_cpu_ms:.1} ms CPU");
         println!("  avx2 kernel       {avx2_ms:.1} ms wall, {avx2_cpu_ms:.1} ms CPU");
         println!("  baseline kernel   {base_ms:.1} ms wall, {base_cpu_ms:.1} ms CPU");
         println!("  sample passes/s   {passes_per_s:.0}");

@@ -40,7 +40,7 @@ use super::ModelShape;
 /// group are interleaved step by step). More samples per group means more independent sums in
 /// flight (one sample alone is bound by the latency of its recurrence) and more samples per
 /// weight-row load; gradients are still added in sample order, so the bits do not depend on it.
-pub(crate) const GROUP: usize = 8;
+pub(crate) const GROUP: usize = 10;
 
 /// The two matrix products of training, as one compiled variant computes them: the portable
 /// loops below ([`Tiled`]) or the explicit-SIMD ones of `simd.rs`. Every variant gives the same
@@ -573,21 +573,32 @@ impl Workspace {
 
     /// Backward pass of the first `n` samples of the last forward pass, with output gradients
     /// `dy`, with the matrix products of `M`; adds their gradients into `grad`, sample after
-    /// sample.
+    /// sample: [`Workspace::backward_dz`], then [`Workspace::accumulate`].
     ///
     /// # Safety
     /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
     pub(crate) unsafe fn backward<M: Mat>(&mut self, n: usize) {
+        // SAFETY: the caller guarantees the CPU runs `M`.
+        unsafe { self.backward_dz::<M>(n) };
+        let mut grad = std::mem::replace(&mut self.grad, Array1::zeros(0));
+        // SAFETY: as above.
+        unsafe { self.accumulate::<M>(grad.as_slice_mut().expect("standard layout"), n) };
+        self.grad = grad;
+    }
+
+    /// Adds the gradients of the first `n` samples of the last [`Workspace::backward_dz`] into
+    /// `grad` (flat layout), sample after sample: the dense layer's, then the LSTM's. The two
+    /// are disjoint parts of `grad`, so their order does not matter; within each, samples are
+    /// added in order.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
+    #[inline(always)]
+    pub(crate) unsafe fn accumulate<M: Mat>(&self, grad: &mut [f32], n: usize) {
         assert!((1..=GROUP).contains(&n));
         let sh = &self.shape;
-        let (t_n, h, g) = (sh.steps_in(), sh.units(), sh.gates());
-        let (grad_lstm, grad_dense) = self
-            .grad
-            .as_slice_mut()
-            .expect("standard layout")
-            .split_at_mut(sh.dense_offset());
-        // Dense layer: gradient of [kernel; bias] and of the (masked) last hidden state.
+        let (grad_lstm, grad_dense) = grad.split_at_mut(sh.dense_offset());
         // SAFETY: the caller guarantees the CPU runs `M`.
         unsafe {
             M::outer_acc(
@@ -597,11 +608,32 @@ impl Workspace {
                 1,
                 GROUP,
                 n,
-            )
-        };
+            );
+            M::outer_acc(
+                grad_lstm,
+                self.xh.as_slice().expect("standard layout"),
+                self.dz.as_slice().expect("standard layout"),
+                sh.steps_in(),
+                GROUP,
+                n,
+            );
+        }
+    }
+
+    /// Backpropagation through time of the first `n` samples of the last forward pass, with
+    /// output gradients `dy`: leaves the gate pre-activation gradients in `dz` (what
+    /// [`Workspace::accumulate`] multiplies into the weight gradients) and writes no gradient.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
+    #[inline(always)]
+    pub(crate) unsafe fn backward_dz<M: Mat>(&mut self, n: usize) {
+        assert!((1..=GROUP).contains(&n));
+        let sh = &self.shape;
+        let (t_n, h, g) = (sh.steps_in(), sh.units(), sh.gates());
         let dh = head_mut(&mut self.dh, n);
         dh.fill(0.0);
-        // SAFETY: as above.
+        // SAFETY: the caller guarantees the CPU runs `M`.
         unsafe {
             M::rows_acc(
                 dh,
@@ -646,16 +678,5 @@ impl Workspace {
                 unsafe { M::rows_acc(dh, step(&self.dz, t, n), rec_t, h) };
             }
         }
-        // SAFETY: the caller guarantees the CPU runs `M`.
-        unsafe {
-            M::outer_acc(
-                grad_lstm,
-                self.xh.as_slice().expect("standard layout"),
-                self.dz.as_slice().expect("standard layout"),
-                t_n,
-                GROUP,
-                n,
-            )
-        };
     }
 }

@@ -22,6 +22,7 @@ pub mod fixed;
 pub mod init;
 pub(crate) mod kernels;
 pub mod math;
+mod pair;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 #[cfg(test)]
@@ -346,9 +347,35 @@ pub fn train(
     train_with(Kernel::Auto, shape, cfg, start, data, dropout)
 }
 
+/// How many threads one training uses. Every choice gives the same bits.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Threads {
+    /// Two when it helps: rayon's pool has at least two threads, the batch has at least two
+    /// groups of samples and no other training is in progress in this process (see `pair.rs`);
+    /// else one.
+    Auto,
+    /// This thread only.
+    One,
+    /// Two, even while other trainings run (for the bit-identity tests and benchmarks).
+    Two,
+}
+
 /// [`train`] with an explicit kernel variant (for benchmarks and the bit-identity tests).
 pub fn train_with(
     kernel: Kernel,
+    shape: &ModelShape,
+    cfg: &LearnConfig,
+    start: &[f32],
+    data: &TrainData,
+    dropout: Rng,
+) -> TrainOutcome {
+    train_threads(kernel, Threads::Auto, shape, cfg, start, data, dropout)
+}
+
+/// [`train_with`] with an explicit thread choice.
+pub fn train_threads(
+    kernel: Kernel,
+    threads: Threads,
     shape: &ModelShape,
     cfg: &LearnConfig,
     start: &[f32],
@@ -369,7 +396,6 @@ pub fn train_with(
     let mut weights = Array1::from(start.to_vec());
     let mut final_train_loss = f64::NAN;
     if n_train > 0 && cfg.epochs > 0 && cfg.batch_size > 0 {
-        let mut ws = Workspace::new(shape);
         let sgd = Sgd {
             epochs: cfg.epochs,
             batch: cfg.batch_size as usize,
@@ -377,7 +403,29 @@ pub fn train_with(
             dropout: cfg.dropout as f32,
             samples: n_train,
         };
-        final_train_loss = dispatch_train(kernel, &mut ws, &mut weights, data, &sgd, &mut dropout);
+        let single = |weights: &mut Array1<f32>, dropout: &mut Rng| {
+            let mut ws = Workspace::new(shape);
+            dispatch_train(kernel, &mut ws, weights, data, &sgd, dropout)
+        };
+        let two = match threads {
+            Threads::One => false,
+            Threads::Two => true,
+            Threads::Auto => pair::worth_it(sgd.samples, sgd.batch),
+        };
+        final_train_loss = if two {
+            let force = threads == Threads::Two;
+            pair::train(
+                kernel.resolve(),
+                force,
+                &mut weights,
+                data,
+                &sgd,
+                &mut dropout,
+                single,
+            )
+        } else {
+            single(&mut weights, &mut dropout)
+        };
     }
     let weights = weights.to_vec();
     let val_loss = if n_val > 0 {
@@ -479,8 +527,24 @@ pub struct TrainJob {
 /// Runs the jobs in parallel (rayon) and returns their outcomes in job order. Every job is
 /// independent, so the bits do not depend on the number of threads.
 pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
+    // Several trainings fill the cores by themselves; one alone may use two threads.
+    let threads = if jobs.len() > 1 {
+        Threads::One
+    } else {
+        Threads::Auto
+    };
     jobs.into_par_iter()
-        .map(|job| train(&job.shape, &job.cfg, &job.start, &job.data, job.dropout))
+        .map(|job| {
+            train_threads(
+                Kernel::Auto,
+                threads,
+                &job.shape,
+                &job.cfg,
+                &job.start,
+                &job.data,
+                job.dropout,
+            )
+        })
         .collect()
 }
 

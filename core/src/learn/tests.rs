@@ -319,6 +319,28 @@ fn training_is_bit_identical_across_runs_threads_and_kernels() {
             })
             .collect();
         assert_eq!(bits(&one), bits(&seq), "kernel {kernel:?}");
+        // The groups of each batch on two threads (`pair.rs`), and forced onto one.
+        for threads in [Threads::One, Threads::Two] {
+            let seq: Vec<TrainOutcome> = jobs
+                .iter()
+                .map(|j| {
+                    train_threads(
+                        kernel,
+                        threads,
+                        &j.shape,
+                        &j.cfg,
+                        &j.start,
+                        &j.data,
+                        j.dropout.clone(),
+                    )
+                })
+                .collect();
+            assert_eq!(
+                bits(&one),
+                bits(&seq),
+                "kernel {kernel:?}, threads {threads:?}"
+            );
+        }
     }
     // The training did something, and dropout masks came from the given stream.
     assert!(one[0].weights != jobs[0].start);
@@ -852,13 +874,24 @@ fn blocked_training_equals_the_per_sample_trainer() {
         let want = ref_train(&shape, &cfg, &start, &data, dropout.clone());
         assert!(want.weights.iter().all(|w| w.is_finite()));
         for kernel in [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512] {
-            let got = train_with(kernel, &shape, &cfg, &start, &data, dropout.clone());
-            assert_eq!(
-                bits(&[got]),
-                bits(std::slice::from_ref(&want)),
-                "case {case}: {shape:?}, {samples} samples, batch {}, kernel {kernel:?}",
-                cfg.batch_size
-            );
+            for threads in [Threads::Auto, Threads::One, Threads::Two] {
+                let got = train_threads(
+                    kernel,
+                    threads,
+                    &shape,
+                    &cfg,
+                    &start,
+                    &data,
+                    dropout.clone(),
+                );
+                assert_eq!(
+                    bits(&[got]),
+                    bits(std::slice::from_ref(&want)),
+                    "case {case}: {shape:?}, {samples} samples, batch {}, kernel {kernel:?}, \
+                     threads {threads:?}",
+                    cfg.batch_size
+                );
+            }
         }
         let grad = gradient(&shape, &start, &data).0;
         let pass_grad = {
