@@ -561,6 +561,28 @@ struct Sgd {
     samples: usize,
 }
 
+impl Sgd {
+    /// The mini-batches of one epoch, in order: `(first, end)` sample ranges (the last may be
+    /// shorter, as Keras).
+    fn batches(&self) -> impl Iterator<Item = (usize, usize)> + '_ {
+        (0..self.samples)
+            .step_by(self.batch)
+            .map(|first| (first, (first + self.batch).min(self.samples)))
+    }
+
+    /// Draws the dropout masks of the first `n` samples of `ws`'s group, samples in order:
+    /// `units` draws each, a unit kept iff `u >= p` and scaled by `1 / (1 - p)`.
+    fn draw_masks(&self, ws: &mut Workspace, n: usize, dropout: &mut Rng) {
+        let keep_scale = 1.0f32 / (1.0f32 - self.dropout);
+        for s in 0..n {
+            for m in ws.mask_mut(s) {
+                let keep = dropout.uniform_f32() >= self.dropout;
+                *m = if keep { keep_scale } else { 0.0 };
+            }
+        }
+    }
+}
+
 /// d(mean of squares)/dy = 2 e / (batch * outputs), in f32.
 fn grad_scale(batch: usize, outputs: usize) -> f32 {
     2.0f32 / (batch * outputs) as f32
@@ -627,13 +649,10 @@ unsafe fn train_loop<M: Mat>(
     dropout: &mut Rng,
 ) -> f64 {
     let outputs = ws.shape.outputs();
-    let keep_scale = 1.0f32 / (1.0f32 - sgd.dropout);
     let mut epoch_sse = 0.0f64;
     for _ in 0..sgd.epochs {
         epoch_sse = 0.0;
-        let mut start = 0;
-        while start < sgd.samples {
-            let end = (start + sgd.batch).min(sgd.samples);
+        for (start, end) in sgd.batches() {
             let scale = grad_scale(end - start, outputs);
             let w = weights
                 .as_slice()
@@ -641,12 +660,7 @@ unsafe fn train_loop<M: Mat>(
             ws.transpose_weights(w);
             ws.grad.fill(0.0);
             for (first, last) in groups(start, end) {
-                for s in 0..last - first {
-                    for m in ws.mask_mut(s) {
-                        let keep = dropout.uniform_f32() >= sgd.dropout;
-                        *m = if keep { keep_scale } else { 0.0 };
-                    }
-                }
+                sgd.draw_masks(ws, last - first, dropout);
                 // SAFETY: this function's caller guarantees the CPU runs `M`.
                 unsafe { ws.forward::<M>(w, data.inputs(first, last)) };
                 for (s, i) in (first..last).enumerate() {
@@ -656,7 +670,6 @@ unsafe fn train_loop<M: Mat>(
                 unsafe { ws.backward::<M>(last - first) };
             }
             weights.zip_mut_with(&ws.grad, |w, g| *w -= *g * sgd.lr);
-            start = end;
         }
     }
     ws.mask.fill(1.0);

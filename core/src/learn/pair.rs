@@ -210,22 +210,18 @@ impl Shared<'_> {
 /// The CPU has the instruction set `M` is compiled for.
 #[inline(always)]
 unsafe fn owner<M: Mat>(
-    force: bool,
     shared: &Shared<'_>,
     helper: &std::thread::Thread,
     sgd: &Sgd,
     dropout: &mut Rng,
 ) -> f64 {
     let outputs = shared.data.shape.outputs();
-    let keep_scale = 1.0f32 / (1.0f32 - sgd.dropout);
     let mut grad = Array1::<f32>::zeros(shared.data.shape.weights());
     let mut epoch_sse = 0.0f64;
     let mut epoch = 0u32;
     for _ in 0..sgd.epochs {
         epoch_sse = 0.0;
-        let mut start = 0;
-        while start < sgd.samples {
-            let end = (start + sgd.batch).min(sgd.samples);
+        for (start, end) in sgd.batches() {
             let scale = grad_scale(end - start, outputs);
             // The batch's groups, and their masks drawn in sample order (as `train_loop`).
             let mut groups = 0;
@@ -236,17 +232,12 @@ unsafe fn owner<M: Mat>(
                 slot.first = first;
                 slot.last = last;
                 slot.scale = scale;
-                for s in 0..last - first {
-                    for m in slot.ws.mask_mut(s) {
-                        let keep = dropout.uniform_f32() >= sgd.dropout;
-                        *m = if keep { keep_scale } else { 0.0 };
-                    }
-                }
+                sgd.draw_masks(&mut slot.ws, last - first, dropout);
                 groups += 1;
             }
             epoch = epoch.wrapping_add(1).max(1);
             shared.claim.store(pack(epoch, groups, 0), Ordering::SeqCst);
-            if force || ACTIVE.load(Ordering::Relaxed) == 1 {
+            if shared.force || ACTIVE.load(Ordering::Relaxed) == 1 {
                 shared.wake(helper);
             }
             while let Some(k) = shared.claim(epoch) {
@@ -279,7 +270,6 @@ unsafe fn owner<M: Mat>(
                 .write()
                 .unwrap_or_else(|e| e.into_inner())
                 .zip_mut_with(&grad, |w, g| *w -= *g * sgd.lr);
-            start = end;
         }
     }
     epoch_sse / (sgd.samples * outputs) as f64
@@ -303,14 +293,13 @@ macro_rules! variants {
         #[cfg(target_arch = "x86_64")]
         #[target_feature(enable = $feature)]
         unsafe fn $owner(
-            force: bool,
             shared: &Shared<'_>,
             helper: &std::thread::Thread,
             sgd: &Sgd,
             dropout: &mut Rng,
         ) -> f64 {
             // SAFETY: this function's caller checked the CPU.
-            unsafe { owner::<$m>(force, shared, helper, sgd, dropout) }
+            unsafe { owner::<$m>(shared, helper, sgd, dropout) }
         }
 
         #[cfg(target_arch = "x86_64")]
@@ -327,7 +316,6 @@ variants!(owner_avx2, helper_avx2, "avx2", super::simd::Avx2);
 
 fn run_owner(
     kernel: Resolved,
-    force: bool,
     shared: &Shared<'_>,
     helper: &std::thread::Thread,
     sgd: &Sgd,
@@ -335,13 +323,13 @@ fn run_owner(
 ) -> f64 {
     match kernel {
         // SAFETY: the portable kernels run on any CPU.
-        Resolved::Baseline => unsafe { owner::<Portable>(force, shared, helper, sgd, dropout) },
+        Resolved::Baseline => unsafe { owner::<Portable>(shared, helper, sgd, dropout) },
         // SAFETY: `Kernel::resolve` checked at run time that the CPU has AVX2.
         #[cfg(target_arch = "x86_64")]
-        Resolved::Avx2 => unsafe { owner_avx2(force, shared, helper, sgd, dropout) },
+        Resolved::Avx2 => unsafe { owner_avx2(shared, helper, sgd, dropout) },
         // SAFETY: `Kernel::resolve` checked at run time that the CPU has AVX-512F.
         #[cfg(target_arch = "x86_64")]
-        Resolved::Avx512 => unsafe { owner_avx512(force, shared, helper, sgd, dropout) },
+        Resolved::Avx512 => unsafe { owner_avx512(shared, helper, sgd, dropout) },
     }
 }
 
@@ -402,7 +390,7 @@ pub(super) fn train(
             shared: &shared,
             helper: handle.thread().clone(),
         };
-        run_owner(kernel, force, &shared, handle.thread(), sgd, dropout)
+        run_owner(kernel, &shared, handle.thread(), sgd, dropout)
     });
     *weights = shared
         .weights
