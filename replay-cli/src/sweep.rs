@@ -620,6 +620,9 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
         .jobs
         .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
         .clamp(1, todo.len().max(1));
+    // Runs side by side already fill the cores; a training's helper thread would only compete
+    // with the other runs' world and ledger work (speed only: the bits are the same).
+    swarmfl_core::learn::allow_two_thread_training(jobs == 1);
     eprintln!(
         "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
         exp.name, outcome.selected, opts.shard.index, opts.shard.count, outcome.skipped, runs, jobs

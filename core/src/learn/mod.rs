@@ -23,6 +23,8 @@ pub mod init;
 pub(crate) mod kernels;
 pub mod math;
 mod pair;
+
+pub use pair::set_allowed as allow_two_thread_training;
 #[cfg(target_arch = "x86_64")]
 mod simd;
 #[cfg(test)]
@@ -350,9 +352,9 @@ pub fn train(
 /// How many threads one training uses. Every choice gives the same bits.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Threads {
-    /// Two when it helps: rayon's pool has at least two threads, the batch has at least two
-    /// groups of samples and no other training is in progress in this process (see `pair.rs`);
-    /// else one.
+    /// Two when it helps: helpers are allowed ([`allow_two_thread_training`]), rayon's pool
+    /// has at least two threads, the batch has at least two groups of samples and no other
+    /// training is in progress in this process (see `pair.rs`); else one.
     Auto,
     /// This thread only.
     One,
