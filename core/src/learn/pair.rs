@@ -23,8 +23,8 @@
 //! training spawns a helper only when it is the only one running, and stops waking it while
 //! another one runs. Programs that run several simulations at once turn helpers off
 //! ([`set_allowed`]). Tried and not kept: giving every training a helper that joins once the
-//! other trainings end made a `paper` run slower (23.4 s instead of 21.6 s, 42 s of CPU
-//! instead of 35), because the driver's look-ahead world runs beside the trainings.
+//! other trainings end made a `paper` run slower (22.0-23.4 s instead of 21.5 s, 40-42 s of CPU
+//! instead of 35; README, "Training speed").
 
 use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, RwLock};
