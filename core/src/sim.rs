@@ -27,7 +27,7 @@ use crate::contract::{Call, ContractParams};
 use crate::data::Sample;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
 use crate::faults::FaultSchedule;
-use crate::learn::{self, ModelShape, TrainData, TrainJob, TrainOutcome};
+use crate::learn::{self, ModelShape, Spawned, TrainData, TrainJob, TrainOutcome};
 use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
 use crate::metrics::{
     self, ContractSummary, LearnAction, LearnReport, Metrics, SkipReason, TokenSummary,
@@ -39,10 +39,11 @@ use crate::world::{Controllers, TickEvent, World, WorldError, WorldStats};
 /// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
 /// window in which honest trainings are speculated in parallel. A performance knob only: the
 /// records do not depend on it (a test runs with 0, with this and with a wider window).
-/// Measured on the 2-core reference machine (`paper`, seed 1): 10 s and 20 s give the same
-/// wall time (21.1-21.4 s), but 10 s wastes fewer speculated trainings (learning CPU 31 s
-/// against 34 s), so two runs side by side, as `sweep --jobs 2` runs them, finish in 34 s
-/// instead of 37 s; 40 s and 60 s are slower (22-25 s).
+/// Measured on the 2-core reference machine (`paper`, seed 1, trainings in the background):
+/// 5 s, 10 s and 20 s give 17.7 s, 16.5 s and 16.4 s of wall time with 29.8 s, 28.5 s and
+/// 29.7 s of CPU; 10 s wastes the fewest speculated trainings, which matters when two runs
+/// share the cores (`sweep --jobs 2`). Speculating at every tick instead of only when a
+/// training falls due: 16.5 s with 30.4 s of CPU, not kept.
 pub const DEFAULT_LOOKAHEAD_MS: u64 = 10_000;
 
 /// Why a run could not start.
@@ -431,8 +432,10 @@ impl RunSummary {
 
 /// A robot's decision for one learning phase, before its transaction is made.
 enum Plan {
+    /// A training speculated from the same model: its outcome (waited for when the plans are
+    /// carried out).
     Ready {
-        outcome: TrainOutcome,
+        spawned: Spawned,
         base_round: u64,
     },
     Train {
@@ -565,8 +568,10 @@ impl Learners {
 /// phase when it falls due. Those data sets (exactly the ones the reduced world holds then)
 /// let the driver train several robots at once, speculatively, from the shared model each one
 /// sees now; a speculated result is used only if the robot's model is still the same when its
+/// phase comes. The speculated trainings run on rayon's pool in the background
+/// ([`Spawned`]) while the driver goes on; the driver waits for one only when its robot's
 /// phase comes. Trainings are pure functions of (model, data, seed, robot, phase), so the
-/// records cannot depend on the window.
+/// records cannot depend on the window or on when the pool computes them.
 struct LookAhead {
     world: World,
     controllers: Controllers,
@@ -577,8 +582,9 @@ struct LookAhead {
     phases: Vec<u64>,
     /// Data sets of upcoming honest phases, by (due time, robot): (phase, samples).
     upcoming: BTreeMap<(u64, RobotId), (u64, Vec<Sample>)>,
-    /// Speculated trainings by (robot, phase): (digest of the start model, outcome).
-    speculated: BTreeMap<(RobotId, u64), (Digest, TrainOutcome)>,
+    /// Speculated trainings by (robot, phase): (digest of the start model, the training,
+    /// running on rayon's pool or done). Dropping one that has not started cancels it.
+    speculated: BTreeMap<(RobotId, u64), (Digest, Spawned)>,
 }
 
 /// The driver of one run: an iterator over its records.
@@ -933,9 +939,9 @@ impl Sim {
         }
     }
 
-    /// Every robot whose learning phase is due by `now` trains (in parallel, with the
-    /// speculative trainings of the window) or, if Byzantine, asks its attack; waiting attacks
-    /// are asked again. Queues the submissions.
+    /// Every robot whose learning phase is due by `now` trains (on the pool, beside the
+    /// window's speculated trainings, which this starts and leaves running) or, if Byzantine,
+    /// asks its attack; waiting attacks are asked again. Queues the submissions.
     fn learning_phase(&mut self, now: SimTime) {
         // Byzantine robots waiting in an earlier phase are asked again first (robot order);
         // one whose next phase is due now has its last chance.
@@ -1025,9 +1031,9 @@ impl Sim {
                 let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
                     >= min_train;
                 match (data, speculated) {
-                    (Some(_), Some((digest, outcome))) if trainable && digest == view.digest => {
+                    (Some(_), Some((digest, spawned))) if trainable && digest == view.digest => {
                         Plan::Ready {
-                            outcome,
+                            spawned,
                             base_round,
                         }
                     }
@@ -1052,18 +1058,13 @@ impl Sim {
             };
             plans.push((r, phase, now.0, plan));
         }
-        let due_jobs = jobs.len();
-        let speculative = if due_jobs > 0 {
-            self.speculative_jobs(now, &mut jobs)
-        } else {
-            Vec::new()
-        };
-        let mut outcomes = learn::train_many(jobs);
-        for (key, digest) in speculative.into_iter().rev() {
-            let outcome = outcomes.pop().expect("one outcome per job");
-            self.ahead.speculated.insert(key, (digest, outcome));
+        // The due trainings go to the pool first, then the window's speculated ones; this
+        // thread takes any due one no pool thread has started, and waits for the others.
+        let due_jobs: Vec<Spawned> = jobs.into_iter().map(Spawned::start).collect();
+        if !due_jobs.is_empty() {
+            self.speculate(now);
         }
-        debug_assert_eq!(outcomes.len(), due_jobs);
+        let outcomes: Vec<TrainOutcome> = due_jobs.into_iter().map(Spawned::wait).collect();
         for (r, phase, started_ms, plan) in plans {
             // A phase's submission leaves a training duration after the phase began, or now
             // if a waiting attack decided later than that.
@@ -1090,10 +1091,10 @@ impl Sim {
                     (base_round, action, tx)
                 }
                 Plan::Ready {
-                    outcome,
+                    spawned,
                     base_round,
                 } => {
-                    let (action, tx) = self.trained(r, &outcome);
+                    let (action, tx) = self.trained(r, &spawned.wait());
                     (base_round, action, tx)
                 }
             };
@@ -1312,18 +1313,14 @@ impl Sim {
         }
     }
 
-    /// Adds to `jobs` the honest phases due within the look-ahead window that are not yet
-    /// speculated from their robot's current model; returns their keys and start digests in
-    /// job order.
-    fn speculative_jobs(
-        &self,
-        now: SimTime,
-        jobs: &mut Vec<TrainJob>,
-    ) -> Vec<((RobotId, u64), Digest)> {
+    /// Starts on the pool the trainings of the honest phases due within the look-ahead window
+    /// that are not yet speculated from their robot's current model (a speculation from an
+    /// older model is replaced, and cancelled if it has not started).
+    fn speculate(&mut self, now: SimTime) {
         let horizon = now.0 + self.ahead.window_ticks * self.tick_ms;
         let scale = self.config.contract.weight_scale;
         let min_train = self.config.learn.min_train_samples.max(1) as usize;
-        let mut keys = Vec::new();
+        let mut started = Vec::new();
         for (&(due_ms, r), (phase, samples)) in
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
         {
@@ -1342,16 +1339,16 @@ impl Sim {
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
                 continue;
             };
-            jobs.push(TrainJob {
+            let job = TrainJob {
                 shape: self.learners.shape.clone(),
                 cfg: self.config.learn.clone(),
                 start: learn::from_fixed(&view.weights, scale),
                 data,
                 dropout: rng::substream(self.seed, Purpose::Dropout, r, *phase),
-            });
-            keys.push(((r, *phase), view.digest));
+            };
+            started.push(((r, *phase), (view.digest, Spawned::start(job))));
         }
-        keys
+        self.ahead.speculated.extend(started);
     }
 
     /// Emits the reports and submissions whose training has finished by `now`, in time then
@@ -1427,6 +1424,32 @@ mod tests {
         assert!(plain.iter().any(|r| r.kind() == "learn"), "the run trains");
         assert_eq!(plain, wide);
         assert_eq!(plain, default);
+    }
+
+    #[test]
+    fn background_trainings_give_the_same_records_on_one_pool_thread_or_four() {
+        // On one pool thread the driver must take queued trainings itself (a driver that
+        // only waited would deadlock a pool whose one thread runs it); on four, the
+        // speculated trainings finish in any order.
+        let mut config = short_config();
+        config.run.duration_s = 250.0;
+        let on = |threads: usize| -> Vec<Record> {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            let config = config.clone();
+            pool.install(move || Sim::with_lookahead(config, 5, 20_000).unwrap().collect())
+        };
+        let one = on(1);
+        assert!(one.iter().any(|r| r.kind() == "learn"), "the run trains");
+        assert_eq!(one, on(4));
+        assert_eq!(
+            one,
+            Sim::with_lookahead(config, 5, 0)
+                .unwrap()
+                .collect::<Vec<_>>()
+        );
     }
 
     #[test]

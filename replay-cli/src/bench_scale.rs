@@ -27,7 +27,8 @@ const SEED: u64 = 1;
 /// The size the others are compared with when it is run (the issue's acceptance).
 const REFERENCE_ROBOTS: u32 = 60;
 /// The parts of the driver's timing, as named in `summary.json`'s `timing` (`<part>_s` wall,
-/// `<part>_cpu_s` process CPU).
+/// `<part>_cpu_s` CPU: the driver thread's in that part, plus every other thread's in
+/// learning, see `run.rs`).
 const PARTS: [&str; 5] = [
     "world",
     "ledger",
@@ -230,7 +231,7 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
         "workload": "the paper preset at the paper's density: world.robots = N, world.arena_side_m = 5 * sqrt(N / 15), world.cylinders = world.boxes = round(5 * N / 15), seed 1; each size in its own child process through the code of `swarmfl run`",
         "duration_s": duration_s,
         "seed": SEED,
-        "units": "us_per_robot_sim_s: microseconds of wall (or process CPU) time per robot per simulated second; the parts' times are the driver's (summary.json `timing`), wall and process CPU (all threads)",
+        "units": "us_per_robot_sim_s: microseconds of wall (or process CPU) time per robot per simulated second; the parts' times are the driver's (summary.json `timing`): wall on the driver thread; CPU of the driver thread in that part, and for learning also every other thread's (the background trainings)",
         "sizes": sizes,
         "reference_robots": reference_robots,
         "largest_robots": largest,
@@ -246,7 +247,10 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
         "paper preset at the paper's density (15 robots / 25 m^2), {duration_s} simulated s per \
          size, seed {SEED}; one child process per size"
     );
-    println!("after |: microseconds of process CPU (all threads) per robot-simulated-second");
+    println!(
+        "after |: microseconds of CPU per robot-simulated-second (whole process; per part: the \
+         driver thread's, learning also the training threads')"
+    );
     println!(
         "{:>6} {:>7} {:>9} {:>9} {:>9} | {:>8} {:>8} {:>8} {:>8} {:>8} {:>8}",
         "robots",

@@ -44,16 +44,7 @@ pub fn bench_workload() -> anyhow::Result<Vec<Sample>> {
 /// CPU time of the calling thread in milliseconds (immune to other processes sharing the
 /// cores, unlike wall time).
 fn thread_cpu_ms() -> f64 {
-    let mut ts = libc::timespec {
-        tv_sec: 0,
-        tv_nsec: 0,
-    };
-    // SAFETY: clock_gettime only writes the timespec we pass.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_THREAD_CPUTIME_ID, &mut ts) };
-    if rc != 0 {
-        return f64::NAN;
-    }
-    ts.tv_sec as f64 * 1e3 + ts.tv_nsec as f64 * 1e-6
+    crate::run::thread_cpu_s() * 1e3
 }
 
 /// Median wall time, median thread CPU time (ms) and the validation loss of the last run.

@@ -11,17 +11,22 @@ use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
 
 use crate::progress::Progress;
 
-/// Wall time and process CPU time per part of the driver, shared with the driver's profiler
-/// hook. The CPU time is the whole process's (every thread), so a part that trains on the
-/// rayon pool is charged the CPU of all its workers.
+/// Wall time and CPU time per part of the driver, shared with the driver's profiler hook.
+/// The wall time of a part is the driver thread's time in it (for learning: training, or
+/// waiting for trainings on the pool). The driver thread's own CPU time goes to the part it is
+/// in; the CPU time of every other thread of the process goes to learning, because the only
+/// other threads that work are the trainings (rayon's pool and the training helpers), and they
+/// run in the background while the driver advances the world and the ledger. (Under
+/// `sweep --jobs N>1` the other simulations' threads are counted there too.)
 #[derive(Clone, Default)]
 struct Timing(std::sync::Arc<std::sync::Mutex<TimingState>>);
 
 #[derive(Default)]
 struct TimingState {
-    /// The part being timed, since when (wall) and the process CPU seconds then.
-    current: Option<(Part, Instant, f64)>,
-    /// Wall seconds and process CPU seconds per part.
+    /// The part being timed, since when (wall), and the process's and the driver thread's
+    /// CPU seconds then.
+    current: Option<(Part, Instant, f64, f64)>,
+    /// Wall seconds (driver thread) and CPU seconds per part (see [`Timing`]).
     totals: std::collections::BTreeMap<Part, (f64, f64)>,
 }
 
@@ -29,13 +34,16 @@ impl Profiler for Timing {
     fn switch(&mut self, part: Part) {
         let now = Instant::now();
         let cpu = process_cpu_s();
+        let own = thread_cpu_s();
         let mut t = self.0.lock().expect("timing lock");
-        if let Some((previous, since, cpu_since)) = t.current.take() {
+        if let Some((previous, since, cpu_since, own_since)) = t.current.take() {
             let total = t.totals.entry(previous).or_insert((0.0, 0.0));
             total.0 += now.duration_since(since).as_secs_f64();
-            total.1 += cpu - cpu_since;
+            total.1 += own - own_since;
+            let others = (cpu - cpu_since) - (own - own_since);
+            t.totals.entry(Part::Learning).or_insert((0.0, 0.0)).1 += others;
         }
-        t.current = Some((part, now, cpu));
+        t.current = Some((part, now, cpu, own));
     }
 }
 
@@ -63,12 +71,21 @@ impl Timing {
 
 /// CPU time of the whole process (all threads) in seconds; NaN if the clock is unavailable.
 pub fn process_cpu_s() -> f64 {
+    cpu_clock_s(libc::CLOCK_PROCESS_CPUTIME_ID)
+}
+
+/// CPU time of the calling thread in seconds; NaN if the clock is unavailable.
+pub fn thread_cpu_s() -> f64 {
+    cpu_clock_s(libc::CLOCK_THREAD_CPUTIME_ID)
+}
+
+fn cpu_clock_s(clock: libc::clockid_t) -> f64 {
     let mut ts = libc::timespec {
         tv_sec: 0,
         tv_nsec: 0,
     };
     // SAFETY: clock_gettime only writes the timespec we pass.
-    let rc = unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut ts) };
+    let rc = unsafe { libc::clock_gettime(clock, &mut ts) };
     if rc != 0 {
         return f64::NAN;
     }

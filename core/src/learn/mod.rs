@@ -18,6 +18,7 @@
 //! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise `expf`/`tanhf`),
 //! [`kernels`] (forward, backward, SGD), [`fixed`] (on-chain fixed point).
 
+mod background;
 pub mod fixed;
 pub mod init;
 pub(crate) mod kernels;
@@ -38,6 +39,7 @@ use crate::config::{Config, LearnConfig};
 use crate::data::Sample;
 use crate::rng::Rng;
 
+pub use background::Spawned;
 pub use fixed::{from_fixed, to_fixed, FixedPointError};
 pub use init::init_weights;
 use kernels::{Mat, Tiled, Workspace, GROUP};
@@ -511,7 +513,7 @@ fn groups(from: usize, to: usize) -> impl Iterator<Item = (usize, usize)> {
         .map(move |first| (first, (first + GROUP).min(to)))
 }
 
-/// One robot's training, for [`train_many`].
+/// One robot's training, for [`train_many`] or [`Spawned::start`].
 #[derive(Clone, Debug)]
 pub struct TrainJob {
     /// Model sizes.
@@ -526,6 +528,26 @@ pub struct TrainJob {
     pub dropout: Rng,
 }
 
+impl TrainJob {
+    /// Trains: [`train_threads`] with the fastest kernel, two threads if no other training
+    /// runs ([`Threads::Auto`]).
+    pub fn run(self) -> TrainOutcome {
+        self.run_with(Threads::Auto)
+    }
+
+    fn run_with(self, threads: Threads) -> TrainOutcome {
+        train_threads(
+            Kernel::Auto,
+            threads,
+            &self.shape,
+            &self.cfg,
+            &self.start,
+            &self.data,
+            self.dropout,
+        )
+    }
+}
+
 /// Runs the jobs in parallel (rayon) and returns their outcomes in job order. Every job is
 /// independent, so the bits do not depend on the number of threads.
 pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
@@ -536,17 +558,7 @@ pub fn train_many(jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
         Threads::Auto
     };
     jobs.into_par_iter()
-        .map(|job| {
-            train_threads(
-                Kernel::Auto,
-                threads,
-                &job.shape,
-                &job.cfg,
-                &job.start,
-                &job.data,
-                job.dropout,
-            )
-        })
+        .map(|job| job.run_with(threads))
         .collect()
 }
 

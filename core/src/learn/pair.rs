@@ -41,12 +41,13 @@ static ACTIVE: AtomicUsize = AtomicUsize::new(0);
 /// Spin iterations a waiting thread makes before it yields (owner) or parks (helper).
 const SPIN: u32 = 50_000;
 
-/// Counts this training in [`ACTIVE`] while alive.
-struct Active;
+/// Counts this training in [`ACTIVE`] while alive (background trainings, which run on one
+/// thread, enter it too: see `background.rs`).
+pub(super) struct Active;
 
 impl Active {
     /// Registers a training; true if it is the only one in progress.
-    fn enter() -> (Active, bool) {
+    pub(super) fn enter() -> (Active, bool) {
         let before = ACTIVE.fetch_add(1, Ordering::SeqCst);
         (Active, before == 0)
     }

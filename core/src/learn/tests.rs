@@ -291,6 +291,42 @@ fn bits(outcomes: &[TrainOutcome]) -> Vec<(Vec<u32>, u64, u64, u32)> {
 }
 
 #[test]
+fn spawned_trainings_give_the_outcomes_of_train_many() {
+    let jobs = small_jobs();
+    let expected = bits(&train_many(jobs.clone()));
+    for threads in [1, 3] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        // Started from inside the pool (as a driver running on it) and from outside it.
+        let inside: Vec<TrainOutcome> = pool.install(|| {
+            let spawned: Vec<Spawned> = jobs.iter().cloned().map(Spawned::start).collect();
+            spawned.into_iter().map(Spawned::wait).collect()
+        });
+        assert_eq!(bits(&inside), expected, "{threads} pool threads");
+    }
+    // From outside any pool (rayon's global one), waited for in reverse order; every other one
+    // is dropped instead (cancelled if not started, thrown away if it was).
+    let mut spawned: Vec<Option<Spawned>> =
+        jobs.iter().cloned().map(Spawned::start).map(Some).collect();
+    let mut waited: Vec<Option<TrainOutcome>> = (0..jobs.len()).map(|_| None).collect();
+    for i in (0..jobs.len()).rev() {
+        let handle = spawned[i].take();
+        if i % 2 == 0 {
+            waited[i] = handle.map(Spawned::wait);
+        }
+    }
+    let kept: Vec<TrainOutcome> = train_many(jobs).into_iter().step_by(2).collect();
+    let waited: Vec<TrainOutcome> = waited.into_iter().flatten().collect();
+    assert_eq!(
+        bits(&waited),
+        bits(&kept),
+        "global pool, reverse order, some dropped"
+    );
+}
+
+#[test]
 fn training_is_bit_identical_across_runs_threads_and_kernels() {
     let jobs = small_jobs();
     let run = |threads: usize| {
