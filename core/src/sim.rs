@@ -957,8 +957,6 @@ impl Sim {
         if due.is_empty() && waiting.is_empty() {
             return;
         }
-        let scale = self.config.contract.weight_scale;
-        let min_train = self.config.learn.min_train_samples.max(1) as usize;
         let mut jobs = Vec::new();
         let mut plans = Vec::with_capacity(due.len() + waiting.len());
         for (r, w) in waiting {
@@ -1028,8 +1026,7 @@ impl Sim {
                     None => self.state.world.dataset(r),
                 };
                 let data = TrainData::new(&self.learners.shape, &samples).ok();
-                let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
-                    >= min_train;
+                let trainable = self.trainable(samples.len());
                 match (data, speculated) {
                     (Some(_), Some((digest, spawned))) if trainable && digest == view.digest => {
                         Plan::Ready {
@@ -1038,13 +1035,7 @@ impl Sim {
                         }
                     }
                     (Some(data), _) if trainable => {
-                        jobs.push(TrainJob {
-                            shape: self.learners.shape.clone(),
-                            cfg: self.config.learn.clone(),
-                            start: learn::from_fixed(&view.weights, scale),
-                            data,
-                            dropout: rng::substream(self.seed, Purpose::Dropout, r, phase),
-                        });
+                        jobs.push(self.train_job(r, phase, &view.weights, data));
                         Plan::Train {
                             job: jobs.len() - 1,
                             base_round,
@@ -1124,6 +1115,25 @@ impl Sim {
             Some(SkipReason::AlreadySubmitted)
         } else {
             None
+        }
+    }
+
+    /// Whether a data set of `samples` samples leaves enough for training after the
+    /// validation split (`learn.min_train_samples`, at least 1).
+    fn trainable(&self, samples: usize) -> bool {
+        let min_train = self.config.learn.min_train_samples.max(1) as usize;
+        learn::split_point(samples, self.config.learn.train_fraction) >= min_train
+    }
+
+    /// `robot`'s training in `phase` from the on-chain (fixed-point) `weights`, with its own
+    /// dropout stream.
+    fn train_job(&self, robot: RobotId, phase: u64, weights: &[i64], data: TrainData) -> TrainJob {
+        TrainJob {
+            shape: self.learners.shape.clone(),
+            cfg: self.config.learn.clone(),
+            start: learn::from_fixed(weights, self.config.contract.weight_scale),
+            data,
+            dropout: rng::substream(self.seed, Purpose::Dropout, robot, phase),
         }
     }
 
@@ -1215,21 +1225,10 @@ impl Sim {
                 base_round,
             },
             byzantine::Action::Train { samples } => {
-                let min_train = self.config.learn.min_train_samples.max(1) as usize;
-                let trainable = learn::split_point(samples.len(), self.config.learn.train_fraction)
-                    >= min_train;
+                let trainable = self.trainable(samples.len());
                 match TrainData::new(&self.learners.shape, &samples) {
                     Ok(data) if trainable => {
-                        jobs.push(TrainJob {
-                            shape: self.learners.shape.clone(),
-                            cfg: self.config.learn.clone(),
-                            start: learn::from_fixed(
-                                &chain.weights,
-                                self.config.contract.weight_scale,
-                            ),
-                            data,
-                            dropout: rng::substream(self.seed, Purpose::Dropout, robot, w.phase),
-                        });
+                        jobs.push(self.train_job(robot, w.phase, &chain.weights, data));
                         Plan::TrainForged {
                             job: jobs.len() - 1,
                             base_round,
@@ -1318,8 +1317,6 @@ impl Sim {
     /// older model is replaced, and cancelled if it has not started).
     fn speculate(&mut self, now: SimTime) {
         let horizon = now.0 + self.ahead.window_ticks * self.tick_ms;
-        let scale = self.config.contract.weight_scale;
-        let min_train = self.config.learn.min_train_samples.max(1) as usize;
         let mut started = Vec::new();
         for (&(due_ms, r), (phase, samples)) in
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
@@ -1331,21 +1328,13 @@ impl Sim {
                 .speculated
                 .get(&(r, *phase))
                 .is_some_and(|(digest, _)| *digest == view.digest);
-            let trainable =
-                learn::split_point(samples.len(), self.config.learn.train_fraction) >= min_train;
-            if unchanged || !trainable || self.submitted(r) {
+            if unchanged || !self.trainable(samples.len()) || self.submitted(r) {
                 continue;
             }
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
                 continue;
             };
-            let job = TrainJob {
-                shape: self.learners.shape.clone(),
-                cfg: self.config.learn.clone(),
-                start: learn::from_fixed(&view.weights, scale),
-                data,
-                dropout: rng::substream(self.seed, Purpose::Dropout, r, *phase),
-            };
+            let job = self.train_job(r, *phase, &view.weights, data);
             started.push(((r, *phase), (view.digest, Spawned::start(job))));
         }
         self.ahead.speculated.extend(started);

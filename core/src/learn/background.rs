@@ -86,9 +86,8 @@ impl Spawned {
     /// The training's outcome: computed here if it has not started yet, else waited for.
     pub fn wait(self) -> TrainOutcome {
         if let Some(job) = self.slot.claim() {
-            let outcome = job.run();
-            *self.slot.lock() = Stage::Taken;
-            return outcome;
+            // Nobody else reads the stage of a job its own handle runs.
+            return job.run();
         }
         let mut stage = self.slot.lock();
         loop {
