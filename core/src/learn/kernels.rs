@@ -63,6 +63,19 @@ pub(crate) trait Mat {
         group: usize,
         samples: usize,
     );
+    /// [`outer_one`]: `grad[r][j] += P_s[r][j]` for the one sample `s` of the group (the terms
+    /// of [`Mat::outer_acc`] for that sample, in the same order).
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    unsafe fn outer_one(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        s: usize,
+    );
 }
 
 /// The portable loops in register tiles of `S` samples by `L` lanes (vectorised by the
@@ -84,6 +97,17 @@ impl<const S: usize, const L: usize> Mat for Tiled<S, L> {
         samples: usize,
     ) {
         outer_acc::<S, L>(grad, a, d, steps, group, samples)
+    }
+    #[inline(always)]
+    unsafe fn outer_one(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        s: usize,
+    ) {
+        outer_one::<L>(grad, a, d, steps, group, s)
     }
 }
 
@@ -217,6 +241,36 @@ pub(crate) fn outer_acc<const S: usize, const L: usize>(
             outer_lanes::<1, L>(g, a, d, &dims, r, s0);
             s0 += 1;
         }
+    }
+}
+
+/// [`outer_acc`] for sample `s` alone: `grad[r][j] += P_s[r][j]`.
+#[inline(always)]
+pub(crate) fn outer_one<const L: usize>(
+    grad: &mut [f32],
+    a: &[f32],
+    d: &[f32],
+    steps: usize,
+    group: usize,
+    s: usize,
+) {
+    let rows = a.len() / (steps * group);
+    let n = grad.len() / rows;
+    assert!(
+        s < group
+            && a.len() == steps * group * rows
+            && d.len() == steps * group * n
+            && grad.len() == rows * n,
+        "outer_one: {rows} x {n} gradient, {steps} steps, sample {s} of {group}"
+    );
+    let dims = OuterDims {
+        steps,
+        group,
+        rows,
+        n,
+    };
+    for r in 0..rows {
+        outer_lanes::<1, L>(&mut grad[r * n..(r + 1) * n], a, d, &dims, r, s);
     }
 }
 
@@ -620,6 +674,52 @@ impl Workspace {
         }
     }
 
+    /// The gradient of each of the first `n` samples of the last [`Workspace::backward_dz`]
+    /// alone, into row `s` of `partials` (flat layout, one row per sample): the terms
+    /// [`Workspace::accumulate`] adds for that sample, summed in the same order. Adding the rows
+    /// into a gradient in sample order ([`add_partials`]) then gives the bits `accumulate` gives:
+    /// each row starts from -0, which `x + -0 = x` leaves exact for every `x`.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
+    #[inline(always)]
+    pub(crate) unsafe fn partials<M: Mat>(&self, partials: &mut Array2<f32>, n: usize) {
+        assert!((1..=GROUP).contains(&n));
+        let sh = &self.shape;
+        assert_eq!(
+            partials.ncols(),
+            sh.weights(),
+            "partials of another model shape"
+        );
+        for s in 0..n {
+            let mut row = partials.row_mut(s);
+            let p = row
+                .as_slice_mut()
+                .expect("workspace arrays have the standard layout");
+            p.fill(-0.0);
+            let (p_lstm, p_dense) = p.split_at_mut(sh.dense_offset());
+            // SAFETY: the caller guarantees the CPU runs `M`.
+            unsafe {
+                M::outer_one(
+                    p_dense,
+                    self.hd1.as_slice().expect("standard layout"),
+                    self.dy.as_slice().expect("standard layout"),
+                    1,
+                    GROUP,
+                    s,
+                );
+                M::outer_one(
+                    p_lstm,
+                    self.xh.as_slice().expect("standard layout"),
+                    self.dz.as_slice().expect("standard layout"),
+                    sh.steps_in(),
+                    GROUP,
+                    s,
+                );
+            }
+        }
+    }
+
     /// Backpropagation through time of the first `n` samples of the last forward pass, with
     /// output gradients `dy`: leaves the gate pre-activation gradients in `dz` (what
     /// [`Workspace::accumulate`] multiplies into the weight gradients) and writes no gradient.
@@ -677,6 +777,22 @@ impl Workspace {
                 // SAFETY: as above.
                 unsafe { M::rows_acc(dh, step(&self.dz, t, n), rec_t, h) };
             }
+        }
+    }
+}
+
+/// `grad += partials[s]` for the first `n` rows of `partials` in order: the second half of
+/// [`Workspace::accumulate`] after [`Workspace::partials`] (same bits).
+#[inline(always)]
+pub(crate) fn add_partials(grad: &mut [f32], partials: &Array2<f32>, n: usize) {
+    for s in 0..n {
+        let row = partials.row(s);
+        let p = row
+            .as_slice()
+            .expect("workspace arrays have the standard layout");
+        assert_eq!(p.len(), grad.len(), "partials of another model shape");
+        for (g, v) in grad.iter_mut().zip(p) {
+            *g += *v;
         }
     }
 }

@@ -302,6 +302,107 @@ fn expm1f_for_tanh(x_in: f32) -> f32 {
     }
 }
 
+/// `2 / (t + 2)` if `two`, else `t / (t + 2)`, with one division. The dividend is chosen by
+/// masking bits rather than by `if`: LLVM turns a selected dividend into two divisions and a
+/// selected quotient (seen in the AVX-512 code: three divisions per `tanh` instead of two), and
+/// division is the slowest operation here.
+#[inline(always)]
+fn one_quotient(two: bool, t: f32) -> f32 {
+    let m = u32::from(two).wrapping_neg();
+    let dividend = f32::from_bits((t.to_bits() & !m) | (2f32.to_bits() & m));
+    dividend / (t + 2.)
+}
+
+/// `libm::tanhf` for 2^-25 <= |x| <= 7.5 only (`w` in [0x3300_0000, 0x40f0_0000]), where
+/// tanh takes none of libm's edge cases (tiny, |x| > 10, NaN) and `expm1f` gets arguments in
+/// [-0.52, 15]: k in [-1, 21], so neither its k >= 23 form nor its clamps and special cases
+/// can apply, and its k = 1 form always has x >= -0.25 (the argument is then 2|x| > 0.51, so
+/// the reduced x is above 0.51 - ln 2). The same IEEE operations as [`tanhf_lane`] takes for
+/// these arguments, without the candidates it would discard. Checked on all of its inputs by
+/// the exhaustive test.
+///
+/// # Safety
+/// `x_in` is in that range ([`all_tanh_mid`]); outside it a float-to-int conversion could be
+/// out of range.
+#[inline(always)]
+unsafe fn tanhf_mid(x_in: f32) -> f32 {
+    let bits = x_in.to_bits();
+    let sign = (bits >> 31) != 0;
+    let w = bits & 0x7fff_ffff;
+    let ax = f32::from_bits(w);
+    let upper = w > 0x3e82_c578;
+    let arg = if upper { 2. * ax } else { -2. * ax };
+    // expm1f(arg), as `expm1f_for_tanh`.
+    let hx = arg.to_bits() & 0x7fff_ffff;
+    let half = if upper { 0.5f32 } else { -0.5f32 };
+    let q = INV_LN2 * arg + half;
+    // SAFETY: |arg| <= 15 (the caller's contract), so q is finite and |q| < 23.
+    let k_far: i32 = unsafe { q.to_int_unchecked() };
+    let reduce = hx > 0x3eb1_7218;
+    let k = if !reduce {
+        0
+    } else if hx < 0x3f85_1592 {
+        if upper {
+            1
+        } else {
+            -1
+        }
+    } else {
+        k_far
+    };
+    // For k = 0: hi = arg, lo = 0, x = arg and c = 0 exactly, libm's unreduced case.
+    let t = k as f32;
+    let hi = arg - t * EXPM1_LN2_HI;
+    let lo = t * EXPM1_LN2_LO;
+    let x = hi - lo;
+    let c = (hi - x) - lo;
+    let hfx = 0.5 * x;
+    let hxs = x * hfx;
+    let r1 = 1. + hxs * (EXPM1_Q1 + hxs * EXPM1_Q2);
+    let tt = 3. - r1 * hfx;
+    let e0 = hxs * ((r1 - tt) / (6. - x * tt));
+    let res_k0 = x - (x * e0 - hxs);
+    let e = x * (e0 - c) - c;
+    let e = e - hxs;
+    let res_km1 = 0.5 * (x - e) - 0.5;
+    let res_k1 = 1. + 2. * (x - e);
+    // libm's 2 <= k < 23 form (2^-k and 2^k); k is at most 21 here. The clamp only keeps the
+    // lanes that discard this candidate (k < 2) from shifting a negative exponent.
+    let kc = k.clamp(0, 64);
+    let res_mid = (x - e + (1. - pow2(-kc))) * pow2(kc);
+    let em1 = if k == 0 {
+        res_k0
+    } else if k == -1 {
+        res_km1
+    } else if k == 1 {
+        res_k1
+    } else {
+        res_mid
+    };
+    let quotient = one_quotient(w > 0x3f0c_9f54, em1);
+    let r = if w > 0x3f0c_9f54 {
+        1. - quotient
+    } else if upper {
+        quotient
+    } else {
+        -quotient
+    };
+    if sign {
+        -r
+    } else {
+        r
+    }
+}
+
+/// True if every value of the chunk is an argument [`tanhf_mid`] handles.
+#[inline(always)]
+fn all_tanh_mid(values: &[f32; LANES]) -> bool {
+    values.iter().fold(true, |ok, v| {
+        let w = v.to_bits() & 0x7fff_ffff;
+        ok & (0x3300_0000..=0x40f0_0000).contains(&w)
+    })
+}
+
 /// `libm::tanhf` of one value, written branch-free.
 #[inline(always)]
 pub fn tanhf_lane(x_in: f32) -> f32 {
@@ -317,8 +418,7 @@ pub fn tanhf_lane(x_in: f32) -> f32 {
     // libm's middle branch is 1 - 2 / (t + 2), its lower branch -t / (t + 2); negating the
     // dividend negates a correctly rounded quotient exactly, so that is -(t / (t + 2)). A lane
     // needs only one of the quotients: one division with the lane's dividend serves all three.
-    let dividend = if w > 0x3f0c_9f54 { 2. } else { t };
-    let quotient = dividend / (t + 2.);
+    let quotient = one_quotient(w > 0x3f0c_9f54, t);
     let tt = if w > 0x4120_0000 {
         big
     } else if w > 0x3f0c_9f54 {
@@ -394,11 +494,31 @@ pub fn sigmoid_in_place(values: &mut [f32]) {
     }
 }
 
-slice_op!(
-    /// Replaces every value by its `tanhf` (bit-identical to `libm::tanhf`).
-    tanh_in_place,
-    tanhf_lane
-);
+/// Replaces every value by its `tanhf` (bit-identical to `libm::tanhf`). Chunks whose values
+/// all lie in 2^-25 <= |x| <= 7.5 (nearly all of them in training) take [`tanhf_mid`], which
+/// skips the edge cases; the rest take the full port.
+#[inline(always)]
+pub fn tanh_in_place(values: &mut [f32]) {
+    let mut chunks = values.chunks_exact_mut(LANES);
+    for chunk in &mut chunks {
+        let mut lanes = [0f32; LANES];
+        lanes.copy_from_slice(chunk);
+        if all_tanh_mid(&lanes) {
+            for v in lanes.iter_mut() {
+                // SAFETY: `all_tanh_mid` checked that every lane is in range.
+                *v = unsafe { tanhf_mid(*v) };
+            }
+        } else {
+            for v in lanes.iter_mut() {
+                *v = tanhf_lane(*v);
+            }
+        }
+        chunk.copy_from_slice(&lanes);
+    }
+    for v in chunks.into_remainder() {
+        *v = tanhf_lane(*v);
+    }
+}
 slice_op!(
     /// Replaces every value by its `expf` (bit-identical to `libm::expf`).
     exp_in_place,
@@ -436,6 +556,13 @@ mod tests {
             .map(|i| f32::from_bits(i * 4099))
             .collect();
         v.extend((-200_000..200_000).map(|i| i as f32 * 1e-4));
+        // Runs of consecutive bit patterns across the whole range of the `tanh` and sigmoid
+        // fast paths (chunks of 16 that lie entirely inside it), both signs.
+        for sign in [0u32, 0x8000_0000] {
+            for start in (0x3300_0000u32..0x42b0_0000).step_by(0x1_0001) {
+                v.extend((start..start + 16).map(|b| f32::from_bits(sign | b)));
+            }
+        }
         v.extend([
             0.0,
             -0.0,

@@ -4,13 +4,23 @@
 //! forward pass, error and backpropagation through time ([`Workspace::forward`],
 //! [`Workspace::error`], [`Workspace::backward_dz`]) read only the batch's weights and the
 //! group's samples and masks. So the groups of a batch go to two threads, each group in its own
-//! workspace, claimed by whichever thread is free; then the thread that owns the training adds
-//! the groups' gradients into the batch gradient ([`Workspace::accumulate`]) and their squared
-//! errors into the epoch's sum, group after group in data order, and takes the SGD step. Every
-//! sum has the order of the one-thread loop, and the dropout masks are drawn from the robot's
-//! stream in the same order before the batch is handed out, so the result is bit-identical to
-//! it whoever computed which group (the tests compare them, and `scripts/determinism.sh`
-//! compares whole runs on one and two threads).
+//! workspace, claimed by whichever thread is free. The thread that computed a group also adds
+//! its gradient into the batch gradient, in data order: it waits until the groups before it
+//! are in, and while it waits it sums each of its samples' gradients apart
+//! ([`Workspace::partials`]), so that only the final additions wait ([`add_partials`]; the same
+//! terms in the same order as [`Workspace::accumulate`]). Then the thread that owns the
+//! training adds the squared errors into the epoch's sum, group after group, and takes the SGD
+//! step. Every sum has the order of the one-thread loop, and the dropout masks are drawn from
+//! the robot's stream in the same order before the batch is handed out, so the result is
+//! bit-identical to it whoever computed which group (the tests compare them, and
+//! `scripts/determinism.sh` compares whole runs on one and two threads).
+//!
+//! Why the adding follows the group: a group's per-step buffers are about 100 KiB, the
+//! gradient 11 KiB. When the owner added every group (before 2026-12-02), it read the helper's
+//! buffers from the other core's cache: adding the helper's group took 2.3 times as long as
+//! adding its own, and the helper's next writes to those buffers missed too. Measured with
+//! `bench train`: 23.2-23.6 ms with the owner adding, 20.4-21.2 ms with each thread adding its
+//! own group, 19.6-19.8 ms with the partial sums computed while waiting.
 //!
 //! Why not rayon: a batch of 20 samples takes about 150 µs, and waking a sleeping pool worker
 //! for each batch costs tens of microseconds on the reference VM. Here the helper thread lives
@@ -26,12 +36,12 @@
 //! other trainings end made a `paper` run slower (22.0-23.4 s instead of 21.5 s, 40-42 s of CPU
 //! instead of 35; README, "Training speed").
 
-use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, RwLock};
 
-use ndarray::Array1;
+use ndarray::{Array1, Array2};
 
-use super::kernels::{Mat, Workspace, GROUP};
+use super::kernels::{add_partials, Mat, Workspace, GROUP};
 use super::{grad_scale, Portable, Resolved, Sgd, TrainData};
 use crate::rng::Rng;
 
@@ -90,6 +100,9 @@ struct Slot {
     scale: f32,
     /// Squared error of each sample of the group, in order.
     sse: [f64; GROUP],
+    /// Each sample's own gradient (`GROUP x weights`), computed while the group waits for its
+    /// turn to be added ([`Workspace::partials`]).
+    partials: Array2<f32>,
 }
 
 /// What the owner and the helper share for one training.
@@ -102,8 +115,10 @@ struct Shared<'a> {
     /// next unclaimed group. A claim is a compare-and-swap on the whole word, so a stale
     /// claimer (one still finishing the previous batch) can never take a group of a new one.
     claim: AtomicU64,
-    /// Per slot: the epoch of the batch whose group it last finished.
-    done: Vec<AtomicU32>,
+    /// The batch's gradient, which the groups are added into in data order.
+    grad: Mutex<Array1<f32>>,
+    /// `epoch << 32 | added`: how many groups of batch `epoch` have been added into `grad`.
+    added: AtomicU64,
     stop: AtomicBool,
     /// Use the helper even while other trainings run (tests and benchmarks).
     force: bool,
@@ -113,6 +128,25 @@ struct Shared<'a> {
 
 fn pack(epoch: u32, groups: usize, next: usize) -> u64 {
     (u64::from(epoch) << 32) | ((groups as u64) << 16) | next as u64
+}
+
+fn pack_added(epoch: u32, added: usize) -> u64 {
+    (u64::from(epoch) << 32) | added as u64
+}
+
+/// Spins until `ready()`, yielding the core after [`SPIN`] tries (the other thread may be
+/// waiting for it, if another process holds the second core).
+#[inline(always)]
+fn spin_until(ready: impl Fn() -> bool) {
+    let mut spins = 0u32;
+    while !ready() {
+        spins += 1;
+        if spins < SPIN {
+            std::hint::spin_loop();
+        } else {
+            std::thread::yield_now();
+        }
+    }
 }
 
 impl Shared<'_> {
@@ -140,14 +174,20 @@ impl Shared<'_> {
         }
     }
 
-    /// Forward pass, errors and backpropagation of group `k`, then marks it done for `epoch`.
+    /// Forward pass, errors and backpropagation of group `k`; then, once groups `0..k` are in
+    /// the batch gradient, adds this one's. The thread that computed a group adds it, so the
+    /// group's per-step buffers (about 100 KiB) never cross to the other core's cache; only
+    /// the gradient (11 KiB) does. If the group's turn has not come yet when its
+    /// backpropagation ends (the other thread is still adding the group before), the waiting
+    /// thread sums each sample's gradient apart ([`Workspace::partials`]) and then adds only
+    /// those sums, so most of the adding runs on both cores at once; the bits are the same.
     ///
     /// # Safety
     /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
     unsafe fn compute<M: Mat>(&self, k: usize, epoch: u32) {
+        let mut slot = self.slots[k].lock().unwrap_or_else(|e| e.into_inner());
         {
-            let mut slot = self.slots[k].lock().unwrap_or_else(|e| e.into_inner());
             let weights = self.weights.read().unwrap_or_else(|e| e.into_inner());
             let w = weights
                 .as_slice()
@@ -158,6 +198,7 @@ impl Shared<'_> {
                 last,
                 scale,
                 sse,
+                ..
             } = &mut *slot;
             ws.transpose_weights(w);
             // SAFETY: the caller guarantees the CPU runs `M`.
@@ -168,7 +209,32 @@ impl Shared<'_> {
             // SAFETY: as above.
             unsafe { ws.backward_dz::<M>(*last - *first) };
         }
-        self.done[k].store(epoch, Ordering::Release);
+        // The group before this one is being computed or added by a thread that is not waiting
+        // for this one (a thread adds only what it computed, and groups are claimed in order),
+        // so this wait always ends.
+        let turn = pack_added(epoch, k);
+        let n = slot.last - slot.first;
+        let early = self.added.load(Ordering::Acquire) != turn;
+        if early {
+            let Slot { ws, partials, .. } = &mut *slot;
+            // SAFETY: as above.
+            unsafe { ws.partials::<M>(partials, n) };
+        }
+        spin_until(|| self.added.load(Ordering::Acquire) == turn);
+        {
+            let mut grad = self.grad.lock().unwrap_or_else(|e| e.into_inner());
+            let g = grad
+                .as_slice_mut()
+                .expect("owned arrays have the standard layout");
+            if early {
+                add_partials(g, &slot.partials, n);
+            } else {
+                // SAFETY: as above.
+                unsafe { slot.ws.accumulate::<M>(g, n) };
+            }
+        }
+        self.added
+            .store(pack_added(epoch, k + 1), Ordering::Release);
     }
 
     /// The helper's life: wait for a batch, claim and compute groups, until told to stop.
@@ -235,7 +301,6 @@ unsafe fn owner<M: Mat>(
     dropout: &mut Rng,
 ) -> f64 {
     let outputs = shared.data.shape.outputs();
-    let mut grad = Array1::<f32>::zeros(shared.data.shape.weights());
     let mut epoch_sse = 0.0f64;
     let mut epoch = 0u32;
     for _ in 0..sgd.epochs {
@@ -255,6 +320,12 @@ unsafe fn owner<M: Mat>(
                 groups += 1;
             }
             epoch = epoch.wrapping_add(1).max(1);
+            shared
+                .grad
+                .lock()
+                .unwrap_or_else(|e| e.into_inner())
+                .fill(0.0);
+            shared.added.store(pack_added(epoch, 0), Ordering::SeqCst);
             shared.claim.store(pack(epoch, groups, 0), Ordering::SeqCst);
             if shared.force || ACTIVE.load(Ordering::Relaxed) == 1 {
                 shared.wake(helper);
@@ -263,27 +334,15 @@ unsafe fn owner<M: Mat>(
                 // SAFETY: this function's caller guarantees the CPU runs `M`.
                 unsafe { shared.compute::<M>(k, epoch) };
             }
-            grad.fill(0.0);
-            let g = grad
-                .as_slice_mut()
-                .expect("owned arrays have the standard layout");
-            for k in 0..groups {
-                let mut spins = 0u32;
-                while shared.done[k].load(Ordering::Acquire) != epoch {
-                    spins += 1;
-                    if spins < SPIN {
-                        std::hint::spin_loop();
-                    } else {
-                        std::thread::yield_now();
-                    }
-                }
-                let slot = shared.slots[k].lock().unwrap_or_else(|e| e.into_inner());
+            let all = pack_added(epoch, groups);
+            spin_until(|| shared.added.load(Ordering::Acquire) == all);
+            for slot in &shared.slots[..groups] {
+                let slot = slot.lock().unwrap_or_else(|e| e.into_inner());
                 for s in 0..slot.last - slot.first {
                     epoch_sse += slot.sse[s];
                 }
-                // SAFETY: as above.
-                unsafe { slot.ws.accumulate::<M>(g, slot.last - slot.first) };
             }
+            let grad = shared.grad.lock().unwrap_or_else(|e| e.into_inner());
             shared
                 .weights
                 .write()
@@ -394,11 +453,13 @@ pub(super) fn train(
                     last: 0,
                     scale: 0.0,
                     sse: [0.0; GROUP],
+                    partials: Array2::zeros((GROUP, data.shape.weights())),
                 })
             })
             .collect(),
         claim: AtomicU64::new(0),
-        done: (0..groups).map(|_| AtomicU32::new(0)).collect(),
+        grad: Mutex::new(Array1::zeros(data.shape.weights())),
+        added: AtomicU64::new(0),
         stop: AtomicBool::new(false),
         force,
         parked: AtomicBool::new(false),

@@ -354,6 +354,21 @@ impl Mat for Avx512 {
             outer_scalar_tail(grad, a, d, &o, s, j0);
         }
     }
+
+    #[inline(always)]
+    unsafe fn outer_one(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        s: usize,
+    ) {
+        let o = outer_check(grad, a, d, steps, group, s + 1);
+        let j0 = outer_pass::<__m512, 4, 4>(grad, a, d, &o, s, 0);
+        let j0 = outer_pass::<__m512, 4, 1>(grad, a, d, &o, s, j0);
+        outer_scalar_tail(grad, a, d, &o, s, j0);
+    }
 }
 
 /// The AVX2 kernels (16 registers): rows in tiles of 2 samples x 32 lanes, then 4 samples x 16
@@ -386,5 +401,20 @@ impl Mat for Avx2 {
             let j0 = outer_pass::<__m256, 4, 1>(grad, a, d, &o, s, j0);
             outer_scalar_tail(grad, a, d, &o, s, j0);
         }
+    }
+
+    #[inline(always)]
+    unsafe fn outer_one(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        s: usize,
+    ) {
+        let o = outer_check(grad, a, d, steps, group, s + 1);
+        let j0 = outer_pass::<__m256, 2, 4>(grad, a, d, &o, s, 0);
+        let j0 = outer_pass::<__m256, 4, 1>(grad, a, d, &o, s, j0);
+        outer_scalar_tail(grad, a, d, &o, s, j0);
     }
 }

@@ -409,6 +409,41 @@ fn training_is_bit_identical_across_runs_threads_and_kernels() {
     );
 }
 
+/// Batches of more groups than threads (45 samples: groups of 10, 10, 10, 10 and 5), so that in
+/// `pair.rs` each thread adds several groups into the batch gradient and waits its turn for
+/// each: two threads give the bits of one, on every kernel, every time.
+#[test]
+fn batches_of_many_groups_give_the_same_bits_on_two_threads() {
+    let fx = fixture();
+    let shape = paper_shape();
+    let mut cfg = learn_cfg(3, 0.01, 0.2, 0.8);
+    cfg.batch_size = 45;
+    let data = fx.data.head(120);
+    let dropout = stream(5, Purpose::Dropout, 0);
+    let run = |kernel: Kernel, threads: Threads| {
+        let o = train_threads(
+            kernel,
+            threads,
+            &shape,
+            &cfg,
+            &fx.init,
+            &data,
+            dropout.clone(),
+        );
+        bits(&[o])
+    };
+    let one = run(Kernel::Baseline, Threads::One);
+    for kernel in [Kernel::Baseline, Kernel::Avx2, Kernel::Avx512] {
+        for repeat in 0..3 {
+            assert_eq!(
+                run(kernel, Threads::Two),
+                one,
+                "kernel {kernel:?}, two threads, repeat {repeat}"
+            );
+        }
+    }
+}
+
 #[test]
 fn split_and_degenerate_inputs() {
     let check = |n: usize, frac: f64, expect: usize| {
