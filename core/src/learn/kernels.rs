@@ -501,14 +501,6 @@ impl Workspace {
         self.dense_t.assign(&layers.dense.slice(s![..h, ..]).t());
     }
 
-    /// The dropout mask of sample `s` of the group.
-    pub(crate) fn mask_mut(&mut self, s: usize) -> &mut [f32] {
-        self.mask
-            .row_mut(s)
-            .into_slice()
-            .expect("workspace arrays have the standard layout")
-    }
-
     /// Forward pass of up to [`GROUP`] samples (`inputs`: samples x steps x 2), each with its
     /// dropout mask, with the matrix products of `M`; leaves the outputs in `y` and every
     /// intermediate for the backward pass.

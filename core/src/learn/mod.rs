@@ -584,12 +584,17 @@ impl Sgd {
             .map(|first| (first, (first + self.batch).min(self.samples)))
     }
 
-    /// Draws the dropout masks of the first `n` samples of `ws`'s group, samples in order:
-    /// `units` draws each, a unit kept iff `u >= p` and scaled by `1 / (1 - p)`.
-    fn draw_masks(&self, ws: &mut Workspace, n: usize, dropout: &mut Rng) {
+    /// Draws the dropout masks of the first `n` samples of a group into the first `n` rows of
+    /// `mask` (`GROUP x units`), samples in order: `units` draws each, a unit kept iff
+    /// `u >= p` and scaled by `1 / (1 - p)`.
+    fn draw_masks(&self, mask: &mut Array2<f32>, n: usize, dropout: &mut Rng) {
         let keep_scale = 1.0f32 / (1.0f32 - self.dropout);
         for s in 0..n {
-            for m in ws.mask_mut(s) {
+            let mut row = mask.row_mut(s);
+            for m in row
+                .as_slice_mut()
+                .expect("workspace arrays have the standard layout")
+            {
                 let keep = dropout.uniform_f32() >= self.dropout;
                 *m = if keep { keep_scale } else { 0.0 };
             }
@@ -674,7 +679,7 @@ unsafe fn train_loop<M: Mat>(
             ws.transpose_weights(w);
             ws.grad.fill(0.0);
             for (first, last) in groups(start, end) {
-                sgd.draw_masks(ws, last - first, dropout);
+                sgd.draw_masks(&mut ws.mask, last - first, dropout);
                 // SAFETY: this function's caller guarantees the CPU runs `M`.
                 unsafe { ws.forward::<M>(w, data.inputs(first, last)) };
                 for (s, i) in (first..last).enumerate() {

@@ -20,7 +20,8 @@
 //! buffers from the other core's cache: adding the helper's group took 2.3 times as long as
 //! adding its own, and the helper's next writes to those buffers missed too. Measured with
 //! `bench train`: 23.2-23.6 ms with the owner adding, 20.4-21.2 ms with each thread adding its
-//! own group, 19.6-19.8 ms with the partial sums computed while waiting.
+//! own group, 19.6-19.8 ms with the partial sums computed while waiting, 17.4-18.7 ms with a
+//! workspace per thread instead of per group (and the `tanh` fast path of `math.rs`).
 //!
 //! Why not rayon: a batch of 20 samples takes about 150 µs, and waking a sleeping pool worker
 //! for each batch costs tens of microseconds on the reference VM. Here the helper thread lives
@@ -90,19 +91,38 @@ pub(super) fn worth_it(samples: usize, batch: usize) -> bool {
         && batch.min(samples) > GROUP / 2
 }
 
-/// One group of the current batch: its samples, its workspace and its squared errors.
+/// One group of the current batch: its samples, its dropout masks and its squared errors.
 struct Slot {
-    ws: Workspace,
     /// First and one-past-last sample of the group.
     first: usize,
     last: usize,
     /// d(loss)/dy scale of the group's batch.
     scale: f32,
+    /// The group's dropout masks (`GROUP x units`), drawn by the owner before the batch is
+    /// handed out.
+    mask: Array2<f32>,
     /// Squared error of each sample of the group, in order.
     sse: [f64; GROUP],
+}
+
+/// One thread's buffers: whichever group the thread claims is computed here, so a thread's
+/// per-step buffers stay in its own core's cache from batch to batch. (With a workspace per
+/// group instead, the helper took group 0 in about half the batches and each thread then
+/// read the other's buffers: every group's passes ran 16 % slower than on one thread.)
+struct Work {
+    ws: Workspace,
     /// Each sample's own gradient (`GROUP x weights`), computed while the group waits for its
     /// turn to be added ([`Workspace::partials`]).
     partials: Array2<f32>,
+}
+
+impl Work {
+    fn new(shape: &super::ModelShape) -> Work {
+        Work {
+            ws: Workspace::new(shape),
+            partials: Array2::zeros((GROUP, shape.weights())),
+        }
+    }
 }
 
 /// What the owner and the helper share for one training.
@@ -185,21 +205,22 @@ impl Shared<'_> {
     /// # Safety
     /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
-    unsafe fn compute<M: Mat>(&self, k: usize, epoch: u32) {
-        let mut slot = self.slots[k].lock().unwrap_or_else(|e| e.into_inner());
-        {
+    unsafe fn compute<M: Mat>(&self, work: &mut Work, k: usize, epoch: u32) {
+        let Work { ws, partials } = work;
+        let n = {
+            let mut slot = self.slots[k].lock().unwrap_or_else(|e| e.into_inner());
             let weights = self.weights.read().unwrap_or_else(|e| e.into_inner());
             let w = weights
                 .as_slice()
                 .expect("owned arrays have the standard layout");
             let Slot {
-                ws,
                 first,
                 last,
                 scale,
+                mask,
                 sse,
-                ..
             } = &mut *slot;
+            ws.mask.assign(mask);
             ws.transpose_weights(w);
             // SAFETY: the caller guarantees the CPU runs `M`.
             unsafe { ws.forward::<M>(w, self.data.inputs(*first, *last)) };
@@ -208,15 +229,14 @@ impl Shared<'_> {
             }
             // SAFETY: as above.
             unsafe { ws.backward_dz::<M>(*last - *first) };
-        }
+            *last - *first
+        };
         // The group before this one is being computed or added by a thread that is not waiting
         // for this one (a thread adds only what it computed, and groups are claimed in order),
         // so this wait always ends.
         let turn = pack_added(epoch, k);
-        let n = slot.last - slot.first;
         let early = self.added.load(Ordering::Acquire) != turn;
         if early {
-            let Slot { ws, partials, .. } = &mut *slot;
             // SAFETY: as above.
             unsafe { ws.partials::<M>(partials, n) };
         }
@@ -227,10 +247,10 @@ impl Shared<'_> {
                 .as_slice_mut()
                 .expect("owned arrays have the standard layout");
             if early {
-                add_partials(g, &slot.partials, n);
+                add_partials(g, partials, n);
             } else {
                 // SAFETY: as above.
-                unsafe { slot.ws.accumulate::<M>(g, n) };
+                unsafe { ws.accumulate::<M>(g, n) };
             }
         }
         self.added
@@ -243,6 +263,7 @@ impl Shared<'_> {
     /// The CPU has the instruction set `M` is compiled for.
     #[inline(always)]
     unsafe fn helper<M: Mat>(&self) {
+        let mut work = Work::new(&self.data.shape);
         let mut seen = 0u32;
         loop {
             let mut spins = 0u32;
@@ -277,7 +298,7 @@ impl Shared<'_> {
             }
             while let Some(k) = self.claim(epoch) {
                 // SAFETY: the caller guarantees the CPU runs `M`.
-                unsafe { self.compute::<M>(k, epoch) };
+                unsafe { self.compute::<M>(&mut work, k, epoch) };
             }
         }
     }
@@ -301,6 +322,7 @@ unsafe fn owner<M: Mat>(
     dropout: &mut Rng,
 ) -> f64 {
     let outputs = shared.data.shape.outputs();
+    let mut work = Work::new(&shared.data.shape);
     let mut epoch_sse = 0.0f64;
     let mut epoch = 0u32;
     for _ in 0..sgd.epochs {
@@ -316,7 +338,7 @@ unsafe fn owner<M: Mat>(
                 slot.first = first;
                 slot.last = last;
                 slot.scale = scale;
-                sgd.draw_masks(&mut slot.ws, last - first, dropout);
+                sgd.draw_masks(&mut slot.mask, last - first, dropout);
                 groups += 1;
             }
             epoch = epoch.wrapping_add(1).max(1);
@@ -332,7 +354,7 @@ unsafe fn owner<M: Mat>(
             }
             while let Some(k) = shared.claim(epoch) {
                 // SAFETY: this function's caller guarantees the CPU runs `M`.
-                unsafe { shared.compute::<M>(k, epoch) };
+                unsafe { shared.compute::<M>(&mut work, k, epoch) };
             }
             let all = pack_added(epoch, groups);
             spin_until(|| shared.added.load(Ordering::Acquire) == all);
@@ -448,12 +470,11 @@ pub(super) fn train(
         slots: (0..groups)
             .map(|_| {
                 Mutex::new(Slot {
-                    ws: Workspace::new(&data.shape),
                     first: 0,
                     last: 0,
                     scale: 0.0,
+                    mask: Array2::zeros((GROUP, data.shape.units())),
                     sse: [0.0; GROUP],
-                    partials: Array2::zeros((GROUP, data.shape.weights())),
                 })
             })
             .collect(),
