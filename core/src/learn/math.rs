@@ -103,18 +103,20 @@ pub fn expf_lane(x_in: f32) -> f32 {
 /// `libm::expf` for arguments with 2^-13 < |x| < 87 only, where none of libm's special cases
 /// (tiny, overflow, underflow, NaN) applies and the scale factor 2^k is a normal number: the
 /// same IEEE operations as [`expf_lane`] takes for those arguments, without computing the
-/// candidates it would discard (`y * 1.0` is exact, so `y * 2^k` is its result for every k).
-/// Outside that range the result is unspecified (never undefined behaviour).
+/// candidates it would discard (`y * 1.0` is exact, so `y * 2^k` is its result for every k),
+/// and without clamps: k is within [-126, 126].
+///
+/// # Safety
+/// `x_in` is in that range ([`all_expf_normal`]); outside it a float-to-int conversion could
+/// be out of range.
 #[inline(always)]
-fn expf_normal(x_in: f32) -> f32 {
+unsafe fn expf_normal(x_in: f32) -> f32 {
     let bits = x_in.to_bits();
     let sign = (bits >> 31) as i32;
     let hx = bits & 0x7fff_ffff;
     let half = if sign != 0 { -0.5f32 } else { 0.5f32 };
-    // In range, |q| < 126; the clamp only keeps out-of-range lanes well defined.
-    let q = (INV_LN2 * x_in + half).clamp(-256.0, 256.0);
-    let q = if q.is_nan() { 0.0 } else { q };
-    // SAFETY: q is finite and within [-256, 256], so the truncation fits an i32.
+    let q = INV_LN2 * x_in + half;
+    // SAFETY: |x_in| < 87 (the caller's contract), so q is finite and |q| < 127.
     let k_far: i32 = unsafe { q.to_int_unchecked() };
     let k = if hx > 0x3f85_1592 {
         k_far
@@ -130,7 +132,7 @@ fn expf_normal(x_in: f32) -> f32 {
     let xx = x * x;
     let c = x - xx * (EXP_P1 + xx * EXP_P2);
     let y = 1. + (x * c / (2. - c) - lo + hi);
-    y * pow2(k.clamp(-126, 127))
+    y * pow2(k)
 }
 
 /// True if every value of the chunk is an argument [`expf_normal`] handles (as `x` or `-x`).
@@ -480,7 +482,8 @@ pub fn sigmoid_in_place(values: &mut [f32]) {
         lanes.copy_from_slice(chunk);
         if all_expf_normal(&lanes) {
             for v in lanes.iter_mut() {
-                *v = 1.0 / (1.0 + expf_normal(-*v));
+                // SAFETY: `all_expf_normal` checked that every lane is in range.
+                *v = 1.0 / (1.0 + unsafe { expf_normal(-*v) });
             }
         } else {
             for v in lanes.iter_mut() {

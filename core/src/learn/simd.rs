@@ -6,7 +6,7 @@
 //! rounded, then one IEEE add; never a fused multiply-add), with the terms in the same order as
 //! the portable code, so the bits are the same. What blocking buys is independent dependency
 //! chains: one sample's back-propagated hidden gradient is a single chain of 64 dependent adds
-//! per lane, which the portable code cannot overlap; here 8 samples' chains advance together,
+//! per lane, which the portable code cannot overlap; here 4 to 8 samples' chains advance together,
 //! and each weight row (or gradient row) is loaded once per tile instead of once per sample.
 //!
 //! Lanes that do not fill a vector (model sizes whose widths are not multiples of the vector
@@ -324,17 +324,19 @@ fn outer_check(
     }
 }
 
-/// The AVX-512 kernels: rows in tiles of 4 samples x 64 lanes (16 accumulators), then 8
-/// samples x 16 lanes (the 16-unit hidden gradients: 8 independent chains); outer products in
-/// tiles of 4 rows x 64 lanes, then 4 rows x 16 lanes.
+/// The AVX-512 kernels: rows in tiles of 5 samples x 64 lanes (20 accumulators), then 5
+/// samples x 16 lanes (the 16-unit hidden gradients: 5 independent chains, so a group of 10
+/// samples is two full tiles; tiles of 8 left two samples as single, latency-bound chains and
+/// were 3 % slower in `bench train`); outer products in tiles of 4 rows x 64 lanes, then 4
+/// rows x 16 lanes.
 pub(crate) struct Avx512;
 
 impl Mat for Avx512 {
     #[inline(always)]
     unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
         rows_check(out, a, m, n);
-        let j0 = rows_pass::<__m512, 4, 4>(out, a, m, n, 0);
-        let j0 = rows_pass::<__m512, 8, 1>(out, a, m, n, j0);
+        let j0 = rows_pass::<__m512, 5, 4>(out, a, m, n, 0);
+        let j0 = rows_pass::<__m512, 5, 1>(out, a, m, n, j0);
         rows_scalar_tail(out, a, m, n, j0);
     }
 
