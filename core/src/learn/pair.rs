@@ -16,12 +16,12 @@
 //! `scripts/determinism.sh` compares whole runs on one and two threads).
 //!
 //! Why the adding follows the group: a group's per-step buffers are about 100 KiB, the
-//! gradient 11 KiB. When the owner added every group (before 2026-12-02), it read the helper's
+//! gradient 11 KiB. When the owner added every group (until 2026-12-01), it read the helper's
 //! buffers from the other core's cache: adding the helper's group took 2.3 times as long as
 //! adding its own, and the helper's next writes to those buffers missed too. Measured with
-//! `bench train`: 23.2-23.6 ms with the owner adding, 20.4-21.2 ms with each thread adding its
-//! own group, 19.6-19.8 ms with the partial sums computed while waiting, 17.4-18.7 ms with a
-//! workspace per thread instead of per group (and the `tanh` fast path of `math.rs`).
+//! `bench train` on 2026-12-01: 22.9-23.6 ms with the owner adding every group, 20.6-20.8 ms
+//! with each thread adding its own, 19.6-19.8 ms with the partial sums computed while waiting
+//! (README, "Training speed", has the later steps).
 //!
 //! Why not rayon: a batch of 20 samples takes about 150 µs, and waking a sleeping pool worker
 //! for each batch costs tens of microseconds on the reference VM. Here the helper thread lives
