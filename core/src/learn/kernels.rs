@@ -51,20 +51,7 @@ pub(crate) trait Mat {
     /// # Safety
     /// The CPU has the instruction set the variant is compiled for.
     unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize);
-    /// [`outer_acc`]: per sample in order, `grad[r][j] += P_s[r][j]`.
-    ///
-    /// # Safety
-    /// The CPU has the instruction set the variant is compiled for.
-    unsafe fn outer_acc(
-        grad: &mut [f32],
-        a: &[f32],
-        d: &[f32],
-        steps: usize,
-        group: usize,
-        samples: usize,
-    );
-    /// [`outer_one`]: `grad[r][j] += P_s[r][j]` for the one sample `s` of the group (the terms
-    /// of [`Mat::outer_acc`] for that sample, in the same order).
+    /// [`outer_one`]: `grad[r][j] += P_s[r][j]` for the one sample `s` of the group.
     ///
     /// # Safety
     /// The CPU has the instruction set the variant is compiled for.
@@ -76,6 +63,25 @@ pub(crate) trait Mat {
         group: usize,
         s: usize,
     );
+    /// [`outer_acc`]: per sample in order, `grad[r][j] += P_s[r][j]`; by default
+    /// [`Mat::outer_one`] for each sample in turn (the SIMD variants tile rows, not samples).
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    #[inline(always)]
+    unsafe fn outer_acc(
+        grad: &mut [f32],
+        a: &[f32],
+        d: &[f32],
+        steps: usize,
+        group: usize,
+        samples: usize,
+    ) {
+        for s in 0..samples {
+            // SAFETY: the caller's contract is this method's.
+            unsafe { Self::outer_one(grad, a, d, steps, group, s) };
+        }
+    }
 }
 
 /// The portable loops in register tiles of `S` samples by `L` lanes (vectorised by the

@@ -341,23 +341,6 @@ impl Mat for Avx512 {
     }
 
     #[inline(always)]
-    unsafe fn outer_acc(
-        grad: &mut [f32],
-        a: &[f32],
-        d: &[f32],
-        steps: usize,
-        group: usize,
-        samples: usize,
-    ) {
-        let o = outer_check(grad, a, d, steps, group, samples);
-        for s in 0..samples {
-            let j0 = outer_pass::<__m512, 4, 4>(grad, a, d, &o, s, 0);
-            let j0 = outer_pass::<__m512, 4, 1>(grad, a, d, &o, s, j0);
-            outer_scalar_tail(grad, a, d, &o, s, j0);
-        }
-    }
-
-    #[inline(always)]
     unsafe fn outer_one(
         grad: &mut [f32],
         a: &[f32],
@@ -386,23 +369,6 @@ impl Mat for Avx2 {
         let j0 = rows_pass::<__m256, 4, 2>(out, a, m, n, j0);
         let j0 = rows_pass::<__m256, 8, 1>(out, a, m, n, j0);
         rows_scalar_tail(out, a, m, n, j0);
-    }
-
-    #[inline(always)]
-    unsafe fn outer_acc(
-        grad: &mut [f32],
-        a: &[f32],
-        d: &[f32],
-        steps: usize,
-        group: usize,
-        samples: usize,
-    ) {
-        let o = outer_check(grad, a, d, steps, group, samples);
-        for s in 0..samples {
-            let j0 = outer_pass::<__m256, 2, 4>(grad, a, d, &o, s, 0);
-            let j0 = outer_pass::<__m256, 4, 1>(grad, a, d, &o, s, j0);
-            outer_scalar_tail(grad, a, d, &o, s, j0);
-        }
     }
 
     #[inline(always)]
