@@ -3,12 +3,12 @@
 //! The groups of a mini-batch are independent until their gradients are added: each group's
 //! forward pass, error and backpropagation through time ([`Workspace::forward`],
 //! [`Workspace::error`], [`Workspace::backward_dz`]) read only the batch's weights and the
-//! group's samples and masks. So the groups of a batch go to two threads, each group in its own
-//! workspace, claimed by whichever thread is free. The thread that computed a group also adds
-//! its gradient into the batch gradient, in data order: it waits until the groups before it
-//! are in, and while it waits it sums each of its samples' gradients apart
-//! ([`Workspace::partials`]), so that only the final additions wait ([`add_partials`]; the same
-//! terms in the same order as [`Workspace::accumulate`]). Then the thread that owns the
+//! group's samples and masks. So the groups of a batch go to two threads, claimed by whichever
+//! thread is free and computed in that thread's own workspace. The thread that computed a group
+//! also adds its gradient into the batch gradient, in data order: it waits until the groups
+//! before it are in, and while it waits it sums each of its samples' gradients apart
+//! ([`Workspace::partials`]), so that only the final additions wait ([`add_partials`]; the
+//! same terms in the same order as [`Workspace::accumulate`]). Then the thread that owns the
 //! training adds the squared errors into the epoch's sum, group after group, and takes the SGD
 //! step. Every sum has the order of the one-thread loop, and the dropout masks are drawn from
 //! the robot's stream in the same order before the batch is handed out, so the result is
