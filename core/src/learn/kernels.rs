@@ -42,6 +42,13 @@ use super::ModelShape;
 /// weight-row load; gradients are still added in sample order, so the bits do not depend on it.
 pub(crate) const GROUP: usize = 10;
 
+/// Which samples of a group an outer product covers: the first `n`, added in order, or one.
+#[derive(Clone, Copy)]
+enum Samples {
+    First(usize),
+    One(usize),
+}
+
 /// The two matrix products of training, as one compiled variant computes them: the portable
 /// loops below ([`Tiled`]) or the explicit-SIMD ones of `simd.rs`. Every variant gives the same
 /// bits (same terms, same order); they differ in speed only.
@@ -649,27 +656,8 @@ impl Workspace {
     #[inline(always)]
     pub(crate) unsafe fn accumulate<M: Mat>(&self, grad: &mut [f32], n: usize) {
         assert!((1..=GROUP).contains(&n));
-        let sh = &self.shape;
-        let (grad_lstm, grad_dense) = grad.split_at_mut(sh.dense_offset());
         // SAFETY: the caller guarantees the CPU runs `M`.
-        unsafe {
-            M::outer_acc(
-                grad_dense,
-                self.hd1.as_slice().expect("standard layout"),
-                self.dy.as_slice().expect("standard layout"),
-                1,
-                GROUP,
-                n,
-            );
-            M::outer_acc(
-                grad_lstm,
-                self.xh.as_slice().expect("standard layout"),
-                self.dz.as_slice().expect("standard layout"),
-                sh.steps_in(),
-                GROUP,
-                n,
-            );
-        }
+        unsafe { self.outer_into::<M>(grad, Samples::First(n)) };
     }
 
     /// The gradient of each of the first `n` samples of the last [`Workspace::backward_dz`]
@@ -683,10 +671,9 @@ impl Workspace {
     #[inline(always)]
     pub(crate) unsafe fn partials<M: Mat>(&self, partials: &mut Array2<f32>, n: usize) {
         assert!((1..=GROUP).contains(&n));
-        let sh = &self.shape;
         assert_eq!(
             partials.ncols(),
-            sh.weights(),
+            self.shape.weights(),
             "partials of another model shape"
         );
         for s in 0..n {
@@ -695,25 +682,44 @@ impl Workspace {
                 .as_slice_mut()
                 .expect("workspace arrays have the standard layout");
             p.fill(-0.0);
-            let (p_lstm, p_dense) = p.split_at_mut(sh.dense_offset());
+            // SAFETY: the caller guarantees the CPU runs `M`.
+            unsafe { self.outer_into::<M>(p, Samples::One(s)) };
+        }
+    }
+
+    /// The weight gradient's two outer products added into `grad` (flat layout): the dense
+    /// layer's (`[h_T * mask, 1]` by the output gradients, one step), then the LSTM's (the
+    /// stacked rows `[x_t, h_{t-1}, 1]` by the gate gradients, every step), for the samples
+    /// `samples` names. The two are disjoint parts of `grad`, so their order does not matter.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set `M` is compiled for.
+    #[inline(always)]
+    unsafe fn outer_into<M: Mat>(&self, grad: &mut [f32], samples: Samples) {
+        let sh = &self.shape;
+        let (grad_lstm, grad_dense) = grad.split_at_mut(sh.dense_offset());
+        let layout = "workspace arrays have the standard layout";
+        let parts = [
+            (
+                grad_dense,
+                self.hd1.as_slice().expect(layout),
+                self.dy.as_slice().expect(layout),
+                1,
+            ),
+            (
+                grad_lstm,
+                self.xh.as_slice().expect(layout),
+                self.dz.as_slice().expect(layout),
+                sh.steps_in(),
+            ),
+        ];
+        for (g, a, d, steps) in parts {
             // SAFETY: the caller guarantees the CPU runs `M`.
             unsafe {
-                M::outer_one(
-                    p_dense,
-                    self.hd1.as_slice().expect("standard layout"),
-                    self.dy.as_slice().expect("standard layout"),
-                    1,
-                    GROUP,
-                    s,
-                );
-                M::outer_one(
-                    p_lstm,
-                    self.xh.as_slice().expect("standard layout"),
-                    self.dz.as_slice().expect("standard layout"),
-                    sh.steps_in(),
-                    GROUP,
-                    s,
-                );
+                match samples {
+                    Samples::First(n) => M::outer_acc(g, a, d, steps, GROUP, n),
+                    Samples::One(s) => M::outer_one(g, a, d, steps, GROUP, s),
+                }
             }
         }
     }
