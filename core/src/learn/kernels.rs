@@ -228,33 +228,7 @@ pub(crate) fn outer_acc<const S: usize, const L: usize>(
     group: usize,
     samples: usize,
 ) {
-    let rows = a.len() / (steps * group);
-    let n = grad.len() / rows;
-    assert!(
-        samples <= group
-            && a.len() == steps * group * rows
-            && d.len() == steps * group * n
-            && grad.len() == rows * n,
-        "outer_acc: {rows} x {n} gradient, {steps} steps of {samples} of {group} samples"
-    );
-    let dims = OuterDims {
-        steps,
-        group,
-        rows,
-        n,
-    };
-    for r in 0..rows {
-        let g = &mut grad[r * n..(r + 1) * n];
-        let mut s0 = 0;
-        while s0 + S <= samples {
-            outer_lanes::<S, L>(g, a, d, &dims, r, s0);
-            s0 += S;
-        }
-        while s0 < samples {
-            outer_lanes::<1, L>(g, a, d, &dims, r, s0);
-            s0 += 1;
-        }
-    }
+    outer_range::<S, L>(grad, a, d, steps, group, 0..samples)
 }
 
 /// [`outer_acc`] for sample `s` alone: `grad[r][j] += P_s[r][j]`.
@@ -267,14 +241,27 @@ pub(crate) fn outer_one<const L: usize>(
     group: usize,
     s: usize,
 ) {
+    outer_range::<1, L>(grad, a, d, steps, group, s..s + 1)
+}
+
+/// [`outer_acc`] for the samples of `range`, in order.
+#[inline(always)]
+fn outer_range<const S: usize, const L: usize>(
+    grad: &mut [f32],
+    a: &[f32],
+    d: &[f32],
+    steps: usize,
+    group: usize,
+    range: std::ops::Range<usize>,
+) {
     let rows = a.len() / (steps * group);
     let n = grad.len() / rows;
     assert!(
-        s < group
+        range.end <= group
             && a.len() == steps * group * rows
             && d.len() == steps * group * n
             && grad.len() == rows * n,
-        "outer_one: {rows} x {n} gradient, {steps} steps, sample {s} of {group}"
+        "outer_acc: {rows} x {n} gradient, {steps} steps, samples {range:?} of {group}"
     );
     let dims = OuterDims {
         steps,
@@ -283,7 +270,16 @@ pub(crate) fn outer_one<const L: usize>(
         n,
     };
     for r in 0..rows {
-        outer_lanes::<1, L>(&mut grad[r * n..(r + 1) * n], a, d, &dims, r, s);
+        let g = &mut grad[r * n..(r + 1) * n];
+        let mut s0 = range.start;
+        while s0 + S <= range.end {
+            outer_lanes::<S, L>(g, a, d, &dims, r, s0);
+            s0 += S;
+        }
+        while s0 < range.end {
+            outer_lanes::<1, L>(g, a, d, &dims, r, s0);
+            s0 += 1;
+        }
     }
 }
 
