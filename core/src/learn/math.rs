@@ -519,7 +519,7 @@ macro_rules! slice_op_with_fast_path {
 slice_op_with_fast_path!(
     /// Replaces every value by its sigmoid (bit-identical to [`sigmoid_libm`]). Chunks whose
     /// values all lie in 2^-13 < |x| < 87 (nearly all of them in training) take
-    /// [`expf_normal`], which skips the special cases; the rest take the full port.
+    /// a special-case-free `expf` (`expf_normal`); the rest take the full port.
     sigmoid_in_place,
     all_expf_normal,
     sigmoid_normal,
@@ -528,7 +528,7 @@ slice_op_with_fast_path!(
 slice_op_with_fast_path!(
     /// Replaces every value by its `tanhf` (bit-identical to `libm::tanhf`). Chunks whose
     /// values all lie in 2^-25 <= |x| <= 7.5 (nearly all of them in training) take
-    /// [`tanhf_mid`], which skips the edge cases; the rest take the full port.
+    /// a `tanhf` without libm's edge cases (`tanhf_mid`); the rest take the full port.
     tanh_in_place,
     all_tanh_mid,
     tanhf_mid,

@@ -10,13 +10,13 @@
 //!
 //! Training is a pure function of (shape, config, start weights, data, dropout stream): plain
 //! SGD on the mean squared error with full backpropagation through time, in `f32` as
-//! TensorFlow, with every sum in a fixed order ([`kernels`]) and activations bit-identical to
+//! TensorFlow, with every sum in a fixed order (`kernels.rs`) and activations bit-identical to
 //! the `libm` crate ([`math`]). The result is the same bits on any number of threads, in debug
 //! or release, and on any x86-64 build; AVX-512 or AVX2 code is selected at run time where the CPU has
 //! it and is tested to give the same bits as the baseline code.
 //!
 //! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise `expf`/`tanhf`),
-//! [`kernels`] (forward, backward, SGD), [`fixed`] (on-chain fixed point).
+//! `kernels.rs` (forward, backward, SGD), [`fixed`] (on-chain fixed point).
 
 mod background;
 pub mod fixed;

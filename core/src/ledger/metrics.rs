@@ -1,5 +1,5 @@
 //! The ledger's figures for `summary.json` ([`LedgerStats`]), folded from the same events as
-//! the state (the [`Tracker`] is part of the reduced state, so replays reproduce it).
+//! the state (the `Tracker` is part of the reduced state, so replays reproduce it).
 //!
 //! Definitions:
 //! - *canonical height*: the height of a node's head; reported as the maximum and minimum over
