@@ -2,7 +2,7 @@
 //! by config validation with the command that builds it, so no state ever holds an EVM.
 //!
 //! The feature is off by default because revm and its precompile crates are about a third of
-//! a fresh build (README, "Time to a first result"); `--features evm` turns it on.
+//! a fresh build (docs/PERFORMANCE.md, "Build time"); `--features evm` turns it on.
 
 use super::{Call, ContractParams, ContractState, Outcome};
 use crate::config::{Config, ConfigError};

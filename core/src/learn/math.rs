@@ -323,7 +323,8 @@ fn one_quotient(two: bool, t: f32) -> f32 {
 /// these arguments, without the candidates it would discard. Checked on all of its inputs by
 /// the exhaustive test. It repeats steps of [`expm1f_for_tanh`] rather than sharing helper
 /// functions with it: with the shared steps factored out (k, the reduced candidates, the pick
-/// by k), one-thread training ran 3-4 % slower in `bench train` (2026-12-01).
+/// by k), one-thread training was measurably slower (docs/PERFORMANCE.md, "Notes from the
+/// code").
 ///
 /// # Safety
 /// `x_in` is in that range ([`all_tanh_mid`]); outside it a float-to-int conversion could be
@@ -486,8 +487,8 @@ unsafe fn sigmoid_normal(x: f32) -> f32 {
 /// A slice function like [`slice_op!`]'s, whose chunks of [`LANES`] values take the unsafe
 /// fast lane function when the check accepts the whole chunk, and the full port otherwise (one
 /// function per chunk, so a chunk's lanes run the same operations and vectorise). A macro, not
-/// a function taking closures: the closures were not inlined into the AVX2 compilation (its
-/// training ran 33 % slower in `bench train`).
+/// a function taking closures: the closures were not inlined into the AVX2 compilation, and
+/// its training ran far slower (docs/PERFORMANCE.md, "Notes from the code").
 macro_rules! slice_op_with_fast_path {
     ($(#[$doc:meta])* $name:ident, $fits:ident, $fast:ident, $full:ident) => {
         $(#[$doc])*

@@ -16,12 +16,11 @@
 //! `scripts/determinism.sh` compares whole runs on one and two threads).
 //!
 //! Why the adding follows the group: a group's per-step buffers are about 100 KiB, the
-//! gradient 11 KiB. When the owner added every group (until 2026-12-01), it read the helper's
-//! buffers from the other core's cache: adding the helper's group took 2.3 times as long as
-//! adding its own, and the helper's next writes to those buffers missed too. Measured with
-//! `bench train` on 2026-12-01: 22.9-23.6 ms with the owner adding every group, 20.6-20.8 ms
-//! with each thread adding its own, 19.6-19.8 ms with the partial sums computed while waiting
-//! (README, "Training speed", has the later steps).
+//! gradient 11 KiB. An owner that adds every group reads the helper's buffers from the other
+//! core's cache (adding the helper's group then takes about twice as long as adding its own),
+//! and the helper's next writes to those buffers miss too. The partial sums keep a waiting
+//! thread busy instead of idle. docs/PERFORMANCE.md, "Training kernels", has the
+//! measurements.
 //!
 //! Why not rayon: a batch of 20 samples takes about 150 µs, and waking a sleeping pool worker
 //! for each batch costs tens of microseconds on the reference VM. Here the helper thread lives
@@ -33,9 +32,9 @@
 //! are already busy with other trainings (several robots training at once, sweep jobs): a
 //! training spawns a helper only when it is the only one running, and stops waking it while
 //! another one runs. Programs that run several simulations at once turn helpers off
-//! ([`set_allowed`]). Tried and not kept: giving every training a helper that joins once the
-//! other trainings end made a `paper` run slower (22.0-23.4 s instead of 21.5 s, 40-42 s of CPU
-//! instead of 35; README, "Training speed").
+//! ([`set_allowed`]). A helper for every training, joining once the other trainings end, was
+//! tried and not kept: a `paper` run took longer and more CPU (docs/PERFORMANCE.md, "The paper
+//! run").
 
 use std::sync::atomic::{AtomicBool, AtomicU64, AtomicUsize, Ordering};
 use std::sync::{Mutex, RwLock};
@@ -108,7 +107,7 @@ struct Slot {
 /// One thread's buffers: whichever group the thread claims is computed here, so a thread's
 /// per-step buffers stay in its own core's cache from batch to batch. (With a workspace per
 /// group instead, the helper took group 0 in about half the batches and each thread then
-/// read the other's buffers: every group's passes ran 16 % slower than on one thread.)
+/// read the other's buffers, so every group's passes ran slower than on one thread.)
 struct Work {
     ws: Workspace,
     /// Each sample's own gradient (`GROUP x weights`), computed while the group waits for its

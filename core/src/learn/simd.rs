@@ -326,9 +326,8 @@ fn outer_check(
 
 /// The AVX-512 kernels: rows in tiles of 5 samples x 64 lanes (20 accumulators), then 5
 /// samples x 16 lanes (the 16-unit hidden gradients: 5 independent chains, so a group of 10
-/// samples is two full tiles; tiles of 8 left two samples as single, latency-bound chains and
-/// were 3 % slower in `bench train`); outer products in tiles of 4 rows x 64 lanes, then 4
-/// rows x 16 lanes.
+/// samples is two full tiles; tiles of 8 left two samples as single, latency-bound chains, a
+/// slower training); outer products in tiles of 4 rows x 64 lanes, then 4 rows x 16 lanes.
 pub(crate) struct Avx512;
 
 impl Mat for Avx512 {
