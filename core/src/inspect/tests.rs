@@ -4,6 +4,8 @@ use super::expr::{Env, EvalError, Expr};
 use super::*;
 use crate::config::{ByzantineKind, Preset};
 use crate::log::{Header, LogWriter};
+use crate::metrics;
+use crate::replay::ReplayError;
 use crate::sim::Sim;
 
 /// A fixed environment: `a = 2`, `b = 3`, `nan`-valued `loss`, `balance[i] = 10 i`,

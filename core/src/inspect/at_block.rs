@@ -1,0 +1,514 @@
+//! The state at one block of the final canonical chain: what `swarmfl inspect --block H` shows,
+//! from an index made for that block or from the sidecar (folding only up to the block).
+
+use std::path::Path;
+
+use serde::Serialize;
+
+use super::error::InspectError;
+use super::fold::{fold_to_record, LastLearning};
+use super::index::{BlockRow, RunIndex};
+use super::sidecar::Sidecar;
+use crate::byzantine;
+use crate::config::Config;
+use crate::contract::{Call, Outcome, Verdict};
+use crate::ledger::BlockHash;
+use crate::log::LogReader;
+use crate::metrics::LearnReport;
+use crate::replay::{header_config, ReplayError};
+use crate::sim::State;
+use crate::types::{RobotId, SimTime};
+
+/// What `swarmfl inspect` shows about one block.
+#[derive(Clone, Debug, Serialize)]
+pub struct BlockReport {
+    /// The log.
+    pub log: String,
+    /// The block.
+    pub block: BlockInfo,
+    /// The contract state after it.
+    pub contract: ContractInfo,
+    /// Every node's head right after it was sealed.
+    pub nodes: Vec<NodeInfo>,
+    /// The world at that moment.
+    pub world: WorldInfo,
+    /// One robot's view, when asked for.
+    pub robot: Option<RobotView>,
+}
+
+/// A block's header and transactions.
+#[derive(Clone, Debug, Serialize)]
+pub struct BlockInfo {
+    /// Height.
+    pub height: u64,
+    /// Id (hex).
+    pub hash: String,
+    /// Parent id (hex).
+    pub parent: String,
+    /// Timestamp, s.
+    pub time_s: f64,
+    /// The sealing robot (`None` for genesis).
+    pub signer: Option<RobotId>,
+    /// Clique difficulty.
+    pub difficulty: u64,
+    /// Total difficulty of the chain up to it.
+    pub total_difficulty: u64,
+    /// Size of the chain up to it, bytes.
+    pub chain_bytes: u64,
+    /// Index of its sealing checkpoint record.
+    pub record: Option<u64>,
+    /// Its transactions with their outcomes.
+    pub txs: Vec<TxInfo>,
+}
+
+/// One transaction of a block.
+#[derive(Clone, Debug, Serialize)]
+pub struct TxInfo {
+    /// Id (hex).
+    pub hash: String,
+    /// Sender.
+    pub sender: RobotId,
+    /// Whether the sender is Byzantine.
+    pub byzantine: bool,
+    /// `submit(n=..)` or `transfer(to=.., tokens)`.
+    pub call: String,
+    /// Stake sent with it, tokens.
+    pub value_tokens: f64,
+    /// The outcome's name.
+    pub outcome: String,
+    /// The outcome's details (round, distance, reason).
+    pub detail: String,
+}
+
+/// The contract state after a block.
+#[derive(Clone, Debug, Serialize)]
+pub struct ContractInfo {
+    /// Rounds closed so far, which is also the shared model's version and the number of the
+    /// last closed round (rounds are numbered from 1 everywhere); round `round + 1` is open.
+    pub round: u64,
+    /// Digest of the shared model (hex).
+    pub model_digest: String,
+    /// Every robot's balance.
+    pub balances: Vec<BalanceInfo>,
+    /// Units held by the contract (the pool), tokens.
+    pub pool_tokens: f64,
+    /// The current round's counted submissions.
+    pub submissions: Vec<SubmissionInfo>,
+    /// The last closed round.
+    pub last_round: Option<RoundInfo>,
+}
+
+/// A robot's balance.
+#[derive(Clone, Debug, Serialize)]
+pub struct BalanceInfo {
+    /// The robot.
+    pub robot: RobotId,
+    /// Balance, tokens.
+    pub tokens: f64,
+    /// Whether it is Byzantine.
+    pub byzantine: bool,
+}
+
+/// A counted submission of a round.
+#[derive(Clone, Debug, Serialize)]
+pub struct SubmissionInfo {
+    /// The sender.
+    pub sender: RobotId,
+    /// Whether it is Byzantine.
+    pub byzantine: bool,
+    /// Samples claimed.
+    pub samples: u64,
+    /// Distance to the shared model, fixed-point units.
+    pub distance_units: u64,
+    /// Stake, tokens.
+    pub stake_tokens: f64,
+    /// `accepted` or `outlier`.
+    pub verdict: String,
+}
+
+/// The last closed round and its payouts.
+#[derive(Clone, Debug, Serialize)]
+pub struct RoundInfo {
+    /// The round, numbered from 1 (the run summary's `r1` is round 1).
+    pub round: u64,
+    /// Its counted submissions.
+    pub submissions: Vec<SubmissionInfo>,
+    /// The distributed pool, tokens.
+    pub pool_tokens: f64,
+    /// What stayed in the contract, tokens.
+    pub carried_tokens: f64,
+    /// Payouts in rank order: (robot, rank, reward weight, tokens).
+    pub payouts: Vec<(RobotId, u32, i64, f64)>,
+}
+
+/// A node's head.
+#[derive(Clone, Debug, Serialize)]
+pub struct NodeInfo {
+    /// The node.
+    pub node: RobotId,
+    /// Its head's id (hex).
+    pub head: String,
+    /// Its head's height.
+    pub height: u64,
+    /// Whether its head is on the final canonical chain.
+    pub on_final_chain: bool,
+}
+
+/// The world at a block's time.
+#[derive(Clone, Debug, Serialize)]
+pub struct WorldInfo {
+    /// Simulated time of the state, s.
+    pub time_s: f64,
+    /// Every robot.
+    pub robots: Vec<RobotInfo>,
+}
+
+/// One robot in the world.
+#[derive(Clone, Debug, Serialize)]
+pub struct RobotInfo {
+    /// The robot.
+    pub robot: RobotId,
+    /// Whether it is Byzantine.
+    pub byzantine: bool,
+    /// Position, m.
+    pub x: f64,
+    /// Position, m.
+    pub y: f64,
+    /// Heading, rad.
+    pub theta: f64,
+    /// Peers in contact.
+    pub peers: usize,
+    /// Samples in its data set.
+    pub dataset: usize,
+}
+
+/// One robot's view of the run at a block.
+#[derive(Clone, Debug, Serialize)]
+pub struct RobotView {
+    /// The robot.
+    pub robot: RobotId,
+    /// Whether it is Byzantine.
+    pub byzantine: bool,
+    /// Its node's head.
+    pub node: NodeInfo,
+    /// Rounds closed at its own head (its model version; round `round + 1` is open there).
+    pub round: u64,
+    /// Its balance at its own head, tokens.
+    pub balance_tokens: f64,
+    /// Its pose and data.
+    pub world: RobotInfo,
+    /// Its peers.
+    pub peers: Vec<RobotId>,
+    /// Its last learning report until then: (time s, description).
+    pub last_learning: Option<(f64, String)>,
+}
+
+/// Builds the report of block `height` from an index made with `index_run(path, Some(height))`.
+pub fn block_report(
+    index: &RunIndex,
+    height: u64,
+    robot: Option<RobotId>,
+) -> Result<BlockReport, InspectError> {
+    let (state, learned) = index
+        .at_block
+        .as_ref()
+        .expect("the index was made for this block");
+    let canonical: std::collections::BTreeSet<BlockHash> =
+        index.chain.iter().map(|r| r.hash).collect();
+    report_at(
+        &ReportInput {
+            path: &index.path,
+            config: &index.config,
+            byzantine: &index.byzantine,
+            canonical: &canonical,
+            row: &index.chain[height as usize],
+            state,
+            learned,
+        },
+        robot,
+    )
+}
+
+/// Everything a block report is made from.
+struct ReportInput<'a> {
+    path: &'a str,
+    config: &'a Config,
+    byzantine: &'a [bool],
+    canonical: &'a std::collections::BTreeSet<BlockHash>,
+    row: &'a BlockRow,
+    state: &'a State,
+    learned: &'a LastLearning,
+}
+
+fn report_at(input: &ReportInput<'_>, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
+    let ReportInput {
+        path,
+        config,
+        byzantine,
+        canonical,
+        row,
+        state,
+        learned,
+    } = *input;
+    let robots = config.world.robots;
+    if let Some(r) = robot {
+        if r >= robots {
+            return Err(InspectError::NoRobot { robot: r, robots });
+        }
+    }
+    let height = row.height;
+    let tokens = |units: u64| units as f64 / config.contract.token_units as f64;
+    // The block was sealed by then, so the state's own ledger has it and its transactions.
+    let final_ledger = &state.ledger;
+    let entry = final_ledger
+        .block(&row.hash)
+        .ok_or_else(|| InspectError::Inconsistent {
+            path: path.to_string(),
+            message: format!("block {} is not known at its sealing", row.hash.short()),
+        })?;
+    let header = &entry.block.header;
+    let byz = |r: RobotId| byzantine.get(r as usize).copied().unwrap_or(false);
+    let txs = entry
+        .block
+        .txs
+        .iter()
+        .zip(entry.receipts.iter())
+        .map(|(h, outcome)| {
+            let tx = final_ledger.tx(h).map(|t| t.tx.clone());
+            let (sender, value, call) = match tx.as_deref() {
+                Some(t) => (
+                    t.sender,
+                    t.value_units,
+                    match &t.call {
+                        Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
+                        Call::Transfer { to, amount_units } => {
+                            format!("transfer(to={to}, {} tokens)", tokens(*amount_units))
+                        }
+                    },
+                ),
+                None => (RobotId::MAX, 0, "?".to_string()),
+            };
+            TxInfo {
+                hash: h.to_hex(),
+                sender,
+                byzantine: byz(sender),
+                call,
+                value_tokens: tokens(value),
+                outcome: outcome.name().to_string(),
+                detail: outcome_detail(outcome),
+            }
+        })
+        .collect();
+    let submission = |s: &crate::contract::Submission| SubmissionInfo {
+        sender: s.sender,
+        byzantine: byz(s.sender),
+        samples: s.samples,
+        distance_units: s.distance_units,
+        stake_tokens: tokens(s.stake_units),
+        verdict: match s.verdict {
+            Verdict::Accepted => "accepted",
+            Verdict::Outlier => "outlier",
+        }
+        .to_string(),
+    };
+    let cs = &entry.state;
+    let contract = ContractInfo {
+        round: cs.round,
+        model_digest: cs.weights_digest.to_hex(),
+        balances: cs
+            .balances
+            .iter()
+            .enumerate()
+            .map(|(r, &u)| BalanceInfo {
+                robot: r as RobotId,
+                tokens: tokens(u),
+                byzantine: byz(r as RobotId),
+            })
+            .collect(),
+        pool_tokens: tokens(cs.holdings_units),
+        submissions: cs.submissions.iter().map(submission).collect(),
+        last_round: cs.last_round.as_ref().map(|s| RoundInfo {
+            round: s.round + 1,
+            submissions: s.submissions.iter().map(submission).collect(),
+            pool_tokens: tokens(s.pool_units),
+            carried_tokens: tokens(s.carried_units),
+            payouts: s
+                .payouts
+                .iter()
+                .map(|p| (p.robot, p.rank, p.reward_weight, tokens(p.units)))
+                .collect(),
+        }),
+    };
+    let node_info = |r: RobotId| {
+        let (head, h) = state.ledger.head(r);
+        NodeInfo {
+            node: r,
+            head: head.to_hex(),
+            height: h,
+            on_final_chain: canonical.contains(&head),
+        }
+    };
+    let robot_info = |r: RobotId| {
+        let pose = state.world.poses()[r as usize];
+        RobotInfo {
+            robot: r,
+            byzantine: byz(r),
+            x: pose.x,
+            y: pose.y,
+            theta: pose.theta,
+            peers: state.world.peers(r).len(),
+            dataset: state.world.dataset_len(r),
+        }
+    };
+    let view = robot.map(|r| {
+        let own = state.ledger.head_state(r);
+        RobotView {
+            robot: r,
+            byzantine: byz(r),
+            node: node_info(r),
+            round: own.round,
+            balance_tokens: tokens(own.balances[r as usize]),
+            world: robot_info(r),
+            peers: state.world.peers(r).to_vec(),
+            last_learning: learned[r as usize]
+                .as_ref()
+                .map(|(t, report)| (t.secs(), describe_learning(report))),
+        }
+    });
+    Ok(BlockReport {
+        log: path.to_string(),
+        block: BlockInfo {
+            height,
+            hash: row.hash.to_hex(),
+            parent: header.parent.to_hex(),
+            time_s: row.time.secs(),
+            signer: (height > 0).then_some(header.signer),
+            difficulty: header.difficulty,
+            total_difficulty: entry.total_difficulty,
+            chain_bytes: entry.chain_bytes,
+            record: row.record,
+            txs,
+        },
+        contract,
+        nodes: (0..robots).map(node_info).collect(),
+        world: WorldInfo {
+            time_s: state.world.time().secs(),
+            robots: (0..robots).map(robot_info).collect(),
+        },
+        robot: view,
+    })
+}
+
+fn outcome_detail(outcome: &Outcome) -> String {
+    match outcome {
+        Outcome::Accepted {
+            round,
+            distance_units,
+        } => format!("round {}, distance {distance_units}", round + 1),
+        Outcome::Aggregated {
+            round,
+            distance_units,
+            payouts,
+        } => format!(
+            "closed round {}, distance {distance_units}, {} payouts",
+            round + 1,
+            payouts.len()
+        ),
+        Outcome::Outlier {
+            round,
+            distance_units,
+        } => format!("round {}, distance {distance_units}", round + 1),
+        Outcome::Malformed(reason) => reason.clone(),
+        _ => String::new(),
+    }
+}
+
+fn describe_learning(report: &LearnReport) -> String {
+    use crate::metrics::LearnAction;
+    match &report.action {
+        LearnAction::Trained {
+            tx,
+            train_samples,
+            val_samples,
+            val_loss,
+            final_train_loss,
+        } => format!(
+            "trained for round {} ({train_samples} train / {val_samples} validation samples): val loss {val_loss:.6}, train loss {final_train_loss:.6}; submitted tx {}",
+            report.base_round + 1,
+            tx.short()
+        ),
+        LearnAction::Forged {
+            tx,
+            claimed_samples,
+        } => format!(
+            "forged a model for round {} claiming {claimed_samples} samples; submitted tx {}",
+            report.base_round + 1,
+            tx.short()
+        ),
+        LearnAction::Skipped { reason } => {
+            format!("skipped round {}: {}", report.base_round + 1, reason.name())
+        }
+    }
+}
+
+/// The report of block `height` using a sidecar index: folds the log only up to the block's
+/// sealing checkpoint.
+pub fn block_report_indexed(
+    log: &Path,
+    sidecar: &Sidecar,
+    height: u64,
+    robot: Option<RobotId>,
+) -> Result<BlockReport, InspectError> {
+    let name = log.display().to_string();
+    let last = sidecar.blocks.len() as u64 - 1;
+    if height > last {
+        return Err(InspectError::BlockPastEnd {
+            path: name,
+            block: height,
+            last,
+        });
+    }
+    let mut reader = LogReader::open(log).map_err(ReplayError::from)?;
+    let mut config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
+    let mut learned: LastLearning = vec![None; config.world.robots as usize];
+    let (_, hash, record) = sidecar.blocks[height as usize];
+    // The sidecar was written by a fold that checked every checkpoint of this very log (tied
+    // to it by size and footer digest), and the hash chain guarantees the records are the
+    // same: only the block's own checkpoint is checked again.
+    let time = match record {
+        Some(stop) => fold_to_record(
+            &mut reader,
+            &mut state,
+            &mut learned,
+            &mut config,
+            &name,
+            stop,
+        )?,
+        None => SimTime(0),
+    };
+    let canonical = sidecar.blocks.iter().map(|b| b.1).collect();
+    let row = BlockRow {
+        height,
+        hash,
+        time,
+        record,
+        node_heights: Vec::new(),
+    };
+    report_at(
+        &ReportInput {
+            path: &name,
+            config: &config,
+            byzantine: &byzantine::byzantine_robots(&config, seed),
+            canonical: &canonical,
+            row: &row,
+            state: &state,
+            learned: &learned,
+        },
+        robot,
+    )
+}

@@ -1,0 +1,264 @@
+//! The block index of a log: one fold (checking every checkpoint) that finds the final
+//! canonical chain, each block's sealing record, time and node heights ([`index_run`]).
+
+use std::collections::BTreeMap;
+use std::path::Path;
+
+use super::error::InspectError;
+use super::fold::{fold_record, LastLearning};
+use crate::byzantine;
+use crate::config::Config;
+use crate::contract::ContractState;
+use crate::event::{CheckpointCause, Record};
+use crate::ledger::BlockHash;
+use crate::log::LogReader;
+use crate::metrics;
+use crate::replay::{self, header_config, ReplayError};
+use crate::sim::State;
+use crate::types::SimTime;
+
+/// One block of the final canonical chain, as seen while folding.
+#[derive(Clone, Debug)]
+pub struct BlockRow {
+    /// Height (genesis is 0).
+    pub height: u64,
+    /// The block id.
+    pub hash: BlockHash,
+    /// Its timestamp.
+    pub time: SimTime,
+    /// Index of its sealing checkpoint record (`None` for genesis: before every record).
+    pub record: Option<u64>,
+    /// Every node's head height right after it was sealed.
+    pub node_heights: Vec<u64>,
+}
+
+/// One point of the per-node chain sizes (taken at every sealing checkpoint).
+#[derive(Clone, Debug)]
+pub struct ChainBytesRow {
+    /// Simulated time.
+    pub time: SimTime,
+    /// Each node's canonical chain size in bytes.
+    pub bytes: Vec<u64>,
+}
+
+/// What one fold of a log knows about its final canonical chain.
+pub struct RunIndex {
+    /// The log's name.
+    pub path: String,
+    /// The run's configuration.
+    pub config: Config,
+    /// The run's seed.
+    pub seed: u64,
+    /// Which robots are Byzantine.
+    pub byzantine: Vec<bool>,
+    /// The final canonical chain, by height (row 0 is genesis).
+    pub chain: Vec<BlockRow>,
+    /// The state at the end of the log.
+    pub final_state: State,
+    /// Records in the log.
+    pub records: u64,
+    /// Chain sizes per node, at every sealing.
+    pub chain_bytes: Vec<ChainBytesRow>,
+    /// `Some(why)` when the log is truncated: everything here is of its intact prefix (the
+    /// records before the cut), and `final_state` is the state after the last intact record.
+    pub truncated: Option<String>,
+    /// The state right after the sealing of the block asked for in [`index_run`], with each
+    /// robot's last learning report until then.
+    pub at_block: Option<StateAtBlock>,
+}
+
+/// The full state right after a block's sealing, with each robot's last learning report.
+pub type StateAtBlock = (State, LastLearning);
+
+struct Sealed {
+    record: u64,
+    time: SimTime,
+    node_heights: Vec<u64>,
+}
+
+/// Folds the whole log at `path` (checking every checkpoint) and indexes its final canonical
+/// chain; with `want = Some(h)`, also keeps the full state right after block `h` was sealed
+/// (an error names the last height if the chain is shorter).
+///
+/// A truncated log is indexed as far as its intact prefix goes, with
+/// [`RunIndex::truncated`] saying why; a corrupt (altered) one is refused.
+pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectError> {
+    let name = path.display().to_string();
+    let mut reader = LogReader::open(path).map_err(ReplayError::from)?;
+    let mut config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        source,
+    })?;
+    let robots = config.world.robots;
+    let mut sealed: BTreeMap<BlockHash, Sealed> = BTreeMap::new();
+    let mut chain_bytes = Vec::new();
+    let mut learned: LastLearning = vec![None; robots as usize];
+    let mut candidates: BTreeMap<BlockHash, StateAtBlock> = BTreeMap::new();
+    let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
+    let mut truncated = None;
+    loop {
+        let record = match reader.next_record() {
+            Ok(Some(record)) => record,
+            Ok(None) => break,
+            // A log cut short (a killed run, a full disk, a partial copy): every record before
+            // the cut is intact (the hash chain verifies it), so the run is indexed as far as
+            // it got and the caller says so. An altered record is still refused.
+            Err(e @ crate::log::LogError::Truncated { .. }) => {
+                truncated = Some(e.to_string());
+                break;
+            }
+            Err(e) => return Err(ReplayError::from(e).into()),
+        };
+        let index = reader.index() - 1;
+        fold_record(&mut state, &mut learned, &name, index, &record)?;
+        if let Some(next) = replay::reconfigured(&record) {
+            config = next;
+        }
+        if let Record::Checkpoint(expected) = &record {
+            if let CheckpointCause::Block { node, height } = expected.cause {
+                if node >= robots {
+                    return Err(inconsistent(&name, index, "names a node out of the swarm"));
+                }
+                let (hash, head_height) = state.ledger.head(node);
+                if head_height != height {
+                    return Err(inconsistent(
+                            &name,
+                            index,
+                            &format!("says node {node} sealed height {height}, but its head is at {head_height}"),
+                        ));
+                }
+                let node_heights: Vec<u64> = (0..robots).map(|r| state.ledger.head(r).1).collect();
+                chain_bytes.push(ChainBytesRow {
+                    time: expected.time,
+                    bytes: (0..robots)
+                        .map(|r| {
+                            let head = state.ledger.head(r).0;
+                            state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
+                        })
+                        .collect(),
+                });
+                sealed.insert(
+                    hash,
+                    Sealed {
+                        record: index,
+                        time: expected.time,
+                        node_heights,
+                    },
+                );
+                if want == Some(height) {
+                    candidates.insert(hash, (state.clone(), learned.clone()));
+                }
+            }
+        }
+    }
+    let records = match reader.footer() {
+        Some(footer) => footer.records,
+        None => reader.index(),
+    };
+    let best = metrics::best_node(&state.ledger);
+    let mut chain = Vec::new();
+    for (height, hash) in state.ledger.canonical_chain(best).iter().enumerate() {
+        let entry = state
+            .ledger
+            .block(hash)
+            .ok_or_else(|| InspectError::Inconsistent {
+                path: name.clone(),
+                message: format!("canonical block {} is not stored", hash.short()),
+            })?;
+        let row = if height == 0 {
+            BlockRow {
+                height: 0,
+                hash: *hash,
+                time: SimTime(0),
+                record: None,
+                node_heights: vec![0; robots as usize],
+            }
+        } else {
+            if truncated.is_some() && !sealed.contains_key(hash) {
+                // The cut fell between a block's sealing and its checkpoint: the chain of the
+                // intact prefix ends at its parent.
+                break;
+            }
+            let s = sealed.get(hash).ok_or_else(|| InspectError::Inconsistent {
+                path: name.clone(),
+                message: format!(
+                    "canonical block {} at height {height} has no sealing checkpoint",
+                    hash.short()
+                ),
+            })?;
+            BlockRow {
+                height: height as u64,
+                hash: *hash,
+                time: s.time,
+                record: Some(s.record),
+                node_heights: s.node_heights.clone(),
+            }
+        };
+        assert_eq!(
+            entry.block.header.height, row.height,
+            "heights follow the chain"
+        );
+        chain.push(row);
+    }
+    let last = chain.len() as u64 - 1;
+    let at_block = match want {
+        None => None,
+        Some(h) if h > last => {
+            return Err(InspectError::BlockPastEnd {
+                path: name,
+                block: h,
+                last,
+            })
+        }
+        Some(0) => genesis_state,
+        Some(h) => Some(
+            candidates
+                .remove(&chain[h as usize].hash)
+                .expect("every block sealed at the height asked for was kept"),
+        ),
+    };
+    Ok(RunIndex {
+        path: name,
+        byzantine: byzantine::byzantine_robots(&config, seed),
+        config,
+        seed,
+        chain,
+        final_state: state,
+        records,
+        chain_bytes,
+        at_block,
+        truncated,
+    })
+}
+
+fn inconsistent(path: &str, index: u64, what: &str) -> InspectError {
+    InspectError::Inconsistent {
+        path: path.to_string(),
+        message: format!("the block checkpoint at record {index} {what}"),
+    }
+}
+
+impl RunIndex {
+    /// The last height of the final canonical chain.
+    pub fn last_height(&self) -> u64 {
+        self.chain.len() as u64 - 1
+    }
+
+    /// The contract state right after block `height` of the final canonical chain.
+    pub fn contract_at(&self, height: u64) -> &ContractState {
+        let row = &self.chain[height as usize];
+        &self
+            .final_state
+            .ledger
+            .block(&row.hash)
+            .expect("canonical blocks are stored")
+            .state
+    }
+
+    /// Tokens of `units`.
+    pub fn tokens(&self, units: u64) -> f64 {
+        units as f64 / self.config.contract.token_units as f64
+    }
+}
