@@ -3,8 +3,7 @@
 use std::path::Path;
 use std::time::Instant;
 
-use swarmfl_core::aggregation::timeline;
-use swarmfl_core::inspect::{self, BlockReport, Expr, SubmissionInfo};
+use swarmfl_core::inspect::{self, timeline, BlockReport, Expr, SubmissionInfo};
 use swarmfl_core::RobotId;
 
 /// Prints block `height` of the log (human-readable or JSON) and the time it took.

@@ -41,7 +41,6 @@
 pub mod central;
 pub mod gossip;
 pub mod summary;
-pub mod timeline;
 
 use std::sync::Arc;
 

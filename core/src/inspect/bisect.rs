@@ -51,7 +51,7 @@ pub fn bisect(
 /// The first point in `0..=last` where `holds` is true, or None. With `monotone` (the
 /// predicate, once true, stays true) a binary search that evaluates it about log2(last) + 1
 /// times; otherwise a scan from 0. Evaluation errors stop the search.
-pub(crate) fn first_holding<E>(
+pub(super) fn first_holding<E>(
     last: u64,
     monotone: bool,
     mut holds: impl FnMut(u64) -> Result<bool, E>,

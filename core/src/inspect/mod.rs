@@ -45,7 +45,8 @@
 //! `sidecar.rs` (`LOG.idx`), `at_block.rs` (the state at a block, [`block_report`]),
 //! `values.rs` (per-block values for predicates), `bisect.rs` (the first block where a
 //! predicate holds), `export.rs` (the closed rounds `swarmfl export` writes) and `error.rs`.
-//! The predicate language of `bisect` is in [`expr`] (grammar in its module docs).
+//! A baseline run (no blocks) is looked into by time instead, in [`timeline`]. The predicate
+//! language of `bisect` is in [`expr`] (grammar in its module docs).
 
 mod at_block;
 mod bisect;
@@ -55,6 +56,7 @@ pub mod expr;
 mod fold;
 mod index;
 mod sidecar;
+pub mod timeline;
 mod values;
 
 #[cfg(test)]
@@ -64,7 +66,6 @@ pub use at_block::{
     block_report, block_report_indexed, BalanceInfo, BlockInfo, BlockReport, ContractInfo,
     NodeInfo, RobotInfo, RobotView, RoundInfo, SubmissionInfo, TxInfo, WorldInfo,
 };
-pub(crate) use bisect::first_holding;
 pub use bisect::{bisect, profile, BisectHit, Profile};
 pub use error::InspectError;
 pub use export::RoundRow;

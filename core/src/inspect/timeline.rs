@@ -1,7 +1,7 @@
 //! Inspect and bisect a baseline run by time: it has no blocks, so its points are its
 //! checkpoints (one every `ledger.block_period_s`, and the end).
 //!
-//! The predicate language is `inspect`'s ([`crate::inspect::Expr`]); a baseline defines
+//! The predicate language is `inspect`'s ([`Expr`]); a baseline defines
 //! `time` (s), `round` (aggregations so far: honest robots' merges from a quorum, or server
 //! rounds), `loss` (the paper's metric of the last aggregation, NaN before) and `heldout_loss`
 //! (the mean over honest robots of their current models' held-out loss; `central`: the
@@ -12,11 +12,12 @@ use std::sync::Arc;
 
 use serde::Serialize;
 
+use super::bisect::first_holding;
+use super::error::InspectError;
+use super::expr::{Env, EvalError, Expr};
 use crate::byzantine;
 use crate::config::{Aggregation, Config};
 use crate::event::Record;
-use crate::inspect::expr::Env;
-use crate::inspect::{EvalError, Expr, InspectError};
 use crate::learn::{self, ModelShape, TrainData};
 use crate::log::LogReader;
 use crate::metrics::Metrics;
@@ -239,9 +240,8 @@ pub fn bisect_by_time(
     if points.is_empty() {
         return Ok((None, 0));
     }
-    let found =
-        crate::inspect::first_holding(points.len() as u64 - 1, monotone, |i| holds(i as usize))?
-            .map(|i| i as usize);
+    let found = first_holding(points.len() as u64 - 1, monotone, |i| holds(i as usize))?
+        .map(|i| i as usize);
     Ok((
         found.map(|i| {
             let env = PointEnv {
