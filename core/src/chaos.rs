@@ -27,7 +27,7 @@ use crate::byzantine::{self, ledger::LedgerBehaviour};
 use crate::config::{ByzantineKind, Config, Preset};
 use crate::event::{CheckpointCause, Record};
 use crate::faults::{FaultSchedule, FaultsConfig};
-use crate::ledger::BlockHash;
+use crate::ledger::{BlockHash, Ledger};
 use crate::rng::{self, Purpose};
 use crate::sim::{Sim, SimError};
 use crate::types::RobotId;
@@ -131,17 +131,22 @@ pub struct Outcome {
 pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
     let robots = config.world.robots;
     let byzantine = byzantine::byzantine_robots(&config, seed);
-    let honest: Vec<RobotId> = (0..robots).filter(|&r| !byzantine[r as usize]).collect();
-    let faults = FaultSchedule::new(&config.faults, robots);
-    let heal_ms = config.faults.last_heal_ms();
     let end_ms = config.ticks() * (config.run.tick_s * 1000.0).round() as u64;
-    let mut outcome = Outcome {
+    let heal_ms = config.faults.last_heal_ms();
+    let mut watch = Watch {
+        honest: (0..robots).filter(|&r| !byzantine[r as usize]).collect(),
+        faults: FaultSchedule::new(&config.faults, robots),
+        heal_ms,
         liveness_checked: heal_ms + LIVENESS_MS <= end_ms,
+        checked: BTreeSet::new(),
+        blocks_checked: 0,
+        round_at_heal: None,
+        live: false,
+    };
+    let mut outcome = Outcome {
+        liveness_checked: watch.liveness_checked,
         ..Outcome::default()
     };
-    let mut checked: BTreeSet<BlockHash> = BTreeSet::new();
-    let mut round_at_heal: Option<u64> = None;
-    let mut live = false;
     let mut sim = Sim::new(config, seed)?;
     while let Some(record) = sim.next() {
         let Record::Checkpoint(cp) = record else {
@@ -154,151 +159,246 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
             continue;
         }
         let now = cp.time.0;
-        let ledger = &sim.state().ledger;
         outcome.checks += 1;
-        let fail = |invariant: &str, detail: String| {
-            Some(Violation {
+        if let Err((invariant, detail)) = watch.at(&sim.state().ledger, now) {
+            outcome.violation = Some(Violation {
                 invariant: invariant.to_string(),
                 at_ms: now,
                 detail,
-            })
-        };
-        let supply = ledger.params().total_units();
-        let mut violation = None;
-        'nodes: for &r in &honest {
-            let state = ledger.head_state(r);
-            if state.total_units() != supply {
-                violation = fail(
-                    "conservation",
-                    format!("node {r}: {} units, supply {supply}", state.total_units()),
-                );
-                break;
-            }
-            if let Some((a, b)) = state
-                .balances
-                .iter()
-                .enumerate()
-                .find(|(_, b)| u128::from(**b) > supply)
-            {
-                violation = fail(
-                    "no negative balance",
-                    format!("node {r}: account {a} holds {b}"),
-                );
-                break;
-            }
-            let stakes: u64 = state.submissions.iter().map(|s| s.stake_units).sum();
-            if state.holdings_units < stakes {
-                violation = fail(
-                    "conservation",
-                    format!(
-                        "node {r}: holdings {} < open stakes {stakes}",
-                        state.holdings_units
-                    ),
-                );
-                break;
-            }
-            for hash in ledger.canonical_chain(r).iter().rev() {
-                if !checked.insert(*hash) {
-                    break;
-                }
-                outcome.blocks_checked += 1;
-                if let Err(e) = ledger.check_block(hash) {
-                    violation = fail(
-                        "validity",
-                        format!("node {r} accepted an invalid block: {e}"),
-                    );
-                    break 'nodes;
-                }
-            }
-        }
-        let up: Vec<RobotId> = honest
-            .iter()
-            .copied()
-            .filter(|&r| !faults.is_down(r, now))
-            .collect();
-        if violation.is_none() && now >= heal_ms + SETTLE_MS && !up.is_empty() {
-            let reference = *up
-                .iter()
-                .max_by_key(|&&r| {
-                    let (head, _) = ledger.head(r);
-                    (
-                        ledger.block(&head).map_or(0, |e| e.total_difficulty),
-                        std::cmp::Reverse(r),
-                    )
-                })
-                .expect("not empty");
-            let main = ledger.canonical_chain(reference);
-            for &r in &up {
-                let chain = ledger.canonical_chain(r);
-                let common = chain
-                    .iter()
-                    .zip(main.iter())
-                    .take_while(|(a, b)| a == b)
-                    .count() as u64;
-                let own = chain.len() as u64 - common;
-                if own > PREFIX_BOUND_BLOCKS {
-                    violation = fail(
-                        "agreement",
-                        format!(
-                            "node {r}'s last {own} blocks disagree with node {reference}'s chain \
-                             (bound {PREFIX_BOUND_BLOCKS})"
-                        ),
-                    );
-                    break;
-                }
-            }
-        }
-        if violation.is_none() && now >= heal_ms {
-            let round = honest
-                .iter()
-                .map(|&r| {
-                    let s = ledger.head_state(r);
-                    (s.round, s.rounds_timed_out)
-                })
-                .max()
-                .unwrap_or((0, 0));
-            match round_at_heal {
-                None => round_at_heal = Some(round.0 + round.1),
-                Some(r0) => live |= round.0 + round.1 > r0,
-            }
-            if outcome.liveness_checked && !live && now > heal_ms + LIVENESS_MS {
-                violation = fail(
-                    "liveness",
-                    format!(
-                        "no round closed within {} s after the last heal at {} s",
-                        LIVENESS_MS / 1000,
-                        heal_ms / 1000
-                    ),
-                );
-            }
-        }
-        if violation.is_some() {
-            outcome.violation = violation;
+            });
             break;
         }
     }
-    let stats = sim.state().ledger.stats();
+    let ledger = &sim.state().ledger;
+    outcome.blocks_checked = watch.blocks_checked;
+    let stats = ledger.stats();
     outcome.height = stats.canonical_height;
     outcome.deepest_reorg = stats.deepest_reorg;
     outcome.equivocations = stats.equivocations.iter().map(|e| e.sites).sum();
-    outcome.rounds = honest
+    outcome.rounds = watch
+        .honest
         .iter()
-        .map(|&r| sim.state().ledger.head_state(r).round)
+        .map(|&r| ledger.head_state(r).round)
         .max()
         .unwrap_or(0);
     if outcome.violation.is_none() {
-        for &r in &honest {
-            if let Err(e) = sim.state().ledger.check_chain(r) {
-                outcome.violation = Some(Violation {
-                    invariant: "validity".to_string(),
-                    at_ms: end_ms,
-                    detail: format!("node {r}'s chain fails the full check: {e}"),
-                });
-                break;
-            }
-        }
+        outcome.violation = final_chains_valid(ledger, &watch.honest)
+            .err()
+            .map(|detail| Violation {
+                invariant: "validity".to_string(),
+                at_ms: end_ms,
+                detail,
+            });
     }
     Ok(outcome)
+}
+
+/// A broken invariant, before its time is attached: (invariant, what was seen).
+type Broken = (&'static str, String);
+
+/// An invariant of one honest node's head.
+type NodeCheck = fn(&mut Watch, &Ledger, RobotId) -> Result<(), Broken>;
+
+/// An invariant of the whole swarm at a checkpoint (time in ms).
+type SwarmCheck = fn(&mut Watch, &Ledger, u64) -> Result<(), Broken>;
+
+/// The invariants of each honest node, in the order they are checked: all of them for one
+/// node, then the next node; the first broken one is reported.
+const NODE_CHECKS: [NodeCheck; 4] = [
+    supply_conserved,
+    no_negative_balance,
+    stakes_held,
+    chain_valid,
+];
+
+/// The invariants of the swarm, checked after every node's.
+const SWARM_CHECKS: [SwarmCheck; 2] = [agreement, liveness];
+
+/// What the checks know of the run and remember between checkpoints.
+struct Watch {
+    /// The honest robots, in id order.
+    honest: Vec<RobotId>,
+    /// When each robot is down.
+    faults: FaultSchedule,
+    /// When the last fault heals, ms.
+    heal_ms: u64,
+    /// Whether the liveness window fits in the run.
+    liveness_checked: bool,
+    /// Blocks already checked from scratch (each is checked once).
+    checked: BTreeSet<BlockHash>,
+    /// How many that is.
+    blocks_checked: u64,
+    /// Rounds closed or timed out at the first checkpoint after the last heal.
+    round_at_heal: Option<u64>,
+    /// Whether a round closed or timed out since then.
+    live: bool,
+}
+
+impl Watch {
+    /// Checks every invariant at the checkpoint at `now_ms`.
+    fn at(&mut self, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
+        for i in 0..self.honest.len() {
+            let r = self.honest[i];
+            for check in NODE_CHECKS {
+                check(self, ledger, r)?;
+            }
+        }
+        for check in SWARM_CHECKS {
+            check(self, ledger, now_ms)?;
+        }
+        Ok(())
+    }
+}
+
+/// *Conservation*: balances plus holdings at the node's head equal the supply.
+fn supply_conserved(_: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Broken> {
+    let supply = ledger.params().total_units();
+    let state = ledger.head_state(r);
+    if state.total_units() != supply {
+        return Err((
+            "conservation",
+            format!("node {r}: {} units, supply {supply}", state.total_units()),
+        ));
+    }
+    Ok(())
+}
+
+/// No balance exceeds the supply (a wrapped negative one would).
+fn no_negative_balance(_: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Broken> {
+    let supply = ledger.params().total_units();
+    let state = ledger.head_state(r);
+    if let Some((a, b)) = state
+        .balances
+        .iter()
+        .enumerate()
+        .find(|(_, b)| u128::from(**b) > supply)
+    {
+        return Err((
+            "no negative balance",
+            format!("node {r}: account {a} holds {b}"),
+        ));
+    }
+    Ok(())
+}
+
+/// *Conservation*: the contract holds at least the open round's stakes.
+fn stakes_held(_: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Broken> {
+    let state = ledger.head_state(r);
+    let stakes: u64 = state.submissions.iter().map(|s| s.stake_units).sum();
+    if state.holdings_units < stakes {
+        return Err((
+            "conservation",
+            format!(
+                "node {r}: holdings {} < open stakes {stakes}",
+                state.holdings_units
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// *Validity*: every block of the node's canonical chain not checked before passes the
+/// from-scratch check (walking back from the head, down to the first block already checked).
+fn chain_valid(watch: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Broken> {
+    for hash in ledger.canonical_chain(r).iter().rev() {
+        if !watch.checked.insert(*hash) {
+            break;
+        }
+        watch.blocks_checked += 1;
+        if let Err(e) = ledger.check_block(hash) {
+            return Err((
+                "validity",
+                format!("node {r} accepted an invalid block: {e}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// *Agreement*: once the faults have healed and settled, every honest node that is up agrees
+/// with the heaviest of their chains but for at most its last [`PREFIX_BOUND_BLOCKS`] blocks.
+fn agreement(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
+    let up: Vec<RobotId> = watch
+        .honest
+        .iter()
+        .copied()
+        .filter(|&r| !watch.faults.is_down(r, now_ms))
+        .collect();
+    if now_ms < watch.heal_ms + SETTLE_MS || up.is_empty() {
+        return Ok(());
+    }
+    let reference = *up
+        .iter()
+        .max_by_key(|&&r| {
+            let (head, _) = ledger.head(r);
+            (
+                ledger.block(&head).map_or(0, |e| e.total_difficulty),
+                std::cmp::Reverse(r),
+            )
+        })
+        .expect("not empty");
+    let main = ledger.canonical_chain(reference);
+    for &r in &up {
+        let chain = ledger.canonical_chain(r);
+        let common = chain
+            .iter()
+            .zip(main.iter())
+            .take_while(|(a, b)| a == b)
+            .count() as u64;
+        let own = chain.len() as u64 - common;
+        if own > PREFIX_BOUND_BLOCKS {
+            return Err((
+                "agreement",
+                format!(
+                    "node {r}'s last {own} blocks disagree with node {reference}'s chain \
+                     (bound {PREFIX_BOUND_BLOCKS})"
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// *Liveness*: within [`LIVENESS_MS`] after the last heal, some honest head's round count
+/// (closed plus timed out) grows past the one seen at the first checkpoint after the heal.
+fn liveness(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
+    if now_ms < watch.heal_ms {
+        return Ok(());
+    }
+    let round = watch
+        .honest
+        .iter()
+        .map(|&r| {
+            let s = ledger.head_state(r);
+            (s.round, s.rounds_timed_out)
+        })
+        .max()
+        .unwrap_or((0, 0));
+    match watch.round_at_heal {
+        None => watch.round_at_heal = Some(round.0 + round.1),
+        Some(r0) => watch.live |= round.0 + round.1 > r0,
+    }
+    if watch.liveness_checked && !watch.live && now_ms > watch.heal_ms + LIVENESS_MS {
+        return Err((
+            "liveness",
+            format!(
+                "no round closed within {} s after the last heal at {} s",
+                LIVENESS_MS / 1000,
+                watch.heal_ms / 1000
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// *Validity* at the end: every honest node's whole chain passes the full check.
+fn final_chains_valid(ledger: &Ledger, honest: &[RobotId]) -> Result<(), String> {
+    for &r in honest {
+        if let Err(e) = ledger.check_chain(r) {
+            return Err(format!("node {r}'s chain fails the full check: {e}"));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
