@@ -11,8 +11,8 @@ use super::index::{BlockRow, RunIndex};
 use super::sidecar::Sidecar;
 use crate::byzantine;
 use crate::config::Config;
-use crate::contract::{Call, Outcome, Verdict};
-use crate::ledger::BlockHash;
+use crate::contract::{Call, ContractState, Outcome, Submission, Verdict};
+use crate::ledger::{BlockEntry, BlockHash};
 use crate::log::LogReader;
 use crate::metrics::LearnReport;
 use crate::replay::{header_config, ReplayError};
@@ -215,18 +215,16 @@ pub fn block_report(
         .expect("the index was made for this block");
     let canonical: std::collections::BTreeSet<BlockHash> =
         index.chain.iter().map(|r| r.hash).collect();
-    report_at(
-        &ReportInput {
-            path: &index.path,
-            config: &index.config,
-            byzantine: &index.byzantine,
-            canonical: &canonical,
-            row: &index.chain[height as usize],
-            state,
-            learned,
-        },
-        robot,
-    )
+    ReportInput {
+        path: &index.path,
+        config: &index.config,
+        byzantine: &index.byzantine,
+        canonical: &canonical,
+        row: &index.chain[height as usize],
+        state,
+        learned,
+    }
+    .report(robot)
 }
 
 /// Everything a block report is made from.
@@ -240,163 +238,184 @@ struct ReportInput<'a> {
     learned: &'a LastLearning,
 }
 
-fn report_at(input: &ReportInput<'_>, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
-    let ReportInput {
-        path,
-        config,
-        byzantine,
-        canonical,
-        row,
-        state,
-        learned,
-    } = *input;
-    let robots = config.world.robots;
-    if let Some(r) = robot {
-        if r >= robots {
-            return Err(InspectError::NoRobot { robot: r, robots });
+impl ReportInput<'_> {
+    /// The report, with `robot`'s view when asked for.
+    fn report(&self, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
+        let robots = self.config.world.robots;
+        if let Some(r) = robot {
+            if r >= robots {
+                return Err(InspectError::NoRobot { robot: r, robots });
+            }
+        }
+        let row = self.row;
+        // The block was sealed by then, so the state's own ledger has it and its transactions.
+        let entry =
+            self.state
+                .ledger
+                .block(&row.hash)
+                .ok_or_else(|| InspectError::Inconsistent {
+                    path: self.path.to_string(),
+                    message: format!("block {} is not known at its sealing", row.hash.short()),
+                })?;
+        let header = &entry.block.header;
+        Ok(BlockReport {
+            log: self.path.to_string(),
+            block: BlockInfo {
+                height: row.height,
+                hash: row.hash.to_hex(),
+                parent: header.parent.to_hex(),
+                time_s: row.time.secs(),
+                signer: (row.height > 0).then_some(header.signer),
+                difficulty: header.difficulty,
+                total_difficulty: entry.total_difficulty,
+                chain_bytes: entry.chain_bytes,
+                record: row.record,
+                txs: self.txs(entry),
+            },
+            contract: self.contract(&entry.state),
+            nodes: (0..robots).map(|r| self.node(r)).collect(),
+            world: WorldInfo {
+                time_s: self.state.world.time().secs(),
+                robots: (0..robots).map(|r| self.robot(r)).collect(),
+            },
+            robot: robot.map(|r| self.view(r)),
+        })
+    }
+
+    /// Tokens of `units`.
+    fn tokens(&self, units: u64) -> f64 {
+        units as f64 / self.config.contract.token_units as f64
+    }
+
+    /// Whether robot `r` is Byzantine.
+    fn byz(&self, r: RobotId) -> bool {
+        self.byzantine.get(r as usize).copied().unwrap_or(false)
+    }
+
+    /// The block's transactions with their outcomes.
+    fn txs(&self, entry: &BlockEntry) -> Vec<TxInfo> {
+        entry
+            .block
+            .txs
+            .iter()
+            .zip(entry.receipts.iter())
+            .map(|(h, outcome)| {
+                let tx = self.state.ledger.tx(h).map(|t| t.tx.clone());
+                let (sender, value, call) = match tx.as_deref() {
+                    Some(t) => (
+                        t.sender,
+                        t.value_units,
+                        match &t.call {
+                            Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
+                            Call::Transfer { to, amount_units } => {
+                                format!("transfer(to={to}, {} tokens)", self.tokens(*amount_units))
+                            }
+                        },
+                    ),
+                    None => (RobotId::MAX, 0, "?".to_string()),
+                };
+                TxInfo {
+                    hash: h.to_hex(),
+                    sender,
+                    byzantine: self.byz(sender),
+                    call,
+                    value_tokens: self.tokens(value),
+                    outcome: outcome.name().to_string(),
+                    detail: outcome_detail(outcome),
+                }
+            })
+            .collect()
+    }
+
+    /// A counted submission.
+    fn submission(&self, s: &Submission) -> SubmissionInfo {
+        SubmissionInfo {
+            sender: s.sender,
+            byzantine: self.byz(s.sender),
+            samples: s.samples,
+            distance_units: s.distance_units,
+            stake_tokens: self.tokens(s.stake_units),
+            verdict: match s.verdict {
+                Verdict::Accepted => "accepted",
+                Verdict::Outlier => "outlier",
+            }
+            .to_string(),
         }
     }
-    let height = row.height;
-    let tokens = |units: u64| units as f64 / config.contract.token_units as f64;
-    // The block was sealed by then, so the state's own ledger has it and its transactions.
-    let final_ledger = &state.ledger;
-    let entry = final_ledger
-        .block(&row.hash)
-        .ok_or_else(|| InspectError::Inconsistent {
-            path: path.to_string(),
-            message: format!("block {} is not known at its sealing", row.hash.short()),
-        })?;
-    let header = &entry.block.header;
-    let byz = |r: RobotId| byzantine.get(r as usize).copied().unwrap_or(false);
-    let txs = entry
-        .block
-        .txs
-        .iter()
-        .zip(entry.receipts.iter())
-        .map(|(h, outcome)| {
-            let tx = final_ledger.tx(h).map(|t| t.tx.clone());
-            let (sender, value, call) = match tx.as_deref() {
-                Some(t) => (
-                    t.sender,
-                    t.value_units,
-                    match &t.call {
-                        Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
-                        Call::Transfer { to, amount_units } => {
-                            format!("transfer(to={to}, {} tokens)", tokens(*amount_units))
-                        }
-                    },
-                ),
-                None => (RobotId::MAX, 0, "?".to_string()),
-            };
-            TxInfo {
-                hash: h.to_hex(),
-                sender,
-                byzantine: byz(sender),
-                call,
-                value_tokens: tokens(value),
-                outcome: outcome.name().to_string(),
-                detail: outcome_detail(outcome),
-            }
-        })
-        .collect();
-    let submission = |s: &crate::contract::Submission| SubmissionInfo {
-        sender: s.sender,
-        byzantine: byz(s.sender),
-        samples: s.samples,
-        distance_units: s.distance_units,
-        stake_tokens: tokens(s.stake_units),
-        verdict: match s.verdict {
-            Verdict::Accepted => "accepted",
-            Verdict::Outlier => "outlier",
-        }
-        .to_string(),
-    };
-    let cs = &entry.state;
-    let contract = ContractInfo {
-        round: cs.round,
-        model_digest: cs.weights_digest.to_hex(),
-        balances: cs
-            .balances
-            .iter()
-            .enumerate()
-            .map(|(r, &u)| BalanceInfo {
-                robot: r as RobotId,
-                tokens: tokens(u),
-                byzantine: byz(r as RobotId),
-            })
-            .collect(),
-        pool_tokens: tokens(cs.holdings_units),
-        submissions: cs.submissions.iter().map(submission).collect(),
-        last_round: cs.last_round.as_ref().map(|s| RoundInfo {
-            round: s.round + 1,
-            submissions: s.submissions.iter().map(submission).collect(),
-            pool_tokens: tokens(s.pool_units),
-            carried_tokens: tokens(s.carried_units),
-            payouts: s
-                .payouts
+
+    /// The contract state after the block.
+    fn contract(&self, cs: &ContractState) -> ContractInfo {
+        ContractInfo {
+            round: cs.round,
+            model_digest: cs.weights_digest.to_hex(),
+            balances: cs
+                .balances
                 .iter()
-                .map(|p| (p.robot, p.rank, p.reward_weight, tokens(p.units)))
+                .enumerate()
+                .map(|(r, &u)| BalanceInfo {
+                    robot: r as RobotId,
+                    tokens: self.tokens(u),
+                    byzantine: self.byz(r as RobotId),
+                })
                 .collect(),
-        }),
-    };
-    let node_info = |r: RobotId| {
-        let (head, h) = state.ledger.head(r);
+            pool_tokens: self.tokens(cs.holdings_units),
+            submissions: cs.submissions.iter().map(|s| self.submission(s)).collect(),
+            last_round: cs.last_round.as_ref().map(|s| RoundInfo {
+                round: s.round + 1,
+                submissions: s.submissions.iter().map(|x| self.submission(x)).collect(),
+                pool_tokens: self.tokens(s.pool_units),
+                carried_tokens: self.tokens(s.carried_units),
+                payouts: s
+                    .payouts
+                    .iter()
+                    .map(|p| (p.robot, p.rank, p.reward_weight, self.tokens(p.units)))
+                    .collect(),
+            }),
+        }
+    }
+
+    /// Node `r`'s head.
+    fn node(&self, r: RobotId) -> NodeInfo {
+        let (head, h) = self.state.ledger.head(r);
         NodeInfo {
             node: r,
             head: head.to_hex(),
             height: h,
-            on_final_chain: canonical.contains(&head),
+            on_final_chain: self.canonical.contains(&head),
         }
-    };
-    let robot_info = |r: RobotId| {
-        let pose = state.world.poses()[r as usize];
+    }
+
+    /// Robot `r` in the world.
+    fn robot(&self, r: RobotId) -> RobotInfo {
+        let world = &self.state.world;
+        let pose = world.poses()[r as usize];
         RobotInfo {
             robot: r,
-            byzantine: byz(r),
+            byzantine: self.byz(r),
             x: pose.x,
             y: pose.y,
             theta: pose.theta,
-            peers: state.world.peers(r).len(),
-            dataset: state.world.dataset_len(r),
+            peers: world.peers(r).len(),
+            dataset: world.dataset_len(r),
         }
-    };
-    let view = robot.map(|r| {
-        let own = state.ledger.head_state(r);
+    }
+
+    /// Robot `r`'s own view.
+    fn view(&self, r: RobotId) -> RobotView {
+        let own = self.state.ledger.head_state(r);
         RobotView {
             robot: r,
-            byzantine: byz(r),
-            node: node_info(r),
+            byzantine: self.byz(r),
+            node: self.node(r),
             round: own.round,
-            balance_tokens: tokens(own.balances[r as usize]),
-            world: robot_info(r),
-            peers: state.world.peers(r).to_vec(),
-            last_learning: learned[r as usize]
+            balance_tokens: self.tokens(own.balances[r as usize]),
+            world: self.robot(r),
+            peers: self.state.world.peers(r).to_vec(),
+            last_learning: self.learned[r as usize]
                 .as_ref()
                 .map(|(t, report)| (t.secs(), describe_learning(report))),
         }
-    });
-    Ok(BlockReport {
-        log: path.to_string(),
-        block: BlockInfo {
-            height,
-            hash: row.hash.to_hex(),
-            parent: header.parent.to_hex(),
-            time_s: row.time.secs(),
-            signer: (height > 0).then_some(header.signer),
-            difficulty: header.difficulty,
-            total_difficulty: entry.total_difficulty,
-            chain_bytes: entry.chain_bytes,
-            record: row.record,
-            txs,
-        },
-        contract,
-        nodes: (0..robots).map(node_info).collect(),
-        world: WorldInfo {
-            time_s: state.world.time().secs(),
-            robots: (0..robots).map(robot_info).collect(),
-        },
-        robot: view,
-    })
+    }
 }
 
 fn outcome_detail(outcome: &Outcome) -> String {
@@ -499,16 +518,14 @@ pub fn block_report_indexed(
         record,
         node_heights: Vec::new(),
     };
-    report_at(
-        &ReportInput {
-            path: &name,
-            config: &config,
-            byzantine: &byzantine::byzantine_robots(&config, seed),
-            canonical: &canonical,
-            row: &row,
-            state: &state,
-            learned: &learned,
-        },
-        robot,
-    )
+    ReportInput {
+        path: &name,
+        config: &config,
+        byzantine: &byzantine::byzantine_robots(&config, seed),
+        canonical: &canonical,
+        row: &row,
+        state: &state,
+        learned: &learned,
+    }
+    .report(robot)
 }
