@@ -15,7 +15,7 @@ use crate::log::LogReader;
 use crate::metrics;
 use crate::replay::{self, header_config, ReplayError};
 use crate::sim::State;
-use crate::types::SimTime;
+use crate::types::{RobotId, SimTime};
 
 /// One block of the final canonical chain, as seen while folding.
 #[derive(Clone, Debug)]
@@ -70,10 +70,77 @@ pub struct RunIndex {
 /// The full state right after a block's sealing, with each robot's last learning report.
 pub type StateAtBlock = (State, LastLearning);
 
+/// A block's sealing, as seen while folding.
 struct Sealed {
     record: u64,
     time: SimTime,
     node_heights: Vec<u64>,
+}
+
+/// What the fold notes at block checkpoints.
+struct Sealings {
+    /// The swarm size.
+    robots: u32,
+    /// The height whose state is kept ([`index_run`]'s `want`).
+    want: Option<u64>,
+    /// Every sealed block.
+    sealed: BTreeMap<BlockHash, Sealed>,
+    /// Chain sizes per node, at every sealing.
+    chain_bytes: Vec<ChainBytesRow>,
+    /// The state after each block sealed at height `want` (one per competing fork).
+    candidates: BTreeMap<BlockHash, StateAtBlock>,
+}
+
+impl Sealings {
+    /// Notes the sealing of `height` by `node` that the checkpoint at record `index` (time
+    /// `time`) announces, after checking that the node's head is that block.
+    fn note(
+        &mut self,
+        state: &State,
+        learned: &LastLearning,
+        name: &str,
+        index: u64,
+        time: SimTime,
+        (node, height): (RobotId, u64),
+    ) -> Result<(), InspectError> {
+        let robots = self.robots;
+        if node >= robots {
+            return Err(inconsistent(name, index, "names a node out of the swarm"));
+        }
+        let (hash, head_height) = state.ledger.head(node);
+        if head_height != height {
+            return Err(inconsistent(
+                name,
+                index,
+                &format!(
+                    "says node {node} sealed height {height}, but its head is at {head_height}"
+                ),
+            ));
+        }
+        let node_heights: Vec<u64> = (0..robots).map(|r| state.ledger.head(r).1).collect();
+        self.chain_bytes.push(ChainBytesRow {
+            time,
+            bytes: (0..robots)
+                .map(|r| {
+                    let head = state.ledger.head(r).0;
+                    state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
+                })
+                .collect(),
+        });
+        self.sealed.insert(
+            hash,
+            Sealed {
+                record: index,
+                time,
+                node_heights,
+            },
+        );
+        if self.want == Some(height) {
+            self.candidates
+                .insert(hash, (state.clone(), learned.clone()));
+        }
+        Ok(())
+    }
 }
 
 /// Folds the whole log at `path` (checking every checkpoint) and indexes its final canonical
@@ -92,10 +159,14 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         source,
     })?;
     let robots = config.world.robots;
-    let mut sealed: BTreeMap<BlockHash, Sealed> = BTreeMap::new();
-    let mut chain_bytes = Vec::new();
+    let mut seen = Sealings {
+        robots,
+        want,
+        sealed: BTreeMap::new(),
+        chain_bytes: Vec::new(),
+        candidates: BTreeMap::new(),
+    };
     let mut learned: LastLearning = vec![None; robots as usize];
-    let mut candidates: BTreeMap<BlockHash, StateAtBlock> = BTreeMap::new();
     let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
     let mut truncated = None;
     loop {
@@ -118,38 +189,14 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         }
         if let Record::Checkpoint(expected) = &record {
             if let CheckpointCause::Block { node, height } = expected.cause {
-                if node >= robots {
-                    return Err(inconsistent(&name, index, "names a node out of the swarm"));
-                }
-                let (hash, head_height) = state.ledger.head(node);
-                if head_height != height {
-                    return Err(inconsistent(
-                            &name,
-                            index,
-                            &format!("says node {node} sealed height {height}, but its head is at {head_height}"),
-                        ));
-                }
-                let node_heights: Vec<u64> = (0..robots).map(|r| state.ledger.head(r).1).collect();
-                chain_bytes.push(ChainBytesRow {
-                    time: expected.time,
-                    bytes: (0..robots)
-                        .map(|r| {
-                            let head = state.ledger.head(r).0;
-                            state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
-                        })
-                        .collect(),
-                });
-                sealed.insert(
-                    hash,
-                    Sealed {
-                        record: index,
-                        time: expected.time,
-                        node_heights,
-                    },
-                );
-                if want == Some(height) {
-                    candidates.insert(hash, (state.clone(), learned.clone()));
-                }
+                seen.note(
+                    &state,
+                    &learned,
+                    &name,
+                    index,
+                    expected.time,
+                    (node, height),
+                )?;
             }
         }
     }
@@ -157,6 +204,46 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         Some(footer) => footer.records,
         None => reader.index(),
     };
+    let chain = final_chain(&state, &seen, truncated.is_some(), &name)?;
+    let last = chain.len() as u64 - 1;
+    let at_block = match want {
+        None => None,
+        Some(h) if h > last => {
+            return Err(InspectError::BlockPastEnd {
+                path: name,
+                block: h,
+                last,
+            })
+        }
+        Some(0) => genesis_state,
+        Some(h) => Some(
+            seen.candidates
+                .remove(&chain[h as usize].hash)
+                .expect("every block sealed at the height asked for was kept"),
+        ),
+    };
+    Ok(RunIndex {
+        path: name,
+        byzantine: byzantine::byzantine_robots(&config, seed),
+        config,
+        seed,
+        chain,
+        final_state: state,
+        records,
+        chain_bytes: seen.chain_bytes,
+        at_block,
+        truncated,
+    })
+}
+
+/// The rows of the final canonical chain (the best node's at the end of the fold) from the
+/// sealings seen; with `truncated`, it ends at the last block whose checkpoint is in the log.
+fn final_chain(
+    state: &State,
+    seen: &Sealings,
+    truncated: bool,
+    name: &str,
+) -> Result<Vec<BlockRow>, InspectError> {
     let best = metrics::best_node(&state.ledger);
     let mut chain = Vec::new();
     for (height, hash) in state.ledger.canonical_chain(best).iter().enumerate() {
@@ -164,7 +251,7 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
             .ledger
             .block(hash)
             .ok_or_else(|| InspectError::Inconsistent {
-                path: name.clone(),
+                path: name.to_string(),
                 message: format!("canonical block {} is not stored", hash.short()),
             })?;
         let row = if height == 0 {
@@ -173,21 +260,24 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
                 hash: *hash,
                 time: SimTime(0),
                 record: None,
-                node_heights: vec![0; robots as usize],
+                node_heights: vec![0; seen.robots as usize],
             }
         } else {
-            if truncated.is_some() && !sealed.contains_key(hash) {
+            if truncated && !seen.sealed.contains_key(hash) {
                 // The cut fell between a block's sealing and its checkpoint: the chain of the
                 // intact prefix ends at its parent.
                 break;
             }
-            let s = sealed.get(hash).ok_or_else(|| InspectError::Inconsistent {
-                path: name.clone(),
-                message: format!(
-                    "canonical block {} at height {height} has no sealing checkpoint",
-                    hash.short()
-                ),
-            })?;
+            let s = seen
+                .sealed
+                .get(hash)
+                .ok_or_else(|| InspectError::Inconsistent {
+                    path: name.to_string(),
+                    message: format!(
+                        "canonical block {} at height {height} has no sealing checkpoint",
+                        hash.short()
+                    ),
+                })?;
             BlockRow {
                 height: height as u64,
                 hash: *hash,
@@ -202,35 +292,7 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         );
         chain.push(row);
     }
-    let last = chain.len() as u64 - 1;
-    let at_block = match want {
-        None => None,
-        Some(h) if h > last => {
-            return Err(InspectError::BlockPastEnd {
-                path: name,
-                block: h,
-                last,
-            })
-        }
-        Some(0) => genesis_state,
-        Some(h) => Some(
-            candidates
-                .remove(&chain[h as usize].hash)
-                .expect("every block sealed at the height asked for was kept"),
-        ),
-    };
-    Ok(RunIndex {
-        path: name,
-        byzantine: byzantine::byzantine_robots(&config, seed),
-        config,
-        seed,
-        chain,
-        final_state: state,
-        records,
-        chain_bytes,
-        at_block,
-        truncated,
-    })
+    Ok(chain)
 }
 
 fn inconsistent(path: &str, index: u64, what: &str) -> InspectError {
