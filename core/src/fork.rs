@@ -148,74 +148,12 @@ pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan
             seed,
         });
     }
-    let blocks = match inspect::read_sidecar(parent) {
-        Some(sidecar) => sidecar.blocks,
-        None => inspect::index_run(parent, None)?
-            .chain
-            .iter()
-            .map(|r| (r.height, r.hash, r.record))
-            .collect(),
-    };
-    let last = blocks.len() as u64 - 1;
-    if height > last {
-        return Err(InspectError::BlockPastEnd {
-            path: name,
-            block: height,
-            last,
-        }
-        .into());
-    }
-    let record = blocks[height as usize]
-        .2
-        .expect("blocks after genesis have a sealing record");
-    let sealed_at = loop {
-        let Some(r) = reader.next_record().map_err(ReplayError::from)? else {
-            return Err(InspectError::Inconsistent {
-                path: name,
-                message: format!("the log ends before record {record} named by its index"),
-            }
-            .into());
-        };
-        if reader.index() - 1 == record {
-            break r.time();
-        }
-    };
+    let record = sealing_record(parent, &name, height)?;
+    let sealed_at = record_time(&mut reader, &name, record)?;
     let tick_ms = (root.run.tick_s * 1000.0).round() as u64;
     let at = SimTime(sealed_at.0.div_ceil(tick_ms) * tick_ms);
-
-    // The parent's reconfigurations up to the fork point stay; later ones are not in the
-    // fork's history.
-    let mut reconfigurations: Vec<Reconfiguration> = parent_header
-        .parent
-        .as_ref()
-        .map(|p| p.reconfigurations.clone())
-        .unwrap_or_default();
-    reconfigurations.retain(|r| r.at_ms <= at.0);
-    let mut current = root.clone();
-    for r in &reconfigurations {
-        current = crate::sim::parse_config(&r.config_toml, "a reconfiguration of the parent")
-            .map_err(|reason| ForkError::Override {
-                path: name.clone(),
-                height,
-                reason,
-            })?;
-    }
-    let override_error = |reason| ForkError::Override {
-        path: name.clone(),
-        height,
-        reason,
-    };
-    let mut config = current.clone();
-    for o in overrides {
-        config.set(o).map_err(override_error)?;
-    }
-    config.validate().map_err(override_error)?;
-    let changed = current
-        .check_reconfiguration(&config)
-        .map_err(override_error)?;
-    if changed.is_empty() {
-        return Err(ForkError::NoChange { path: name, height });
-    }
+    let (mut reconfigurations, current) = config_at(&root, &parent_header, at, &name, height)?;
+    let (config, changed) = overridden(&current, overrides, &name, height)?;
     let end_ms = current.ticks() * tick_ms;
     if at.0 >= end_ms {
         return Err(ForkError::NothingLeft {
@@ -260,6 +198,108 @@ pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan
         sealed_at,
         at,
     })
+}
+
+/// The record index of the sealing checkpoint of block `height` of the parent's final
+/// canonical chain: from its sidecar index when it fits, otherwise from one fold of the log.
+fn sealing_record(parent: &Path, name: &str, height: u64) -> Result<u64, ForkError> {
+    let blocks = match inspect::read_sidecar(parent) {
+        Some(sidecar) => sidecar.blocks,
+        None => inspect::index_run(parent, None)?
+            .chain
+            .iter()
+            .map(|r| (r.height, r.hash, r.record))
+            .collect(),
+    };
+    let last = blocks.len() as u64 - 1;
+    if height > last {
+        return Err(InspectError::BlockPastEnd {
+            path: name.to_string(),
+            block: height,
+            last,
+        }
+        .into());
+    }
+    Ok(blocks[height as usize]
+        .2
+        .expect("blocks after genesis have a sealing record"))
+}
+
+/// Reads `reader` up to and including record `record` and returns its time.
+fn record_time(
+    reader: &mut LogReader<BufReader<File>>,
+    name: &str,
+    record: u64,
+) -> Result<SimTime, ForkError> {
+    loop {
+        let Some(r) = reader.next_record().map_err(ReplayError::from)? else {
+            return Err(InspectError::Inconsistent {
+                path: name.to_string(),
+                message: format!("the log ends before record {record} named by its index"),
+            }
+            .into());
+        };
+        if reader.index() - 1 == record {
+            return Ok(r.time());
+        }
+    }
+}
+
+/// The parent's reconfigurations up to the fork point `at` (later ones are not in the fork's
+/// history) and the configuration in force there.
+fn config_at(
+    root: &Config,
+    parent_header: &Header,
+    at: SimTime,
+    name: &str,
+    height: u64,
+) -> Result<(Vec<Reconfiguration>, Config), ForkError> {
+    let mut reconfigurations: Vec<Reconfiguration> = parent_header
+        .parent
+        .as_ref()
+        .map(|p| p.reconfigurations.clone())
+        .unwrap_or_default();
+    reconfigurations.retain(|r| r.at_ms <= at.0);
+    let mut current = root.clone();
+    for r in &reconfigurations {
+        current = crate::sim::parse_config(&r.config_toml, "a reconfiguration of the parent")
+            .map_err(|reason| ForkError::Override {
+                path: name.to_string(),
+                height,
+                reason,
+            })?;
+    }
+    Ok((reconfigurations, current))
+}
+
+/// The configuration from the fork point on: `current` with the `overrides`, validated, and the
+/// keys they change (at least one, each allowed to change mid-run).
+fn overridden(
+    current: &Config,
+    overrides: &[String],
+    name: &str,
+    height: u64,
+) -> Result<(Config, Vec<String>), ForkError> {
+    let override_error = |reason| ForkError::Override {
+        path: name.to_string(),
+        height,
+        reason,
+    };
+    let mut config = current.clone();
+    for o in overrides {
+        config.set(o).map_err(override_error)?;
+    }
+    config.validate().map_err(override_error)?;
+    let changed = current
+        .check_reconfiguration(&config)
+        .map_err(override_error)?;
+    if changed.is_empty() {
+        return Err(ForkError::NoChange {
+            path: name.to_string(),
+            height,
+        });
+    }
+    Ok((config, changed))
 }
 
 /// Checks a fork's records against its parent's, byte for byte, up to the new
