@@ -4,7 +4,8 @@
 use serde::Serialize;
 
 use super::index::RunIndex;
-use crate::contract::{Outcome, Verdict};
+use crate::contract::{Outcome, RoundSummary, Verdict};
+use crate::ledger::TxHash;
 
 /// One closed round of the final canonical chain.
 #[derive(Clone, Debug, Serialize)]
@@ -33,7 +34,6 @@ impl RunIndex {
     /// The rounds closed on the final canonical chain, in order.
     pub fn rounds(&self) -> Vec<RoundRow> {
         let ledger = &self.final_state.ledger;
-        let trained = &self.final_state.metrics.trained;
         let mut out = Vec::new();
         let mut round_txs = Vec::new();
         for row in &self.chain {
@@ -45,63 +45,74 @@ impl RunIndex {
                     round_txs.push(*tx_hash);
                 }
                 if let Outcome::Aggregated { round, .. } = outcome {
-                    let (mut weighted, mut samples) = (0.0f64, 0.0f64);
-                    for tx in &round_txs {
-                        if let Some(r) = trained.get(tx) {
-                            if r.val_loss.is_finite() {
-                                weighted += f64::from(r.train_samples) * r.val_loss;
-                                samples += f64::from(r.train_samples);
-                            }
-                        }
-                    }
-                    round_txs.clear();
-                    let summary = entry.state.last_round.as_ref();
+                    let summary = entry.state.last_round.as_deref();
                     let count = |v: Verdict| {
                         summary.map_or(0, |s| {
                             s.submissions.iter().filter(|x| x.verdict == v).count() as u64
                         })
                     };
-                    let per_weight = ledger.params().model_len() as f64
-                        * self.config.contract.weight_scale as f64;
-                    let honest: Vec<f64> = summary
-                        .map(|s| {
-                            s.submissions
-                                .iter()
-                                .filter(|x| {
-                                    x.verdict == Verdict::Accepted
-                                        && !self
-                                            .byzantine
-                                            .get(x.sender as usize)
-                                            .copied()
-                                            .unwrap_or(false)
-                                })
-                                .map(|x| x.distance_units as f64 / per_weight)
-                                .collect()
-                        })
-                        .unwrap_or_default();
-                    let mean_honest_distance = if honest.is_empty() {
-                        f64::NAN
-                    } else {
-                        honest.iter().sum::<f64>() / honest.len() as f64
-                    };
                     out.push(RoundRow {
-                        mean_honest_distance,
+                        mean_honest_distance: self.mean_honest_distance(summary),
                         // The contract counts model versions from 0: the round that closes
                         // version v into v + 1 is round v + 1.
                         round: *round + 1,
                         block: row.height,
                         time_s: row.time.secs(),
-                        loss: if samples > 0.0 {
-                            weighted / samples
-                        } else {
-                            f64::NAN
-                        },
+                        loss: self.paper_loss(&round_txs),
                         accepted: count(Verdict::Accepted),
                         outliers: count(Verdict::Outlier),
                     });
+                    round_txs.clear();
                 }
             }
         }
         out
+    }
+
+    /// The paper metric of a round from its accepted transactions: their models' validation
+    /// losses weighted by training samples (NaN when none is known and finite).
+    fn paper_loss(&self, round_txs: &[TxHash]) -> f64 {
+        let trained = &self.final_state.metrics.trained;
+        let (mut weighted, mut samples) = (0.0f64, 0.0f64);
+        for tx in round_txs {
+            if let Some(r) = trained.get(tx) {
+                if r.val_loss.is_finite() {
+                    weighted += f64::from(r.train_samples) * r.val_loss;
+                    samples += f64::from(r.train_samples);
+                }
+            }
+        }
+        if samples > 0.0 {
+            weighted / samples
+        } else {
+            f64::NAN
+        }
+    }
+
+    /// [`RoundRow::mean_honest_distance`] of a closed round.
+    fn mean_honest_distance(&self, summary: Option<&RoundSummary>) -> f64 {
+        let per_weight = self.final_state.ledger.params().model_len() as f64
+            * self.config.contract.weight_scale as f64;
+        let honest: Vec<f64> = summary
+            .map(|s| {
+                s.submissions
+                    .iter()
+                    .filter(|x| {
+                        x.verdict == Verdict::Accepted
+                            && !self
+                                .byzantine
+                                .get(x.sender as usize)
+                                .copied()
+                                .unwrap_or(false)
+                    })
+                    .map(|x| x.distance_units as f64 / per_weight)
+                    .collect()
+            })
+            .unwrap_or_default();
+        if honest.is_empty() {
+            f64::NAN
+        } else {
+            honest.iter().sum::<f64>() / honest.len() as f64
+        }
     }
 }
