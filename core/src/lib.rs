@@ -22,6 +22,7 @@ pub mod learn;
 pub mod ledger;
 pub mod log;
 pub mod metrics;
+pub mod radio;
 pub mod replay;
 pub mod rng;
 pub mod sim;

@@ -6,25 +6,25 @@
 //! last model that robot trained, with its sample count: each robot writes only its own key,
 //! so a key's Lamport clock is its writer's count of writes, and "newest wins" is "greater
 //! clock wins". [`Stigmergy`] is the reduced state (every replica, the messages in flight);
-//! [`Gossiper`] is the driver side that decides the sends, with the ledger's timing rules
-//! (`ledger::Network`): every gossip round (`run.tick_s`), each robot `a` in id order sends each
-//! peer `b` in ascending order, in one message, the entries whose version `a` holds newer than
-//! `b` (and not already in flight to `b`); a message takes `ceil(bytes * 1000 / bandwidth)` ms
-//! after its directed link is free (1 ms with unlimited bandwidth) and is lost with
-//! `ledger.packet_loss`, drawn per message from `a`'s `Purpose::Stigmergy` stream. The radio
-//! faults act as on the ledger's gossip: partitions (`split`, `isolate`) through the peer sets
-//! the driver passes, loss bursts raise the loss and delays add to the airtime of a message
-//! sent in their window (`faults.rs`).
+//! [`Gossiper`] is the driver side that decides the sends, with the radio's rules
+//! ([`crate::radio`], shared with the ledger's gossip): every gossip round (`run.tick_s`),
+//! each robot `a` in id order sends each peer `b` in ascending order, in one message, the
+//! entries whose version `a` holds newer than `b` (and not already in flight to `b`); a
+//! message takes `ceil(bytes * 1000 / bandwidth)` ms after its directed link is free (1 ms
+//! with unlimited bandwidth) and is lost with `ledger.packet_loss`, drawn per message from
+//! `a`'s `Purpose::Stigmergy` stream. The radio faults act as on the ledger's gossip:
+//! partitions (`split`, `isolate`) through the peer sets the driver passes, loss bursts raise
+//! the loss and delays add to the airtime of a message sent in their window (`faults.rs`).
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
 use super::AggregationEvent;
 use crate::config::Config;
-use crate::faults::FaultSchedule;
-use crate::rng::{self, Purpose, Rng};
+use crate::radio::{Delivery, Message, Radio};
+use crate::rng::Purpose;
 use crate::types::{Digest, RobotId, SimTime};
 
 /// One version of a key: the key (its writer) and the writer's Lamport clock.
@@ -267,21 +267,10 @@ impl Stigmergy {
 #[derive(Clone, Debug)]
 pub struct Gossiper {
     robots: u32,
-    gossip_ms: u64,
-    bandwidth_bytes_per_s: u64,
-    packet_loss: f64,
-    faults: FaultSchedule,
-    loss_rngs: Vec<Rng>,
-    next_gossip: SimTime,
-    batch: VecDeque<AggregationEvent>,
-    batch_time: SimTime,
-    /// Messages in flight by (delivery time, receiver, number): their entries.
-    flights: BTreeMap<(SimTime, RobotId, u64), Vec<EntryId>>,
-    in_flight: BTreeSet<(RobotId, EntryId)>,
-    link_free: BTreeMap<(RobotId, RobotId), SimTime>,
+    /// The gossip rounds, links and messages in flight.
+    radio: Radio<EntryId>,
     /// Per ordered pair, the replica versions last found with nothing to send.
     idle: Vec<Option<(u64, u64)>>,
-    awaiting_send: Option<u64>,
 }
 
 impl Gossiper {
@@ -290,21 +279,8 @@ impl Gossiper {
         let robots = config.world.robots;
         Gossiper {
             robots,
-            gossip_ms: ((config.run.tick_s * 1000.0).round() as u64).max(1),
-            bandwidth_bytes_per_s: config.ledger.bandwidth_bytes_per_s,
-            packet_loss: config.ledger.packet_loss,
-            faults: FaultSchedule::new(&config.faults, robots),
-            loss_rngs: (0..robots)
-                .map(|r| rng::stream(seed, Purpose::Stigmergy, r))
-                .collect(),
-            next_gossip: SimTime(0),
-            batch: VecDeque::new(),
-            batch_time: SimTime(0),
-            flights: BTreeMap::new(),
-            in_flight: BTreeSet::new(),
-            link_free: BTreeMap::new(),
+            radio: Radio::new(config, seed, Purpose::Stigmergy),
             idle: vec![None; (robots as usize) * (robots as usize)],
-            awaiting_send: None,
         }
     }
 
@@ -316,75 +292,40 @@ impl Gossiper {
         until: SimTime,
         peers: &[Vec<RobotId>],
     ) -> Option<(SimTime, AggregationEvent)> {
-        if let Some(seq) = self.awaiting_send.take() {
-            assert!(
-                store.messages_sent() > seq,
-                "the driver did not apply the last Send before polling"
-            );
-        }
+        self.radio.check_applied(store.messages_sent());
         loop {
-            let delivery = self.flights.keys().next().map(|&(t, _, _)| (t, 0u8));
-            let gossip_time = if self.batch.is_empty() {
-                self.next_gossip
-            } else {
-                self.batch_time
-            };
-            let best = match delivery {
-                Some(d) if d <= (gossip_time, 1) => d,
-                _ => (gossip_time, 1),
-            };
-            if best.0 > until {
+            // A delivery comes before a send at the same time.
+            let gossip_time = self.radio.gossip_time();
+            let delivery = self
+                .radio
+                .next_delivery()
+                .filter(|&(t, _)| t <= gossip_time);
+            if delivery.map_or(gossip_time, |(t, _)| t) > until {
                 return None;
             }
-            if best.1 == 0 {
-                let ((at, to, seq), entries) = self.flights.pop_first().expect("a delivery is due");
-                for id in entries {
-                    self.in_flight.remove(&(to, id));
-                }
-                return Some((at, AggregationEvent::Deliver { message: seq }));
+            if delivery.is_some() {
+                let Delivery { at, message, .. } =
+                    self.radio.pop_delivery().expect("a delivery is due");
+                return Some((at, AggregationEvent::Deliver { message }));
             }
-            if self.batch.is_empty() {
-                self.batch_time = self.next_gossip;
-                self.next_gossip = SimTime(self.next_gossip.0 + self.gossip_ms);
+            if self.radio.open_round() {
                 self.gossip_round(store, peers);
-                if self.batch.is_empty() {
-                    continue;
-                }
             }
-            let event = self.batch.pop_front().expect("the batch is not empty");
-            self.register_send(store, &event);
-            return Some((self.batch_time, event));
+            let bytes = |id: &EntryId| store.entry_bytes(id);
+            let Some(send) = self.radio.take_send(store.messages_sent(), bytes) else {
+                continue;
+            };
+            let event = AggregationEvent::Send {
+                from: send.from,
+                to: send.to,
+                entries: send.items,
+                lost: send.lost,
+            };
+            return Some((self.radio.batch_time(), event));
         }
     }
 
-    fn register_send(&mut self, store: &Stigmergy, event: &AggregationEvent) {
-        let AggregationEvent::Send {
-            from,
-            to,
-            entries,
-            lost,
-        } = event
-        else {
-            unreachable!("the gossip batch holds sends only")
-        };
-        let seq = store.messages_sent();
-        self.awaiting_send = Some(seq);
-        let bytes: u64 = entries.iter().map(|id| store.entry_bytes(id)).sum();
-        let airtime_ms = if self.bandwidth_bytes_per_s == 0 {
-            1
-        } else {
-            (bytes * 1000).div_ceil(self.bandwidth_bytes_per_s).max(1)
-        };
-        let airtime_ms = airtime_ms + self.faults.extra_delay_ms(self.batch_time.0);
-        let link = self.link_free.entry((*from, *to)).or_insert(SimTime(0));
-        let start = (*link).max(self.batch_time);
-        let due = SimTime(start.0 + airtime_ms);
-        *link = due;
-        if !lost {
-            self.flights.insert((due, *to, seq), entries.clone());
-        }
-    }
-
+    /// Computes the sends of one gossip round (the radio's round just opened).
     fn gossip_round(&mut self, store: &Stigmergy, peers: &[Vec<RobotId>]) {
         let n = self.robots as usize;
         for a in 0..self.robots {
@@ -408,8 +349,7 @@ impl Gossiper {
                     .iter()
                     .map(|(&key, &clock)| EntryId { key, clock })
                     .filter(|id| {
-                        store.clock_held(b, id.key) < id.clock
-                            && !self.in_flight.contains(&(b, *id))
+                        store.clock_held(b, id.key) < id.clock && !self.radio.is_in_flight(b, id)
                     })
                     .collect();
                 if entries.is_empty() {
@@ -417,17 +357,11 @@ impl Gossiper {
                     continue;
                 }
                 self.idle[slot] = None;
-                let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
-                let lost = self.loss_rngs[a as usize].chance(loss);
-                if !lost {
-                    for id in &entries {
-                        self.in_flight.insert((b, *id));
-                    }
-                }
-                self.batch.push_back(AggregationEvent::Send {
+                let lost = self.radio.draw_loss(a);
+                self.radio.queue(Message {
                     from: a,
                     to: b,
-                    entries,
+                    items: entries,
                     lost,
                 });
             }

@@ -23,9 +23,10 @@
 //!   of it goes in one message per (a, b) and round; nothing is sent (and nothing logged) when
 //!   there is nothing to send. Packet loss is drawn per message from `a`'s
 //!   `Purpose::Network` stream, in send order.
-//! - *Delivery*: a message arrives `ceil(bytes * 1000 / bandwidth)` ms after its link is free
-//!   (FIFO per directed link), at least 1 ms after it is sent; with unlimited bandwidth, 1 ms
-//!   after it is sent, so one hop per gossip round.
+//! - *Delivery* (the rules of [`crate::radio`], shared with the gossip baseline): a message
+//!   arrives `ceil(bytes * 1000 / bandwidth)` ms after its link is free (FIFO per directed
+//!   link), at least 1 ms after it is sent; with unlimited bandwidth, 1 ms after it is sent,
+//!   so one hop per gossip round.
 //! - Simultaneous events come in the order (time, kind, node): deliveries, sealings, sends
 //!   (see [`LedgerEvent::kind_rank`]).
 //! - *Faults* ([`crate::faults`]): a crashed node neither seals nor receives (deliveries due
@@ -35,20 +36,14 @@
 //! - *Withholding* (a Byzantine ledger behaviour): the gossip of a withholding node leaves
 //!   out the blocks its policy hides from the receiver (and everything after them).
 
-use std::collections::{BTreeMap, BTreeSet, VecDeque};
+use std::collections::BTreeSet;
 
 use super::{BlockHash, ItemRef, Ledger, LedgerEvent, TxHash};
 use crate::byzantine::ledger::WithholdPolicy;
 use crate::config::Config;
-use crate::faults::FaultSchedule;
-use crate::rng::{self, Purpose, Rng};
+use crate::radio::{Delivery, Message, Radio};
+use crate::rng::{self, Purpose};
 use crate::types::{RobotId, SimTime};
-
-/// A message waiting for its delivery time.
-#[derive(Clone, Debug)]
-struct Pending {
-    items: Vec<ItemRef>,
-}
 
 /// The sealings due: each node's sealing time on its current head, and the nodes that are up
 /// then, by time. Updated from the ledger's journal of head changes, so a poll looks only at
@@ -88,21 +83,9 @@ struct PairMemo {
 pub struct Network {
     seed: u64,
     robots: u32,
-    gossip_ms: u64,
     wiggle_max_ms: u64,
-    bandwidth_bytes_per_s: u64,
-    packet_loss: f64,
-    loss_rngs: Vec<Rng>,
-    next_gossip: SimTime,
-    /// Sends of the current gossip round, to be returned at `batch_time`.
-    batch: VecDeque<LedgerEvent>,
-    batch_time: SimTime,
-    /// Messages in flight by (delivery time, receiver, number).
-    flights: BTreeMap<(SimTime, RobotId, u64), Pending>,
-    in_flight: BTreeSet<(RobotId, ItemRef)>,
-    /// Per directed link, when it is free again (entries in the past are dropped: a free
-    /// link and a missing one are the same).
-    link_free: BTreeMap<(RobotId, RobotId), SimTime>,
+    /// The gossip rounds, links and messages in flight (and the fault schedule).
+    radio: Radio<ItemRef>,
     /// Per sender `a`, what the gossip remembers of each receiver `b` (ascending): pairs out
     /// of range for a while are forgotten when nothing of theirs is still valid, so memory
     /// follows the links, not the square of the swarm.
@@ -115,9 +98,6 @@ pub struct Network {
     /// receiver, a restart): their items are neither known to it nor in flight any more.
     dropped: Vec<u64>,
     seals: SealSchedule,
-    /// The number the last returned send will get once applied.
-    awaiting_send: Option<u64>,
-    faults: FaultSchedule,
     skews_ms: Vec<i64>,
     withhold: Option<WithholdPolicy>,
 }
@@ -130,19 +110,8 @@ impl Network {
         Network {
             seed,
             robots,
-            gossip_ms: ((config.run.tick_s * 1000.0).round() as u64).max(1),
             wiggle_max_ms: (f64::from(robots / 2 + 1) * l.wiggle_unit_s * 1000.0).round() as u64,
-            bandwidth_bytes_per_s: l.bandwidth_bytes_per_s,
-            packet_loss: l.packet_loss,
-            loss_rngs: (0..robots)
-                .map(|r| rng::stream(seed, Purpose::Network, r))
-                .collect(),
-            next_gossip: SimTime(0),
-            batch: VecDeque::new(),
-            batch_time: SimTime(0),
-            flights: BTreeMap::new(),
-            in_flight: BTreeSet::new(),
-            link_free: BTreeMap::new(),
+            radio: Radio::new(config, seed, Purpose::Network),
             pairs: vec![Vec::new(); robots as usize],
             peer_buffer: Vec::new(),
             rounds: 0,
@@ -151,8 +120,6 @@ impl Network {
                 times: vec![None; robots as usize],
                 ..SealSchedule::default()
             },
-            awaiting_send: None,
-            faults: FaultSchedule::new(&config.faults, robots),
             skews_ms: config.faults.skews_ms(robots),
             withhold: None,
         }
@@ -165,20 +132,10 @@ impl Network {
 
     /// A node restarted: the messages in flight to it are gone (the ledger drops them too).
     pub fn on_restart(&mut self, node: RobotId) {
-        let gone: Vec<_> = self
-            .flights
-            .keys()
-            .filter(|k| k.1 == node)
-            .copied()
-            .collect();
-        for key in gone {
-            self.flights.remove(&key);
-        }
+        self.radio.drop_to(node);
         if let Some(d) = self.dropped.get_mut(node as usize) {
             *d += 1;
         }
-        self.in_flight.retain(|(to, _)| *to != node);
-        self.link_free.retain(|(_, to), _| *to != node);
     }
 
     /// A network that takes over a ledger replayed up to some time (a forked run): gossip
@@ -188,19 +145,11 @@ impl Network {
     /// produced.
     pub fn resume(config: &Config, seed: u64, ledger: &Ledger) -> Network {
         let mut net = Network::new(config, seed);
-        let now = ledger.now().0;
-        net.next_gossip = SimTime(now.div_ceil(net.gossip_ms) * net.gossip_ms);
-        for (seq, _, to, items) in ledger.messages_in_flight() {
-            for item in items {
-                net.in_flight.insert((to, *item));
-            }
-            net.flights.insert(
-                (SimTime(now + 1), to, seq),
-                Pending {
-                    items: items.to_vec(),
-                },
-            );
-        }
+        let flights = ledger
+            .messages_in_flight()
+            .into_iter()
+            .map(|(seq, _, to, items)| (seq, to, items.to_vec()));
+        net.radio.resume(ledger.now(), flights);
         net
     }
 
@@ -274,7 +223,7 @@ impl Network {
         let t = self.seal_time(ledger, node);
         self.seals.times[node as usize] = t;
         if let Some(t) = t {
-            if !self.faults.is_down(node, t.0) {
+            if !self.radio.faults().is_down(node, t.0) {
                 self.seals.due.insert((t, node));
             }
         }
@@ -286,7 +235,7 @@ impl Network {
     fn next_seal_by_scan(&self, ledger: &Ledger) -> Option<(SimTime, RobotId)> {
         (0..self.robots)
             .filter_map(|node| self.seal_time(ledger, node).map(|t| (t, node)))
-            .filter(|&(t, node)| !self.faults.is_down(node, t.0))
+            .filter(|&(t, node)| !self.radio.faults().is_down(node, t.0))
             .min()
     }
 
@@ -299,12 +248,7 @@ impl Network {
         until: SimTime,
         peers: &[Vec<RobotId>],
     ) -> Option<(SimTime, LedgerEvent)> {
-        if let Some(seq) = self.awaiting_send.take() {
-            assert!(
-                ledger.messages_sent() > seq,
-                "the driver did not apply the last Send before polling"
-            );
-        }
+        self.radio.check_applied(ledger.messages_sent());
         assert_eq!(
             ledger.robots(),
             self.robots,
@@ -320,14 +264,9 @@ impl Network {
         );
         loop {
             // Candidates as (time, kind rank, node).
-            let delivery = self.flights.keys().next().map(|&(t, to, _)| (t, 0u8, to));
+            let delivery = self.radio.next_delivery().map(|(t, to)| (t, 0u8, to));
             let seal = self.seals.due.first().map(|&(t, node)| (t, 3u8, node));
-            let gossip_time = if self.batch.is_empty() {
-                self.next_gossip
-            } else {
-                self.batch_time
-            };
-            let gossip = Some((gossip_time, 4u8, 0));
+            let gossip = Some((self.radio.gossip_time(), 4u8, 0));
             let best = [delivery, seal, gossip]
                 .into_iter()
                 .flatten()
@@ -338,17 +277,15 @@ impl Network {
             }
             match best.1 {
                 0 => {
-                    let (key, pending) = self.flights.pop_first().expect("a delivery is due");
-                    for item in &pending.items {
-                        self.in_flight.remove(&(key.1, *item));
-                    }
-                    if self.faults.is_down(key.1, key.0 .0) {
+                    let Delivery { at, to, message } =
+                        self.radio.pop_delivery().expect("a delivery is due");
+                    if self.radio.faults().is_down(to, at.0) {
                         // A crashed receiver: the message is dropped (the ledger forgets it
                         // at the restart).
-                        self.dropped[key.1 as usize] += 1;
+                        self.dropped[to as usize] += 1;
                         continue;
                     }
-                    return Some((key.0, LedgerEvent::Deliver { message: key.2 }));
+                    return Some((at, LedgerEvent::Deliver { message }));
                 }
                 3 => {
                     let node = best.2;
@@ -357,64 +294,28 @@ impl Network {
                     return Some((best.0, LedgerEvent::Seal { node, parent, txs }));
                 }
                 _ => {
-                    if self.batch.is_empty() {
-                        self.batch_time = self.next_gossip;
-                        self.next_gossip = SimTime(self.next_gossip.0 + self.gossip_ms);
+                    if self.radio.open_round() {
                         self.gossip_round(ledger, peers);
-                        if self.batch.is_empty() {
-                            continue;
-                        }
                     }
-                    let event = self.batch.pop_front().expect("the batch is not empty");
-                    self.register_send(ledger, &event);
-                    return Some((self.batch_time, event));
+                    let bytes = |item: &ItemRef| ledger.item_bytes(item);
+                    let Some(send) = self.radio.take_send(ledger.messages_sent(), bytes) else {
+                        continue;
+                    };
+                    let event = LedgerEvent::Send {
+                        from: send.from,
+                        to: send.to,
+                        items: send.items,
+                        lost: send.lost,
+                    };
+                    return Some((self.radio.batch_time(), event));
                 }
             }
         }
     }
 
-    /// Schedules the delivery of a send being returned now.
-    fn register_send(&mut self, ledger: &Ledger, event: &LedgerEvent) {
-        let LedgerEvent::Send {
-            from,
-            to,
-            items,
-            lost,
-        } = event
-        else {
-            unreachable!("the gossip batch holds sends only")
-        };
-        let seq = ledger.messages_sent();
-        self.awaiting_send = Some(seq);
-        let bytes: u64 = items.iter().map(|i| ledger.item_bytes(i)).sum();
-        let airtime_ms = if self.bandwidth_bytes_per_s == 0 {
-            1
-        } else {
-            (bytes * 1000).div_ceil(self.bandwidth_bytes_per_s).max(1)
-        };
-        let airtime_ms = airtime_ms + self.faults.extra_delay_ms(self.batch_time.0);
-        let link = self.link_free.entry((*from, *to)).or_insert(SimTime(0));
-        let start = (*link).max(self.batch_time);
-        let due = SimTime(start.0 + airtime_ms);
-        *link = due;
-        if !lost {
-            self.flights.insert(
-                (due, *to, seq),
-                Pending {
-                    items: items.clone(),
-                },
-            );
-        }
-    }
-
-    /// Computes the sends of one gossip round at `batch_time`.
+    /// Computes the sends of one gossip round (the radio's round just opened).
     fn gossip_round(&mut self, ledger: &Ledger, peers: &[Vec<RobotId>]) {
         self.rounds += 1;
-        // Links free before now are as good as unused.
-        if self.link_free.len() > 4 * self.robots as usize {
-            let now = self.batch_time;
-            self.link_free.retain(|_, free| *free > now);
-        }
         let mut list = std::mem::take(&mut self.peer_buffer);
         for a in 0..self.robots {
             let Some(reach) = peers.get(a as usize) else {
@@ -470,10 +371,7 @@ impl Network {
             self.items_to_send_by_scan(ledger, a, b),
             "the gossip from {a} to {b} differs from a look at the whole mempool"
         );
-        let lost = !items.is_empty() && {
-            let loss = self.faults.loss_at(self.packet_loss, self.batch_time.0);
-            self.loss_rngs[a as usize].chance(loss)
-        };
+        let lost = !items.is_empty() && self.radio.draw_loss(a);
         let memo = self.pair_memo(ledger, a, b);
         memo.forgets = ledger.forgotten_txs(b);
         memo.drops = drops;
@@ -488,12 +386,7 @@ impl Network {
             return;
         }
         memo.idle = None;
-        if !lost {
-            for item in &items {
-                self.in_flight.insert((b, *item));
-            }
-        }
-        self.batch.push_back(LedgerEvent::Send {
+        self.radio.queue(Message {
             from: a,
             to: b,
             items,
@@ -548,9 +441,8 @@ impl Network {
             }
             _ => from = 0,
         }
-        let unseen = |tx: &TxHash| {
-            !ledger.knows_tx(b, tx) && !self.in_flight.contains(&(b, ItemRef::Tx(*tx)))
-        };
+        let unseen =
+            |tx: &TxHash| !ledger.knows_tx(b, tx) && !self.radio.is_in_flight(b, &ItemRef::Tx(*tx));
         let looked_at = again
             .into_iter()
             .chain(ledger.mempool_arrived_from(a, from));
@@ -568,7 +460,7 @@ impl Network {
     fn items_to_send_by_scan(&self, ledger: &Ledger, a: RobotId, b: RobotId) -> Vec<ItemRef> {
         let mut items = self.blocks_to_send(ledger, a, b);
         for tx in ledger.mempool(a) {
-            if !ledger.knows_tx(b, &tx) && !self.in_flight.contains(&(b, ItemRef::Tx(tx))) {
+            if !ledger.knows_tx(b, &tx) && !self.radio.is_in_flight(b, &ItemRef::Tx(tx)) {
                 items.push(ItemRef::Tx(tx));
             }
         }
@@ -598,13 +490,13 @@ impl Network {
                 if self
                     .withhold
                     .as_ref()
-                    .is_some_and(|w| w.hides(ledger, a, b, hash, self.batch_time))
+                    .is_some_and(|w| w.hides(ledger, a, b, hash, self.radio.batch_time()))
                 {
                     // Nothing at or above a hidden block can go.
                     items.clear();
                     continue;
                 }
-                if !self.in_flight.contains(&(b, ItemRef::Block(*hash))) {
+                if !self.radio.is_in_flight(b, &ItemRef::Block(*hash)) {
                     items.push(ItemRef::Block(*hash));
                 }
             }
