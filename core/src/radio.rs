@@ -236,3 +236,141 @@ impl<K: Copy + Ord> Radio<K> {
         self.link_free.retain(|(_, to), _| *to != node);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A radio of 4 robots, 1 s rounds, 1000 bytes/s, no loss, with `delays` (extra ms, from
+    /// s, to s).
+    fn radio(delays: &[(u64, f64, f64)]) -> Radio<u32> {
+        let mut config = Config::default();
+        config.world.robots = 4;
+        config.run.tick_s = 1.0;
+        config.ledger.bandwidth_bytes_per_s = 1000;
+        config.ledger.packet_loss = 0.0;
+        config.faults.delays = delays
+            .iter()
+            .map(|&(extra_ms, start_s, end_s)| crate::faults::Delay {
+                extra_ms,
+                start_s,
+                end_s,
+            })
+            .collect();
+        Radio::new(&config, 1, Purpose::Network)
+    }
+
+    fn send(from: RobotId, to: RobotId, items: &[u32], lost: bool) -> Message<u32> {
+        Message {
+            from,
+            to,
+            items: items.to_vec(),
+            lost,
+        }
+    }
+
+    #[test]
+    fn airtime_is_the_bytes_over_the_bandwidth_rounded_up_and_at_least_one_ms() {
+        for (bytes, bandwidth, expected) in [
+            (0, 0, 1),
+            (1_000_000, 0, 1),
+            (0, 1000, 1),
+            (1, 1000, 1),
+            (1000, 1000, 1000),
+            (1001, 1000, 1001),
+            (1500, 2000, 750),
+            (1, 3, 334),
+        ] {
+            assert_eq!(
+                airtime_ms(bytes, bandwidth),
+                expected,
+                "{bytes} B at {bandwidth} B/s"
+            );
+        }
+    }
+
+    #[test]
+    fn a_link_sends_one_message_at_a_time_and_links_are_independent() {
+        let mut r = radio(&[]);
+        assert!(r.open_round());
+        assert_eq!(r.batch_time(), SimTime(0));
+        r.queue(send(0, 1, &[7], false));
+        r.queue(send(0, 1, &[8], false));
+        r.queue(send(0, 2, &[9], false));
+        assert!(!r.open_round(), "the round still has sends");
+        assert!(r.is_in_flight(1, &7) && r.is_in_flight(1, &8) && r.is_in_flight(2, &9));
+        // 500 bytes each: 500 ms of airtime; the second message on 0 -> 1 waits for the first.
+        for seq in 0..3 {
+            let sent = r.take_send(seq, |_| 500).expect("queued");
+            r.check_applied(seq + 1);
+            assert_eq!(sent.items.len(), 1);
+        }
+        assert_eq!(r.take_send(3, |_| 500), None);
+        let due: Vec<_> = std::iter::from_fn(|| r.pop_delivery()).collect();
+        let at = |ms, to, message| Delivery {
+            at: SimTime(ms),
+            to,
+            message,
+        };
+        assert_eq!(due, vec![at(500, 1, 0), at(500, 2, 2), at(1000, 1, 1)]);
+        assert!(!r.is_in_flight(1, &7) && !r.is_in_flight(2, &9));
+        // The next round starts a period later, on links that are free again.
+        assert!(r.open_round());
+        assert_eq!(r.batch_time(), SimTime(1000));
+        assert_eq!(r.gossip_time(), SimTime(2000));
+    }
+
+    #[test]
+    fn a_lost_message_takes_its_airtime_but_is_never_in_flight() {
+        let mut r = radio(&[]);
+        r.open_round();
+        r.queue(send(0, 1, &[7], true));
+        r.queue(send(0, 1, &[8], false));
+        assert!(!r.is_in_flight(1, &7));
+        r.take_send(0, |_| 300);
+        r.take_send(1, |_| 300);
+        let d = r.pop_delivery().expect("the second message");
+        assert_eq!((d.at, d.message), (SimTime(600), 1));
+        assert_eq!(r.pop_delivery(), None);
+    }
+
+    #[test]
+    fn a_delay_window_adds_to_the_airtime_of_messages_sent_in_it() {
+        let mut r = radio(&[(250, 0.5, 1.5)]);
+        r.open_round();
+        r.queue(send(0, 1, &[1], false));
+        r.take_send(0, |_| 100);
+        r.open_round();
+        r.queue(send(0, 1, &[2], false));
+        r.take_send(1, |_| 100);
+        let due: Vec<_> = std::iter::from_fn(|| r.pop_delivery())
+            .map(|d| d.at)
+            .collect();
+        assert_eq!(due, vec![SimTime(100), SimTime(1000 + 100 + 250)]);
+    }
+
+    #[test]
+    fn a_restart_drops_the_messages_to_the_node_and_a_resume_delivers_at_once() {
+        let mut r = radio(&[]);
+        r.open_round();
+        r.queue(send(0, 1, &[1], false));
+        r.queue(send(0, 2, &[2], false));
+        r.take_send(0, |_| 100);
+        r.take_send(1, |_| 100);
+        r.drop_to(1);
+        assert!(!r.is_in_flight(1, &1) && r.is_in_flight(2, &2));
+        assert_eq!(r.pop_delivery().map(|d| d.to), Some(2));
+        let mut fresh = radio(&[]);
+        fresh.resume(SimTime(2500), [(5, 3, vec![4])]);
+        assert!(fresh.is_in_flight(3, &4));
+        assert_eq!(fresh.gossip_time(), SimTime(3000));
+        assert_eq!(
+            fresh.pop_delivery(),
+            Some(Delivery {
+                at: SimTime(2501),
+                to: 3,
+                message: 5
+            })
+        );
+    }
+}
