@@ -29,7 +29,8 @@ use crate::event::{CheckpointCause, Record};
 use crate::faults::{FaultSchedule, FaultsConfig};
 use crate::ledger::{BlockHash, Ledger};
 use crate::rng::{self, Purpose};
-use crate::sim::{Sim, SimError};
+use crate::sim::Sim;
+use crate::state::SimError;
 use crate::types::RobotId;
 
 /// Blocks at the end of an honest chain that may disagree with the heaviest honest chain once

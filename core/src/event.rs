@@ -1,7 +1,7 @@
 //! The records of a run's log: events that the reducers fold, and the checkpoints that pin the
 //! state they must produce.
 //!
-//! Events are the only inputs of the reduced state ([`crate::sim::State`]): everything random or
+//! Events are the only inputs of the reduced state ([`crate::state::State`]): everything random or
 //! decided by an agent (a wheel command, a sealing, a gossip delivery, a submitted model) is an
 //! event; everything else is derived by the reducers. The log is a boundary: these types are
 //! versioned by [`crate::log::FORMAT_VERSION`].

@@ -26,6 +26,8 @@ pub mod radio;
 pub mod replay;
 pub mod rng;
 pub mod sim;
+pub mod state;
+pub mod summary;
 pub mod types;
 pub mod world;
 

@@ -7,7 +7,8 @@ use std::path::Path;
 use crate::config::{Config, ConfigError};
 use crate::event::{Event, Record};
 use crate::log::{encode_record, Footer, LogError, LogReader};
-use crate::sim::{ApplyError, Sim, SimError, State};
+use crate::sim::Sim;
+use crate::state::{ApplyError, SimError, State};
 use crate::types::{Digest, SimTime};
 
 /// Why a replay failed.

@@ -2,9 +2,9 @@
 //! the reduced [`State`] as it goes.
 //!
 //! Two halves, kept apart on purpose:
-//! - [`State`] is everything the reducers rebuild from events (the world, every node's ledger
-//!   with its contract states, the robots' measurements): replaying a log re-creates it
-//!   bit-exactly without any of the driver's agents.
+//! - [`State`] ([`crate::state`]) is everything the reducers rebuild from events (the world,
+//!   every node's ledger with its contract states, the robots' measurements): replaying a log
+//!   re-creates it bit-exactly without any of the driver's agents.
 //! - [`Sim`] owns the agents that *decide* events from the current state and their own random
 //!   streams: the robots' controllers, the sealing and gossip scheduler ([`Network`]) and the
 //!   learning loop (training, Byzantine forging, submitting). A decision becomes an [`Event`],
@@ -20,21 +20,20 @@
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
-use crate::aggregation::{self, AggregationEvent, AggregationState, AggregationSummary, Gossiper};
+use crate::aggregation::{self, AggregationEvent, Gossiper};
 use crate::byzantine::{self, ledger::LedgerAgents};
-use crate::config::{Aggregation, ByzantineKind, Config, LedgerBehaviour};
-use crate::contract::{Call, ContractParams};
+use crate::config::{Aggregation, ByzantineKind, Config};
+use crate::contract::Call;
 use crate::data::Sample;
-use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration, Record};
+use crate::event::{CheckpointCause, Event, Reconfiguration, Record};
 use crate::faults::FaultSchedule;
 use crate::learn::{self, ModelShape, Spawned, TrainData, TrainJob, TrainOutcome};
-use crate::ledger::{Ledger, LedgerEvent, LedgerStats, Network, Tx};
-use crate::metrics::{
-    self, ContractSummary, LearnAction, LearnReport, Metrics, SkipReason, TokenSummary,
-};
+use crate::ledger::{LedgerEvent, Network, Tx};
+use crate::metrics::{LearnAction, LearnReport, SkipReason};
 use crate::rng::{self, Purpose};
+use crate::state::{SimError, State};
 use crate::types::{Digest, RobotId, SimTime};
-use crate::world::{Controllers, TickEvent, World, WorldError, WorldStats};
+use crate::world::{Controllers, TickEvent, World};
 
 /// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
 /// window in which honest trainings are speculated in parallel. A performance knob only: the
@@ -45,35 +44,6 @@ use crate::world::{Controllers, TickEvent, World, WorldError, WorldStats};
 /// share the cores (`sweep --jobs 2`). Speculating at every tick instead of only when a
 /// training falls due: 16.5 s with 30.4 s of CPU, not kept.
 pub const DEFAULT_LOOKAHEAD_MS: u64 = 10_000;
-
-/// Why a run could not start.
-#[derive(Debug, thiserror::Error)]
-pub enum SimError {
-    /// The world could not be built from the configuration.
-    #[error(transparent)]
-    World(#[from] WorldError),
-    /// The genesis model does not fit the on-chain fixed point.
-    #[error("the initial model does not fit the fixed point: {0}")]
-    Genesis(String),
-    /// A reconfiguration (fork) cannot be applied to this run.
-    #[error("reconfiguration {index} (at {at_ms} ms): {message}")]
-    Reconfiguration {
-        /// Its position in the list, from 0.
-        index: usize,
-        /// Its time.
-        at_ms: u64,
-        /// What is wrong.
-        message: String,
-    },
-}
-
-/// An event that the state cannot fold (only possible with a damaged or foreign log).
-#[derive(Debug, thiserror::Error)]
-pub enum ApplyError {
-    /// The event does not fit the state (wrong robot count, unknown node, ...).
-    #[error("event does not fit the state: {0}")]
-    Invalid(String),
-}
 
 /// The parts of a run whose wall time a [`Profiler`] can attribute.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
@@ -97,21 +67,6 @@ pub trait Profiler: Send {
     fn switch(&mut self, part: Part);
 }
 
-/// The reduced state of a run: everything rebuilt from events by pure reducers.
-#[derive(Clone, Debug)]
-pub struct State {
-    /// The world: poses, sensors, data sets.
-    pub world: World,
-    /// Every node's block tree, head, mempool and contract states.
-    pub ledger: Ledger,
-    /// What the robots measured.
-    pub metrics: Metrics,
-    /// A baseline aggregation's state (`learn.aggregation` other than `chain`; idle otherwise).
-    pub aggregation: AggregationState,
-    /// Digest of the fixed parameters (contract parameters and genesis block).
-    pub params: Digest,
-}
-
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
 /// reconfiguration's); `source_name` names it in errors.
 pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::config::ConfigError> {
@@ -121,313 +76,6 @@ pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::conf
     })?;
     config.validate()?;
     Ok(config)
-}
-
-/// The world's reducer: folds one tick (the world must be at `time`). Independent of the ledger
-/// and metrics, so a fold may run it on its own thread.
-pub fn apply_tick(world: &mut World, time: SimTime, tick: &TickEvent) -> Result<(), ApplyError> {
-    if time != world.time() {
-        return Err(ApplyError::Invalid(format!(
-            "tick at {time} but the world is at {}",
-            world.time()
-        )));
-    }
-    world
-        .try_apply(tick)
-        .map_err(|e| ApplyError::Invalid(e.to_string()))
-}
-
-/// The ledger's and the metrics' reducers: folds a ledger event or a learning report (any other
-/// event needs the whole [`State`]). Independent of the world.
-pub fn apply_ledger_side(
-    ledger: &mut Ledger,
-    metrics: &mut Metrics,
-    time: SimTime,
-    event: &Event,
-) -> Result<(), ApplyError> {
-    match event {
-        Event::Ledger(e) => ledger
-            .apply(time, e)
-            .map(|_| ())
-            .map_err(|e| ApplyError::Invalid(e.to_string())),
-        Event::Learn(report) => {
-            if report.robot >= ledger.robots() {
-                return Err(ApplyError::Invalid(format!(
-                    "learning report of robot {} in a swarm of {}",
-                    report.robot,
-                    ledger.robots()
-                )));
-            }
-            metrics.apply(time, report);
-            Ok(())
-        }
-        Event::Tick(_) | Event::Reconfigure(_) | Event::Aggregation(_) => Err(ApplyError::Invalid(
-            format!("a {} event needs the whole state", event.kind()),
-        )),
-    }
-}
-
-/// The fixed-point genesis model of the run `(config, seed)` (Keras initialisation).
-pub fn genesis_weights(config: &Config, seed: u64) -> Result<Arc<[i64]>, SimError> {
-    let shape = ModelShape::from_config(config);
-    let weights = learn::init_weights(&shape, &mut rng::stream(seed, Purpose::ModelInit, 0));
-    let fixed = learn::to_fixed(&weights, config.contract.weight_scale)
-        .map_err(|e| SimError::Genesis(e.to_string()))?;
-    Ok(Arc::from(fixed))
-}
-
-impl State {
-    /// The state at time 0 of the run `(config, seed)`.
-    pub fn genesis(config: &Config, seed: u64) -> Result<State, SimError> {
-        let world = World::new(config, seed)?;
-        let genesis = genesis_weights(config, seed)?;
-        let aggregation = AggregationState::new(config, genesis.clone());
-        let params = ContractParams::from_config(config, genesis);
-        let mut digest = blake3::Hasher::new();
-        digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
-        let ledger = Ledger::new(config, seed, params);
-        digest.update(&ledger.genesis().0);
-        Ok(State {
-            world,
-            ledger,
-            metrics: Metrics::default(),
-            aggregation,
-            params: digest.finalize().into(),
-        })
-    }
-
-    /// Folds one event (the reducer dispatch). Pure: no I/O, no clock, no globals.
-    pub fn apply(&mut self, time: SimTime, event: &Event) -> Result<(), ApplyError> {
-        match event {
-            Event::Tick(tick) => apply_tick(&mut self.world, time, tick),
-            Event::Reconfigure(change) => self.reconfigure(time, change),
-            Event::Aggregation(e) => self.aggregation.apply(time, e).map_err(ApplyError::Invalid),
-            Event::Ledger(_) | Event::Learn(_) => {
-                apply_ledger_side(&mut self.ledger, &mut self.metrics, time, event)
-            }
-        }
-    }
-
-    /// Folds a reconfiguration: the contract's rules for the blocks sealed after `time`, and
-    /// the fixed-parameter digest that checkpoints pin.
-    fn reconfigure(&mut self, time: SimTime, change: &Reconfiguration) -> Result<(), ApplyError> {
-        if change.at_ms != time.0 || time != self.world.time() {
-            return Err(ApplyError::Invalid(format!(
-                "a reconfiguration for {} ms recorded at {time} when the world is at {}",
-                change.at_ms,
-                self.world.time()
-            )));
-        }
-        let config = parse_config(&change.config_toml, "the reconfiguration")
-            .map_err(|e| ApplyError::Invalid(format!("reconfiguration: {e}")))?;
-        if config.world.robots != self.ledger.robots() {
-            return Err(ApplyError::Invalid(format!(
-                "a reconfiguration to {} robots in a swarm of {}",
-                config.world.robots,
-                self.ledger.robots()
-            )));
-        }
-        let params =
-            ContractParams::from_config(&config, self.ledger.params().genesis_weights.clone());
-        let encoded = rmp_serde::to_vec(&params).expect("contract parameters encode");
-        self.ledger
-            .reconfigure(time.0, params)
-            .map_err(ApplyError::Invalid)?;
-        let mut digest = blake3::Hasher::new();
-        digest.update(&self.params.0);
-        digest.update(&time.0.to_le_bytes());
-        digest.update(&encoded);
-        self.params = digest.finalize().into();
-        Ok(())
-    }
-
-    /// The per-component digests of the current state.
-    pub fn checkpoint(&self, time: SimTime, cause: CheckpointCause) -> Checkpoint {
-        let robots = self.ledger.robots();
-        let mut contract = blake3::Hasher::new();
-        for r in 0..robots {
-            contract.update(&self.ledger.head_state_digest(r).0);
-        }
-        Checkpoint {
-            time,
-            cause,
-            params: self.params,
-            world: self.world.digest(),
-            nodes: (0..robots).map(|r| self.ledger.node_digest(r)).collect(),
-            contract: contract.finalize().into(),
-            metrics: self.metrics.digest(),
-            aggregation: (self.aggregation.kind() != Aggregation::Chain)
-                .then(|| self.aggregation.digest()),
-        }
-    }
-}
-
-/// The ledger section of `summary.json`: the headline figures, then every detail.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct LedgerSummary {
-    /// Highest canonical head over nodes.
-    pub canonical_height: u64,
-    /// Branchings of the block tree.
-    pub forks: u64,
-    /// Reorganisations over all nodes.
-    pub reorgs: u64,
-    /// Most blocks removed by one reorganisation.
-    pub deepest_reorg: u64,
-    /// Median delay from submission until every node knows the transaction, simulated s.
-    pub tx_delay_median_s: f64,
-    /// 95th percentile of the same.
-    pub tx_delay_p95_s: f64,
-    /// Mean encoded size of a model submission, bytes.
-    pub bytes_per_submission: f64,
-    /// Canonical chain size per node over time (every 100 s).
-    pub chain_bytes: Vec<ChainBytesPoint>,
-    /// Everything the ledger measured.
-    pub details: LedgerStats,
-}
-
-/// One point of the chain-size series.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct ChainBytesPoint {
-    /// Simulated time, s.
-    pub time_s: f64,
-    /// Mean over nodes, bytes.
-    pub mean: f64,
-    /// Largest node, bytes.
-    pub max: f64,
-}
-
-impl LedgerSummary {
-    fn new(stats: LedgerStats) -> LedgerSummary {
-        LedgerSummary {
-            canonical_height: stats.canonical_height,
-            forks: stats.forks_seen,
-            reorgs: stats.reorgs,
-            deepest_reorg: stats.deepest_reorg,
-            tx_delay_median_s: stats.propagation.median_s,
-            tx_delay_p95_s: stats.propagation.p95_s,
-            bytes_per_submission: stats.bytes_per_submission,
-            chain_bytes: stats
-                .chain_bytes_samples
-                .iter()
-                .map(|s| ChainBytesPoint {
-                    time_s: s.time_s,
-                    mean: s.mean_bytes,
-                    max: s.max_bytes as f64,
-                })
-                .collect(),
-            details: stats,
-        }
-    }
-}
-
-/// Which robots are Byzantine and how, for `summary.json`.
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct ByzantineSummary {
-    /// Their behaviour.
-    pub kind: ByzantineKind,
-    /// How many.
-    pub count: u32,
-    /// Their ids.
-    pub robots: Vec<RobotId>,
-    /// Their behaviour on the ledger.
-    #[serde(default)]
-    pub ledger: LedgerBehaviour,
-}
-
-/// Figures of a run for `summary.json` (the CLI adds wall-clock figures).
-#[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
-pub struct RunSummary {
-    /// Log format version.
-    pub format: u32,
-    /// The seed.
-    pub seed: u64,
-    /// The preset the configuration started from.
-    pub preset: String,
-    /// blake3 of the resolved configuration's TOML.
-    pub config_hash: String,
-    /// Simulated seconds.
-    pub sim_time_s: f64,
-    /// Number of robots.
-    pub robots: u32,
-    /// Records in the log.
-    pub records: u64,
-    /// Final hash of the log's chain.
-    pub final_hash: String,
-    /// The Byzantine robots.
-    pub byzantine: ByzantineSummary,
-    /// The world's figures.
-    pub world: WorldStats,
-    /// The ledger's figures.
-    pub ledger: LedgerSummary,
-    /// The contract's figures on the final canonical chain.
-    pub contract: ContractSummary,
-    /// Tokens per group at the end.
-    pub tokens: TokenSummary,
-    /// How models were aggregated, token conservation, and bytes sent and stored per robot.
-    #[serde(default)]
-    pub aggregation: AggregationSummary,
-}
-
-impl RunSummary {
-    /// The summary of a finished run.
-    pub fn new(
-        config: &Config,
-        seed: u64,
-        state: &State,
-        records: u64,
-        final_hash: Digest,
-    ) -> RunSummary {
-        let byzantine = byzantine::byzantine_robots(config, seed);
-        let (contract, tokens) = metrics::summarise(
-            config,
-            &state.ledger,
-            &state.metrics,
-            state.world.heldout(),
-            &byzantine,
-        );
-        let (contract, aggregation) = match config.learn.aggregation {
-            Aggregation::Chain => {
-                let summary = aggregation::summary::chain_summary(
-                    config,
-                    &state.ledger.stats(),
-                    contract
-                        .final_heldout_loss
-                        .unwrap_or(contract.heldout_loss_initial),
-                );
-                (contract, summary)
-            }
-            Aggregation::Gossip | Aggregation::Central => aggregation::summary::summarise(
-                config,
-                &state.aggregation,
-                &state.metrics,
-                state.world.heldout(),
-                &byzantine,
-            ),
-        };
-        RunSummary {
-            format: crate::log::FORMAT_VERSION,
-            seed,
-            preset: config.preset.clone(),
-            config_hash: config.hash().to_hex().to_string(),
-            sim_time_s: state.world.time().secs(),
-            robots: config.world.robots,
-            records,
-            final_hash: final_hash.to_hex(),
-            byzantine: ByzantineSummary {
-                kind: config.byzantine.kind,
-                count: config.byzantine.count,
-                robots: (0..config.world.robots)
-                    .filter(|&r| byzantine[r as usize])
-                    .collect(),
-                ledger: config.byzantine.ledger,
-            },
-            world: state.world.stats(),
-            ledger: LedgerSummary::new(state.ledger.stats()),
-            contract,
-            tokens,
-            aggregation,
-        }
-    }
 }
 
 /// A robot's decision for one learning phase, before its transaction is made.
@@ -1377,6 +1025,7 @@ impl Iterator for Sim {
 mod tests {
     use super::*;
     use crate::config::Preset;
+    use crate::event::Checkpoint;
 
     fn short_config() -> Config {
         let mut c = Preset::Smoke.config();

@@ -13,7 +13,8 @@ use swarmfl_core::inspect::InspectError;
 use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::metrics::best_node;
 use swarmfl_core::replay;
-use swarmfl_core::sim::{Sim, State};
+use swarmfl_core::sim::Sim;
+use swarmfl_core::state::State;
 
 fn scratch(name: &str) -> PathBuf {
     let dir = std::env::temp_dir().join(format!("swarmfl-fork-{}-{name}", std::process::id()));

@@ -8,7 +8,8 @@ use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset};
 use swarmfl_core::contract::rules::ALL_RULES;
 use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
-use swarmfl_core::sim::{Sim, State};
+use swarmfl_core::sim::Sim;
+use swarmfl_core::state::State;
 
 use rayon::prelude::*;
 

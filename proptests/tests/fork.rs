@@ -6,7 +6,8 @@
 use proptest::prelude::*;
 use swarmfl_core::config::{ByzantineKind, Config, Preset};
 use swarmfl_core::event::{CheckpointCause, Event, Reconfiguration, Record};
-use swarmfl_core::sim::{Sim, State};
+use swarmfl_core::sim::Sim;
+use swarmfl_core::state::State;
 
 fn base(robots: u32, security: bool) -> Config {
     let mut c = Preset::Smoke.config();

@@ -657,7 +657,7 @@ pub(crate) mod tests {
     use super::*;
     use swarmfl_core::rng::{self, Purpose};
 
-    /// A synthetic summary that follows the schema of `summary.json` (`sim::RunSummary`) exactly, with values
+    /// A synthetic summary that follows the schema of `summary.json` (`summary::RunSummary`) exactly, with values
     /// drawn from the seeded RNG. For tests only: not a result of any run.
     pub(crate) fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> Value {
         let mut r = rng::stream(seed * 1000 + x as u64, Purpose::Dropout, 0);

@@ -7,7 +7,9 @@ use anyhow::Context;
 use swarmfl_core::config::Config;
 use swarmfl_core::event::Record;
 use swarmfl_core::log::{Header, LogWriter};
-use swarmfl_core::sim::{Part, Profiler, RunSummary, Sim};
+use swarmfl_core::sim::{Part, Profiler, Sim};
+use swarmfl_core::state::State;
+use swarmfl_core::summary::RunSummary;
 
 use crate::progress::Progress;
 
@@ -162,7 +164,7 @@ pub fn write_run(
 
 /// Without the `evm` feature no run has an EVM, so no gas to report.
 #[cfg(not(feature = "evm"))]
-fn evm_gas(_state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
+fn evm_gas(_state: &State) -> Option<serde_json::Value> {
     None
 }
 
@@ -170,7 +172,7 @@ fn evm_gas(_state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
 /// by kind (`accepted` = a submission that did not close its round, `aggregated` = the one that
 /// did, `outlier`, the refusals, `deploy`), with mean, min, max and total.
 #[cfg(feature = "evm")]
-fn evm_gas(state: &swarmfl_core::sim::State) -> Option<serde_json::Value> {
+fn evm_gas(state: &State) -> Option<serde_json::Value> {
     let ledger = &state.ledger;
     let head = ledger.head_state(swarmfl_core::metrics::best_node(ledger));
     let evm = head.evm.as_ref()?;

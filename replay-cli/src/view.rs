@@ -24,7 +24,7 @@ use swarmfl_core::event::{CheckpointCause, Record};
 use swarmfl_core::inspect::{self, expr::Env};
 use swarmfl_core::log::{LogError, LogReader};
 use swarmfl_core::replay;
-use swarmfl_core::sim::State;
+use swarmfl_core::state::State;
 use swarmfl_core::world::Obstacle;
 use swarmfl_core::Digest;
 

@@ -16,7 +16,7 @@ use crate::ledger::{BlockEntry, BlockHash};
 use crate::log::LogReader;
 use crate::metrics::LearnReport;
 use crate::replay::{header_config, ReplayError};
-use crate::sim::State;
+use crate::state::State;
 use crate::types::{RobotId, SimTime};
 
 /// What `swarmfl inspect` shows about one block.

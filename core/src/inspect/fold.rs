@@ -11,7 +11,7 @@ use crate::ledger::Ledger;
 use crate::log::LogReader;
 use crate::metrics::{LearnReport, Metrics};
 use crate::replay::{self, ReplayError};
-use crate::sim::State;
+use crate::state::State;
 use crate::types::SimTime;
 
 /// Each robot's last learning report so far, with its time.
@@ -118,11 +118,11 @@ fn fold_side_by_side(
         let worker = scope.spawn(move || {
             for batch in from_reader {
                 for (index, time, tick) in batch {
-                    crate::sim::apply_tick(world, time, &tick)
+                    crate::state::apply_tick(world, time, &tick)
                         .map_err(|source| (index, time, source))?;
                 }
             }
-            Ok::<(), (u64, SimTime, crate::sim::ApplyError)>(())
+            Ok::<(), (u64, SimTime, crate::state::ApplyError)>(())
         });
         let mut batch: TickBatch = Vec::with_capacity(TICK_BATCH);
         let side = LedgerSide {
@@ -186,7 +186,7 @@ fn read_to_meet(
                 time,
                 event: ref event @ (Event::Ledger(_) | Event::Learn(_)),
             } => {
-                crate::sim::apply_ledger_side(side.ledger, side.metrics, time, event).map_err(
+                crate::state::apply_ledger_side(side.ledger, side.metrics, time, event).map_err(
                     |source| ReplayError::Apply {
                         path: name.to_string(),
                         index,

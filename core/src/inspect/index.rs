@@ -14,7 +14,7 @@ use crate::ledger::BlockHash;
 use crate::log::LogReader;
 use crate::metrics;
 use crate::replay::{self, header_config, ReplayError};
-use crate::sim::State;
+use crate::state::State;
 use crate::types::{RobotId, SimTime};
 
 /// One block of the final canonical chain, as seen while folding.

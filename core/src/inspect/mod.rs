@@ -10,7 +10,7 @@
 //! - for every sealed block, remembers the index of its sealing checkpoint, its time and every
 //!   node's head height at that moment (the sealing node's head *is* the new block at its
 //!   checkpoint: a node always seals on its own head);
-//! - for the one height asked for (if any), clones the full [`State`](crate::sim::State) at
+//! - for the one height asked for (if any), clones the full [`State`](crate::state::State) at
 //!   the checkpoint of each block sealed at that height (one per competing fork, usually one),
 //!   and keeps the clone of the block that turns out canonical.
 //!

@@ -22,7 +22,7 @@ use crate::learn::{self, ModelShape, TrainData};
 use crate::log::LogReader;
 use crate::metrics::Metrics;
 use crate::replay::{self, ReplayError};
-use crate::sim::State;
+use crate::state::State;
 use crate::types::{RobotId, SimTime};
 
 /// The state of a baseline run at one checkpoint, reduced to what `inspect` shows.

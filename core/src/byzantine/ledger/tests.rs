@@ -4,7 +4,8 @@
 use super::LedgerBehaviour;
 use crate::config::{Config, Preset};
 use crate::ledger::{LedgerStats, MEMPOOL_MAX, MEMPOOL_PER_SENDER};
-use crate::sim::{Sim, State};
+use crate::sim::Sim;
+use crate::state::State;
 
 /// A small, fast swarm with one or two Byzantine robots behaving as `behaviour` on the ledger.
 fn run(behaviour: LedgerBehaviour, count: u32, duration_s: f64) -> (Config, State) {
