@@ -6,7 +6,7 @@
 //!   every node's ledger with its contract states, the robots' measurements): replaying a log
 //!   re-creates it bit-exactly without any of the driver's agents.
 //! - [`Sim`] owns the agents that *decide* events from the current state and their own random
-//!   streams: the robots' controllers, the sealing and gossip scheduler ([`Network`]) and the
+//!   streams: the robots' controllers, the sealing and gossip scheduler ([`crate::ledger::Network`]) and the
 //!   learning loop (training, Byzantine forging, submitting). A decision becomes an [`Event`],
 //!   the event is folded, then recorded.
 //!
@@ -17,23 +17,29 @@
 //! `Submit` event). Trainings due in the same tick run in parallel and are combined in robot
 //! order.
 
-use std::collections::{BTreeMap, VecDeque};
-use std::sync::Arc;
+mod learning;
+mod protocol;
+mod recorder;
 
-use crate::aggregation::{self, AggregationEvent, Gossiper};
-use crate::byzantine::{self, ledger::LedgerAgents};
-use crate::config::{Aggregation, ByzantineKind, Config};
-use crate::contract::Call;
+use std::collections::{BTreeMap, VecDeque};
+
+use crate::byzantine;
+use crate::config::Config;
 use crate::data::Sample;
 use crate::event::{CheckpointCause, Event, Reconfiguration, Record};
 use crate::faults::FaultSchedule;
-use crate::learn::{self, ModelShape, Spawned, TrainData, TrainJob, TrainOutcome};
-use crate::ledger::{LedgerEvent, Network, Tx};
+use crate::learn::{self, Spawned, TrainData, TrainJob, TrainOutcome};
+use crate::ledger::LedgerEvent;
 use crate::metrics::{LearnAction, LearnReport, SkipReason};
 use crate::rng::{self, Purpose};
 use crate::state::{SimError, State};
 use crate::types::{Digest, RobotId, SimTime};
 use crate::world::{Controllers, TickEvent, World};
+
+use learning::{Learners, Pending, Plan, Waiting};
+use protocol::{Protocol, RadioTick, Submission};
+use recorder::Recorder;
+pub use recorder::{Part, Profiler};
 
 /// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
 /// window in which honest trainings are speculated in parallel. A performance knob only: the
@@ -45,28 +51,6 @@ use crate::world::{Controllers, TickEvent, World};
 /// training falls due: 16.5 s with 30.4 s of CPU, not kept.
 pub const DEFAULT_LOOKAHEAD_MS: u64 = 10_000;
 
-/// The parts of a run whose wall time a [`Profiler`] can attribute.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Part {
-    /// Controllers, physics, sensing, data.
-    World,
-    /// Sealing, gossip, block validation and contract execution.
-    Ledger,
-    /// Local training and forging.
-    Learning,
-    /// State digests for checkpoints.
-    Checkpoint,
-    /// Writing the log (the caller's own work).
-    Log,
-}
-
-/// Receives the driver's part switches; the command-line tool implements it with a clock.
-/// (The core never reads the clock itself.)
-pub trait Profiler: Send {
-    /// From now on, time is spent in `part`.
-    fn switch(&mut self, part: Part);
-}
-
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
 /// reconfiguration's); `source_name` names it in errors.
 pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::config::ConfigError> {
@@ -76,138 +60,6 @@ pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::conf
     })?;
     config.validate()?;
     Ok(config)
-}
-
-/// A robot's decision for one learning phase, before its transaction is made.
-enum Plan {
-    /// A training speculated from the same model: its outcome (waited for when the plans are
-    /// carried out).
-    Ready {
-        spawned: Spawned,
-        base_round: u64,
-    },
-    Train {
-        job: usize,
-        base_round: u64,
-    },
-    Forge {
-        weights: Vec<f32>,
-        samples: u32,
-        base_round: u64,
-    },
-    /// A Byzantine robot's honest training on samples it chose (reported as forged).
-    TrainForged {
-        job: usize,
-        base_round: u64,
-    },
-    Skip {
-        reason: SkipReason,
-        base_round: u64,
-    },
-}
-
-/// A Byzantine robot's learning phase whose attack is waiting (see `byzantine::Action::Wait`).
-#[derive(Clone, Copy)]
-struct Waiting {
-    /// The phase's index (keys its random stream).
-    phase: u64,
-    /// When the phase began: the submission leaves no earlier than this plus the training
-    /// duration.
-    started_ms: u64,
-}
-
-/// A submission waiting for its training to finish (`learn.training_duration_s`).
-struct Pending {
-    report: LearnReport,
-    submission: Option<Submission>,
-}
-
-/// How a model is submitted: a transaction to the contract, or a baseline's write or upload.
-enum Submission {
-    Tx(Tx),
-    Baseline(AggregationEvent),
-}
-
-/// What a robot starts a learning phase from, whatever the aggregation: the shared model at
-/// its own chain's head, its stigmergy merge, or the server's model.
-struct Start {
-    weights: Arc<[i64]>,
-    digest: Digest,
-    round: u64,
-}
-
-impl From<aggregation::StartView> for Start {
-    fn from(view: aggregation::StartView) -> Start {
-        Start {
-            weights: view.weights,
-            digest: view.digest,
-            round: view.round,
-        }
-    }
-}
-
-/// The robots' learning loop: schedule, training, forging, submitting (driver side).
-struct Learners {
-    shape: ModelShape,
-    byzantine: Vec<bool>,
-    /// The Byzantine robots' agent (`None` without Byzantine robots).
-    attack: Option<Box<dyn byzantine::Attack>>,
-    /// Byzantine robots whose attack chose to wait, by robot: the phase it waits in.
-    waiting: BTreeMap<RobotId, Waiting>,
-    next_due_ms: Vec<u64>,
-    phases: Vec<u64>,
-    period_ms: u64,
-    duration_ms: u64,
-    stake_units: u64,
-    /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
-    /// at the same time.
-    pending: BTreeMap<(u64, RobotId, u64), Pending>,
-}
-
-impl Learners {
-    fn new(config: &Config, seed: u64) -> Learners {
-        let period_ms = (config.learn.training_period_s * 1000.0).round().max(1.0) as u64;
-        let robots = config.world.robots;
-        Learners {
-            shape: ModelShape::from_config(config),
-            // Robots that only attack the ledger train honestly.
-            byzantine: if config.byzantine.kind == ByzantineKind::None {
-                vec![false; robots as usize]
-            } else {
-                byzantine::byzantine_robots(config, seed)
-            },
-            attack: byzantine::attack(config.byzantine.kind),
-            waiting: BTreeMap::new(),
-            next_due_ms: (0..robots)
-                .map(|r| rng::stream(seed, Purpose::Schedule, r).below(period_ms))
-                .collect(),
-            phases: vec![0; robots as usize],
-            period_ms,
-            duration_ms: (config.learn.training_duration_s * 1000.0).round() as u64,
-            stake_units: if config.rule().stakes() {
-                config.contract.stake_tokens * config.contract.token_units
-            } else {
-                0
-            },
-            pending: BTreeMap::new(),
-        }
-    }
-}
-
-impl Learners {
-    /// Takes over a new configuration at a fork point: which robots are Byzantine, the
-    /// schedule's period and duration from the next phase on, and the stake.
-    fn reconfigure(&mut self, config: &Config, seed: u64) {
-        let fresh = Learners::new(config, seed);
-        // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
-        self.byzantine = fresh.byzantine;
-        self.attack = fresh.attack;
-        // A phase waited under the old attack ends unsubmitted, without a report.
-        self.waiting.clear();
-        self.period_ms = fresh.period_ms;
-        self.duration_ms = fresh.duration_ms;
-        self.stake_units = fresh.stake_units;
-    }
 }
 
 /// A copy of the world that runs ahead of the reduced state. The world does not depend on the
@@ -239,25 +91,21 @@ struct LookAhead {
 pub struct Sim {
     config: Config,
     seed: u64,
-    state: State,
-    network: Network,
-    /// The stigmergy's gossip scheduler (`learn.aggregation = "gossip"`; idle otherwise).
-    gossiper: Gossiper,
+    /// The reduced state and the records decided but not yet handed out.
+    rec: Recorder,
+    /// The aggregation's agents: what the radio carries, how models are shared.
+    protocol: Protocol,
     ahead: LookAhead,
     learners: Learners,
     tick_ms: u64,
     total_ticks: u64,
     next_tick: u64,
-    queue: VecDeque<Record>,
     genesis_checked: bool,
     finished: bool,
-    profiler: Option<Box<dyn Profiler>>,
     /// Reconfigurations still to come, in time order, with their parsed configurations.
     reconfigurations: VecDeque<(Reconfiguration, Config)>,
     /// The faults of the run (driver side).
     faults: FaultSchedule,
-    /// The Byzantine robots' ledger misbehaviour.
-    agents: LedgerAgents,
 }
 
 impl Sim {
@@ -284,26 +132,19 @@ impl Sim {
             upcoming: BTreeMap::new(),
             speculated: BTreeMap::new(),
         };
-        let agents = LedgerAgents::new(&config, seed);
-        let mut network = Network::new(&config, seed);
-        network.set_withhold(agents.withhold_policy());
         Ok(Sim {
             total_ticks: config.ticks(),
-            network,
-            gossiper: Gossiper::new(&config, seed),
+            protocol: Protocol::new(&config, seed),
             faults: FaultSchedule::new(&config.faults, config.world.robots),
-            agents,
             ahead,
             learners,
             config,
             seed,
-            state,
+            rec: Recorder::new(state),
             tick_ms,
             next_tick: 0,
-            queue: VecDeque::new(),
             genesis_checked: false,
             finished: false,
-            profiler: None,
             reconfigurations: VecDeque::new(),
         })
     }
@@ -364,7 +205,7 @@ impl Sim {
 
     /// Attributes the driver's time to its parts.
     pub fn set_profiler(&mut self, profiler: Box<dyn Profiler>) {
-        self.profiler = Some(profiler);
+        self.rec.profiler = Some(profiler);
     }
 
     /// The configuration.
@@ -379,7 +220,7 @@ impl Sim {
 
     /// The current reduced state.
     pub fn state(&self) -> &State {
-        &self.state
+        &self.rec.state
     }
 
     /// Simulated time reached and total, in milliseconds.
@@ -390,75 +231,43 @@ impl Sim {
         )
     }
 
-    fn switch(&mut self, part: Part) {
-        if let Some(p) = self.profiler.as_mut() {
-            p.switch(part);
-        }
-    }
-
-    fn emit(&mut self, time: SimTime, event: Event) {
-        self.state
-            .apply(time, &event)
-            .unwrap_or_else(|e| panic!("the driver produced an event its own state rejects: {e}"));
-        self.queue.push_back(Record::Event { time, event });
-    }
-
-    fn checkpoint(&mut self, time: SimTime, cause: CheckpointCause) {
-        self.switch(Part::Checkpoint);
-        let c = self.state.checkpoint(time, cause);
-        self.queue.push_back(Record::Checkpoint(c));
-    }
-
     /// Decides, folds and queues the records of the next tick.
     fn advance(&mut self) {
         if !self.genesis_checked {
             self.genesis_checked = true;
-            self.checkpoint(SimTime(0), CheckpointCause::Genesis);
+            self.rec.checkpoint(SimTime(0), CheckpointCause::Genesis);
             return;
         }
         if self.next_tick == self.total_ticks {
-            let end = self.state.world.time();
-            self.checkpoint(end, CheckpointCause::End);
+            let end = self.rec.state.world.time();
+            self.rec.checkpoint(end, CheckpointCause::End);
             self.finished = true;
             return;
         }
         let time = SimTime(self.next_tick * self.tick_ms);
-        self.switch(Part::World);
+        self.rec.switch(Part::World);
         self.run_ahead();
         let tick = self
             .ahead
             .ticks
             .pop_front()
             .expect("the look-ahead world is ahead");
-        self.emit(time, Event::Tick(tick));
+        self.rec.emit(time, Event::Tick(tick));
         self.next_tick += 1;
         let now = SimTime(self.next_tick * self.tick_ms);
-        debug_assert_eq!(now, self.state.world.time());
+        debug_assert_eq!(now, self.rec.state.world.time());
 
-        self.switch(Part::Ledger);
+        self.rec.switch(Part::Ledger);
         let peers = self.peers(now);
-        match self.config.learn.aggregation {
-            Aggregation::Chain => self.ledger_tick(time, now, &peers),
-            Aggregation::Gossip => {
-                while let Some((at, event)) =
-                    self.gossiper
-                        .next_event(&self.state.aggregation.stigmergy, now, &peers)
-                {
-                    self.emit(at, Event::Aggregation(event));
-                }
-            }
-            // The ideal server is not on the radio: uploads and downloads are instant.
-            Aggregation::Central => {}
-        }
-        if self.config.learn.aggregation != Aggregation::Chain
-            && now.0.is_multiple_of(self.period_checkpoint_ms())
-        {
-            // No blocks: a checkpoint every block period pins the state for replay, inspect
-            // and bisect by time.
-            self.checkpoint(now, CheckpointCause::Periodic);
-        }
+        let radio = RadioTick {
+            time,
+            now,
+            peers: &peers,
+            checkpoint_period_ms: self.period_checkpoint_ms(),
+        };
+        self.protocol.tick(&mut self.rec, &self.faults, &radio);
 
-        self.switch(Part::Learning);
+        self.rec.switch(Part::Learning);
         self.learning_phase(now);
         self.release_submissions(now);
         while self
@@ -471,27 +280,6 @@ impl Sim {
         }
     }
 
-    /// The ledger's part of the tick from `time` to `now`: restarts of crashed nodes, the
-    /// sealings, gossip and deliveries due, the Byzantine nodes' injections.
-    fn ledger_tick(&mut self, time: SimTime, now: SimTime, peers: &[Vec<RobotId>]) {
-        for (restart_ms, robot) in self.faults.restart_times(time.0, now.0) {
-            self.ledger_until(SimTime(restart_ms - 1), peers);
-            self.network.on_restart(robot);
-            self.emit(
-                SimTime(restart_ms),
-                Event::Ledger(LedgerEvent::Restart { node: robot }),
-            );
-        }
-        self.ledger_until(now, peers);
-        let faults = &self.faults;
-        let injections = self.agents.on_tick(&self.state.ledger, now, peers, &|r| {
-            faults.is_down(r, now.0)
-        });
-        for event in injections {
-            self.emit(now, Event::Ledger(event));
-        }
-    }
-
     /// The checkpoint period of a run without blocks: the block period, in ms.
     fn period_checkpoint_ms(&self) -> u64 {
         ((self.config.ledger.block_period_s * 1000.0).round() as u64).max(1)
@@ -501,12 +289,12 @@ impl Sim {
     fn peers(&self, now: SimTime) -> Vec<Vec<RobotId>> {
         let robots = self.config.world.robots;
         let mut peers: Vec<Vec<RobotId>> = (0..robots)
-            .map(|r| self.state.world.peers(r).to_vec())
+            .map(|r| self.rec.state.world.peers(r).to_vec())
             .collect();
         if self.faults.cuts_links() {
-            let x: Vec<f64> = self.state.world.poses().iter().map(|p| p.x).collect();
+            let x: Vec<f64> = self.rec.state.world.poses().iter().map(|p| p.x).collect();
             let top = (0..robots)
-                .map(|r| self.state.ledger.head(r).1)
+                .map(|r| self.rec.state.ledger.head(r).1)
                 .max()
                 .unwrap_or(0);
             let in_turn = ((top + 1) % u64::from(robots)) as RobotId;
@@ -515,34 +303,11 @@ impl Sim {
         peers
     }
 
-    /// Applies the ledger events due until `until`: a checkpoint after each sealing, and the
-    /// sealer's misbehaviour right after it, if it is Byzantine on the ledger.
-    fn ledger_until(&mut self, until: SimTime, peers: &[Vec<RobotId>]) {
-        while let Some((at, event)) = self.network.next_event(&self.state.ledger, until, peers) {
-            let sealed = match &event {
-                LedgerEvent::Seal { node, .. } => Some(*node),
-                _ => None,
-            };
-            self.emit(at, Event::Ledger(event));
-            if let Some(node) = sealed {
-                let (head, height) = self.state.ledger.head(node);
-                self.checkpoint(at, CheckpointCause::Block { node, height });
-                self.switch(Part::Ledger);
-                let injections = self
-                    .agents
-                    .after_seal(&self.state.ledger, node, head, at, peers);
-                for event in injections {
-                    self.emit(at, Event::Ledger(event));
-                }
-            }
-        }
-    }
-
     /// Takes over `config` at the end of the tick ending at `now`: the event (the contract's
     /// rules for later blocks), the agents' new settings, a fresh speculation window (the
     /// trainings speculated under the old settings are dropped) and a checkpoint.
     fn reconfigure(&mut self, now: SimTime, change: Reconfiguration, config: Config) {
-        self.emit(now, Event::Reconfigure(change));
+        self.rec.emit(now, Event::Reconfigure(change));
         self.learners.reconfigure(&config, self.seed);
         let a = &mut self.ahead;
         a.speculated.clear();
@@ -560,7 +325,7 @@ impl Sim {
         }
         self.total_ticks = config.ticks();
         self.config = config;
-        self.checkpoint(now, CheckpointCause::Reconfigure);
+        self.rec.checkpoint(now, CheckpointCause::Reconfigure);
     }
 
     /// Advances the look-ahead world to the window's end (at least one tick past the state).
@@ -613,7 +378,7 @@ impl Sim {
             match self.byzantine_plan(r, w, now, last_chance, &mut jobs) {
                 Some(plan) => plans.push((r, w.phase, w.started_ms, plan)),
                 None if last_chance => {
-                    let base_round = self.current(r).round;
+                    let base_round = self.protocol.current(&self.rec.state, r).round;
                     let report = LearnReport {
                         robot: r,
                         base_round,
@@ -621,7 +386,7 @@ impl Sim {
                             reason: SkipReason::Waited,
                         },
                     };
-                    self.emit(now, Event::Learn(report));
+                    self.rec.emit(now, Event::Learn(report));
                 }
                 None => {
                     self.learners.waiting.insert(r, w);
@@ -636,14 +401,7 @@ impl Sim {
             self.learners.next_due_ms[i] += self.learners.period_ms;
             let captured = self.ahead.upcoming.remove(&(due_ms, r));
             let speculated = self.ahead.speculated.remove(&(r, phase));
-            if self.config.learn.aggregation != Aggregation::Chain {
-                // A baseline robot merges its replica (gossip) or downloads the server's model
-                // (central) as its phase begins, Byzantine or not: that is an event.
-                self.emit(
-                    now,
-                    Event::Aggregation(AggregationEvent::Merge { robot: r }),
-                );
-            }
+            self.protocol.phase_begins(&mut self.rec, now, r);
             if self.learners.byzantine[i] {
                 let w = Waiting {
                     phase,
@@ -657,7 +415,7 @@ impl Sim {
                 }
                 continue;
             }
-            let view = self.current(r);
+            let view = self.protocol.current(&self.rec.state, r);
             let base_round = view.round;
             let plan = if let Some(reason) = self.cannot_submit(r, now) {
                 Plan::Skip { reason, base_round }
@@ -666,12 +424,12 @@ impl Sim {
                     Some((captured_phase, samples)) => {
                         debug_assert_eq!(captured_phase, phase);
                         debug_assert!(
-                            samples == self.state.world.dataset(r),
+                            samples == self.rec.state.world.dataset(r),
                             "the look-ahead world diverged"
                         );
                         samples
                     }
-                    None => self.state.world.dataset(r),
+                    None => self.rec.state.world.dataset(r),
                 };
                 let data = TrainData::new(&self.learners.shape, &samples).ok();
                 let trainable = self.trainable(samples.len());
@@ -753,13 +511,12 @@ impl Sim {
     fn cannot_submit(&self, robot: RobotId, now: SimTime) -> Option<SkipReason> {
         if self.faults.is_down(robot, now.0) {
             Some(SkipReason::Crashed)
-        } else if self.config.learn.aggregation == Aggregation::Chain
-            && self.config.rule().stakes()
-            && self.state.ledger.head_state(robot).balances[robot as usize]
-                < self.learners.stake_units
+        } else if self
+            .protocol
+            .lacks_stake(&self.rec.state, robot, self.learners.stake_units)
         {
             Some(SkipReason::InsufficientStake)
-        } else if self.submitted(robot) {
+        } else if self.protocol.submitted(&self.rec.state, robot) {
             Some(SkipReason::AlreadySubmitted)
         } else {
             None
@@ -785,41 +542,6 @@ impl Sim {
         }
     }
 
-    /// Whether `robot`'s model already waits in the open round: on its own chain, or at the
-    /// server. A stigmergy write never waits (each phase overwrites the robot's key).
-    fn submitted(&self, robot: RobotId) -> bool {
-        match self.config.learn.aggregation {
-            Aggregation::Chain => self.state.ledger.head_state(robot).has_submitted(robot),
-            Aggregation::Gossip => false,
-            Aggregation::Central => self.state.aggregation.server.has_pending(robot),
-        }
-    }
-
-    /// What `robot` starts from now: the shared model at its own chain's head, its model after
-    /// its last merge (`gossip`), or the server's model (`central`).
-    fn current(&self, robot: RobotId) -> Start {
-        match self.config.learn.aggregation {
-            Aggregation::Chain => {
-                let head = self.state.ledger.head_state(robot);
-                Start {
-                    weights: head.weights.clone(),
-                    digest: head.weights_digest,
-                    round: head.round,
-                }
-            }
-            _ => Start::from(self.state.aggregation.current(robot)),
-        }
-    }
-
-    /// What `robot` would start from if its phase began now (for speculative training): as
-    /// [`Sim::current`], except that a `gossip` robot would merge its replica as it is now.
-    fn preview(&self, robot: RobotId) -> Start {
-        match self.config.learn.aggregation {
-            Aggregation::Chain => self.current(robot),
-            _ => Start::from(self.state.aggregation.preview(robot)),
-        }
-    }
-
     /// Asks the Byzantine `robot`'s attack what to do in phase `w` now; `None` when it waits.
     /// A training it asks for is added to `jobs`.
     fn byzantine_plan(
@@ -830,19 +552,7 @@ impl Sim {
         last_chance: bool,
         jobs: &mut Vec<TrainJob>,
     ) -> Option<Plan> {
-        // Without a chain, the attack reads the same kind of view built from what the robot
-        // holds: its stigmergy replica, or the server (`AggregationState::attacker_view`).
-        let baseline;
-        let chain = match self.config.learn.aggregation {
-            Aggregation::Chain => self.state.ledger.head_state(robot),
-            Aggregation::Gossip | Aggregation::Central => {
-                baseline = self
-                    .state
-                    .aggregation
-                    .attacker_view(robot, self.state.ledger.current_params());
-                &baseline
-            }
-        };
+        let chain = self.protocol.chain_view(&self.rec.state, robot);
         let base_round = chain.round;
         if let Some(reason) = self.cannot_submit(robot, now) {
             return Some(Plan::Skip { reason, base_round });
@@ -856,11 +566,11 @@ impl Sim {
             robot,
             now_ms: now.0,
             last_chance,
-            chain,
-            params: self.state.ledger.current_params(),
+            chain: &chain,
+            params: self.rec.state.ledger.current_params(),
             weight_scale: self.config.contract.weight_scale,
             coalition: &self.learners.byzantine,
-            world: &self.state.world,
+            world: &self.rec.state.world,
             config: &self.config.byzantine,
             input_waypoints: self.config.data.input_waypoints as usize,
         };
@@ -892,22 +602,11 @@ impl Sim {
     }
 
     /// The submission of `weights` claiming `samples` by `robot` and its identity in the
-    /// learning report: a transaction signed by its own node, or a baseline's write or upload.
+    /// learning report.
     fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> (Digest, Submission) {
-        let weights: Arc<[i64]> = Arc::from(weights);
-        if self.config.learn.aggregation == Aggregation::Chain {
-            let call = Call::SubmitModel { weights, samples };
-            let tx = self
-                .state
-                .ledger
-                .make_tx(robot, self.learners.stake_units, call);
-            return (tx.hash_and_size().0, Submission::Tx(tx));
-        }
-        let a = &self.state.aggregation;
-        (
-            a.next_hash(robot, samples, weights.clone()),
-            Submission::Baseline(a.submission(robot, samples, weights)),
-        )
+        let stake_units = self.learners.stake_units;
+        self.protocol
+            .submission(&self.rec.state, robot, stake_units, weights, samples)
     }
 
     /// The report and submission of a forged model claiming `claimed` samples (a model that
@@ -970,13 +669,16 @@ impl Sim {
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
         {
             debug_assert!(due_ms > now.0, "due phases were taken out");
-            let view = self.preview(r);
+            let view = self.protocol.preview(&self.rec.state, r);
             let unchanged = self
                 .ahead
                 .speculated
                 .get(&(r, *phase))
                 .is_some_and(|(digest, _)| *digest == view.digest);
-            if unchanged || !self.trainable(samples.len()) || self.submitted(r) {
+            if unchanged
+                || !self.trainable(samples.len())
+                || self.protocol.submitted(&self.rec.state, r)
+            {
                 continue;
             }
             let Ok(data) = TrainData::new(&self.learners.shape, samples) else {
@@ -998,12 +700,13 @@ impl Sim {
             }
             let Pending { report, submission } = entry.remove();
             // A training finished between ticks is submitted at the tick that follows.
-            self.emit(now, Event::Learn(report));
+            self.rec.emit(now, Event::Learn(report));
             match submission {
                 Some(Submission::Tx(tx)) => {
-                    self.emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
+                    self.rec
+                        .emit(now, Event::Ledger(LedgerEvent::Submit { tx }));
                 }
-                Some(Submission::Baseline(event)) => self.emit(now, Event::Aggregation(event)),
+                Some(Submission::Baseline(event)) => self.rec.emit(now, Event::Aggregation(event)),
                 None => {}
             }
         }
@@ -1014,10 +717,10 @@ impl Iterator for Sim {
     type Item = Record;
 
     fn next(&mut self) -> Option<Record> {
-        while self.queue.is_empty() && !self.finished {
+        while self.rec.queue.is_empty() && !self.finished {
             self.advance();
         }
-        self.queue.pop_front()
+        self.rec.queue.pop_front()
     }
 }
 

@@ -1,0 +1,120 @@
+//! The robots' learning loop on the driver side: each robot's schedule of learning phases, the
+//! Byzantine robots' attack, and the decisions and submissions of phases under way.
+
+use std::collections::BTreeMap;
+
+use super::protocol::Submission;
+use crate::byzantine;
+use crate::config::{ByzantineKind, Config};
+use crate::learn::{ModelShape, Spawned};
+use crate::metrics::{LearnReport, SkipReason};
+use crate::rng::{self, Purpose};
+use crate::types::RobotId;
+
+/// A robot's decision for one learning phase, before its transaction is made.
+pub(super) enum Plan {
+    /// A training speculated from the same model: its outcome (waited for when the plans are
+    /// carried out).
+    Ready {
+        spawned: Spawned,
+        base_round: u64,
+    },
+    Train {
+        job: usize,
+        base_round: u64,
+    },
+    Forge {
+        weights: Vec<f32>,
+        samples: u32,
+        base_round: u64,
+    },
+    /// A Byzantine robot's honest training on samples it chose (reported as forged).
+    TrainForged {
+        job: usize,
+        base_round: u64,
+    },
+    Skip {
+        reason: SkipReason,
+        base_round: u64,
+    },
+}
+
+/// A Byzantine robot's learning phase whose attack is waiting (see `byzantine::Action::Wait`).
+#[derive(Clone, Copy)]
+pub(super) struct Waiting {
+    /// The phase's index (keys its random stream).
+    pub(super) phase: u64,
+    /// When the phase began: the submission leaves no earlier than this plus the training
+    /// duration.
+    pub(super) started_ms: u64,
+}
+
+/// A submission waiting for its training to finish (`learn.training_duration_s`).
+pub(super) struct Pending {
+    pub(super) report: LearnReport,
+    pub(super) submission: Option<Submission>,
+}
+
+/// The robots' learning loop: schedule, training, forging, submitting (driver side).
+pub(super) struct Learners {
+    pub(super) shape: ModelShape,
+    pub(super) byzantine: Vec<bool>,
+    /// The Byzantine robots' agent (`None` without Byzantine robots).
+    pub(super) attack: Option<Box<dyn byzantine::Attack>>,
+    /// Byzantine robots whose attack chose to wait, by robot: the phase it waits in.
+    pub(super) waiting: BTreeMap<RobotId, Waiting>,
+    pub(super) next_due_ms: Vec<u64>,
+    pub(super) phases: Vec<u64>,
+    pub(super) period_ms: u64,
+    pub(super) duration_ms: u64,
+    pub(super) stake_units: u64,
+    /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
+    /// at the same time.
+    pub(super) pending: BTreeMap<(u64, RobotId, u64), Pending>,
+}
+
+impl Learners {
+    pub(super) fn new(config: &Config, seed: u64) -> Learners {
+        let period_ms = (config.learn.training_period_s * 1000.0).round().max(1.0) as u64;
+        let robots = config.world.robots;
+        Learners {
+            shape: ModelShape::from_config(config),
+            // Robots that only attack the ledger train honestly.
+            byzantine: if config.byzantine.kind == ByzantineKind::None {
+                vec![false; robots as usize]
+            } else {
+                byzantine::byzantine_robots(config, seed)
+            },
+            attack: byzantine::attack(config.byzantine.kind),
+            waiting: BTreeMap::new(),
+            next_due_ms: (0..robots)
+                .map(|r| rng::stream(seed, Purpose::Schedule, r).below(period_ms))
+                .collect(),
+            phases: vec![0; robots as usize],
+            period_ms,
+            duration_ms: (config.learn.training_duration_s * 1000.0).round() as u64,
+            stake_units: if config.rule().stakes() {
+                config.contract.stake_tokens * config.contract.token_units
+            } else {
+                0
+            },
+            pending: BTreeMap::new(),
+        }
+    }
+}
+
+impl Learners {
+    /// Takes over a new configuration at a fork point: which robots are Byzantine, the
+    /// schedule's period and duration from the next phase on, and the stake.
+    pub(super) fn reconfigure(&mut self, config: &Config, seed: u64) {
+        let fresh = Learners::new(config, seed);
+        // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
+        self.byzantine = fresh.byzantine;
+        self.attack = fresh.attack;
+        // A phase waited under the old attack ends unsubmitted, without a report.
+        self.waiting.clear();
+        self.period_ms = fresh.period_ms;
+        self.duration_ms = fresh.duration_ms;
+        self.stake_units = fresh.stake_units;
+    }
+}
