@@ -39,6 +39,16 @@ pub(super) enum Plan {
     },
 }
 
+/// A learning phase whose plan is decided.
+pub(super) struct Decided {
+    pub(super) robot: RobotId,
+    /// The phase's index.
+    pub(super) phase: u64,
+    /// When the phase began, ms.
+    pub(super) started_ms: u64,
+    pub(super) plan: Plan,
+}
+
 /// A Byzantine robot's learning phase whose attack is waiting (see `byzantine::Action::Wait`).
 #[derive(Clone, Copy)]
 pub(super) struct Waiting {

@@ -36,7 +36,7 @@ use crate::state::{SimError, State};
 use crate::types::{Digest, RobotId, SimTime};
 use crate::world::{Controllers, TickEvent, World};
 
-use learning::{Learners, Pending, Plan, Waiting};
+use learning::{Decided, Learners, Pending, Plan, Waiting};
 use protocol::{Protocol, RadioTick, Submission};
 use recorder::Recorder;
 pub use recorder::{Part, Profiler};
@@ -371,12 +371,37 @@ impl Sim {
             return;
         }
         let mut jobs = Vec::new();
-        let mut plans = Vec::with_capacity(due.len() + waiting.len());
+        let mut decided = Vec::with_capacity(due.len() + waiting.len());
+        self.ask_waiting_again(waiting, now, &mut jobs, &mut decided);
+        for &r in &due {
+            decided.extend(self.begin_phase(r, now, &mut jobs));
+        }
+        let outcomes = self.train(now, jobs);
+        for d in decided {
+            self.queue_submission(now, d, &outcomes);
+        }
+    }
+
+    /// Asks the attacks that waited in an earlier phase again: a decision joins `decided`; an
+    /// attack that still waits when its robot's next phase is due gives that phase up (a
+    /// `Waited` report).
+    fn ask_waiting_again(
+        &mut self,
+        waiting: Vec<(RobotId, Waiting)>,
+        now: SimTime,
+        jobs: &mut Vec<TrainJob>,
+        decided: &mut Vec<Decided>,
+    ) {
         for (r, w) in waiting {
             self.learners.waiting.remove(&r);
             let last_chance = self.learners.next_due_ms[r as usize] <= now.0;
-            match self.byzantine_plan(r, w, now, last_chance, &mut jobs) {
-                Some(plan) => plans.push((r, w.phase, w.started_ms, plan)),
+            match self.byzantine_plan(r, w, now, last_chance, jobs) {
+                Some(plan) => decided.push(Decided {
+                    robot: r,
+                    phase: w.phase,
+                    started_ms: w.started_ms,
+                    plan,
+                }),
                 None if last_chance => {
                     let base_round = self.protocol.current(&self.rec.state, r).round;
                     let report = LearnReport {
@@ -393,117 +418,156 @@ impl Sim {
                 }
             }
         }
-        for &r in &due {
-            let i = r as usize;
-            let phase = self.learners.phases[i];
-            let due_ms = self.learners.next_due_ms[i];
-            self.learners.phases[i] += 1;
-            self.learners.next_due_ms[i] += self.learners.period_ms;
-            let captured = self.ahead.upcoming.remove(&(due_ms, r));
-            let speculated = self.ahead.speculated.remove(&(r, phase));
-            self.protocol.phase_begins(&mut self.rec, now, r);
-            if self.learners.byzantine[i] {
-                let w = Waiting {
-                    phase,
-                    started_ms: now.0,
-                };
-                match self.byzantine_plan(r, w, now, false, &mut jobs) {
-                    Some(plan) => plans.push((r, phase, now.0, plan)),
-                    None => {
-                        self.learners.waiting.insert(r, w);
-                    }
-                }
-                continue;
-            }
-            let view = self.protocol.current(&self.rec.state, r);
-            let base_round = view.round;
-            let plan = if let Some(reason) = self.cannot_submit(r, now) {
-                Plan::Skip { reason, base_round }
-            } else {
-                let samples = match captured {
-                    Some((captured_phase, samples)) => {
-                        debug_assert_eq!(captured_phase, phase);
-                        debug_assert!(
-                            samples == self.rec.state.world.dataset(r),
-                            "the look-ahead world diverged"
-                        );
-                        samples
-                    }
-                    None => self.rec.state.world.dataset(r),
-                };
-                let data = TrainData::new(&self.learners.shape, &samples).ok();
-                let trainable = self.trainable(samples.len());
-                match (data, speculated) {
-                    (Some(_), Some((digest, spawned))) if trainable && digest == view.digest => {
-                        Plan::Ready {
-                            spawned,
-                            base_round,
-                        }
-                    }
-                    (Some(data), _) if trainable => {
-                        jobs.push(self.train_job(r, phase, &view.weights, data));
-                        Plan::Train {
-                            job: jobs.len() - 1,
-                            base_round,
-                        }
-                    }
-                    _ => Plan::Skip {
-                        reason: SkipReason::NotEnoughData,
-                        base_round,
-                    },
-                }
+    }
+
+    /// Starts `robot`'s phase due by `now`: advances its schedule, lets the aggregation know,
+    /// and decides (`None`: its attack waits).
+    fn begin_phase(
+        &mut self,
+        robot: RobotId,
+        now: SimTime,
+        jobs: &mut Vec<TrainJob>,
+    ) -> Option<Decided> {
+        let i = robot as usize;
+        let phase = self.learners.phases[i];
+        let due_ms = self.learners.next_due_ms[i];
+        self.learners.phases[i] += 1;
+        self.learners.next_due_ms[i] += self.learners.period_ms;
+        let captured = self.ahead.upcoming.remove(&(due_ms, robot));
+        let speculated = self.ahead.speculated.remove(&(robot, phase));
+        self.protocol.phase_begins(&mut self.rec, now, robot);
+        let plan = if self.learners.byzantine[i] {
+            let w = Waiting {
+                phase,
+                started_ms: now.0,
             };
-            plans.push((r, phase, now.0, plan));
+            let plan = self.byzantine_plan(robot, w, now, false, jobs);
+            if plan.is_none() {
+                self.learners.waiting.insert(robot, w);
+            }
+            plan?
+        } else {
+            self.honest_plan(robot, phase, now, captured, speculated, jobs)
+        };
+        Some(Decided {
+            robot,
+            phase,
+            started_ms: now.0,
+            plan,
+        })
+    }
+
+    /// An honest robot's plan for `phase`: skip, use the training speculated from the model
+    /// it starts from, or train now (added to `jobs`) on the data set the look-ahead world
+    /// `captured` (the reduced world's, if it was not captured).
+    fn honest_plan(
+        &self,
+        robot: RobotId,
+        phase: u64,
+        now: SimTime,
+        captured: Option<(u64, Vec<Sample>)>,
+        speculated: Option<(Digest, Spawned)>,
+        jobs: &mut Vec<TrainJob>,
+    ) -> Plan {
+        let view = self.protocol.current(&self.rec.state, robot);
+        let base_round = view.round;
+        if let Some(reason) = self.cannot_submit(robot, now) {
+            return Plan::Skip { reason, base_round };
         }
-        // The due trainings go to the pool first, then the window's speculated ones; this
-        // thread takes any due one no pool thread has started, and waits for the others.
+        let samples = match captured {
+            Some((captured_phase, samples)) => {
+                debug_assert_eq!(captured_phase, phase);
+                debug_assert!(
+                    samples == self.rec.state.world.dataset(robot),
+                    "the look-ahead world diverged"
+                );
+                samples
+            }
+            None => self.rec.state.world.dataset(robot),
+        };
+        let data = TrainData::new(&self.learners.shape, &samples).ok();
+        let trainable = self.trainable(samples.len());
+        match (data, speculated) {
+            (Some(_), Some((digest, spawned))) if trainable && digest == view.digest => {
+                Plan::Ready {
+                    spawned,
+                    base_round,
+                }
+            }
+            (Some(data), _) if trainable => {
+                jobs.push(self.train_job(robot, phase, &view.weights, data));
+                Plan::Train {
+                    job: jobs.len() - 1,
+                    base_round,
+                }
+            }
+            _ => Plan::Skip {
+                reason: SkipReason::NotEnoughData,
+                base_round,
+            },
+        }
+    }
+
+    /// Runs the trainings due now and returns their outcomes in `jobs` order. The due
+    /// trainings go to the pool first, then the window's speculated ones; this thread takes
+    /// any due one no pool thread has started, and waits for the others.
+    fn train(&mut self, now: SimTime, jobs: Vec<TrainJob>) -> Vec<TrainOutcome> {
         let due_jobs: Vec<Spawned> = jobs.into_iter().map(Spawned::start).collect();
         if !due_jobs.is_empty() {
             self.speculate(now);
         }
-        let outcomes: Vec<TrainOutcome> = due_jobs.into_iter().map(Spawned::wait).collect();
-        for (r, phase, started_ms, plan) in plans {
-            // A phase's submission leaves a training duration after the phase began, or now
-            // if a waiting attack decided later than that.
-            let submit_at = (started_ms + self.learners.duration_ms).max(now.0);
-            let (base_round, action, submission) = match plan {
-                Plan::Skip { reason, base_round } => {
-                    (base_round, LearnAction::Skipped { reason }, None)
-                }
-                Plan::Forge {
-                    weights,
-                    samples: claimed,
-                    base_round,
-                } => {
-                    let (action, tx) = self.forged(r, &weights, claimed);
-                    (base_round, action, tx)
-                }
-                Plan::Train { job, base_round } => {
-                    let (action, tx) = self.trained(r, &outcomes[job]);
-                    (base_round, action, tx)
-                }
-                Plan::TrainForged { job, base_round } => {
-                    let outcome = &outcomes[job];
-                    let (action, tx) = self.forged(r, &outcome.weights, outcome.train_samples);
-                    (base_round, action, tx)
-                }
-                Plan::Ready {
-                    spawned,
-                    base_round,
-                } => {
-                    let (action, tx) = self.trained(r, &spawned.wait());
-                    (base_round, action, tx)
-                }
-            };
-            let report = LearnReport {
-                robot: r,
+        due_jobs.into_iter().map(Spawned::wait).collect()
+    }
+
+    /// Carries out a decided phase: its report and submission wait for the training's
+    /// duration (`outcomes`: the trainings of the plans that trained now).
+    fn queue_submission(&mut self, now: SimTime, decided: Decided, outcomes: &[TrainOutcome]) {
+        let Decided {
+            robot: r,
+            phase,
+            started_ms,
+            plan,
+        } = decided;
+        // A phase's submission leaves a training duration after the phase began, or now if a
+        // waiting attack decided later than that.
+        let submit_at = (started_ms + self.learners.duration_ms).max(now.0);
+        let (base_round, action, submission) = match plan {
+            Plan::Skip { reason, base_round } => {
+                (base_round, LearnAction::Skipped { reason }, None)
+            }
+            Plan::Forge {
+                weights,
+                samples: claimed,
                 base_round,
-                action,
-            };
-            self.learners
-                .pending
-                .insert((submit_at, r, phase), Pending { report, submission });
-        }
+            } => {
+                let (action, tx) = self.forged(r, &weights, claimed);
+                (base_round, action, tx)
+            }
+            Plan::Train { job, base_round } => {
+                let (action, tx) = self.trained(r, &outcomes[job]);
+                (base_round, action, tx)
+            }
+            Plan::TrainForged { job, base_round } => {
+                let outcome = &outcomes[job];
+                let (action, tx) = self.forged(r, &outcome.weights, outcome.train_samples);
+                (base_round, action, tx)
+            }
+            Plan::Ready {
+                spawned,
+                base_round,
+            } => {
+                let (action, tx) = self.trained(r, &spawned.wait());
+                (base_round, action, tx)
+            }
+        };
+        let report = LearnReport {
+            robot: r,
+            base_round,
+            action,
+        };
+        self.learners
+            .pending
+            .insert((submit_at, r, phase), Pending { report, submission });
     }
 
     /// Why `robot` cannot submit now, in its own node's view: it is down, its balance is below

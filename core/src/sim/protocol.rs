@@ -23,7 +23,7 @@ pub(super) enum Protocol {
     /// The blockchain: models are transactions to the contract on every robot's node.
     Chain(Box<Chain>),
     /// Flow-FL's virtual stigmergy, replicated by neighbour gossip.
-    Gossip(Gossiper),
+    Gossip(Box<Gossiper>),
     /// An ideal server that gets every upload instantly.
     Central,
 }
@@ -79,7 +79,7 @@ impl Protocol {
                 network.set_withhold(agents.withhold_policy());
                 Protocol::Chain(Box::new(Chain { network, agents }))
             }
-            Aggregation::Gossip => Protocol::Gossip(Gossiper::new(config, seed)),
+            Aggregation::Gossip => Protocol::Gossip(Box::new(Gossiper::new(config, seed))),
             Aggregation::Central => Protocol::Central,
         }
     }
