@@ -6,9 +6,10 @@
 //!   every node's ledger with its contract states, the robots' measurements): replaying a log
 //!   re-creates it bit-exactly without any of the driver's agents.
 //! - [`Sim`] owns the agents that *decide* events from the current state and their own random
-//!   streams: the robots' controllers, the sealing and gossip scheduler ([`crate::ledger::Network`]) and the
-//!   learning loop (training, Byzantine forging, submitting). A decision becomes an [`Event`],
-//!   the event is folded, then recorded.
+//!   streams: the robots' controllers, the aggregation's agents (`protocol.rs`: the ledger's
+//!   sealing and gossip scheduler, [`crate::ledger::Network`], or the stigmergy's gossip) and
+//!   the learning loop (`learning.rs`: training, Byzantine forging, submitting). A decision
+//!   becomes an [`Event`], the event is folded (`recorder.rs`), then recorded.
 //!
 //! One tick of 0.1 s: the controllers' wheel commands (a `Tick` event) move the world to the
 //! tick's end; the ledger events due until then follow (a checkpoint after every sealed block);
