@@ -23,7 +23,8 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use serde_json::Value;
 
-use crate::sweep;
+use crate::experiments::{self, EXPERIMENTS};
+use crate::results;
 
 /// Width of the time bins of the curves, in simulated seconds.
 pub const BIN_S: f64 = 100.0;
@@ -184,7 +185,7 @@ fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyho
         let Some(other) = group.iter().find(|r| hash(r) != hash(first)) else {
             continue;
         };
-        let point_overrides = sweep::experiment(&first.experiment)
+        let point_overrides = experiments::experiment(&first.experiment)
             .ok()
             .and_then(|e| e.points.into_iter().find(|p| p.name == first.point))
             .map(|p| p.overrides)
@@ -193,11 +194,11 @@ fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyho
             let h = hash(r);
             format!(
                 "{} (configuration {})",
-                sweep::show_overrides(&sweep::extra_overrides(&r.summary, &point_overrides)),
+                results::show_overrides(&results::extra_overrides(&r.summary, &point_overrides)),
                 &h[..h.len().min(12)]
             )
         };
-        let path = |r: &RunResult| sweep::result_path(dir, &r.experiment, &r.point, r.seed);
+        let path = |r: &RunResult| results::result_path(dir, &r.experiment, &r.point, r.seed);
         anyhow::bail!(
             "{} {} mixes results of different settings, no report written: {} was made with {}, \
              {} with {}. Keep each setting in its own results directory",
@@ -222,11 +223,11 @@ fn file_name(p: &Path) -> String {
 /// order, unknown ones after by name) and seed.
 pub fn sort(results: &mut [RunResult]) {
     let key = |r: &RunResult| {
-        let exp_rank = sweep::EXPERIMENTS
+        let exp_rank = EXPERIMENTS
             .iter()
             .position(|e| *e == r.experiment)
             .unwrap_or(usize::MAX);
-        let point_rank = sweep::experiment(&r.experiment)
+        let point_rank = experiments::experiment(&r.experiment)
             .ok()
             .and_then(|e| e.points.iter().position(|p| p.name == r.point))
             .unwrap_or(usize::MAX);
@@ -311,7 +312,7 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
     let mut out: Vec<ExperimentStats> = Vec::new();
     for r in results {
         if out.last().is_none_or(|e| e.name != r.experiment) {
-            let exp = sweep::experiment(&r.experiment).ok();
+            let exp = experiments::experiment(&r.experiment).ok();
             out.push(ExperimentStats {
                 name: r.experiment.clone(),
                 axis: exp.map_or_else(|| "point".to_string(), |e| e.axis.to_string()),
@@ -330,7 +331,7 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
                 names.push(&r.point);
             }
         }
-        let grid = sweep::experiment(&exp.name).ok();
+        let grid = experiments::experiment(&exp.name).ok();
         for name in names {
             let runs: Vec<&RunResult> = mine.iter().copied().filter(|r| r.point == name).collect();
             let x = grid
@@ -713,11 +714,11 @@ pub(crate) mod tests {
     /// Writes a synthetic sweep result directory: `runs` seeds per point of each experiment.
     pub(crate) fn synthetic_dir(dir: &Path, experiments: &[&str], runs: u64) {
         for name in experiments {
-            let exp = sweep::experiment(name).unwrap();
+            let exp = experiments::experiment(name).unwrap();
             for p in &exp.points {
                 for seed in 1..=runs {
-                    let path = sweep::result_path(dir, name, &p.name, seed);
-                    sweep::write_atomic(&path, &synthetic_summary(name, p.x, seed)).unwrap();
+                    let path = results::result_path(dir, name, &p.name, seed);
+                    results::write_atomic(&path, &synthetic_summary(name, p.x, seed)).unwrap();
                 }
             }
         }
@@ -783,18 +784,18 @@ pub(crate) mod tests {
         shuffled.rotate_left(7);
         sort(&mut shuffled);
         assert_eq!(numbers_csv(&aggregate(&shuffled)), reference);
-        // Three shards write their shares into separate directories; merged they are the same.
+        // Three shards (`--shard I/3`: the tasks with index % 3 == I) write their shares into
+        // separate directories; merged they are the same.
         let merged = temp("merged");
         for index in 0..3 {
-            let shard = sweep::Shard::new(index, 3).unwrap();
             for name in ["e1-expiration", "e2-faulty"] {
-                let exp = sweep::experiment(name).unwrap();
-                for t in sweep::tasks(&exp, 3, &[])
+                let exp = experiments::experiment(name).unwrap();
+                for t in experiments::tasks(&exp, 3, &[])
                     .iter()
-                    .filter(|t| shard.owns(t.index))
+                    .filter(|t| t.index % 3 == index)
                 {
-                    let from = sweep::result_path(&dir, name, &t.point, t.seed);
-                    let to = sweep::result_path(&merged, name, &t.point, t.seed);
+                    let from = results::result_path(&dir, name, &t.point, t.seed);
+                    let to = results::result_path(&merged, name, &t.point, t.seed);
                     std::fs::create_dir_all(to.parent().unwrap()).unwrap();
                     std::fs::copy(from, to).unwrap();
                 }
@@ -856,13 +857,13 @@ pub(crate) mod tests {
     #[test]
     fn summaries_without_the_learning_sections_are_tolerated() {
         let dir = temp("partial");
-        let path = sweep::result_path(&dir, "e1-faulty", "faulty-1", 1);
+        let path = results::result_path(&dir, "e1-faulty", "faulty-1", 1);
         let mut s = synthetic_summary("e1-faulty", 1.0, 1);
         let map = s.as_object_mut().unwrap();
         for k in ["contract", "tokens", "ledger", "byzantine", "timing"] {
             map.remove(k);
         }
-        sweep::write_atomic(&path, &s).unwrap();
+        results::write_atomic(&path, &s).unwrap();
         let out = dir.join("report");
         let md_path = report(&dir, &out).unwrap();
         let md = std::fs::read_to_string(md_path).unwrap();
@@ -893,8 +894,8 @@ pub(crate) mod tests {
         other["config_hash"] = "1234567890abcdef".into();
         other["sweep"] =
             serde_json::json!({"overrides": ["byzantine.count=2", "run.duration_s=200"]});
-        sweep::write_atomic(
-            &sweep::result_path(&dir, "e2-faulty", "byzantine-2", 3),
+        results::write_atomic(
+            &results::result_path(&dir, "e2-faulty", "byzantine-2", 3),
             &other,
         )
         .unwrap();
@@ -914,7 +915,7 @@ pub(crate) mod tests {
     #[test]
     fn a_full_synthetic_report_draws_every_figure() {
         let dir = temp("full");
-        synthetic_dir(&dir, &sweep::EXPERIMENTS, 3);
+        synthetic_dir(&dir, &EXPERIMENTS, 3);
         let out = dir.join("report");
         let md = std::fs::read_to_string(report(&dir, &out).unwrap()).unwrap();
         for stem in [

@@ -2,7 +2,7 @@
 //! per number of smart robots, one series per defence (`contract.defence`), the same for
 //! `smart-then-collude`, and a table of when the Byzantine robots took control of the tokens
 //! (`tokens.byzantine_control` of `summary.json`). Points carry `defence` and `attack` tags
-//! (see `sweep::experiment`).
+//! (see `experiments::experiment`).
 
 use std::fmt::Write as _;
 use std::path::Path;

@@ -1,6 +1,6 @@
 //! `e4-robustness`: heatmaps of rule x attack per Byzantine count (final held-out loss;
 //! honest minus Byzantine mean token gain) and each rule's worst-case attack, from the points'
-//! `rule` and `attack` tags (see `sweep::experiment`).
+//! `rule` and `attack` tags (see `experiments::experiment`).
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
@@ -11,7 +11,7 @@ use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
 use super::{ExperimentStats, Figure};
-use crate::sweep;
+use crate::experiments;
 
 /// The experiment this module draws.
 pub const EXPERIMENT: &str = "e4-robustness";
@@ -35,7 +35,7 @@ pub struct Cell {
 
 /// The cells of the experiment's results, in grid order.
 pub fn cells(e: &ExperimentStats) -> Vec<Cell> {
-    let Ok(grid) = sweep::experiment(EXPERIMENT) else {
+    let Ok(grid) = experiments::experiment(EXPERIMENT) else {
         return Vec::new();
     };
     e.points

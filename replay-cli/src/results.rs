@@ -1,0 +1,90 @@
+//! The results directory a sweep writes and a report reads: one file per task,
+//! `DIR/<experiment>/<point>/seed<N>.json` (the run's summary JSON plus a `sweep` section
+//! naming the task), written atomically (temporary file + rename).
+
+use std::path::{Path, PathBuf};
+
+use anyhow::Context;
+
+/// The result file of a task: `DIR/<experiment>/<point>/seed<N>.json`.
+pub fn result_path(dir: &Path, experiment: &str, point: &str, seed: u64) -> PathBuf {
+    dir.join(experiment)
+        .join(point)
+        .join(format!("seed{seed}.json"))
+}
+
+/// Whether a result file exists and parses as a summary (a JSON object with a `seed`).
+pub fn is_done(path: &Path) -> bool {
+    std::fs::read(path)
+        .ok()
+        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
+        .is_some_and(|v| v.get("seed").is_some_and(|s| s.is_u64()))
+}
+
+/// The sweep-wide `--set` overrides a result file was made with: its `sweep.overrides` minus
+/// the point's own (which every result of the point shares).
+pub fn extra_overrides(summary: &serde_json::Value, point_overrides: &[String]) -> Vec<String> {
+    summary["sweep"]["overrides"]
+        .as_array()
+        .map(|a| {
+            a.iter()
+                .filter_map(|v| v.as_str().map(str::to_string))
+                .filter(|o| !point_overrides.contains(o))
+                .collect()
+        })
+        .unwrap_or_default()
+}
+
+/// Shows overrides as the user typed them: `--set a=1 --set b=2`, or `no --set`.
+pub fn show_overrides(overrides: &[String]) -> String {
+    if overrides.is_empty() {
+        "no --set".to_string()
+    } else {
+        overrides
+            .iter()
+            .map(|o| format!("--set {o}"))
+            .collect::<Vec<_>>()
+            .join(" ")
+    }
+}
+
+/// Writes `value` to `path` atomically: a temporary file in the same directory, then rename.
+pub fn write_atomic(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
+    let dir = path.parent().context("result path has no directory")?;
+    std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
+    let name = path
+        .file_name()
+        .context("result path has no file name")?
+        .to_string_lossy();
+    let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
+    std::fs::write(&tmp, serde_json::to_string_pretty(value)? + "\n")
+        .with_context(|| format!("cannot write {}", tmp.display()))?;
+    std::fs::rename(&tmp, path)
+        .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn result_files_are_written_atomically_and_recognised() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-sweep-test-{}", std::process::id()));
+        let path = result_path(&dir, "e2-faulty", "byzantine-3", 7);
+        assert!(path.ends_with("e2-faulty/byzantine-3/seed7.json"));
+        assert!(!is_done(&path));
+        write_atomic(&path, &serde_json::json!({"seed": 7})).unwrap();
+        assert!(is_done(&path));
+        std::fs::write(&path, "{\"seed\": 7").unwrap();
+        assert!(!is_done(&path), "a truncated file is not a finished task");
+        write_atomic(&path, &serde_json::json!({"seed": 7, "x": 1})).unwrap();
+        assert!(is_done(&path));
+        let leftovers: Vec<_> = std::fs::read_dir(path.parent().unwrap())
+            .unwrap()
+            .map(|e| e.unwrap().file_name())
+            .collect();
+        assert_eq!(leftovers.len(), 1, "no temporary file left: {leftovers:?}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
