@@ -9,6 +9,8 @@ use rayon::prelude::*;
 use serde::Serialize;
 use swarmfl_core::chaos::{self, Outcome, Violation};
 
+use crate::cli::ChaosArgs;
+
 #[derive(Serialize)]
 struct SeedViolation {
     seed: u64,
@@ -39,12 +41,17 @@ struct Bounds {
 }
 
 /// The command that replays seed `seed` alone.
-fn command(seed: u64, duration_s: f64) -> String {
+fn replay_command(seed: u64, duration_s: f64) -> String {
     format!("swarmfl chaos --seeds 1 --first-seed {seed} --duration {duration_s}")
 }
 
+/// Runs `swarmfl chaos`.
+pub fn command(args: ChaosArgs) -> anyhow::Result<ExitCode> {
+    run(args.seeds, args.first_seed, args.duration, args.json)
+}
+
 /// Runs seeds `first..first + seeds` with runs of `duration_s`.
-pub fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<ExitCode> {
+fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(seeds > 0, "--seeds must be at least 1");
     anyhow::ensure!(
         duration_s.is_finite() && duration_s >= 1.0,
@@ -100,7 +107,7 @@ pub fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Resul
         if let Some(violation) = outcome.violation {
             report.violations.push(SeedViolation {
                 seed,
-                command: command(seed, duration_s),
+                command: replay_command(seed, duration_s),
                 violation,
             });
         }

@@ -18,6 +18,7 @@
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
+use std::process::ExitCode;
 
 use anyhow::Context;
 use swarmfl_core::event::{CheckpointCause, Record};
@@ -27,6 +28,25 @@ use swarmfl_core::replay;
 use swarmfl_core::state::State;
 use swarmfl_core::world::Obstacle;
 use swarmfl_core::Digest;
+
+use crate::cli::ViewArgs;
+use crate::commands::inspect::warn_if_truncated;
+
+/// Runs `swarmfl view`: writes the page and says what it holds.
+pub fn command(args: ViewArgs) -> anyhow::Result<ExitCode> {
+    let ViewArgs { log, out } = args;
+    let v = view(&log, &out)?;
+    println!(
+        "wrote {} ({:.1} MB: {} frames, one every {} s plus one per block of the final \
+         chain; {} blocks of every node); open it in a browser",
+        out.display(),
+        v.bytes as f64 / 1.0e6,
+        v.frames,
+        v.frame_s,
+        v.blocks
+    );
+    Ok(ExitCode::SUCCESS)
+}
 
 /// Most uniform frames of a view (block frames come on top).
 const MAX_FRAMES: u64 = 2000;
@@ -46,7 +66,7 @@ pub struct ViewOutcome {
 /// Writes the viewer of `log` into `out`.
 pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
     let index = inspect::index_run(log, None)?;
-    crate::inspect::warn_if_truncated(&index);
+    warn_if_truncated(&index);
     let name = log.display().to_string();
     let config = index.config.clone();
     let robots = config.world.robots as usize;

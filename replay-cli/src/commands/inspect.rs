@@ -1,15 +1,37 @@
-//! `swarmfl inspect` and `swarmfl bisect`: a run at one block of its final canonical chain.
+//! `swarmfl inspect`: a run at one block of its final canonical chain (or, for a baseline run,
+//! at a time).
 
 use std::path::Path;
+use std::process::ExitCode;
 use std::time::Instant;
 
-use swarmfl_core::inspect::{self, timeline, BlockReport, Expr, SubmissionInfo};
+use swarmfl_core::inspect::{self, timeline, BlockReport, SubmissionInfo};
 use swarmfl_core::RobotId;
+
+use crate::cli::InspectArgs;
+
+/// Runs `swarmfl inspect`: `--block H`, or `--time T` for a baseline run.
+pub fn command(args: InspectArgs) -> anyhow::Result<ExitCode> {
+    let InspectArgs {
+        log,
+        block,
+        time,
+        robot,
+        json,
+        no_index,
+    } = args;
+    match (block, time) {
+        (Some(block), _) => inspect(&log, block, robot, json, !no_index)?,
+        (None, Some(time)) => inspect_time(&log, time, json)?,
+        (None, None) => anyhow::bail!("give --block HEIGHT or --time SECONDS"),
+    }
+    Ok(ExitCode::SUCCESS)
+}
 
 /// Prints block `height` of the log (human-readable or JSON) and the time it took.
 /// With `use_index`, a valid sidecar `LOG.idx` lets it fold only up to the block; without one,
 /// the whole log is folded and the sidecar written for next time.
-pub fn inspect(
+fn inspect(
     log: &Path,
     height: u64,
     robot: Option<RobotId>,
@@ -245,200 +267,9 @@ pub fn warn_if_truncated(index: &inspect::RunIndex) {
     }
 }
 
-/// Prints the first block where `expr` holds.
-pub fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Result<bool> {
-    let predicate = Expr::parse(expr)?;
-    if is_baseline(log)? {
-        return bisect_by_time(log, expr, &predicate, monotone, json);
-    }
-    let start = Instant::now();
-    let index = inspect::index_run(log, None)?;
-    warn_if_truncated(&index);
-    let fold_ms = start.elapsed().as_secs_f64() * 1000.0;
-    let values = index.values();
-    let search = Instant::now();
-    let hit = inspect::bisect(&values, &predicate, monotone)?;
-    let search_ms = search.elapsed().as_secs_f64() * 1000.0;
-    // Every block's values are in memory: checking the whole chain costs microseconds and
-    // tells whether the binary search's premise holds.
-    let profile = inspect::profile(&values, &predicate)?;
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&serde_json::json!({
-                "expression": expr,
-                "monotone": monotone,
-                "hit": hit,
-                "profile": profile,
-                "last_height": index.last_height(),
-                "truncated": index.truncated,
-                "why_not": if hit.is_none() { why_not(&index, &values, &predicate) } else { Vec::new() },
-                "fold_ms": fold_ms,
-                "search_ms": search_ms,
-            }))?
-        );
-    } else {
-        match &hit {
-            Some(h) => {
-                println!(
-                    "first block where `{expr}` holds{}: height {} at t = {:.3} s",
-                    if monotone {
-                        " (binary search, monotone)"
-                    } else {
-                        " (scan)"
-                    },
-                    h.height,
-                    h.time_s
-                );
-                for (name, value) in &h.values {
-                    println!("  {name} = {value}");
-                }
-                println!(
-                    "{} evaluations; fold {fold_ms:.0} ms, search {search_ms:.1} ms",
-                    h.evaluations
-                );
-            }
-            None => {
-                println!(
-                    "`{expr}` holds at no block of the final canonical chain (heights 0..={}){}",
-                    index.last_height(),
-                    if monotone {
-                        "; with --monotone only the last block is tested"
-                    } else {
-                        ""
-                    }
-                );
-                for line in why_not(&index, &values, &predicate) {
-                    println!("  {line}");
-                }
-            }
-        }
-        if profile.monotone {
-            println!("the predicate is monotone over the chain: scan and --monotone agree");
-        } else {
-            println!(
-                "warning: the predicate is NOT monotone over the chain (it turns false again {} times): first true at {}, true for good from {}{}",
-                profile.relapses,
-                describe(&index, profile.first),
-                describe(&index, profile.for_good_from),
-                if monotone {
-                    "; the binary search's answer is only a change to true"
-                } else {
-                    ""
-                }
-            );
-        }
-    }
-    Ok(hit.is_some())
-}
-
-/// Why a predicate holds nowhere: for each value it reads, the range it takes over the chain,
-/// or why it is NaN at every block (no Byzantine robots, no closed round, ...).
-fn why_not(
-    index: &inspect::RunIndex,
-    values: &inspect::ChainValues<'_>,
-    predicate: &Expr,
-) -> Vec<String> {
-    let mut ranges: Vec<(String, f64, f64)> = Vec::new();
-    for h in 0..values.len() as u64 {
-        for (name, v) in predicate.leaves(&values.at(h)) {
-            let slot = match ranges.iter().position(|r| r.0 == name) {
-                Some(i) => &mut ranges[i],
-                None => {
-                    ranges.push((name, f64::NAN, f64::NAN));
-                    ranges.last_mut().expect("just pushed")
-                }
-            };
-            if !v.is_nan() {
-                slot.1 = if slot.1.is_nan() { v } else { slot.1.min(v) };
-                slot.2 = if slot.2.is_nan() { v } else { slot.2.max(v) };
-            }
-        }
-    }
-    let byzantine = index.byzantine.iter().filter(|&&b| b).count();
-    ranges
-        .into_iter()
-        .map(|(name, lo, hi)| {
-            if !lo.is_nan() {
-                return format!("`{name}` ranges over [{lo}, {hi}] on the chain");
-            }
-            let why = if name.starts_with("byzantine_") && byzantine == 0 {
-                ": this run has no Byzantine robots (byzantine.count = 0); run one with \
-                 e.g. --set byzantine.kind=malicious --set byzantine.count=3"
-                    .to_string()
-            } else if name.starts_with("honest_") && byzantine == index.byzantine.len() {
-                ": every robot of this run is Byzantine".to_string()
-            } else if name == "loss" {
-                ": no round closed on the chain".to_string()
-            } else {
-                String::new()
-            };
-            format!("`{name}` is NaN at every block (a comparison with NaN is false){why}")
-        })
-        .collect()
-}
-
-fn describe(index: &inspect::RunIndex, height: Option<u64>) -> String {
-    match height {
-        Some(h) => format!(
-            "block {h} (t = {:.3} s)",
-            index.chain[h as usize].time.secs()
-        ),
-        None => "no block".to_string(),
-    }
-}
-
-/// Whether the log is a baseline run (`learn.aggregation` other than `chain`): no blocks, so
-/// it is inspected and bisected by time.
-fn is_baseline(log: &Path) -> anyhow::Result<bool> {
-    let reader = swarmfl_core::log::LogReader::open(log)?;
-    let config = swarmfl_core::replay::header_config(&reader, &log.display().to_string())?;
-    Ok(config.learn.aggregation != swarmfl_core::config::Aggregation::Chain)
-}
-
-/// `bisect` over the checkpoints of a baseline run (one every block period).
-fn bisect_by_time(
-    log: &Path,
-    expr: &str,
-    predicate: &Expr,
-    monotone: bool,
-    json: bool,
-) -> anyhow::Result<bool> {
-    let start = Instant::now();
-    let (hit, evaluations) = timeline::bisect_by_time(log, predicate, monotone)?;
-    let took_ms = start.elapsed().as_secs_f64() * 1000.0;
-    if json {
-        println!(
-            "{}",
-            serde_json::to_string_pretty(&serde_json::json!({
-                "expression": expr,
-                "monotone": monotone,
-                "by": "time",
-                "hit": hit.as_ref().map(|(t, values)| serde_json::json!({"time_s": t, "values": values})),
-                "evaluations": evaluations,
-                "ms": took_ms,
-            }))?
-        );
-    } else {
-        match &hit {
-            Some((t, values)) => {
-                println!(
-                    "first checkpoint where `{expr}` holds: t = {t:.1} s (a baseline run: by time)"
-                );
-                for (name, value) in values {
-                    println!("  {name} = {value}");
-                }
-                println!("{evaluations} evaluations; {took_ms:.0} ms");
-            }
-            None => println!("`{expr}` holds at no checkpoint of the run"),
-        }
-    }
-    Ok(hit.is_some())
-}
-
 /// `inspect --time T` of a baseline run: each robot's replica, bytes and model at the last
 /// checkpoint at or before T.
-pub fn inspect_time(log: &Path, time_s: f64, json: bool) -> anyhow::Result<()> {
+fn inspect_time(log: &Path, time_s: f64, json: bool) -> anyhow::Result<()> {
     anyhow::ensure!(
         time_s.is_finite() && time_s >= 0.0,
         "--time must be a non-negative number of seconds, got {time_s}"

@@ -1,6 +1,7 @@
 //! `swarmfl run`: simulate a run into `DIR/run.swlog` and `DIR/summary.json`.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
@@ -11,6 +12,7 @@ use swarmfl_core::sim::{Part, Profiler, Sim};
 use swarmfl_core::state::State;
 use swarmfl_core::summary::RunSummary;
 
+use crate::cli::RunArgs;
 use crate::progress::Progress;
 
 /// Wall time and CPU time per part of the driver, shared with the driver's profiler hook.
@@ -92,6 +94,25 @@ fn cpu_clock_s(clock: libc::clockid_t) -> f64 {
         return f64::NAN;
     }
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
+}
+
+/// Runs `swarmfl run`: the run into `--out` (default `runs/<preset>-seed<N>`), then its summary
+/// and what to try next unless `--quiet`.
+pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let RunArgs {
+        config,
+        seed,
+        out,
+        quiet,
+    } = args;
+    let config = config.resolve()?;
+    let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
+    let outcome = run(config, seed, &out, quiet)?;
+    if !quiet {
+        print_summary(&outcome);
+        print_next(&outcome);
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// What a finished run reports.

@@ -2,12 +2,27 @@
 //! configuration.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::time::Instant;
 
 use swarmfl_core::fork::{self, PrefixCheck};
 use swarmfl_core::sim::Sim;
 
-use crate::run;
+use crate::cli::ForkArgs;
+use crate::commands::run;
+
+/// Runs `swarmfl fork`.
+pub fn command(args: ForkArgs) -> anyhow::Result<ExitCode> {
+    let ForkArgs {
+        log,
+        at,
+        overrides,
+        out,
+        quiet,
+    } = args;
+    fork(&log, at, &overrides, out, quiet)?;
+    Ok(ExitCode::SUCCESS)
+}
 
 /// Plans the fork, re-simulates the parent up to the fork point (checking every record against
 /// the parent's log), continues under the new configuration and writes `DIR/run.swlog` and

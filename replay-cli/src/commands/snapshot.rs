@@ -7,11 +7,17 @@
 //! be loaded, the picture is drawn without text rather than failing.
 
 use std::path::Path;
+use std::process::ExitCode;
 
 use anyhow::Context;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use swarmfl_core::replay;
 use swarmfl_core::world::{Obstacle, World};
+use swarmfl_core::SimTime;
+
+use crate::cli::SnapshotArgs;
+use crate::commands::inspect::warn_if_truncated;
 
 /// How one robot is drawn.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -247,6 +253,54 @@ where
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
+}
+
+/// Runs `swarmfl snapshot`: the world at a block or a time, drawn into `--out`.
+pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
+    let SnapshotArgs {
+        log,
+        time,
+        block,
+        out,
+    } = args;
+    let log = log.as_path();
+    let (world, config, seed, title) = match (time, block) {
+        (_, Some(height)) => {
+            let index = swarmfl_core::inspect::index_run(log, Some(height))?;
+            warn_if_truncated(&index);
+            let (state, _) = index
+                .at_block
+                .ok_or_else(|| anyhow::anyhow!("block {height} was not captured"))?;
+            let title = format!(
+                "{} after block {height} (t = {})",
+                log.display(),
+                state.world.time()
+            );
+            (state.world, index.config, index.seed, title)
+        }
+        (Some(time), None) => {
+            if !(time.is_finite() && time >= 0.0) {
+                anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
+            }
+            let (state, config, seed) = replay::state_at_time(log, SimTime::from_secs(time))?;
+            let title = format!("{} at t = {}", log.display(), state.world.time());
+            (state.world, config, seed, title)
+        }
+        (None, None) => anyhow::bail!("give --time SECONDS or --block HEIGHT"),
+    };
+    let marks: Vec<RobotMark> = swarmfl_core::byzantine::byzantine_robots(&config, seed)
+        .into_iter()
+        .map(|b| {
+            if b {
+                RobotMark::Byzantine
+            } else {
+                RobotMark::Honest
+            }
+        })
+        .collect();
+    draw(&world, &marks, &title, &out)?;
+    println!("wrote {} ({title})", out.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 #[cfg(test)]

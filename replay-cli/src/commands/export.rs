@@ -1,16 +1,26 @@
 //! `swarmfl export`: CSV tables of a run, from one fold of its log.
 
 use std::path::Path;
+use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
 use swarmfl_core::inspect::{self, expr::Env};
 
+use crate::cli::ExportArgs;
+use crate::commands::inspect::warn_if_truncated;
+
+/// Runs `swarmfl export`.
+pub fn command(args: ExportArgs) -> anyhow::Result<ExitCode> {
+    export(&args.log, &args.out)?;
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Writes `rounds.csv`, `balances.csv`, `chain_bytes.csv` and `trajectories.csv` into `out`.
 pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
     let start = Instant::now();
     let index = inspect::index_run(log, None)?;
-    crate::inspect::warn_if_truncated(&index);
+    warn_if_truncated(&index);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let open = |name: &str| -> anyhow::Result<csv::Writer<std::fs::File>> {
         let path = out.join(name);

@@ -2,10 +2,14 @@
 //! `fixtures/manifest.toml` and their expected hashes in `fixtures/expected.toml`.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use anyhow::Context;
 use serde::{Deserialize, Serialize};
 use swarmfl_core::config::Config;
+
+use crate::cli::{FixturesAction, FixturesArgs};
+use crate::commands::run;
 
 /// The fixture list.
 #[derive(Debug, Deserialize)]
@@ -42,6 +46,14 @@ struct Expected {
     resimulate: bool,
 }
 
+/// Runs `swarmfl fixtures`.
+pub fn command(args: FixturesArgs) -> anyhow::Result<ExitCode> {
+    match args.action {
+        FixturesAction::Regenerate => regenerate(&args.dir)?,
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Regenerates every fixture under `dir` (the `fixtures/` folder).
 pub fn regenerate(dir: &Path) -> anyhow::Result<()> {
     let manifest_path = dir.join("manifest.toml");
@@ -57,7 +69,7 @@ pub fn regenerate(dir: &Path) -> anyhow::Result<()> {
         let config = Config::resolve(Some(&spec.preset), None, &spec.overrides)
             .with_context(|| format!("fixture {}", spec.name))?;
         let out = scratch.join(&spec.name);
-        let outcome = crate::run::run(config, spec.seed, &out, true)?;
+        let outcome = run::run(config, spec.seed, &out, true)?;
         let target: PathBuf = logs.join(format!("{}.swlog", spec.name));
         std::fs::copy(&outcome.log_path, &target)
             .with_context(|| format!("cannot write {}", target.display()))?;

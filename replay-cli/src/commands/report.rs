@@ -19,10 +19,12 @@ mod robustness;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 
 use anyhow::Context;
 use serde_json::Value;
 
+use crate::cli::ReportArgs;
 use crate::experiments::{self, EXPERIMENTS};
 use crate::results;
 
@@ -505,6 +507,13 @@ pub fn numbers_csv(stats: &[ExperimentStats]) -> (String, String) {
         }
     }
     (numbers, series)
+}
+
+/// Runs `swarmfl report`.
+pub fn command(args: ReportArgs) -> anyhow::Result<ExitCode> {
+    let path = report(&args.dir, &args.out)?;
+    println!("wrote {}", path.display());
+    Ok(ExitCode::SUCCESS)
 }
 
 /// Makes the report of the results in `dir` into `out`: figures (SVG and PNG), `report.md`,

@@ -9,6 +9,7 @@
 //! simply overwrites.
 
 use std::path::{Path, PathBuf};
+use std::process::ExitCode;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
@@ -16,10 +17,11 @@ use std::time::Instant;
 use anyhow::Context;
 use swarmfl_core::config::Config;
 
+use crate::cli::SweepArgs;
+use crate::commands::run;
 use crate::experiments::{self, Task};
 use crate::progress::Progress;
 use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
-use crate::run;
 
 /// A share of the task list: the tasks whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -178,6 +180,51 @@ fn check_settings(
         );
     }
     Ok(())
+}
+
+/// Runs `swarmfl sweep`: the shard's tasks, then one line of counts and every failure.
+pub fn command(args: SweepArgs) -> anyhow::Result<ExitCode> {
+    let SweepArgs {
+        experiment,
+        out,
+        runs,
+        jobs,
+        shard,
+        shards,
+        overrides,
+        keep_logs,
+    } = args;
+    let shard = Shard::resolve(shard.as_deref(), shards, |k| std::env::var(k).ok())?;
+    let outcome = sweep(&SweepOptions {
+        experiment,
+        out,
+        runs,
+        jobs,
+        shard,
+        overrides,
+        keep_logs,
+    })?;
+    println!(
+        "sweep: {} tasks in shard, {} ran, {} already done, {} failed, {:.1} s",
+        outcome.selected,
+        outcome.ran,
+        outcome.skipped,
+        outcome.failed.len(),
+        outcome.wall_s
+    );
+    if !outcome.failed.is_empty() {
+        for (task, error) in &outcome.failed {
+            eprintln!(
+                "task {} ({} seed {}): {error}",
+                task.index, task.point, task.seed
+            );
+        }
+        anyhow::bail!(
+            "{} tasks failed; re-run the same command to retry them",
+            outcome.failed.len()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// What `swarmfl sweep` was asked to do.

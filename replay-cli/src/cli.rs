@@ -1,0 +1,436 @@
+//! The command line: the clap types of `swarmfl` and its subcommands, with their help texts.
+//! Each subcommand's arguments are one struct that its function in `commands/` takes.
+
+use std::path::PathBuf;
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use swarmfl_core::config::Config;
+
+/// swarmfl: a deterministic, event-sourced replay engine for blockchain-secured federated
+/// learning in robot swarms.
+#[derive(Parser, Debug)]
+#[command(name = "swarmfl", version, about)]
+pub struct Cli {
+    /// The subcommand.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// Which configuration to use: a preset, a TOML file over it, and overrides.
+#[derive(Args, Debug, Clone)]
+pub struct ConfigArgs {
+    /// The preset to start from (see `swarmfl presets`); default `paper`.
+    #[arg(long)]
+    pub preset: Option<String>,
+    /// A TOML file overlaid on the preset (it may name its own `preset`).
+    #[arg(long)]
+    pub config: Option<PathBuf>,
+    /// Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+}
+
+impl ConfigArgs {
+    /// The configuration these arguments name.
+    pub fn resolve(&self) -> anyhow::Result<Config> {
+        Ok(Config::resolve(
+            self.preset.as_deref(),
+            self.config.as_deref(),
+            &self.overrides,
+        )?)
+    }
+}
+
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Simulate a run: writes DIR/run.swlog and DIR/summary.json.
+    Run(RunArgs),
+    /// Replay a log: fold its events and check every checkpoint (or re-simulate it).
+    Replay(ReplayArgs),
+    /// Draw the arena, obstacles, robots (Byzantine ones marked) and radio links at a simulated
+    /// time or right after a block of the final canonical chain (SVG or PNG).
+    Snapshot(SnapshotArgs),
+    /// Write one self-contained HTML file to watch a run in a browser (no network, no server):
+    /// the arena with robots, ids, Byzantine marks and radio links, animated with a scrubber
+    /// that also jumps by block height; each robot's tokens, the loss per round and the chain
+    /// with its forks and reorgs up to the time shown. `run.html#t=600` or `#block=40` opens
+    /// at that moment.
+    View(ViewArgs),
+    /// Compare two logs: header differences and the first diverging record (exit 1 if they
+    /// differ). With --resimulate, compare one log with a re-simulation under this build: exit
+    /// 0 identical, 1 diverged, 125 when the log cannot be read (`git bisect run` skips).
+    Diff(DiffArgs),
+    /// Regression fixtures: `regenerate` re-makes fixtures/logs and fixtures/expected.toml
+    /// from fixtures/manifest.toml (after an intentional change; see CHANGELOG.md).
+    Fixtures(FixturesArgs),
+    /// Show block H of the final canonical chain: the block, the contract state after it, every
+    /// node's head and the world at that moment (and the time it took).
+    Inspect(InspectArgs),
+    /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none);
+    /// in a baseline run (no blocks), the first checkpoint by time (time, round, loss,
+    /// heldout_loss).
+    #[command(after_long_help = BISECT_HELP)]
+    Bisect(BisectArgs),
+    /// Continue a run from block H of its final canonical chain under a changed configuration.
+    /// The fork's log records its parent's final hash, the height and the overrides, holds the
+    /// parent's records up to the fork point (re-simulated and checked byte for byte against
+    /// the parent) and replays on its own.
+    #[command(after_long_help = FORK_HELP)]
+    Fork(ForkArgs),
+    /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
+    /// accepted, outliers), balances.csv (every robot's balance after every block of the final
+    /// canonical chain), chain_bytes.csv (every node's chain size at every sealing) and
+    /// trajectories.csv (the samples of every robot's data set at the end of the run).
+    Export(ExportArgs),
+    /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
+    #[command(long_about = SWEEP_HELP)]
+    Sweep(SweepArgs),
+    /// Merge a sweep's results: means and 95 % CIs, the paper's figures (SVG, PNG), report.md.
+    Report(ReportArgs),
+    /// A seeded fault campaign: each seed draws a configuration, Byzantine behaviours and a
+    /// fault schedule, runs it and checks invariants at every block (conservation, validity,
+    /// agreement after heals, liveness). Exits 1 on a violation, naming the seed and the
+    /// command that replays it.
+    Chaos(ChaosArgs),
+    /// List the presets.
+    Presets,
+    /// Print the fully resolved configuration as TOML.
+    Config {
+        #[command(flatten)]
+        config: ConfigArgs,
+    },
+    /// Time one subsystem and print its figures.
+    Bench(BenchArgs),
+    /// One size of `bench scale`, run in a child process so that its peak RSS is its own:
+    /// prints one JSON line.
+    #[command(hide = true)]
+    BenchScaleOne(BenchScaleOneArgs),
+}
+
+/// The arguments of `swarmfl run`.
+#[derive(Args, Debug)]
+pub struct RunArgs {
+    #[command(flatten)]
+    pub config: ConfigArgs,
+    /// The seed: with the configuration, it determines the whole run.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory (default `runs/<preset>-seed<N>`).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// No progress bar and no summary on stdout.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The arguments of `swarmfl replay`.
+#[derive(Args, Debug)]
+pub struct ReplayArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// Re-simulate from the header's seed and configuration and compare every record.
+    #[arg(long)]
+    pub resimulate: bool,
+}
+
+/// The arguments of `swarmfl snapshot`.
+#[derive(Args, Debug)]
+pub struct SnapshotArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// Simulated time in seconds (the state after the last tick at or before it).
+    #[arg(long, conflicts_with = "block", required_unless_present = "block")]
+    pub time: Option<f64>,
+    /// Height on the final canonical chain (the state right after its sealing).
+    #[arg(long)]
+    pub block: Option<u64>,
+    /// Output file: `.svg` or `.png`.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl view`.
+#[derive(Args, Debug)]
+pub struct ViewArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// Output file (e.g. run.html).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl diff`.
+#[derive(Args, Debug)]
+pub struct DiffArgs {
+    /// The first log.
+    pub a: PathBuf,
+    /// The second log (omit with --resimulate).
+    pub b: Option<PathBuf>,
+    /// Compare `a` with a fresh re-simulation of its header's seed and configuration.
+    #[arg(long)]
+    pub resimulate: bool,
+}
+
+/// The arguments of `swarmfl fixtures`.
+#[derive(Args, Debug)]
+pub struct FixturesArgs {
+    /// What to do.
+    pub action: FixturesAction,
+    /// The fixtures folder.
+    #[arg(long, default_value = "fixtures")]
+    pub dir: PathBuf,
+}
+
+/// The arguments of `swarmfl inspect`.
+#[derive(Args, Debug)]
+pub struct InspectArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// Height on the final canonical chain (the best node's chain at the end; 0 = genesis).
+    #[arg(long, required_unless_present = "time", conflicts_with = "time")]
+    pub block: Option<u64>,
+    /// A baseline run (`learn.aggregation` gossip or central, no blocks): the state at the
+    /// last checkpoint at or before this simulated time, s.
+    #[arg(long)]
+    pub time: Option<f64>,
+    /// Narrow to one robot's view too (its node, balance, data, last learning phase).
+    #[arg(long)]
+    pub robot: Option<u32>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Ignore (and do not write) the sidecar index LOG.idx: fold the whole log.
+    #[arg(long)]
+    pub no_index: bool,
+}
+
+/// The arguments of `swarmfl bisect`.
+#[derive(Args, Debug)]
+pub struct BisectArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// The predicate, e.g. "byzantine_tokens > honest_tokens" (see --help for the grammar).
+    #[arg(long)]
+    pub until: String,
+    /// Declare the predicate monotone (false, then true for good): binary search with
+    /// O(log n) evaluations instead of a scan.
+    #[arg(long)]
+    pub monotone: bool,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The arguments of `swarmfl fork`.
+#[derive(Args, Debug)]
+pub struct ForkArgs {
+    /// The parent log (run.swlog).
+    pub log: PathBuf,
+    /// Height on the parent's final canonical chain (at least 1).
+    #[arg(long)]
+    pub at: u64,
+    /// Override a key from the fork point on (repeatable), e.g. --set contract.security=true.
+    #[arg(long = "set", value_name = "KEY=VALUE", required = true)]
+    pub overrides: Vec<String>,
+    /// Output directory (default: next to the parent, fork-at-H).
+    #[arg(long)]
+    pub out: Option<PathBuf>,
+    /// No progress bar and no summary.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The arguments of `swarmfl export`.
+#[derive(Args, Debug)]
+pub struct ExportArgs {
+    /// The log (run.swlog).
+    pub log: PathBuf,
+    /// Output directory (created).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl sweep`.
+#[derive(Args, Debug)]
+pub struct SweepArgs {
+    /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
+    /// e3-smart, e4-robustness or e5-smart-defence.
+    pub experiment: String,
+    /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Runs (seeds 1..=N) per point; default the paper's (5, 10, 20, 20, 18).
+    #[arg(long)]
+    pub runs: Option<u32>,
+    /// Runs in parallel; default the number of cores.
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// Run only shard I of N: the tasks whose index modulo N is I.
+    #[arg(long, value_name = "I/N")]
+    pub shard: Option<String>,
+    /// The shard count when the index comes from JOB_COMPLETION_INDEX (or SWARMFL_SHARDS).
+    #[arg(long)]
+    pub shards: Option<u32>,
+    /// Overrides for every task, `key.path=value` (e.g. `--set run.duration_s=600`).
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub overrides: Vec<String>,
+    /// Keep each run's log in DIR/<experiment>/<point>/seed<N>/ (default: deleted).
+    #[arg(long)]
+    pub keep_logs: bool,
+}
+
+/// The arguments of `swarmfl report`.
+#[derive(Args, Debug)]
+pub struct ReportArgs {
+    /// The results directory of one or more sweeps (shards merged by copying into it).
+    pub dir: PathBuf,
+    /// Report directory.
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl chaos`.
+#[derive(Args, Debug)]
+pub struct ChaosArgs {
+    /// How many seeds.
+    #[arg(long, default_value_t = 10)]
+    pub seeds: u64,
+    /// The first seed.
+    #[arg(long, default_value_t = 0)]
+    pub first_seed: u64,
+    /// Simulated seconds per run.
+    #[arg(long, default_value_t = 600.0)]
+    pub duration: f64,
+    /// Print the report as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The arguments of `swarmfl bench`.
+#[derive(Args, Debug)]
+pub struct BenchArgs {
+    /// Which subsystem.
+    pub target: BenchTarget,
+    /// Print machine-readable JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// `scale` only: the swarm sizes, comma-separated.
+    #[arg(long, value_name = "N,N,..")]
+    pub robots: Option<String>,
+    /// `scale` only: simulated seconds per size (default 300; the 960-robot size then takes
+    /// about 1.5 min on a 2-core machine, the others under 20 s each).
+    #[arg(long)]
+    pub duration_s: Option<f64>,
+}
+
+/// The arguments of `swarmfl bench-scale-one`.
+#[derive(Args, Debug)]
+pub struct BenchScaleOneArgs {
+    /// Robots.
+    #[arg(long)]
+    pub robots: u32,
+    /// Simulated seconds.
+    #[arg(long)]
+    pub duration_s: f64,
+}
+
+/// The long help of `swarmfl bisect`, after the options: the predicate language.
+const BISECT_HELP: &str = "\
+The predicate language (values are f64; comparisons and logic give 1 or 0; anything compared
+with NaN is false; a value is true when non-zero and not NaN):
+  expr    := or
+  or      := and ( \"||\" and )*
+  and     := cmp ( \"&&\" cmp )*
+  cmp     := sum ( ( < | <= | > | >= | == | != ) sum )?      (comparisons do not chain)
+  sum     := product ( ( + | - ) product )*
+  product := unary ( ( * | / ) unary )*
+  unary   := ( ! | - ) unary | primary
+  primary := NUMBER | IDENT | balance[INT] | node[INT].height | ( expr )
+Identifiers, at each block of the final canonical chain:
+  height            the block's height
+  time              its timestamp, simulated s
+  round             rounds closed up to the block: the number of the last closed round
+                    (rounds count from 1 everywhere: the run summary's r1, rounds.csv,
+                    inspect), also the shared model's version
+  loss              paper metric of the last round closed up to the block (NaN before)
+  heldout_loss      loss of the block's shared model on the held-out set
+  byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
+  honest_tokens     MEAN balance of the honest robots, tokens (NaN without any)
+  byzantine_wealth  byzantine_tokens plus the group's stakes in the current round, per robot
+  honest_wealth     honest_tokens plus the group's stakes in the current round, per robot
+  byzantine_sum     total balance of the Byzantine robots, tokens
+  honest_sum        total balance of the honest robots, tokens
+  accepted          accepted submissions in the current round
+  outliers          outlier submissions in the current round
+  pool              tokens held by the contract (stakes and carried remainders)
+  robots            number of robots
+  balance[i]        robot i's balance after the block, tokens
+  node[i].height    height of node i's head right after the block was sealed
+Examples: \"byzantine_tokens > honest_tokens\", \"loss > 0.1\", \"round >= 50\",
+\"node[3].height + 5 < node[0].height\".
+Both modes first fold the whole log once (checking every checkpoint, ~0.6 s for a paper run) to
+learn the final canonical chain; the search then evaluates the per-block values in memory.";
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum FixturesAction {
+    /// Re-run every fixture of the manifest and rewrite the expected hashes.
+    Regenerate,
+}
+
+#[derive(Clone, Copy, Debug, ValueEnum)]
+pub enum BenchTarget {
+    /// Physics + sensing + data.
+    World,
+    /// One local training of the reference workload.
+    Train,
+    /// Whole `paper` runs at the paper's density at growing swarm sizes (default 15, 60, 240,
+    /// 960 robots, 300 simulated s each): wall, CPU and per-part time per robot-simulated-second,
+    /// peak RSS per size.
+    Scale,
+}
+
+/// The long help of `swarmfl fork`, after the options: the fork point and the keys a fork may
+/// change.
+const FORK_HELP: &str =
+    "The fork point of block H is the end of the tick in which H was sealed: from there
+the robots use the new configuration, and the contract's new rules apply to the blocks sealed
+after it (activation by block timestamp; the round open on a chain when it crosses is restarted
+and its stakes refunded). Keys a fork may change:
+
+  run.duration_s                     the run ends at the new time
+  learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
+  contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks,
+  reward_weights, median, fedavg_rounding, int48_products, threshold, rank_key, rank_ties,
+  payout_rounding, pool
+  byzantine.*                        which robots misbehave, and how
+  output.*
+
+Example: what if security had been on from block 200?
+  swarmfl run --preset e2-faulty --set contract.security=false --seed 1 --out runs/nosec
+  swarmfl fork runs/nosec/run.swlog --at 200 --set contract.security=true --out runs/sec-at-200
+  swarmfl replay runs/sec-at-200/run.swlog            # bit-exact on its own
+  swarmfl diff runs/nosec/run.swlog runs/sec-at-200/run.swlog   # first divergence: the fork";
+
+/// The long help of `swarmfl sweep`: the task list and sharding.
+const SWEEP_HELP: &str =
+    "Run one of the paper's experiments (docs/SPEC.md section 7), or a shard of it.
+
+Experiments, points and default runs (seeds 1..=runs):
+  e0-baselines   {chain,gossip,central}-{clean,faulty-1,malicious-3} (learn.aggregation) 5 runs
+  e1-expiration  expiration-250..1250 (data.expiration_s = 250, 500, 750, 1000, 1250)  5 runs
+  e1-faulty      faulty-1 (security off, 1 faulty robot, expiration 750 s)            10 runs
+  e2-faulty      byzantine-0..7 (byzantine.count; kind none for 0)                    20 runs
+  e2-malicious   byzantine-0..7                                                        20 runs
+  e3-smart       byzantine-0..7                                                        18 runs
+  e4-robustness  <rule>--<attack>--<count>: 9 rules x (clean + 12 attacks x {3, 7})       3 runs
+  e5-smart-defence  <defence>--<attack>--<count>: defences none, agreement, innovation x
+                 (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
+
+Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
+order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,
+else SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN (MIN 0 if unset) of SLURM_ARRAY_TASK_COUNT
+(or --shards N), else JOB_COMPLETION_INDEX of --shards N or SWARMFL_SHARDS; else all tasks.
+
+Each task writes DIR/<experiment>/<point>/seed<N>.json (the run's summary plus a `sweep`
+section) atomically; existing, parseable result files are skipped, so re-running the same
+command resumes a sweep and retries failed tasks.";

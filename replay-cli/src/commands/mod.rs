@@ -1,0 +1,21 @@
+//! One module per subcommand, each with a `command` function that takes the subcommand's
+//! arguments (see `cli`) and returns its exit code. Modules shared by several commands: `run`
+//! (a run into a directory: `fork`, `sweep`, `fixtures` and `bench` make runs too) and
+//! `inspect` (the warning for a truncated log).
+
+pub mod bench;
+pub mod bisect;
+pub mod chaos;
+pub mod config;
+pub mod diff;
+pub mod export;
+pub mod fixtures;
+pub mod fork;
+pub mod inspect;
+pub mod presets;
+pub mod replay;
+pub mod report;
+pub mod run;
+pub mod snapshot;
+pub mod sweep;
+pub mod view;
