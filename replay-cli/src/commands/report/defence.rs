@@ -7,8 +7,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use super::plots::{draw, Kind, Plot, Series};
-use super::{ExperimentStats, Figure, PointStats, Stat};
+use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::stats::{ExperimentStats, PointStats, Stat};
 
 /// The experiment this module draws.
 pub const EXPERIMENT: &str = "e5-smart-defence";

@@ -1,4 +1,4 @@
-//! The report's figures, drawn with plotters as SVG and PNG.
+//! Drawing a report's line and error-bar figures with plotters, as SVG and PNG.
 //!
 //! Text (titles, axis labels, legends) uses the system's sans-serif font through plotters'
 //! `ttf` feature. If no font can be loaded, each figure is drawn again without any text rather
@@ -9,7 +9,18 @@ use std::path::Path;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
-use super::{ExperimentStats, Figure, Stat};
+use super::stats::Stat;
+
+/// One drawn figure: its file stem (`.svg` and `.png` exist) and caption, under an experiment.
+#[derive(Clone, Debug)]
+pub struct Figure {
+    /// The experiment the figure belongs to.
+    pub experiment: String,
+    /// File stem inside the report directory.
+    pub stem: String,
+    /// What it shows.
+    pub caption: String,
+}
 
 /// One labelled series of (x, statistic) points.
 pub(super) struct Series {
@@ -46,253 +57,6 @@ pub(super) struct Plot<'a> {
     pub(super) series: Vec<Series>,
     /// The quantity cannot be negative (a size, a loss): the axis and the intervals stop at 0.
     pub(super) nonnegative: bool,
-}
-
-/// Draws every figure the statistics allow into `out`, returning them (for report.md).
-pub fn draw_all(
-    stats: &[ExperimentStats],
-    out: &Path,
-    notes: &mut Vec<String>,
-) -> anyhow::Result<Vec<Figure>> {
-    let mut figures = Vec::new();
-    let mut textless = Vec::new();
-    let baseline = stats
-        .iter()
-        .find(|e| e.name == "e1-expiration")
-        .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
-    // e4-robustness has 225 points: its figures are heatmaps (`robustness.rs`); e5's 39
-    // points are drawn per defence (`defence.rs`).
-    for e in stats
-        .iter()
-        .filter(|e| e.name != super::robustness::EXPERIMENT && e.name != super::defence::EXPERIMENT)
-    {
-        let mut emit = |stem: String, caption: String, plot: Plot| -> anyhow::Result<()> {
-            if plot.series.iter().all(|s| s.points.is_empty()) {
-                return Ok(());
-            }
-            if !draw(&plot, out, &stem)? {
-                textless.push(stem.clone());
-            }
-            figures.push(Figure {
-                experiment: e.name.clone(),
-                stem,
-                caption,
-            });
-            Ok(())
-        };
-        if e.name == "e0-baselines" {
-            for (stem, caption, plot) in baselines(e) {
-                emit(stem, caption, plot)?;
-            }
-            continue;
-        }
-        // Loss over time, one line per point.
-        let mut loss: Vec<Series> = e
-            .points
-            .iter()
-            .map(|p| Series {
-                label: label(&e.name, &p.point, p.x),
-                points: p.loss.clone(),
-            })
-            .collect();
-        if e.name == "e1-faulty" {
-            if let Some(b) = baseline {
-                loss.push(Series {
-                    label: "no Byzantine (e1-expiration 750 s)".into(),
-                    points: b.loss.clone(),
-                });
-            }
-        }
-        let what = match e.name.as_str() {
-            "e1-expiration" => "per data expiration time, no Byzantine robots, no security",
-            "e1-faulty" => "with one faulty robot, no security",
-            "e2-faulty" => "per number of faulty robots, security on",
-            "e2-malicious" => "per number of malicious robots, security on",
-            "e3-smart" => "per number of smart robots, security on",
-            _ => "per configuration",
-        };
-        emit(
-            format!("{}-loss", e.name),
-            format!(
-                "{}: average loss over time {what} (mean, 95 % CI band, log scale)",
-                e.name
-            ),
-            Plot {
-                title: format!("{}: average loss", e.name),
-                x_label: "time (s)",
-                y_label: "average loss",
-                kind: Kind::Time { log_y: true },
-                series: loss,
-                nonnegative: true,
-            },
-        )?;
-        // Tokens versus the number of Byzantine robots: only where that is the grid (and
-        // where tokens move at all: no figure of zeros for the runs without security).
-        let tokens_move = e.points.iter().any(|p| {
-            ["honest_gain", "byzantine_gain"]
-                .iter()
-                .any(|k| p.metrics.get(*k).is_some_and(|s| s.mean != 0.0))
-        });
-        if e.points
-            .iter()
-            .any(|p| p.metrics.contains_key("honest_gain"))
-            && e.points.len() > 1
-            && e.name != "e1-expiration"
-            && tokens_move
-        {
-            let pick = |key: &str| -> Vec<(f64, Stat)> {
-                e.points
-                    .iter()
-                    .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
-                    .collect()
-            };
-            emit(
-                format!("{}-tokens", e.name),
-                format!(
-                    "{}: tokens gained by honest and by Byzantine robots versus their number (mean, 95 % CI)",
-                    e.name
-                ),
-                Plot {
-                    title: format!("{}: tokens gained", e.name),
-                    x_label: &e.axis,
-                    y_label: "tokens gained per robot",
-                    kind: Kind::Versus,
-                    nonnegative: false,
-                    series: vec![
-                        Series {
-                            label: "honest robots".into(),
-                            points: pick("honest_gain"),
-                        },
-                        Series {
-                            label: "Byzantine robots".into(),
-                            points: pick("byzantine_gain"),
-                        },
-                    ],
-                },
-            )?;
-        }
-        emit(
-            format!("{}-chain", e.name),
-            format!(
-                "{}: blockchain size over time (mean over nodes, then runs; 95 % CI)",
-                e.name
-            ),
-            Plot {
-                title: format!("{}: chain size", e.name),
-                x_label: "time (s)",
-                y_label: "chain size (MB)",
-                kind: Kind::Time { log_y: false },
-                nonnegative: true,
-                series: e
-                    .points
-                    .iter()
-                    .map(|p| Series {
-                        label: label(&e.name, &p.point, p.x),
-                        points: p.chain_mb.clone(),
-                    })
-                    .collect(),
-            },
-        )?;
-    }
-    if !textless.is_empty() {
-        notes.push(format!(
-            "no font could be loaded: {} drawn without titles, labels or legends",
-            textless.join(", ")
-        ));
-    }
-    Ok(figures)
-}
-
-/// The figures of `e0-baselines`: per Byzantine condition, the held-out loss over time of
-/// the three aggregations; bytes sent and stored per robot versus the number of Byzantine
-/// robots, one series per aggregation.
-fn baselines(e: &ExperimentStats) -> Vec<(String, String, Plot<'_>)> {
-    let mut figures = Vec::new();
-    let aggregations = ["chain", "gossip", "central"];
-    for (condition, what) in [
-        ("clean", "no Byzantine robots"),
-        ("faulty-1", "one faulty robot"),
-        ("malicious-3", "three malicious robots"),
-    ] {
-        let series = aggregations
-            .iter()
-            .filter_map(|a| {
-                let name = format!("{a}-{condition}");
-                e.points.iter().find(|p| p.point == name).map(|p| Series {
-                    label: if *a == "chain" {
-                        "chain (security on)".to_string()
-                    } else {
-                        a.to_string()
-                    },
-                    points: p.heldout.clone(),
-                })
-            })
-            .collect();
-        figures.push((
-            format!("e0-baselines-heldout-{condition}"),
-            format!(
-                "e0-baselines: held-out loss of the aggregated model over time, {what} \
-                 (mean, 95 % CI band, log scale; gossip: the robot that merged last)"
-            ),
-            Plot {
-                title: format!("e0-baselines: held-out loss, {what}"),
-                x_label: "time (s)",
-                y_label: "held-out loss",
-                kind: Kind::Time { log_y: true },
-                series,
-                nonnegative: true,
-            },
-        ));
-    }
-    for (key, what, y_label) in [
-        (
-            "sent_mb_per_robot",
-            "bytes each robot sends for aggregation",
-            "sent per robot (MB)",
-        ),
-        (
-            "stored_mb_per_robot",
-            "bytes each robot stores for aggregation at the end",
-            "stored per robot (MB)",
-        ),
-    ] {
-        let series = aggregations
-            .iter()
-            .map(|a| Series {
-                label: a.to_string(),
-                points: e
-                    .points
-                    .iter()
-                    .filter(|p| p.point.starts_with(&format!("{a}-")))
-                    .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
-                    .collect(),
-            })
-            .collect();
-        figures.push((
-            format!("e0-baselines-{}", key.replace('_', "-")),
-            format!("e0-baselines: {what} versus the number of Byzantine robots (mean, 95 % CI)"),
-            Plot {
-                title: format!("e0-baselines: {y_label}"),
-                x_label: &e.axis,
-                y_label,
-                kind: Kind::Versus,
-                series,
-                nonnegative: true,
-            },
-        ));
-    }
-    figures
-}
-
-fn label(experiment: &str, point: &str, x: f64) -> String {
-    if x.is_nan() || experiment == "e0-baselines" {
-        return point.to_string();
-    }
-    match experiment {
-        "e1-expiration" => format!("expiration {x} s"),
-        "e1-faulty" => "1 faulty robot".to_string(),
-        _ => format!("{x} Byzantine"),
-    }
 }
 
 /// Draws `plot` as `stem.svg` and `stem.png`; returns whether the text could be drawn.

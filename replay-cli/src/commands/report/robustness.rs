@@ -10,7 +10,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
-use super::{ExperimentStats, Figure};
+use super::plots::Figure;
+use super::stats::ExperimentStats;
 use crate::experiments;
 
 /// The experiment this module draws.

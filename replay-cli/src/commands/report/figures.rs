@@ -1,0 +1,278 @@
+//! The standard figures of an experiment: loss over time per point, tokens gained versus the
+//! number of Byzantine robots, chain size over time; and those of `e0-baselines` (held-out
+//! loss per condition, bytes per robot per aggregation).
+
+use std::path::Path;
+
+use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::stats::{ExperimentStats, PointStats, Stat};
+
+/// A figure to draw: file stem, caption and the plot.
+type Planned<'a> = (String, String, Plot<'a>);
+
+/// Draws every figure the statistics allow into `out`, returning them (for report.md), except
+/// for the experiments named in `own_figures` (their modules draw them).
+pub fn draw_all(
+    stats: &[ExperimentStats],
+    own_figures: &[&str],
+    out: &Path,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<Figure>> {
+    let mut figures = Vec::new();
+    let mut textless = Vec::new();
+    let baseline = stats
+        .iter()
+        .find(|e| e.name == "e1-expiration")
+        .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
+    for e in stats
+        .iter()
+        .filter(|e| !own_figures.contains(&e.name.as_str()))
+    {
+        let planned = if e.name == "e0-baselines" {
+            baselines(e)
+        } else {
+            standard(e, baseline)
+        };
+        for (stem, caption, plot) in planned {
+            if plot.series.iter().all(|s| s.points.is_empty()) {
+                continue;
+            }
+            if !draw(&plot, out, &stem)? {
+                textless.push(stem.clone());
+            }
+            figures.push(Figure {
+                experiment: e.name.clone(),
+                stem,
+                caption,
+            });
+        }
+    }
+    if !textless.is_empty() {
+        notes.push(format!(
+            "no font could be loaded: {} drawn without titles, labels or legends",
+            textless.join(", ")
+        ));
+    }
+    Ok(figures)
+}
+
+/// The figures of an experiment other than e0: its loss, its tokens (where they apply) and
+/// its chain size. `baseline` is e1-expiration's 750 s point, drawn beside e1-faulty's loss.
+fn standard<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Vec<Planned<'a>> {
+    let mut planned = vec![loss(e, baseline)];
+    planned.extend(tokens(e));
+    planned.push(chain(e));
+    planned
+}
+
+/// Loss over time, one line per point.
+fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a> {
+    let mut loss: Vec<Series> = e
+        .points
+        .iter()
+        .map(|p| Series {
+            label: label(&e.name, &p.point, p.x),
+            points: p.loss.clone(),
+        })
+        .collect();
+    if e.name == "e1-faulty" {
+        if let Some(b) = baseline {
+            loss.push(Series {
+                label: "no Byzantine (e1-expiration 750 s)".into(),
+                points: b.loss.clone(),
+            });
+        }
+    }
+    let what = match e.name.as_str() {
+        "e1-expiration" => "per data expiration time, no Byzantine robots, no security",
+        "e1-faulty" => "with one faulty robot, no security",
+        "e2-faulty" => "per number of faulty robots, security on",
+        "e2-malicious" => "per number of malicious robots, security on",
+        "e3-smart" => "per number of smart robots, security on",
+        _ => "per configuration",
+    };
+    (
+        format!("{}-loss", e.name),
+        format!(
+            "{}: average loss over time {what} (mean, 95 % CI band, log scale)",
+            e.name
+        ),
+        Plot {
+            title: format!("{}: average loss", e.name),
+            x_label: "time (s)",
+            y_label: "average loss",
+            kind: Kind::Time { log_y: true },
+            series: loss,
+            nonnegative: true,
+        },
+    )
+}
+
+/// Tokens versus the number of Byzantine robots: only where that is the grid (and where
+/// tokens move at all: no figure of zeros for the runs without security).
+fn tokens(e: &ExperimentStats) -> Option<Planned<'_>> {
+    let tokens_move = e.points.iter().any(|p| {
+        ["honest_gain", "byzantine_gain"]
+            .iter()
+            .any(|k| p.metrics.get(*k).is_some_and(|s| s.mean != 0.0))
+    });
+    let applies = e
+        .points
+        .iter()
+        .any(|p| p.metrics.contains_key("honest_gain"))
+        && e.points.len() > 1
+        && e.name != "e1-expiration"
+        && tokens_move;
+    if !applies {
+        return None;
+    }
+    let pick = |key: &str| -> Vec<(f64, Stat)> {
+        e.points
+            .iter()
+            .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
+            .collect()
+    };
+    Some((
+        format!("{}-tokens", e.name),
+        format!(
+            "{}: tokens gained by honest and by Byzantine robots versus their number (mean, 95 % CI)",
+            e.name
+        ),
+        Plot {
+            title: format!("{}: tokens gained", e.name),
+            x_label: &e.axis,
+            y_label: "tokens gained per robot",
+            kind: Kind::Versus,
+            nonnegative: false,
+            series: vec![
+                Series {
+                    label: "honest robots".into(),
+                    points: pick("honest_gain"),
+                },
+                Series {
+                    label: "Byzantine robots".into(),
+                    points: pick("byzantine_gain"),
+                },
+            ],
+        },
+    ))
+}
+
+/// Chain size over time, one line per point.
+fn chain(e: &ExperimentStats) -> Planned<'_> {
+    (
+        format!("{}-chain", e.name),
+        format!(
+            "{}: blockchain size over time (mean over nodes, then runs; 95 % CI)",
+            e.name
+        ),
+        Plot {
+            title: format!("{}: chain size", e.name),
+            x_label: "time (s)",
+            y_label: "chain size (MB)",
+            kind: Kind::Time { log_y: false },
+            nonnegative: true,
+            series: e
+                .points
+                .iter()
+                .map(|p| Series {
+                    label: label(&e.name, &p.point, p.x),
+                    points: p.chain_mb.clone(),
+                })
+                .collect(),
+        },
+    )
+}
+
+/// The figures of `e0-baselines`: per Byzantine condition, the held-out loss over time of
+/// the three aggregations; bytes sent and stored per robot versus the number of Byzantine
+/// robots, one series per aggregation.
+fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
+    let mut figures = Vec::new();
+    let aggregations = ["chain", "gossip", "central"];
+    for (condition, what) in [
+        ("clean", "no Byzantine robots"),
+        ("faulty-1", "one faulty robot"),
+        ("malicious-3", "three malicious robots"),
+    ] {
+        let series = aggregations
+            .iter()
+            .filter_map(|a| {
+                let name = format!("{a}-{condition}");
+                e.points.iter().find(|p| p.point == name).map(|p| Series {
+                    label: if *a == "chain" {
+                        "chain (security on)".to_string()
+                    } else {
+                        a.to_string()
+                    },
+                    points: p.heldout.clone(),
+                })
+            })
+            .collect();
+        figures.push((
+            format!("e0-baselines-heldout-{condition}"),
+            format!(
+                "e0-baselines: held-out loss of the aggregated model over time, {what} \
+                 (mean, 95 % CI band, log scale; gossip: the robot that merged last)"
+            ),
+            Plot {
+                title: format!("e0-baselines: held-out loss, {what}"),
+                x_label: "time (s)",
+                y_label: "held-out loss",
+                kind: Kind::Time { log_y: true },
+                series,
+                nonnegative: true,
+            },
+        ));
+    }
+    for (key, what, y_label) in [
+        (
+            "sent_mb_per_robot",
+            "bytes each robot sends for aggregation",
+            "sent per robot (MB)",
+        ),
+        (
+            "stored_mb_per_robot",
+            "bytes each robot stores for aggregation at the end",
+            "stored per robot (MB)",
+        ),
+    ] {
+        let series = aggregations
+            .iter()
+            .map(|a| Series {
+                label: a.to_string(),
+                points: e
+                    .points
+                    .iter()
+                    .filter(|p| p.point.starts_with(&format!("{a}-")))
+                    .filter_map(|p| p.metrics.get(key).map(|s| (p.x, *s)))
+                    .collect(),
+            })
+            .collect();
+        figures.push((
+            format!("e0-baselines-{}", key.replace('_', "-")),
+            format!("e0-baselines: {what} versus the number of Byzantine robots (mean, 95 % CI)"),
+            Plot {
+                title: format!("e0-baselines: {y_label}"),
+                x_label: &e.axis,
+                y_label,
+                kind: Kind::Versus,
+                series,
+                nonnegative: true,
+            },
+        ));
+    }
+    figures
+}
+
+/// A point's legend label.
+fn label(experiment: &str, point: &str, x: f64) -> String {
+    if x.is_nan() || experiment == "e0-baselines" {
+        return point.to_string();
+    }
+    match experiment {
+        "e1-expiration" => format!("expiration {x} s"),
+        "e1-faulty" => "1 faulty robot".to_string(),
+        _ => format!("{x} Byzantine"),
+    }
+}

@@ -1,0 +1,326 @@
+//! `swarmfl report`: merges a sweep's result files and computes, per experiment and
+//! configuration point, means and 95 % confidence intervals over runs, then draws the paper's
+//! figures and writes `report.md` with a table of the numbers.
+//!
+//! The steps, one module each: `load` (read and sort the result files), `stats` (means and
+//! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
+//! standard figures of each experiment), `robustness` (e4's heatmaps) and `defence` (e5's
+//! figures), and `tables` (the CSV files and `report.md`). Results are sorted by experiment, point (in the grid's order) and seed before any sum, so the
+//! numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
+//! deterministic number (shards merged or one local sweep give identical files); wall-clock
+//! times are kept apart in `timing.csv`.
+
+mod defence;
+mod figures;
+mod load;
+mod plots;
+mod robustness;
+mod stats;
+mod tables;
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+
+use crate::cli::ReportArgs;
+
+/// Runs `swarmfl report`.
+pub fn command(args: ReportArgs) -> anyhow::Result<ExitCode> {
+    let path = report(&args.dir, &args.out)?;
+    println!("wrote {}", path.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Makes the report of the results in `dir` into `out`: figures (SVG and PNG), `report.md`,
+/// `numbers.csv`, `series.csv` and `timing.csv`. Returns the path of `report.md`.
+pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
+    let (results, mut notes) = load::load(dir)?;
+    anyhow::ensure!(
+        !results.is_empty(),
+        "no result files found under {} (expected <experiment>/<point>/seed<N>.json)",
+        dir.display()
+    );
+    let stats = stats::aggregate(&results);
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let (numbers, series) = tables::numbers_csv(&stats);
+    std::fs::write(out.join("numbers.csv"), numbers)?;
+    std::fs::write(out.join("series.csv"), series)?;
+    std::fs::write(out.join("timing.csv"), tables::timing_csv(&stats))?;
+    // e4-robustness has 225 points: its figures are heatmaps; e5's 39 points are drawn per
+    // defence. The standard figures are for the others.
+    let own_figures = [robustness::EXPERIMENT, defence::EXPERIMENT];
+    let mut figures = figures::draw_all(&stats, &own_figures, out, &mut notes)?;
+    figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
+    figures.extend(defence::draw_all(&stats, out, &mut notes)?);
+    if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
+        std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
+    }
+    let md = tables::markdown(&stats, &figures, &notes, results.len());
+    let path = out.join("report.md");
+    std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
+    Ok(path)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::load::{load, sort, RunResult};
+    use super::stats::aggregate;
+    use super::tables::numbers_csv;
+    use super::*;
+    use crate::experiments::{self, EXPERIMENTS};
+    use crate::results;
+    use serde_json::Value;
+    use swarmfl_core::rng::{self, Purpose};
+
+    /// A synthetic summary that follows the schema of `summary.json` (`summary::RunSummary`) exactly, with values
+    /// drawn from the seeded RNG. For tests only: not a result of any run.
+    fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> Value {
+        let mut r = rng::stream(seed * 1000 + x as u64, Purpose::Dropout, 0);
+        let sim_time_s = 5000.0;
+        let byzantine = if experiment == "e1-expiration" {
+            0
+        } else {
+            x as u32
+        };
+        let rounds = 40 + r.below(20) as usize;
+        let mut t = 0.0;
+        let mut loss = 0.3;
+        let (mut times, mut losses, mut heldout) = (Vec::new(), Vec::new(), Vec::new());
+        for _ in 0..rounds {
+            t += 60.0 + r.uniform() * 60.0;
+            loss *= 0.9 + 0.05 * r.uniform() + 0.01 * f64::from(byzantine);
+            times.push(t);
+            losses.push(loss);
+            heldout.push(loss * 1.2);
+        }
+        let chain: Vec<Value> = (1..=50)
+            .map(|k| {
+                let mean = f64::from(k) * 2.0e6 * (1.0 + 0.1 * r.uniform());
+                serde_json::json!({"time_s": f64::from(k) * 100.0, "mean": mean, "max": mean * 1.05})
+            })
+            .collect();
+        let robots: Vec<u32> = (0..byzantine).collect();
+        serde_json::json!({
+            "format": 1, "seed": seed, "preset": experiment, "config_hash": "00",
+            "sim_time_s": sim_time_s, "robots": 15, "records": 1000, "final_hash": "ff",
+            "wall_s": 10.0 + r.uniform(), "log_bytes": 12345,
+            "world": {"collisions": 0, "mean_neighbours": 5.0, "samples_per_robot_per_600s": 20.0,
+                      "samples_per_robot_per_600s_std": 1.0, "trajectories_discarded": 0},
+            "byzantine": {"kind": if byzantine == 0 {"none"} else {"faulty"}, "count": byzantine, "robots": robots},
+            "ledger": {"canonical_height": 498, "forks": 12, "reorgs": 30, "deepest_reorg": 2,
+                       "tx_delay_median_s": 1.2, "tx_delay_p95_s": 8.0,
+                       "bytes_per_submission": 16000.0, "chain_bytes": chain},
+            "contract": {"rounds": rounds, "round_times_s": times, "loss_by_round": losses,
+                         "heldout_loss_by_round": heldout, "final_loss": losses.last(),
+                         "submissions": {"accepted": 700, "outlier": 10, "duplicate": 0,
+                                         "insufficient_stake": 3, "malformed": 0}},
+            "tokens": {"total_units_start": 315000000000u64, "total_units_end": 315000000000u64,
+                       "honest_mean_gain": 1.5 + r.uniform(),
+                       "byzantine_mean_gain": if byzantine == 0 { Value::Null } else { serde_json::json!(-4.0 + r.uniform()) },
+                       "balances": vec![21.0; 15],
+                       "byzantine_control": if byzantine >= 5 {
+                           serde_json::json!({"height": 100, "time_s": 1000.0 + r.uniform(), "share": 0.6, "heldout_loss": 0.05})
+                       } else { Value::Null }},
+            "timing": {"world_s": 1.0, "learning_s": 30.0, "ledger_s": 2.0, "log_s": 0.3}
+        })
+    }
+
+    /// Writes a synthetic sweep result directory: `runs` seeds per point of each experiment.
+    fn synthetic_dir(dir: &Path, experiments: &[&str], runs: u64) {
+        for name in experiments {
+            let exp = experiments::experiment(name).unwrap();
+            for p in &exp.points {
+                for seed in 1..=runs {
+                    let path = results::result_path(dir, name, &p.name, seed);
+                    results::write_atomic(&path, &synthetic_summary(name, p.x, seed)).unwrap();
+                }
+            }
+        }
+    }
+
+    fn temp(tag: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("swarmfl-report-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        d
+    }
+
+    #[test]
+    fn report_numbers_do_not_depend_on_file_order_or_sharding() {
+        let dir = temp("order");
+        synthetic_dir(&dir, &["e1-expiration", "e2-faulty"], 3);
+        let (results, notes) = load(&dir).unwrap();
+        assert!(notes.is_empty(), "{notes:?}");
+        assert_eq!(results.len(), (5 + 8) * 3);
+        let reference = numbers_csv(&aggregate(&results));
+        // Any other order of the same results gives the same numbers once sorted.
+        let mut shuffled = results.clone();
+        shuffled.reverse();
+        shuffled.rotate_left(7);
+        sort(&mut shuffled);
+        assert_eq!(numbers_csv(&aggregate(&shuffled)), reference);
+        // Three shards (`--shard I/3`: the tasks with index % 3 == I) write their shares into
+        // separate directories; merged they are the same.
+        let merged = temp("merged");
+        for index in 0..3 {
+            for name in ["e1-expiration", "e2-faulty"] {
+                let exp = experiments::experiment(name).unwrap();
+                for t in experiments::tasks(&exp, 3, &[])
+                    .iter()
+                    .filter(|t| t.index % 3 == index)
+                {
+                    let from = results::result_path(&dir, name, &t.point, t.seed);
+                    let to = results::result_path(&merged, name, &t.point, t.seed);
+                    std::fs::create_dir_all(to.parent().unwrap()).unwrap();
+                    std::fs::copy(from, to).unwrap();
+                }
+            }
+        }
+        let (merged_results, _) = load(&merged).unwrap();
+        assert_eq!(numbers_csv(&aggregate(&merged_results)), reference);
+        let (numbers, series) = &reference;
+        assert!(numbers.contains("e2-faulty,byzantine-7,7,3,byzantine_gain,"));
+        assert!(
+            series
+                .lines()
+                .filter(|l| l.starts_with("e1-expiration,expiration-250,loss,"))
+                .count()
+                == 50
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+        std::fs::remove_dir_all(&merged).unwrap();
+    }
+
+    #[test]
+    fn aggregation_follows_the_definition() {
+        // Two runs by hand: loss at t = 100 is the mean of the last closed rounds.
+        let mk = |seed: u64, times: Vec<f64>, losses: Vec<f64>, gain: f64| {
+            let mut s = synthetic_summary("e2-faulty", 2.0, seed);
+            s["sim_time_s"] = serde_json::json!(300.0);
+            s["contract"]["round_times_s"] = serde_json::json!(times);
+            s["contract"]["final_loss"] = serde_json::json!(losses.last());
+            s["contract"]["loss_by_round"] = serde_json::json!(losses);
+            s["tokens"]["honest_mean_gain"] = serde_json::json!(gain);
+            RunResult {
+                experiment: "e2-faulty".into(),
+                point: "byzantine-2".into(),
+                seed,
+                summary: s,
+            }
+        };
+        let results = vec![
+            mk(1, vec![50.0, 150.0], vec![0.4, 0.2], 1.0),
+            mk(2, vec![120.0, 250.0], vec![0.6, 0.1], 3.0),
+        ];
+        let stats = aggregate(&results);
+        let p = &stats[0].points[0];
+        assert_eq!(p.x, 2.0);
+        let loss: Vec<(f64, usize, f64)> = p.loss.iter().map(|(t, s)| (*t, s.n, s.mean)).collect();
+        assert_eq!(
+            loss,
+            vec![
+                (100.0, 1, 0.4),
+                (200.0, 2, 0.4),
+                (300.0, 2, 0.15000000000000002)
+            ]
+        );
+        let gain = p.metrics["honest_gain"];
+        assert_eq!((gain.n, gain.mean), (2, 2.0));
+        assert_eq!(p.metrics["final_loss"].mean, 0.15000000000000002);
+    }
+
+    #[test]
+    fn summaries_without_the_learning_sections_are_tolerated() {
+        let dir = temp("partial");
+        let path = results::result_path(&dir, "e1-faulty", "faulty-1", 1);
+        let mut s = synthetic_summary("e1-faulty", 1.0, 1);
+        let map = s.as_object_mut().unwrap();
+        for k in ["contract", "tokens", "ledger", "byzantine", "timing"] {
+            map.remove(k);
+        }
+        results::write_atomic(&path, &s).unwrap();
+        let out = dir.join("report");
+        let md_path = report(&dir, &out).unwrap();
+        let md = std::fs::read_to_string(md_path).unwrap();
+        assert!(md.contains("have no `contract` section"), "{md}");
+        assert!(md.contains("| faulty-1 | 1 | 1 | n/a |"), "{md}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn damaged_and_mixed_results_are_refused_naming_the_files() {
+        let dir = temp("refused");
+        synthetic_dir(&dir, &["e2-faulty"], 2);
+        let broken = dir.join("e2-faulty/byzantine-3/seed2.json");
+        std::fs::write(&broken, "{\"seed\": 2, \"contr").unwrap();
+        let wrong = dir.join("e2-faulty/byzantine-1/seed1.json");
+        std::fs::write(&wrong, "{\"seed\": 9}").unwrap();
+        let err = report(&dir, &dir.join("report")).unwrap_err().to_string();
+        assert!(err.contains("2 result file(s)"), "{err}");
+        assert!(
+            err.contains("byzantine-3/seed2.json: not readable as JSON"),
+            "{err}"
+        );
+        assert!(err.contains("byzantine-1/seed1.json: a JSON file"), "{err}");
+        assert!(!dir.join("report/report.md").exists());
+        synthetic_dir(&dir, &["e2-faulty"], 2);
+        // seed 3 of one point made at another duration: refused, both settings named.
+        let mut other = synthetic_summary("e2-faulty", 2.0, 3);
+        other["config_hash"] = "1234567890abcdef".into();
+        other["sweep"] =
+            serde_json::json!({"overrides": ["byzantine.count=2", "run.duration_s=200"]});
+        results::write_atomic(
+            &results::result_path(&dir, "e2-faulty", "byzantine-2", 3),
+            &other,
+        )
+        .unwrap();
+        let err = report(&dir, &dir.join("report")).unwrap_err().to_string();
+        assert!(err.contains("e2-faulty byzantine-2 mixes results"), "{err}");
+        assert!(
+            err.contains("seed1.json was made with no --set (configuration 00)"),
+            "{err}"
+        );
+        assert!(
+            err.contains("seed3.json with --set run.duration_s=200 (configuration 1234567890ab)"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn a_full_synthetic_report_draws_every_figure() {
+        let dir = temp("full");
+        synthetic_dir(&dir, &EXPERIMENTS, 3);
+        let out = dir.join("report");
+        let md = std::fs::read_to_string(report(&dir, &out).unwrap()).unwrap();
+        for stem in [
+            "e1-expiration-loss",
+            "e1-faulty-loss",
+            "e2-faulty-loss",
+            "e2-faulty-tokens",
+            "e2-malicious-tokens",
+            "e3-smart-loss",
+            "e3-smart-tokens",
+            "e2-faulty-chain",
+            "e5-smart-defence-smart-tokens",
+            "e5-smart-defence-smart-heldout",
+            "e5-smart-defence-switch-tokens",
+            "e5-smart-defence-switch-heldout",
+        ] {
+            for ext in ["svg", "png"] {
+                let f = out.join(format!("{stem}.{ext}"));
+                let len = std::fs::metadata(&f).map(|m| m.len()).unwrap_or(0);
+                assert!(len > 1000, "{} is missing or empty", f.display());
+            }
+            assert!(
+                md.contains(&format!("({stem}.png)")),
+                "{stem} is not in report.md"
+            );
+        }
+        assert!(
+            md.contains("| agreement--smart-then-collude--7 | 3 | 3 | 10"),
+            "the control table of e5"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}

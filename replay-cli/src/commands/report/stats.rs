@@ -1,0 +1,389 @@
+//! The statistics of a report: per experiment and configuration point, means and 95 %
+//! confidence intervals over runs, of scalar metrics and of curves over time.
+//!
+//! For `n` runs with mean `m` and sample standard deviation `s`, the 95 % interval is
+//! `m +- t(0.975, n-1) * s / sqrt(n)` (Student t; no interval for `n < 2`). Curves over time
+//! use [`BIN_S`] bins: the loss of a run at time `t` is the `loss_by_round` entry of the last
+//! round whose `round_times_s` is at or before `t` (a run with no round yet does not count in
+//! that bin); chain size at `t` is the last `ledger.chain_bytes` sample at or before `t`.
+
+use std::collections::BTreeMap;
+
+use serde_json::Value;
+
+use super::load::RunResult;
+use crate::experiments;
+
+/// Width of the time bins of the curves, in simulated seconds.
+pub const BIN_S: f64 = 100.0;
+
+/// A mean with its 95 % confidence half-width over `n` values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Stat {
+    /// Number of values.
+    pub n: usize,
+    /// Their mean.
+    pub mean: f64,
+    /// Half-width of the 95 % Student-t interval (None for fewer than 2 values).
+    pub ci: Option<f64>,
+}
+
+impl Stat {
+    /// The statistic of `values` (in the order given: the sum is sequential).
+    pub fn of(values: &[f64]) -> Option<Stat> {
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let ci = (n >= 2).then(|| {
+            let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64;
+            t_975(n - 1) * var.sqrt() / (n as f64).sqrt()
+        });
+        Some(Stat { n, mean, ci })
+    }
+
+    /// `mean +- ci` as text.
+    pub fn text(self, digits: usize) -> String {
+        match self.ci {
+            Some(ci) => format!("{:.digits$} ± {:.digits$}", self.mean, ci),
+            None => format!("{:.digits$}", self.mean),
+        }
+    }
+}
+
+/// The 0.975 quantile of Student's t with `df` degrees of freedom: exact table values for
+/// df 1..=30, then interpolation in 1/df between 30, 40, 60, 120 and infinity.
+pub fn t_975(df: usize) -> f64 {
+    const TABLE: [f64; 30] = [
+        12.706, 4.303, 3.182, 2.776, 2.571, 2.447, 2.365, 2.306, 2.262, 2.228, 2.201, 2.179, 2.160,
+        2.145, 2.131, 2.120, 2.110, 2.101, 2.093, 2.086, 2.080, 2.074, 2.069, 2.064, 2.060, 2.056,
+        2.052, 2.048, 2.045, 2.042,
+    ];
+    assert!(df >= 1, "t quantile needs at least one degree of freedom");
+    if df <= 30 {
+        return TABLE[df - 1];
+    }
+    const TAIL: [(f64, f64); 5] = [
+        (30.0, 2.042),
+        (40.0, 2.021),
+        (60.0, 2.000),
+        (120.0, 1.980),
+        (f64::INFINITY, 1.960),
+    ];
+    let inv = 1.0 / df as f64;
+    for w in TAIL.windows(2) {
+        let (a, b) = ((1.0 / w[0].0, w[0].1), (1.0 / w[1].0, w[1].1));
+        if inv <= a.0 && inv >= b.0 {
+            return b.1 + (a.1 - b.1) * (inv - b.0) / (a.0 - b.0);
+        }
+    }
+    1.960
+}
+
+/// A curve over time: per bin end time, the statistic over the runs that have a value.
+pub type Curve = Vec<(f64, Stat)>;
+
+/// Everything computed for one configuration point.
+#[derive(Clone, Debug)]
+pub struct PointStats {
+    /// The point's name.
+    pub point: String,
+    /// The grid value (NaN if the point is not in the experiment's grid).
+    pub x: f64,
+    /// The seeds present, ascending.
+    pub seeds: Vec<u64>,
+    /// Loss over time (empty without `contract` sections).
+    pub loss: Curve,
+    /// Held-out loss of the aggregated model over time (the last aggregation at or before each
+    /// bin's end; `gossip`: of whichever robot merged last).
+    pub heldout: Curve,
+    /// Chain size over time in MB (empty without `ledger` sections).
+    pub chain_mb: Curve,
+    /// Scalar metrics by name (only those present in the results).
+    pub metrics: BTreeMap<&'static str, Stat>,
+    /// Wall-clock seconds per run (not deterministic; kept apart).
+    pub wall_s: Option<Stat>,
+    /// Results lacking a section the report uses, by section name.
+    pub missing: BTreeMap<&'static str, usize>,
+}
+
+/// Everything computed for one experiment.
+#[derive(Clone, Debug)]
+pub struct ExperimentStats {
+    /// The experiment's id.
+    pub name: String,
+    /// The grid's axis label.
+    pub axis: String,
+    /// Per point, in grid order.
+    pub points: Vec<PointStats>,
+}
+
+/// The loss of a run at time `t`: the last round closed at or before `t`.
+fn loss_at(times: &[f64], losses: &[f64], t: f64) -> Option<f64> {
+    let closed = times.iter().take_while(|&&rt| rt <= t).count();
+    closed
+        .checked_sub(1)
+        .and_then(|r| losses.get(r).copied())
+        .filter(|v| v.is_finite())
+}
+
+/// A JSON array of numbers (None if any entry is not one).
+fn f64s(v: Option<&Value>) -> Option<Vec<f64>> {
+    v?.as_array()?.iter().map(Value::as_f64).collect()
+}
+
+/// The curve over [`BIN_S`] bins of `per_run` values at each bin's end (runs without a value
+/// there do not count).
+fn curve(sim_time_s: f64, per_run: &[Box<dyn Fn(f64) -> Option<f64> + '_>]) -> Curve {
+    if per_run.is_empty() {
+        return Vec::new();
+    }
+    let bins = (sim_time_s / BIN_S).ceil().max(1.0) as u64;
+    (1..=bins)
+        .filter_map(|b| {
+            let t = (b as f64 * BIN_S).min(sim_time_s);
+            let values: Vec<f64> = per_run.iter().filter_map(|f| f(t)).collect();
+            Stat::of(&values).map(|s| (t, s))
+        })
+        .collect()
+}
+
+/// Computes the statistics of sorted results.
+pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
+    let mut out: Vec<ExperimentStats> = Vec::new();
+    for r in results {
+        if out.last().is_none_or(|e| e.name != r.experiment) {
+            let exp = experiments::experiment(&r.experiment).ok();
+            out.push(ExperimentStats {
+                name: r.experiment.clone(),
+                axis: exp.map_or_else(|| "point".to_string(), |e| e.axis.to_string()),
+                points: Vec::new(),
+            });
+        }
+    }
+    for exp in &mut out {
+        let mine: Vec<&RunResult> = results
+            .iter()
+            .filter(|r| r.experiment == exp.name)
+            .collect();
+        let mut names: Vec<&str> = Vec::new();
+        for r in &mine {
+            if names.last() != Some(&r.point.as_str()) {
+                names.push(&r.point);
+            }
+        }
+        let grid = experiments::experiment(&exp.name).ok();
+        for name in names {
+            let runs: Vec<&RunResult> = mine.iter().copied().filter(|r| r.point == name).collect();
+            let x = grid
+                .as_ref()
+                .and_then(|g| g.points.iter().find(|p| p.name == name))
+                .map_or(f64::NAN, |p| p.x);
+            exp.points.push(point_stats(name, x, &runs));
+        }
+    }
+    out
+}
+
+/// The statistics of one point from its runs (in seed order).
+fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
+    let sim_time_s = runs
+        .iter()
+        .filter_map(|r| r.summary.get("sim_time_s").and_then(Value::as_f64))
+        .fold(0.0f64, f64::max);
+    let mut g = Gathered::default();
+    for r in runs {
+        g.run(&r.summary);
+    }
+    let loss_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = g
+        .loss_runs
+        .iter()
+        .map(|(t, l)| Box::new(move |at: f64| loss_at(t, l, at)) as Box<dyn Fn(f64) -> Option<f64>>)
+        .collect();
+    let heldout_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = g
+        .heldout_runs
+        .iter()
+        .map(|(t, l)| Box::new(move |at: f64| loss_at(t, l, at)) as Box<dyn Fn(f64) -> Option<f64>>)
+        .collect();
+    let chain_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = g
+        .chain_runs
+        .iter()
+        .map(|v| {
+            Box::new(move |at: f64| v.iter().take_while(|(t, _)| *t <= at).last().map(|p| p.1))
+                as Box<dyn Fn(f64) -> Option<f64>>
+        })
+        .collect();
+    PointStats {
+        point: name.to_string(),
+        x,
+        seeds: runs.iter().map(|r| r.seed).collect(),
+        loss: curve(sim_time_s, &loss_fns),
+        heldout: curve(sim_time_s, &heldout_fns),
+        chain_mb: curve(sim_time_s, &chain_fns),
+        metrics: g
+            .metric_values
+            .into_iter()
+            .filter_map(|(k, v)| Stat::of(&v).map(|s| (k, s)))
+            .collect(),
+        wall_s: Stat::of(&g.walls),
+        missing: g.missing,
+    }
+}
+
+/// The values of a point's runs, gathered run by run (so each list is in seed order), before
+/// any statistic.
+#[derive(Default)]
+struct Gathered {
+    /// Scalar metrics by name, one value per run that has it.
+    metric_values: BTreeMap<&'static str, Vec<f64>>,
+    /// Per run: round close times and the loss of each round.
+    loss_runs: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Per run: round close times and the held-out loss of each round's model.
+    heldout_runs: Vec<(Vec<f64>, Vec<f64>)>,
+    /// Per run: (time, mean chain MB) samples.
+    chain_runs: Vec<Vec<(f64, f64)>>,
+    /// Wall-clock seconds per run.
+    walls: Vec<f64>,
+    /// Runs lacking a section, by section name.
+    missing: BTreeMap<&'static str, usize>,
+}
+
+impl Gathered {
+    /// Adds a finite value of metric `key`.
+    fn push(&mut self, key: &'static str, v: Option<f64>) {
+        if let Some(v) = v.filter(|v| v.is_finite()) {
+            self.metric_values.entry(key).or_default().push(v);
+        }
+    }
+
+    /// Adds one run's summary.
+    fn run(&mut self, s: &Value) {
+        for section in ["contract", "tokens", "ledger"] {
+            if s.get(section).is_none_or(Value::is_null) {
+                *self.missing.entry(section).or_insert(0) += 1;
+            }
+        }
+        if let Some(c) = s.get("contract").filter(|c| c.is_object()) {
+            self.contract(c);
+        }
+        if let Some(t) = s.get("tokens").filter(|c| c.is_object()) {
+            self.tokens(t);
+        }
+        if let Some(l) = s.get("ledger").filter(|c| c.is_object()) {
+            self.ledger(l);
+        }
+        if let Some(a) = s.get("aggregation").filter(|a| a.is_object()) {
+            let mb = |key: &str| a.get(key).and_then(Value::as_f64).map(|b| b / 1e6);
+            self.push("sent_mb_per_robot", mb("bytes_sent_per_robot_mean"));
+            self.push("stored_mb_per_robot", mb("bytes_stored_per_robot_mean"));
+        }
+        if let Some(w) = s.get("wall_s").and_then(Value::as_f64) {
+            self.walls.push(w);
+        }
+    }
+
+    /// The `contract` section: rounds, losses and submissions.
+    fn contract(&mut self, c: &Value) {
+        self.push("rounds", c.get("rounds").and_then(Value::as_f64));
+        self.push("final_loss", c.get("final_loss").and_then(Value::as_f64));
+        // The summary's own final held-out loss (gossip: the mean over honest robots), else
+        // the last aggregation's.
+        let heldout = f64s(c.get("heldout_loss_by_round"));
+        self.push(
+            "final_heldout_loss",
+            c.get("final_heldout_loss")
+                .and_then(Value::as_f64)
+                .or_else(|| heldout.as_ref().and_then(|h| h.last().copied())),
+        );
+        let times = f64s(c.get("round_times_s"));
+        if let (Some(t), Some(l)) = (&times, f64s(c.get("loss_by_round"))) {
+            self.loss_runs.push((t.clone(), l));
+        }
+        if let (Some(t), Some(h)) = (times, heldout) {
+            self.heldout_runs.push((t, h));
+        }
+        if let Some(sub) = c.get("submissions") {
+            self.push("accepted", sub.get("accepted").and_then(Value::as_f64));
+            self.push("outlier", sub.get("outlier").and_then(Value::as_f64));
+        }
+    }
+
+    /// The `tokens` section: gains and when the Byzantine robots took control.
+    fn tokens(&mut self, t: &Value) {
+        self.push(
+            "honest_gain",
+            t.get("honest_mean_gain").and_then(Value::as_f64),
+        );
+        self.push(
+            "byzantine_gain",
+            t.get("byzantine_mean_gain").and_then(Value::as_f64),
+        );
+        if let Some(c) = t.get("byzantine_control").filter(|c| c.is_object()) {
+            self.push("control_time_s", c.get("time_s").and_then(Value::as_f64));
+            self.push(
+                "control_heldout_loss",
+                c.get("heldout_loss").and_then(Value::as_f64),
+            );
+        }
+    }
+
+    /// The `ledger` section: height, forks and the chain size over time.
+    fn ledger(&mut self, l: &Value) {
+        self.push("height", l.get("canonical_height").and_then(Value::as_f64));
+        self.push("forks", l.get("forks").and_then(Value::as_f64));
+        if let Some(samples) = l.get("chain_bytes").and_then(Value::as_array) {
+            let v: Vec<(f64, f64)> = samples
+                .iter()
+                .filter_map(|e| Some((e.get("time_s")?.as_f64()?, e.get("mean")?.as_f64()? / 1e6)))
+                .collect();
+            self.push("chain_mb", v.last().map(|&(_, mb)| mb));
+            self.chain_runs.push(v);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stats_match_hand_computed_values() {
+        let check = |values: &[f64], mean: f64, ci: Option<f64>| {
+            let s = Stat::of(values).unwrap();
+            assert!((s.mean - mean).abs() < 1e-12, "{values:?}");
+            match (s.ci, ci) {
+                (Some(a), Some(b)) => assert!((a - b).abs() < 1e-9, "{values:?}: {a} vs {b}"),
+                (a, b) => assert_eq!(a, b),
+            }
+        };
+        check(&[2.0], 2.0, None);
+        // n = 2: sd = sqrt(2), half-width = 12.706 * sqrt(2) / sqrt(2).
+        check(&[1.0, 3.0], 2.0, Some(12.706));
+        // n = 4: sd = sqrt(5/3), t(3) = 3.182.
+        check(
+            &[1.0, 2.0, 3.0, 4.0],
+            2.5,
+            Some(3.182 * (5.0f64 / 3.0).sqrt() / 2.0),
+        );
+        assert!(Stat::of(&[]).is_none());
+        assert_eq!(t_975(30), 2.042);
+        assert_eq!(t_975(120), 1.980);
+        assert!(t_975(45) < 2.021 && t_975(45) > 2.000);
+        assert!(t_975(100_000) > 1.960 && t_975(100_000) < 1.961);
+    }
+
+    #[test]
+    fn loss_at_a_time_is_the_last_closed_round() {
+        let times = [50.0, 120.0, 300.0];
+        let losses = [0.5, 0.25, 0.125];
+        let check = |t: f64, expect: Option<f64>| {
+            assert_eq!(loss_at(&times, &losses, t), expect, "t = {t}")
+        };
+        check(10.0, None);
+        check(50.0, Some(0.5));
+        check(119.0, Some(0.5));
+        check(200.0, Some(0.25));
+        check(5000.0, Some(0.125));
+    }
+}

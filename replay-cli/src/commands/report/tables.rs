@@ -1,0 +1,170 @@
+//! The report's text: `numbers.csv` and `series.csv` (every deterministic number),
+//! `timing.csv` (wall-clock times, kept apart) and `report.md`.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+
+use super::plots::Figure;
+use super::stats::{ExperimentStats, PointStats, Stat, BIN_S};
+use super::{defence, robustness};
+
+/// Writes `numbers.csv` (scalar metrics) and `series.csv` (curves) as text: every deterministic
+/// number of the report, with full precision.
+pub fn numbers_csv(stats: &[ExperimentStats]) -> (String, String) {
+    let ci = |s: &Stat| s.ci.map_or_else(String::new, |c| format!("{c:e}"));
+    let mut numbers = String::from("experiment,point,x,n,metric,mean,ci95\n");
+    let mut series = String::from("experiment,point,metric,time_s,n,mean,ci95\n");
+    for e in stats {
+        for p in &e.points {
+            for (k, s) in &p.metrics {
+                let _ = writeln!(
+                    numbers,
+                    "{},{},{},{},{},{:e},{}",
+                    e.name,
+                    p.point,
+                    p.x,
+                    s.n,
+                    k,
+                    s.mean,
+                    ci(s)
+                );
+            }
+            for (metric, c) in [
+                ("loss", &p.loss),
+                ("heldout_loss", &p.heldout),
+                ("chain_mb", &p.chain_mb),
+            ] {
+                for (t, s) in c {
+                    let _ = writeln!(
+                        series,
+                        "{},{},{},{},{},{:e},{}",
+                        e.name,
+                        p.point,
+                        metric,
+                        t,
+                        s.n,
+                        s.mean,
+                        ci(s)
+                    );
+                }
+            }
+        }
+    }
+    (numbers, series)
+}
+
+/// `timing.csv`: each point's wall-clock seconds per run (not deterministic, so not in
+/// `numbers.csv`).
+pub fn timing_csv(stats: &[ExperimentStats]) -> String {
+    let mut timing = String::from("experiment,point,n,wall_s_mean,wall_s_ci95\n");
+    for e in stats {
+        for p in &e.points {
+            if let Some(w) = p.wall_s {
+                let _ = writeln!(
+                    timing,
+                    "{},{},{},{},{}",
+                    e.name,
+                    p.point,
+                    w.n,
+                    w.mean,
+                    w.ci.map_or_else(String::new, |c| c.to_string())
+                );
+            }
+        }
+    }
+    timing
+}
+
+/// `report.md`: per experiment its figures, its own tables (e4, e5) and the table of every
+/// point's numbers, then the notes.
+pub fn markdown(
+    stats: &[ExperimentStats],
+    figures: &[Figure],
+    notes: &[String],
+    files: usize,
+) -> String {
+    let mut md = String::new();
+    let _ = writeln!(md, "# swarmfl report\n");
+    let _ = writeln!(
+        md,
+        "{files} result files. Means over runs with 95 % Student-t confidence intervals \
+         (`mean ± half-width`; none for a single run). Loss curves use {BIN_S} s bins. \
+         All numbers at full precision: `numbers.csv`, `series.csv`; wall-clock times: \
+         `timing.csv`.\n"
+    );
+    let get = |p: &PointStats, k: &str, digits: usize| {
+        p.metrics
+            .get(k)
+            .map_or_else(|| "n/a".to_string(), |s| s.text(digits))
+    };
+    for e in stats {
+        let _ = writeln!(md, "## {}\n", e.name);
+        for f in figures.iter().filter(|f| f.experiment == e.name) {
+            let _ = writeln!(
+                md,
+                "![{}]({}.png)\n\n*{}* ([SVG]({}.svg))\n",
+                f.caption, f.stem, f.caption, f.stem
+            );
+        }
+        if e.name == robustness::EXPERIMENT {
+            let _ = writeln!(
+                md,
+                "Worst case: for each rule, the attack that leaves the highest final held-out \
+                 loss at each Byzantine count, and that loss as a multiple of the rule's clean \
+                 run (`e4-worst-case.csv`).\n\n{}",
+                robustness::worst_case(e).0
+            );
+        }
+        if e.name == defence::EXPERIMENT {
+            let _ = writeln!(
+                md,
+                "When the Byzantine robots held more than `byzantine.switch_token_share` of the \
+                 balances on the final chain (`tokens.byzantine_control`; `smart-then-collude` \
+                 switches then):\n\n{}",
+                defence::control_table(e)
+            );
+        }
+        let _ = writeln!(
+            md,
+            "| point | {} | runs | rounds | final loss | final held-out loss | honest gain (tokens) | Byzantine gain (tokens) | chain MB | wall s/run |",
+            e.axis
+        );
+        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
+        for p in &e.points {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+                p.point,
+                p.x,
+                p.seeds.len(),
+                get(p, "rounds", 1),
+                get(p, "final_loss", 5),
+                get(p, "final_heldout_loss", 5),
+                get(p, "honest_gain", 2),
+                get(p, "byzantine_gain", 2),
+                get(p, "chain_mb", 2),
+                p.wall_s.map_or_else(|| "n/a".to_string(), |s| s.text(1)),
+            );
+        }
+        let mut missing: BTreeMap<&str, usize> = BTreeMap::new();
+        for p in &e.points {
+            for (k, n) in &p.missing {
+                *missing.entry(k).or_default() += n;
+            }
+        }
+        for (section, n) in missing {
+            let _ = writeln!(
+                md,
+                "\nNote: {n} result files have no `{section}` section; the figures and columns that need it are skipped (n/a)."
+            );
+        }
+        let _ = writeln!(md);
+    }
+    if !notes.is_empty() {
+        let _ = writeln!(md, "## Notes\n");
+        for n in notes {
+            let _ = writeln!(md, "- {n}");
+        }
+    }
+    md
+}
