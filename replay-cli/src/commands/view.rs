@@ -21,7 +21,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use swarmfl_core::event::{CheckpointCause, Record};
+use swarmfl_core::event::{CheckpointCause, Event, Record};
 use swarmfl_core::inspect::{self, expr::Env};
 use swarmfl_core::log::{LogError, LogReader};
 use swarmfl_core::replay;
@@ -67,128 +67,261 @@ pub struct ViewOutcome {
 pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
     let index = inspect::index_run(log, None)?;
     warn_if_truncated(&index);
-    let name = log.display().to_string();
-    let config = index.config.clone();
-    let robots = config.world.robots as usize;
-    let canonical: BTreeMap<Digest, u64> = index.chain.iter().map(|r| (r.hash, r.height)).collect();
-
+    let config = &index.config;
     // Uniform frames every `every_ticks` ticks.
     let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
     let total_ticks = config.ticks().max(1);
     let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
     let frame_ms = every_ticks * tick_ms;
+    let walk = Walk::fold(log, &index, tick_ms, frame_ms)?;
+    let title = format!(
+        "{} — preset {}, seed {}, {} robots, {} s",
+        log.display(),
+        config.preset,
+        index.seed,
+        config.world.robots,
+        config.run.duration_s
+    );
+    let data = page_data(&index, &walk, &title, total_ticks * tick_ms, frame_ms)?;
+    let html = TEMPLATE
+        .replace("__TITLE__", &html_escape(&title))
+        // `</` cannot appear inside the data: JSON strings escape it.
+        .replace("__DATA__", &data.replace("</", "<\\/"));
+    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir)
+            .with_context(|| format!("cannot create the folder {}", dir.display()))?;
+    }
+    std::fs::write(out, &html).with_context(|| format!("cannot write {}", out.display()))?;
+    Ok(ViewOutcome {
+        frames: walk.frames.t.len(),
+        blocks: walk.ids.len(),
+        bytes: html.len(),
+        frame_s: frame_ms as f64 / 1000.0,
+    })
+}
 
-    let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
-    let header_config = replay::header_config(&reader, &name)?;
-    let mut state = State::genesis(&header_config, index.seed)
-        .map_err(|e| anyhow::anyhow!("{name}: cannot start the run of the header: {e}"))?;
+/// The second fold of the log: frames, every node's blocks and the reorgs.
+struct Walk {
+    /// The state at the end of the intact prefix.
+    state: State,
+    /// Every block seen (any node's), numbered in sealing order; genesis is 0.
+    ids: BTreeMap<Digest, u32>,
+    /// JSON: `[id, parent id, height, node, time ms]` per block.
+    blocks: String,
+    /// JSON: `[time ms, node, depth]` per reorg.
+    reorgs: String,
+    /// Reorgs written into `reorgs`.
+    reorg_count: usize,
+    /// Every node's head after the last ledger event.
+    heads: Vec<Digest>,
+    /// The sampled frames.
+    frames: Frames,
+}
 
-    let mut ids: BTreeMap<Digest, u32> = BTreeMap::new();
-    let genesis = state.ledger.head(0).0;
-    ids.insert(genesis, 0);
-    let mut blocks = String::from("[[0,-1,0,-1,0]");
-    let mut frames = Frames::default();
-    frames.push(&state, &ids, 0);
-    let mut next_frame_ms = frame_ms;
-    let mut heads: Vec<Digest> = vec![genesis; robots];
-    let mut reorgs = String::from("[");
-    let mut reorg_count = 0usize;
-    let records_in_prefix = index.records;
-    loop {
-        if reader.index() >= records_in_prefix {
-            break;
-        }
-        let record = match reader.next_record() {
-            Ok(Some(r)) => r,
-            Ok(None) => break,
-            Err(LogError::Truncated { .. }) => break,
-            Err(e) => return Err(replay::ReplayError::from(e).into()),
+impl Walk {
+    /// Folds the records of the intact prefix of `log` (the `index.records` that
+    /// [`inspect::index_run`] read), sampling a frame every `frame_ms` and at every block of
+    /// the final canonical chain.
+    fn fold(
+        log: &Path,
+        index: &inspect::RunIndex,
+        tick_ms: u64,
+        frame_ms: u64,
+    ) -> anyhow::Result<Walk> {
+        let name = log.display().to_string();
+        let canonical: BTreeMap<Digest, u64> =
+            index.chain.iter().map(|r| (r.hash, r.height)).collect();
+        let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+        let header_config = replay::header_config(&reader, &name)?;
+        let state = State::genesis(&header_config, index.seed)
+            .map_err(|e| anyhow::anyhow!("{name}: cannot start the run of the header: {e}"))?;
+        let genesis = state.ledger.head(0).0;
+        let mut walk = Walk {
+            ids: BTreeMap::from([(genesis, 0)]),
+            blocks: String::from("[[0,-1,0,-1,0]"),
+            reorgs: String::from("["),
+            reorg_count: 0,
+            heads: vec![genesis; index.config.world.robots as usize],
+            frames: Frames::default(),
+            state,
         };
-        let at = reader.index() - 1;
-        replay::fold_record(&mut state, &name, at, &record)?;
-        let ledger_event = matches!(
-            &record,
-            Record::Event {
-                event: swarmfl_core::event::Event::Ledger(_),
-                ..
-            }
-        );
-        if ledger_event {
-            for (node, old) in heads.iter_mut().enumerate() {
-                let (new, height) = state.ledger.head(node as u32);
-                if new == *old {
-                    continue;
-                }
-                // A reorg: the new head does not descend from the old one.
-                let old_height = state.ledger.block(old).map_or(0, |e| e.block.header.height);
-                let mut cursor = new;
-                let mut h = height;
-                while h > old_height {
-                    match state.ledger.block(&cursor) {
-                        Some(e) => cursor = e.block.header.parent,
-                        None => break,
-                    }
-                    h -= 1;
-                }
-                if cursor != *old {
-                    // Depth: blocks of the old branch abandoned.
-                    let mut a = *old;
-                    let mut b = cursor;
-                    let mut depth = 0u64;
-                    while a != b {
-                        let (Some(ea), Some(eb)) = (state.ledger.block(&a), state.ledger.block(&b))
-                        else {
-                            break;
-                        };
-                        a = ea.block.header.parent;
-                        b = eb.block.header.parent;
-                        depth += 1;
-                    }
-                    let _ = write!(
-                        reorgs,
-                        "{}[{},{node},{depth}]",
-                        if reorg_count == 0 { "" } else { "," },
-                        record.time().0
-                    );
-                    reorg_count += 1;
-                }
-                *old = new;
-            }
-        }
-        match &record {
-            Record::Checkpoint(cp) => {
-                if let CheckpointCause::Block { node, height } = cp.cause {
-                    let (hash, _) = state.ledger.head(node);
-                    if !ids.contains_key(&hash) {
-                        let id = ids.len() as u32;
-                        ids.insert(hash, id);
-                        let parent = state
-                            .ledger
-                            .block(&hash)
-                            .and_then(|e| ids.get(&e.block.header.parent).copied())
-                            .map_or(-1, i64::from);
-                        let _ = write!(blocks, ",[{id},{parent},{height},{node},{}]", cp.time.0);
-                    }
-                    if canonical.get(&hash) == Some(&height) {
-                        frames.push(&state, &ids, cp.time.0);
+        walk.frames.push(&walk.state, &walk.ids, 0);
+        let mut next_frame_ms = frame_ms;
+        while reader.index() < index.records {
+            let record = match reader.next_record() {
+                Ok(Some(r)) => r,
+                Ok(None) => break,
+                Err(LogError::Truncated { .. }) => break,
+                Err(e) => return Err(replay::ReplayError::from(e).into()),
+            };
+            let at = reader.index() - 1;
+            replay::fold_record(&mut walk.state, &name, at, &record)?;
+            match &record {
+                Record::Event {
+                    event: Event::Ledger(_),
+                    time,
+                } => walk.note_reorgs(time.0),
+                Record::Checkpoint(cp) => {
+                    if let CheckpointCause::Block { node, height } = cp.cause {
+                        walk.note_block(node, height, cp.time.0, &canonical);
                     }
                 }
-            }
-            Record::Event { time, event } => {
-                if matches!(event, swarmfl_core::event::Event::Tick(_)) {
+                Record::Event {
+                    time,
+                    event: Event::Tick(_),
+                } => {
                     let now = time.0 + tick_ms;
                     if now >= next_frame_ms {
-                        frames.push(&state, &ids, now);
+                        walk.frames.push(&walk.state, &walk.ids, now);
                         next_frame_ms = (now / frame_ms + 1) * frame_ms;
                     }
                 }
+                Record::Event { .. } => {}
             }
         }
+        walk.blocks.push(']');
+        walk.reorgs.push(']');
+        Ok(walk)
     }
-    blocks.push(']');
-    reorgs.push(']');
 
-    // The final canonical chain: block ids, times and balances (tokens) after each block.
+    /// After a ledger event at `time_ms`: every node whose new head does not descend from its
+    /// old one had a reorg; records it with its depth (blocks of the old branch abandoned).
+    fn note_reorgs(&mut self, time_ms: u64) {
+        let ledger = &self.state.ledger;
+        for (node, old) in self.heads.iter_mut().enumerate() {
+            let (new, height) = ledger.head(node as u32);
+            if new == *old {
+                continue;
+            }
+            let old_height = ledger.block(old).map_or(0, |e| e.block.header.height);
+            // The new head's ancestor at the old head's height.
+            let mut cursor = new;
+            let mut h = height;
+            while h > old_height {
+                match ledger.block(&cursor) {
+                    Some(e) => cursor = e.block.header.parent,
+                    None => break,
+                }
+                h -= 1;
+            }
+            if cursor != *old {
+                let mut a = *old;
+                let mut b = cursor;
+                let mut depth = 0u64;
+                while a != b {
+                    let (Some(ea), Some(eb)) = (ledger.block(&a), ledger.block(&b)) else {
+                        break;
+                    };
+                    a = ea.block.header.parent;
+                    b = eb.block.header.parent;
+                    depth += 1;
+                }
+                let _ = write!(
+                    self.reorgs,
+                    "{}[{time_ms},{node},{depth}]",
+                    if self.reorg_count == 0 { "" } else { "," },
+                );
+                self.reorg_count += 1;
+            }
+            *old = new;
+        }
+    }
+
+    /// At the checkpoint of `node` sealing a block at `height`: numbers the block if new, and
+    /// takes a frame if it is a block of the final canonical chain.
+    fn note_block(
+        &mut self,
+        node: u32,
+        height: u64,
+        time_ms: u64,
+        canonical: &BTreeMap<Digest, u64>,
+    ) {
+        let (hash, _) = self.state.ledger.head(node);
+        if !self.ids.contains_key(&hash) {
+            let id = self.ids.len() as u32;
+            self.ids.insert(hash, id);
+            let parent = self
+                .state
+                .ledger
+                .block(&hash)
+                .and_then(|e| self.ids.get(&e.block.header.parent).copied())
+                .map_or(-1, i64::from);
+            let _ = write!(self.blocks, ",[{id},{parent},{height},{node},{time_ms}]");
+        }
+        if canonical.get(&hash) == Some(&height) {
+            self.frames.push(&self.state, &self.ids, time_ms);
+        }
+    }
+}
+
+/// The page's data object as JSON text.
+fn page_data(
+    index: &inspect::RunIndex,
+    walk: &Walk,
+    title: &str,
+    duration_ms: u64,
+    frame_ms: u64,
+) -> anyhow::Result<String> {
+    let config = &index.config;
+    let (chain, balances) = chain_json(index, &walk.ids);
+    let rounds = rounds_json(index);
+    let arena = walk.state.world.arena();
+    let obstacles: Vec<String> = arena
+        .obstacles
+        .iter()
+        .map(|o| match *o {
+            Obstacle::Cylinder { x, y, radius_m } => format!("[\"c\",{x},{y},{radius_m}]"),
+            Obstacle::Box { x, y, half_side_m } => format!("[\"b\",{x},{y},{half_side_m}]"),
+        })
+        .collect();
+    let byzantine: Vec<&str> = index
+        .byzantine
+        .iter()
+        .map(|&b| if b { "1" } else { "0" })
+        .collect();
+    let frames = &walk.frames;
+    // A block's frame may be taken after the frame of the tick's end: order by time (stable,
+    // so a block's frame follows a tick frame of the same time and wins at that time).
+    let mut order: Vec<usize> = (0..frames.t.len()).collect();
+    order.sort_by_key(|&k| frames.t[k]);
+    let pick = |v: &[String]| {
+        order
+            .iter()
+            .map(|&k| v[k].as_str())
+            .collect::<Vec<_>>()
+            .join(",")
+    };
+    let times = order
+        .iter()
+        .map(|&k| frames.t[k].to_string())
+        .collect::<Vec<_>>()
+        .join(",");
+    Ok(format!(
+        "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
+         \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
+         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"blocks\":{},\
+         \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
+         \"truncated\":{}}}",
+        serde_json::to_string(title)?,
+        config.world.robots,
+        arena.half_side_m,
+        config.world.robot_radius_m,
+        config.world.rab_range_m,
+        obstacles.join(","),
+        byzantine.join(","),
+        times,
+        pick(&frames.pose),
+        pick(&frames.links),
+        pick(&frames.heads),
+        walk.blocks,
+        walk.reorgs,
+        serde_json::to_string(&index.truncated)?,
+    ))
+}
+
+/// The final canonical chain as JSON: `[block id, time ms]` per block, and every robot's
+/// balance (tokens) after each block.
+fn chain_json(index: &inspect::RunIndex, ids: &BTreeMap<Digest, u32>) -> (String, String) {
     let mut chain = String::from("[");
     let mut balances = String::from("[");
     for (k, row) in index.chain.iter().enumerate() {
@@ -214,6 +347,11 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
     }
     chain.push(']');
     balances.push(']');
+    (chain, balances)
+}
+
+/// The closed rounds as JSON: `[round, block, time ms, loss, held-out loss]` each.
+fn rounds_json(index: &inspect::RunIndex) -> String {
     let values = index.values();
     let mut rounds = String::from("[");
     for (k, r) in index.rounds().iter().enumerate() {
@@ -230,82 +368,10 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
         );
     }
     rounds.push(']');
-
-    let arena = state.world.arena();
-    let obstacles: Vec<String> = arena
-        .obstacles
-        .iter()
-        .map(|o| match *o {
-            Obstacle::Cylinder { x, y, radius_m } => format!("[\"c\",{x},{y},{radius_m}]"),
-            Obstacle::Box { x, y, half_side_m } => format!("[\"b\",{x},{y},{half_side_m}]"),
-        })
-        .collect();
-    let byzantine: Vec<&str> = index
-        .byzantine
-        .iter()
-        .map(|&b| if b { "1" } else { "0" })
-        .collect();
-    let title = format!(
-        "{} — preset {}, seed {}, {} robots, {} s",
-        log.display(),
-        config.preset,
-        index.seed,
-        robots,
-        config.run.duration_s
-    );
-    // A block's frame may be taken after the frame of the tick's end: order by time (stable,
-    // so a block's frame follows a tick frame of the same time and wins at that time).
-    let mut order: Vec<usize> = (0..frames.t.len()).collect();
-    order.sort_by_key(|&k| frames.t[k]);
-    let pick = |v: &[String]| {
-        order
-            .iter()
-            .map(|&k| v[k].as_str())
-            .collect::<Vec<_>>()
-            .join(",")
-    };
-    let times = order
-        .iter()
-        .map(|&k| frames.t[k].to_string())
-        .collect::<Vec<_>>()
-        .join(",");
-    let frame_count = frames.t.len();
-    let data = format!(
-        "{{\"title\":{},\"robots\":{robots},\"half\":{},\"radius\":{},\"range\":{},\
-         \"duration_ms\":{},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
-         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"blocks\":{blocks},\
-         \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{reorgs},\
-         \"truncated\":{}}}",
-        serde_json::to_string(&title)?,
-        arena.half_side_m,
-        config.world.robot_radius_m,
-        config.world.rab_range_m,
-        total_ticks * tick_ms,
-        obstacles.join(","),
-        byzantine.join(","),
-        times,
-        pick(&frames.pose),
-        pick(&frames.links),
-        pick(&frames.heads),
-        serde_json::to_string(&index.truncated)?,
-    );
-    let html = TEMPLATE
-        .replace("__TITLE__", &html_escape(&title))
-        // `</` cannot appear inside the data: JSON strings escape it.
-        .replace("__DATA__", &data.replace("</", "<\\/"));
-    if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir)
-            .with_context(|| format!("cannot create the folder {}", dir.display()))?;
-    }
-    std::fs::write(out, &html).with_context(|| format!("cannot write {}", out.display()))?;
-    Ok(ViewOutcome {
-        frames: frame_count,
-        blocks: ids.len(),
-        bytes: html.len(),
-        frame_s: frame_ms as f64 / 1000.0,
-    })
+    rounds
 }
 
+/// A number as JSON (`null` for NaN and infinities).
 fn json_num(v: f64) -> String {
     if v.is_finite() {
         format!("{v}")
@@ -314,6 +380,7 @@ fn json_num(v: f64) -> String {
     }
 }
 
+/// Escapes text for HTML.
 fn html_escape(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
@@ -330,6 +397,7 @@ struct Frames {
 }
 
 impl Frames {
+    /// Adds the frame of `state` at `time_ms`: poses, links and every node's head block.
     fn push(&mut self, state: &State, ids: &BTreeMap<Digest, u32>, time_ms: u64) {
         let world = &state.world;
         let n = world.poses().len();
