@@ -93,10 +93,12 @@ fn inspect(
     Ok(())
 }
 
+/// The first characters of a hash, enough to tell blocks apart.
 fn short(hex: &str) -> &str {
     &hex[..hex.len().min(12)]
 }
 
+/// A robot's kind as a word.
 fn mark(byzantine: bool) -> &'static str {
     if byzantine {
         "byzantine"
@@ -105,6 +107,7 @@ fn mark(byzantine: bool) -> &'static str {
     }
 }
 
+/// One line per counted submission: sender, samples, distance, stake and verdict.
 fn print_submissions(subs: &[SubmissionInfo]) {
     for s in subs {
         println!(
@@ -119,7 +122,17 @@ fn print_submissions(subs: &[SubmissionInfo]) {
     }
 }
 
+/// The human-readable report of one block (`last` is the final chain's height).
 fn print_report(r: &BlockReport, last: u64) {
+    print_block(r, last);
+    print_contract(r);
+    print_nodes(r);
+    print_world(r);
+    print_robot_view(r);
+}
+
+/// The block: hash, parent, time, signer, difficulty and its transactions.
+fn print_block(r: &BlockReport, last: u64) {
     let b = &r.block;
     println!(
         "block {} of {} (final canonical chain of {})",
@@ -152,6 +165,10 @@ fn print_report(r: &BlockReport, last: u64) {
             t.detail
         );
     }
+}
+
+/// The contract after the block: rounds, pool, balances, submissions, the last round's payouts.
+fn print_contract(r: &BlockReport) {
     let c = &r.contract;
     println!("contract after the block");
     println!(
@@ -201,6 +218,10 @@ fn print_report(r: &BlockReport, last: u64) {
             }
         }
     }
+}
+
+/// Every node's head right after the sealing.
+fn print_nodes(r: &BlockReport) {
     println!("nodes right after the sealing");
     for n in &r.nodes {
         println!(
@@ -215,6 +236,10 @@ fn print_report(r: &BlockReport, last: u64) {
             }
         );
     }
+}
+
+/// Every robot's pose, peers and data set at that moment.
+fn print_world(r: &BlockReport) {
     println!("world at t = {:.3} s", r.world.time_s);
     for w in &r.world.robots {
         println!(
@@ -228,6 +253,10 @@ fn print_report(r: &BlockReport, last: u64) {
             w.dataset
         );
     }
+}
+
+/// With `--robot`, that robot's view: its node, balance, data and last learning phase.
+fn print_robot_view(r: &BlockReport) {
     if let Some(v) = &r.robot {
         println!("robot {} ({}) view", v.robot, mark(v.byzantine));
         println!(

@@ -10,6 +10,7 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use swarmfl_core::replay;
@@ -74,6 +75,11 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
     result.with_context(|| format!("drawing the snapshot into {}", out.display()))
 }
 
+/// The chart a snapshot is drawn on: metres on both axes.
+type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
+
+/// Draws the picture on `root`, with text (title, axes, ids, scale bar, legend) when `title`
+/// is given. Layers in order: proximity rays, radio links, obstacles, walls, robots, text.
 fn draw_on<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     world: &World,
@@ -96,8 +102,7 @@ where
     let mut chart = builder
         .build_cartesian_2d(-h..h, -h..h)
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    let text = title.is_some();
-    if text {
+    if title.is_some() {
         chart
             .configure_mesh()
             .disable_mesh()
@@ -110,10 +115,45 @@ where
     }
     let (xr, _) = chart.plotting_area().get_pixel_range();
     let px_per_m = f64::from(xr.end - xr.start) / (2.0 * h);
-    let px = |m: f64| ((m * px_per_m).round() as i32).max(1);
-    let err = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e}");
+    draw_rays(&mut chart, world)?;
+    draw_links(&mut chart, world)?;
+    draw_obstacles(&mut chart, world, px_per_m)?;
+    // Walls.
+    chart
+        .draw_series(std::iter::once(Rectangle::new(
+            [(-h, -h), (h, h)],
+            BLACK.stroke_width(4),
+        )))
+        .map_err(err::<DB>)?;
+    draw_robots(&mut chart, world, marks, px_per_m)?;
+    if title.is_some() {
+        draw_text(&mut chart, world)?;
+    }
+    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok(())
+}
 
-    // Proximity rays, under everything else.
+/// A plotters error as an `anyhow` one.
+fn err<DB: DrawingBackend>(e: DrawingAreaErrorKind<DB::ErrorType>) -> anyhow::Error
+where
+    DB::ErrorType: 'static,
+{
+    anyhow::anyhow!("{e}")
+}
+
+/// A length in metres as whole pixels (at least 1).
+fn px(m: f64, px_per_m: f64) -> i32 {
+    ((m * px_per_m).round() as i32).max(1)
+}
+
+/// Every robot's proximity rays, as long as the free space each sensor reads.
+fn draw_rays<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
     let r = world.robot_radius_m();
     let range = world.proximity_range_m();
     let mut readings = vec![0.0; world.proximity_sensors()];
@@ -128,10 +168,20 @@ where
             let to = (from.0 + len * c, from.1 + len * s);
             chart
                 .draw_series(std::iter::once(PathElement::new(vec![from, to], RAY)))
-                .map_err(err)?;
+                .map_err(err::<DB>)?;
         }
     }
-    // Radio links.
+    Ok(())
+}
+
+/// The radio links between robots in range.
+fn draw_links<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
     for (i, j) in world.links() {
         let (a, b) = (world.poses()[i as usize], world.poses()[j as usize]);
         chart
@@ -139,19 +189,30 @@ where
                 vec![(a.x, a.y), (b.x, b.y)],
                 LINK.stroke_width(1),
             )))
-            .map_err(err)?;
+            .map_err(err::<DB>)?;
     }
-    // Obstacles.
+    Ok(())
+}
+
+/// The cylinders and boxes of the arena.
+fn draw_obstacles<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+    px_per_m: f64,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
     for o in &world.arena().obstacles {
         match *o {
             Obstacle::Cylinder { x, y, radius_m } => {
                 chart
                     .draw_series(std::iter::once(Circle::new(
                         (x, y),
-                        px(radius_m),
+                        px(radius_m, px_per_m),
                         OBSTACLE.filled(),
                     )))
-                    .map_err(err)?;
+                    .map_err(err::<DB>)?;
             }
             Obstacle::Box {
                 x,
@@ -163,18 +224,24 @@ where
                         [(x - e, y - e), (x + e, y + e)],
                         OBSTACLE.filled(),
                     )))
-                    .map_err(err)?;
+                    .map_err(err::<DB>)?;
             }
         }
     }
-    // Walls.
-    chart
-        .draw_series(std::iter::once(Rectangle::new(
-            [(-h, -h), (h, h)],
-            BLACK.stroke_width(4),
-        )))
-        .map_err(err)?;
-    // Robots with heading lines.
+    Ok(())
+}
+
+/// The robots as disks in the colour of their mark, with heading lines.
+fn draw_robots<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+    marks: &[RobotMark],
+    px_per_m: f64,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let r = world.robot_radius_m();
     for (i, p) in world.poses().iter().enumerate() {
         let color = match marks.get(i) {
             Some(RobotMark::Byzantine) => BYZANTINE,
@@ -183,75 +250,85 @@ where
         chart
             .draw_series(std::iter::once(Circle::new(
                 (p.x, p.y),
-                px(r),
+                px(r, px_per_m),
                 color.filled(),
             )))
-            .map_err(err)?;
+            .map_err(err::<DB>)?;
         let tip = (p.x + 2.2 * r * p.theta.cos(), p.y + 2.2 * r * p.theta.sin());
         chart
             .draw_series(std::iter::once(PathElement::new(
                 vec![(p.x, p.y), tip],
                 BLACK.stroke_width(2),
             )))
-            .map_err(err)?;
+            .map_err(err::<DB>)?;
     }
-    if text {
-        // Robot ids, beside each body.
-        for (i, p) in world.poses().iter().enumerate() {
-            chart
-                .draw_series(std::iter::once(Text::new(
-                    i.to_string(),
-                    (p.x + 1.3 * r, p.y + 1.3 * r),
-                    ("sans-serif", 14).into_font().color(&BLACK),
-                )))
-                .map_err(err)?;
-        }
-        // A 1 m scale bar (or the largest power of ten that fits) in the lower left corner.
-        let mut bar_m = 1.0;
-        while bar_m > h {
-            bar_m /= 10.0;
-        }
-        let (x0, y0) = (-h + 0.05 * h, -h + 0.05 * h);
-        chart
-            .draw_series(std::iter::once(PathElement::new(
-                vec![(x0, y0), (x0 + bar_m, y0)],
-                BLACK.stroke_width(3),
-            )))
-            .map_err(err)?;
+    Ok(())
+}
+
+/// The text over the picture: robot ids, a scale bar and the legend.
+fn draw_text<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let h = world.arena().half_side_m;
+    let r = world.robot_radius_m();
+    // Robot ids, beside each body.
+    for (i, p) in world.poses().iter().enumerate() {
         chart
             .draw_series(std::iter::once(Text::new(
-                format!("{bar_m} m"),
-                (x0, y0 + 0.04 * h),
+                i.to_string(),
+                (p.x + 1.3 * r, p.y + 1.3 * r),
                 ("sans-serif", 14).into_font().color(&BLACK),
             )))
-            .map_err(err)?;
-        // The legend: one entry per kind of mark.
-        let entries: [(&str, ShapeStyle); 5] = [
-            ("honest robot (id)", HONEST.filled()),
-            ("Byzantine robot", BYZANTINE.filled()),
-            ("radio link", LINK.stroke_width(2)),
-            ("obstacle", OBSTACLE.filled()),
-            ("proximity ray", RAY.stroke_width(1)),
-        ];
-        for (label, style) in entries {
-            chart
-                .draw_series(std::iter::once(Circle::new((-2.0 * h, -2.0 * h), 0, style)))
-                .map_err(err)?
-                .label(label)
-                .legend(move |(x, y)| {
-                    EmptyElement::at((x, y)) + Rectangle::new([(0, -5), (14, 5)], style)
-                });
-        }
-        chart
-            .configure_series_labels()
-            .position(SeriesLabelPosition::UpperRight)
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .label_font(("sans-serif", 14))
-            .draw()
-            .map_err(err)?;
+            .map_err(err::<DB>)?;
     }
-    root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
+    // A 1 m scale bar (or the largest power of ten that fits) in the lower left corner.
+    let mut bar_m = 1.0;
+    while bar_m > h {
+        bar_m /= 10.0;
+    }
+    let (x0, y0) = (-h + 0.05 * h, -h + 0.05 * h);
+    chart
+        .draw_series(std::iter::once(PathElement::new(
+            vec![(x0, y0), (x0 + bar_m, y0)],
+            BLACK.stroke_width(3),
+        )))
+        .map_err(err::<DB>)?;
+    chart
+        .draw_series(std::iter::once(Text::new(
+            format!("{bar_m} m"),
+            (x0, y0 + 0.04 * h),
+            ("sans-serif", 14).into_font().color(&BLACK),
+        )))
+        .map_err(err::<DB>)?;
+    // The legend: one entry per kind of mark.
+    let entries: [(&str, ShapeStyle); 5] = [
+        ("honest robot (id)", HONEST.filled()),
+        ("Byzantine robot", BYZANTINE.filled()),
+        ("radio link", LINK.stroke_width(2)),
+        ("obstacle", OBSTACLE.filled()),
+        ("proximity ray", RAY.stroke_width(1)),
+    ];
+    for (label, style) in entries {
+        chart
+            .draw_series(std::iter::once(Circle::new((-2.0 * h, -2.0 * h), 0, style)))
+            .map_err(err::<DB>)?
+            .label(label)
+            .legend(move |(x, y)| {
+                EmptyElement::at((x, y)) + Rectangle::new([(0, -5), (14, 5)], style)
+            });
+    }
+    chart
+        .configure_series_labels()
+        .position(SeriesLabelPosition::UpperRight)
+        .background_style(WHITE.mix(0.85))
+        .border_style(BLACK)
+        .label_font(("sans-serif", 14))
+        .draw()
+        .map_err(err::<DB>)?;
     Ok(())
 }
 
