@@ -19,7 +19,7 @@ use swarmfl_core::config::Config;
 
 use crate::cli::SweepArgs;
 use crate::commands::run;
-use crate::experiments::{self, Task};
+use crate::experiments::{self, Experiment, Task};
 use crate::progress::Progress;
 use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
 
@@ -309,6 +309,23 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
         "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
         exp.name, outcome.selected, opts.shard.index, opts.shard.count, outcome.skipped, runs, jobs
     );
+    let mut failed = run_parallel(opts, &exp, &todo, &configs, jobs);
+    failed.sort_by_key(|(t, _)| t.index);
+    outcome.ran = todo.len() - failed.len();
+    outcome.failed = failed;
+    outcome.wall_s = started.elapsed().as_secs_f64();
+    Ok(outcome)
+}
+
+/// Runs `todo` on `jobs` threads (each takes the next task), with a progress line; returns
+/// the failed tasks with their error, in completion order.
+fn run_parallel(
+    opts: &SweepOptions,
+    exp: &Experiment,
+    todo: &[Task],
+    configs: &[Config],
+    jobs: usize,
+) -> Vec<(Task, String)> {
     let progress = Mutex::new(Progress::new(
         &format!("sweep {}", exp.name),
         "tasks",
@@ -361,12 +378,7 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
         .into_inner()
         .expect("workers finished")
         .finish(todo.len() as u64);
-    let mut failed = failed.into_inner().expect("workers finished");
-    failed.sort_by_key(|(t, _)| t.index);
-    outcome.ran = todo.len() - failed.len();
-    outcome.failed = failed;
-    outcome.wall_s = started.elapsed().as_secs_f64();
-    Ok(outcome)
+    failed.into_inner().expect("workers finished")
 }
 
 /// Runs one task and writes its result file.

@@ -173,23 +173,40 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
         if !json {
             eprintln!("bench scale: {n} robots, {duration_s} simulated s ...");
         }
-        let mut size = child(n, duration_s)?;
-        let robot_s = f64::from(n) * duration_s;
-        let per = |s: f64| s / robot_s * 1e6;
-        let mut cost = serde_json::Map::new();
-        cost.insert("wall".into(), per(num(&size["wall_s"])).into());
-        cost.insert("cpu".into(), per(num(&size["cpu_s"])).into());
-        for part in PARTS {
-            let t = &size["timing"];
-            cost.insert(part.into(), per(num(&t[format!("{part}_s")])).into());
-            cost.insert(
-                format!("{part}_cpu"),
-                per(num(&t[format!("{part}_cpu_s")])).into(),
-            );
-        }
-        size["us_per_robot_sim_s"] = cost.into();
-        sizes.push(size);
+        sizes.push(measure(n, duration_s)?);
     }
+    let report = compare(robots, duration_s, sizes);
+    if json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print_table(&report, duration_s);
+    }
+    Ok(())
+}
+
+/// One size, run in a child, with its costs per robot-simulated-second added.
+fn measure(n: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
+    let mut size = child(n, duration_s)?;
+    let robot_s = f64::from(n) * duration_s;
+    let per = |s: f64| s / robot_s * 1e6;
+    let mut cost = serde_json::Map::new();
+    cost.insert("wall".into(), per(num(&size["wall_s"])).into());
+    cost.insert("cpu".into(), per(num(&size["cpu_s"])).into());
+    for part in PARTS {
+        let t = &size["timing"];
+        cost.insert(part.into(), per(num(&t[format!("{part}_s")])).into());
+        cost.insert(
+            format!("{part}_cpu"),
+            per(num(&t[format!("{part}_cpu_s")])).into(),
+        );
+    }
+    size["us_per_robot_sim_s"] = cost.into();
+    Ok(size)
+}
+
+/// The benchmark's report: every size, and the largest size's costs relative to the reference
+/// size's (60 robots if measured, else the smallest).
+fn compare(robots: &[u32], duration_s: f64, sizes: Vec<serde_json::Value>) -> serde_json::Value {
     let reference_robots = if robots.contains(&REFERENCE_ROBOTS) {
         REFERENCE_ROBOTS
     } else {
@@ -203,9 +220,7 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
             .expect("every size ran")
     };
     let (reference, big) = (find(reference_robots), find(largest));
-    let ratio = |key: &str| {
-        num(&big["us_per_robot_sim_s"][key]) / num(&reference["us_per_robot_sim_s"][key])
-    };
+    let ratio = |key: &str| cost_ratio(big, reference, key);
     let mut ratios = serde_json::Map::new();
     for key in ["wall", "cpu"]
         .into_iter()
@@ -227,7 +242,7 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
                 .total_cmp(&num(&big["timing"][format!("{b}_cpu_s")]))
         })
         .expect("three parts");
-    let report = serde_json::json!({
+    serde_json::json!({
         "workload": "the paper preset at the paper's density: world.robots = N, world.arena_side_m = 5 * sqrt(N / 15), world.cylinders = world.boxes = round(5 * N / 15), seed 1; each size in its own child process through the code of `swarmfl run`",
         "duration_s": duration_s,
         "seed": SEED,
@@ -238,11 +253,30 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
         "ratio_largest_to_reference": ratios,
         "fastest_growing_part": fastest,
         "largest_part_at_largest_size": largest_part,
-    });
-    if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-        return Ok(());
-    }
+    })
+}
+
+/// The cost `key` per robot-simulated-second at size `big` over that at `reference`.
+fn cost_ratio(big: &serde_json::Value, reference: &serde_json::Value, key: &str) -> f64 {
+    num(&big["us_per_robot_sim_s"][key]) / num(&reference["us_per_robot_sim_s"][key])
+}
+
+/// The human-readable table of a report from [`compare`].
+fn print_table(report: &serde_json::Value, duration_s: f64) {
+    let largest = num(&report["largest_robots"]);
+    let reference_robots = num(&report["reference_robots"]);
+    let find = |n: f64| {
+        report["sizes"]
+            .as_array()
+            .and_then(|sizes| sizes.iter().find(|s| num(&s["robots"]) == n))
+            .expect("every size ran")
+    };
+    // From the sizes rather than the report's ratios, which JSON cannot hold when not finite.
+    let ratio = |key: &str| cost_ratio(find(largest), find(reference_robots), key);
+    let fastest = report["fastest_growing_part"].as_str().unwrap_or("");
+    let largest_part = report["largest_part_at_largest_size"]
+        .as_str()
+        .unwrap_or("");
     println!(
         "paper preset at the paper's density (15 robots / 25 m^2), {duration_s} simulated s per \
          size, seed {SEED}; one child process per size"
@@ -295,5 +329,4 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
         "fastest-growing part: {fastest}; largest part at {largest} robots: {largest_part} \
          (issue 14's acceptance: the CPU ratio within 2x)"
     );
-    Ok(())
 }
