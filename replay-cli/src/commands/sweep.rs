@@ -4,9 +4,9 @@
 //!
 //! The task list is [`experiments::tasks`]: point-major, task `i = p * R + (seed - 1)`. A shard
 //! `I/N` runs the tasks with `i % N == I`, so shards `0/N .. (N-1)/N` cover every task exactly
-//! once whatever `N` is. Each task writes one result file (see [`results`]); a task whose result
-//! file exists and parses is skipped, so a re-run resumes an interrupted sweep and a retried task
-//! simply overwrites.
+//! once whatever `N` is. Each task writes one result file (see [`crate::results`]); a task
+//! whose result file exists and parses is skipped, so a re-run resumes an interrupted sweep and
+//! a retried task simply overwrites.
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -5,8 +5,10 @@
 //! The steps, one module each: `load` (read and sort the result files), `stats` (means and
 //! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
 //! standard figures of each experiment), `robustness` (e4's heatmaps) and `defence` (e5's
-//! figures), and `tables` (the CSV files and `report.md`). Results are sorted by experiment, point (in the grid's order) and seed before any sum, so the
-//! numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
+//! figures), and `tables` (the CSV files and `report.md`).
+//!
+//! Results are sorted by experiment, point (in the grid's order) and seed before any sum, so
+//! the numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
 //! deterministic number (shards merged or one local sweep give identical files); wall-clock
 //! times are kept apart in `timing.csv`.
 
