@@ -22,14 +22,33 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
     let index = inspect::index_run(log, None)?;
     warn_if_truncated(&index);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    let open = |name: &str| -> anyhow::Result<csv::Writer<std::fs::File>> {
+    let open = |name: &str| -> anyhow::Result<Csv> {
         let path = out.join(name);
         csv::Writer::from_path(&path).with_context(|| format!("cannot write {}", path.display()))
     };
-    let values = index.values();
+    let rounds = write_rounds(&index, open("rounds.csv")?)?;
+    write_balances(&index, open("balances.csv")?)?;
+    write_chain_bytes(&index, open("chain_bytes.csv")?)?;
+    let samples = write_trajectories(&index, open("trajectories.csv")?)?;
+    println!(
+        "wrote {}: rounds.csv ({} rounds), balances.csv ({} blocks x {} robots), chain_bytes.csv ({} sealings), trajectories.csv ({} samples of the final data sets) in {:.0} ms",
+        out.display(),
+        rounds,
+        index.chain.len(),
+        index.config.world.robots,
+        index.chain_bytes.len(),
+        samples,
+        start.elapsed().as_secs_f64() * 1000.0
+    );
+    Ok(())
+}
 
-    // Per closed round of the final canonical chain.
-    let mut w = open("rounds.csv")?;
+/// A CSV file being written.
+type Csv = csv::Writer<std::fs::File>;
+
+/// Per closed round of the final canonical chain; returns the number of rounds.
+fn write_rounds(index: &inspect::RunIndex, mut w: Csv) -> anyhow::Result<usize> {
+    let values = index.values();
     w.write_record([
         "round",
         "block",
@@ -55,9 +74,11 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         ])?;
     }
     w.flush()?;
+    Ok(rounds.len())
+}
 
-    // Every robot's balance after every block of the final canonical chain.
-    let mut w = open("balances.csv")?;
+/// Every robot's balance after every block of the final canonical chain.
+fn write_balances(index: &inspect::RunIndex, mut w: Csv) -> anyhow::Result<()> {
     w.write_record(["block", "time_s", "robot", "balance_tokens", "byzantine"])?;
     for row in &index.chain {
         let state = index.contract_at(row.height);
@@ -72,9 +93,11 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         }
     }
     w.flush()?;
+    Ok(())
+}
 
-    // Every node's canonical chain size at every sealing (any node's).
-    let mut w = open("chain_bytes.csv")?;
+/// Every node's canonical chain size at every sealing (any node's).
+fn write_chain_bytes(index: &inspect::RunIndex, mut w: Csv) -> anyhow::Result<()> {
     w.write_record(["time_s", "node", "chain_bytes"])?;
     for row in &index.chain_bytes {
         for (node, bytes) in row.bytes.iter().enumerate() {
@@ -86,9 +109,12 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         }
     }
     w.flush()?;
+    Ok(())
+}
 
-    // The samples of every robot's data set at the end of the run (expired ones are gone).
-    let mut w = open("trajectories.csv")?;
+/// The samples of every robot's data set at the end of the run (expired ones are gone);
+/// returns the number of samples.
+fn write_trajectories(index: &inspect::RunIndex, mut w: Csv) -> anyhow::Result<usize> {
     w.write_record(["robot", "sample", "completed_s", "point", "x", "y"])?;
     let world = &index.final_state.world;
     let mut samples = 0usize;
@@ -108,15 +134,5 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         }
     }
     w.flush()?;
-    println!(
-        "wrote {}: rounds.csv ({} rounds), balances.csv ({} blocks x {} robots), chain_bytes.csv ({} sealings), trajectories.csv ({} samples of the final data sets) in {:.0} ms",
-        out.display(),
-        rounds.len(),
-        index.chain.len(),
-        index.config.world.robots,
-        index.chain_bytes.len(),
-        samples,
-        start.elapsed().as_secs_f64() * 1000.0
-    );
-    Ok(())
+    Ok(samples)
 }
