@@ -25,8 +25,8 @@ use revm::primitives::hardfork::SpecId;
 use revm::primitives::{keccak256, Address, TxKind, U256};
 use revm::state::AccountInfo;
 use revm::{ExecuteCommitEvm, MainBuilder, MainContext};
+use swarmfl_core::config::{ContractEngine, ContractOptions};
 use swarmfl_core::contract::evm::robot_address;
-use swarmfl_core::contract::options::{ContractEngine, ContractOptions};
 use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome};
 
 const ROBOTS: u32 = 15;

@@ -23,8 +23,8 @@ use std::collections::BTreeSet;
 
 use serde::{Deserialize, Serialize};
 
-use crate::byzantine::{self, ledger::LedgerBehaviour};
-use crate::config::{ByzantineKind, Config, Preset};
+use crate::byzantine;
+use crate::config::{ByzantineKind, Config, LedgerBehaviour, Preset};
 use crate::event::{CheckpointCause, Record};
 use crate::faults::{FaultSchedule, FaultsConfig};
 use crate::ledger::{BlockHash, Ledger};

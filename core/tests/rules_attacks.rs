@@ -4,8 +4,7 @@
 //! runs cover every rule and every attack; `scripts/rules-attacks-smoke.sh` runs all 108 pairs
 //! at `smoke` length through the CLI.
 
-use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset};
-use swarmfl_core::contract::rules::ALL_RULES;
+use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset, ALL_RULES};
 use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
 use swarmfl_core::sim::Sim;

@@ -10,8 +10,8 @@
 use std::sync::Arc;
 
 use proptest::prelude::*;
-use swarmfl_core::contract::defences::{self, Defence, DefenceParams};
-use swarmfl_core::contract::rules::Rule;
+use swarmfl_core::config::{Defence, Rule};
+use swarmfl_core::contract::defences::{self, DefenceParams};
 use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, RobustRule, Verdict};
 use swarmfl_core::RobotId;
 

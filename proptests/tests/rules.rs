@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use proptest::prelude::*;
-use swarmfl_core::contract::rules::{Rule, ALL_RULES};
+use swarmfl_core::config::{Rule, ALL_RULES};
 use swarmfl_core::contract::{
     Call, ContractParams, ContractState, Outcome, RobustRule, MAX_WEIGHT_MAGNITUDE,
 };

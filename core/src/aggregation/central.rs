@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use super::gossip::{Entry, EntryId};
-use crate::contract::options::FedAvgRounding;
+use crate::config::FedAvgRounding;
 use crate::contract::payout;
 use crate::types::{Digest, RobotId};
 

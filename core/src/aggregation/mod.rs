@@ -26,7 +26,7 @@
 //! [`AggregationState::attacker_view`] from what the robot holds (its replica, or the server),
 //! and writes or uploads what the attack returns. What acts only on a chain (ledger attacks,
 //! robust rules, the EVM, crashes, clock skews, the sealer partition) is refused by
-//! [`supports`] when the configuration is validated.
+//! [`crate::config::Config::validate`] (`config/validate.rs`).
 //!
 //! **Faults.** The stigmergy's gossip runs over the radio's peer sets with the `[faults]`
 //! partitions (`split`, `isolate`) cut out, and with their loss bursts and delays, as the
@@ -46,11 +46,8 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Aggregation, Config, ConfigError, ContractEngine, LedgerBehaviour};
-use crate::contract::options::FedAvgRounding;
-use crate::contract::rules::Rule;
+use crate::config::{Aggregation, Config, FedAvgRounding};
 use crate::contract::{payout, ContractParams, ContractState, Submission, Verdict};
-use crate::faults::PartitionKind;
 use crate::types::{Digest, RobotId, SimTime};
 
 pub use central::Server;
@@ -141,91 +138,6 @@ pub struct StartView {
     pub round: u64,
     /// The model before it (the smart attack's w(t - 1)).
     pub previous: Option<Arc<[i64]>>,
-}
-
-/// Checks that a baseline aggregation can run the configuration (called by config validation).
-/// Without a chain there is no contract, no token, no block and no sealer, so what acts only on
-/// those is refused, naming the key and the fix, rather than silently ignored:
-/// - `contract.rule`: `gossip` and `central` average by FedAvg; `paper` (the default, whose
-///   threshold and rewards then do not apply) and `fedavg` are accepted, the robust rules are
-///   not (a robust server or merge would be a new baseline);
-/// - `contract.engine = "evm"`, `contract.round_timeout_s`: contract machinery;
-/// - `byzantine.ledger`: misbehaviour on a chain (Byzantine robots' model attacks,
-///   `byzantine.kind`, all work: see [`AggregationState::attacker_view`]);
-/// - `faults.crashes` (a node's restart and resync), `faults.clock_skews` (block timestamps),
-///   partitions of kind `sealer` (Clique's in-turn sealer).
-///
-/// Partitions `split` and `isolate`, loss bursts and delays act on the stigmergy's gossip as on
-/// the ledger's. The `central` server is not on the radio, so they leave it untouched (accepted,
-/// so that one fault schedule compares the three aggregations).
-pub fn supports(config: &Config) -> Result<(), ConfigError> {
-    let kind = config.learn.aggregation;
-    if kind == Aggregation::Chain {
-        return Ok(());
-    }
-    let refuse = |key: &str, value: String, allowed: String| {
-        Err(ConfigError::OutOfRange {
-            key: key.to_string(),
-            value,
-            allowed: format!(
-                "{allowed} with learn.aggregation = {} (no chain, no contract); set \
-                 learn.aggregation = chain to use it",
-                kind.name()
-            ),
-        })
-    };
-    let rule = config.rule();
-    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
-        return refuse(
-            "contract.rule",
-            rule.name().to_string(),
-            "paper or fedavg (both mean plain FedAvg here)".to_string(),
-        );
-    }
-    if config.contract.engine == ContractEngine::Evm {
-        return refuse("contract.engine", "evm".to_string(), "native".to_string());
-    }
-    if config.contract.round_timeout_s != 0.0 {
-        return refuse(
-            "contract.round_timeout_s",
-            config.contract.round_timeout_s.to_string(),
-            "0 (no round deadline)".to_string(),
-        );
-    }
-    if config.byzantine.ledger != LedgerBehaviour::Honest {
-        return refuse(
-            "byzantine.ledger",
-            config.byzantine.ledger.name().to_string(),
-            "honest (byzantine.kind attacks all apply)".to_string(),
-        );
-    }
-    let f = &config.faults;
-    if !f.crashes.is_empty() {
-        return refuse(
-            "faults.crashes",
-            format!("{} crash(es)", f.crashes.len()),
-            "none (partitions, loss bursts and delays are supported)".to_string(),
-        );
-    }
-    if !f.clock_skews.is_empty() {
-        return refuse(
-            "faults.clock_skews",
-            format!("{} skew(s)", f.clock_skews.len()),
-            "none (clocks matter only to block timestamps)".to_string(),
-        );
-    }
-    if let Some(i) = f
-        .partitions
-        .iter()
-        .position(|p| p.kind == PartitionKind::Sealer)
-    {
-        return refuse(
-            &format!("faults.partitions[{i}].kind"),
-            "sealer".to_string(),
-            "split or isolate (there is no sealer)".to_string(),
-        );
-    }
-    Ok(())
 }
 
 /// The digest of a fixed-point model.

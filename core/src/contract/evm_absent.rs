@@ -5,7 +5,6 @@
 //! a fresh build (docs/PERFORMANCE.md, "Build time"); `--features evm` turns it on.
 
 use super::{Call, ContractParams, ContractState, Outcome};
-use crate::config::{Config, ConfigError};
 use crate::types::RobotId;
 
 /// No EVM in this build: only [`EvmState::deploy`] could make one, and validation never lets it
@@ -14,23 +13,11 @@ use crate::types::RobotId;
 pub struct EvmState(());
 
 impl EvmState {
-    /// Never called: validation refuses `contract.engine = "evm"` first ([`supports`]).
+    /// Never called: validation refuses `contract.engine = "evm"` first
+    /// ([`crate::config::Config::validate`]).
     pub fn deploy(_params: &ContractParams) -> EvmState {
         unreachable!("contract.engine = evm passed validation in a build without the evm feature")
     }
-}
-
-/// Refuses `contract.engine = "evm"`, naming the feature and the command that builds it.
-pub fn supports(_config: &Config) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: "contract.engine".to_string(),
-        value: "evm".to_string(),
-        allowed: "native in this build of swarmfl, which was built without the EVM engine \
-                  (cargo feature `evm`, off by default); rebuild with \
-                  `cargo build --release -p replay-cli --features evm` to run \
-                  contracts/SwarmFL.sol, or set contract.engine = native"
-            .to_string(),
-    })
 }
 
 /// Never called: no state holds an EVM in this build.

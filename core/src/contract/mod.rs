@@ -60,10 +60,10 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::Config;
+use crate::config::{
+    Config, ContractEngine, ContractOptions, Defence, PoolRule, Rule, ThresholdRule,
+};
 use crate::types::{Digest, RobotId};
-use options::{ContractEngine, ContractOptions, PoolRule, ThresholdRule};
-pub use rules::Rule;
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
@@ -153,7 +153,7 @@ impl ContractParams {
             round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
             options: c.options(),
             defence: match c.defence {
-                defences::Defence::None => None,
+                Defence::None => None,
                 defence if rule.stakes() => Some(defences::DefenceParams {
                     defence,
                     refund_percent: c.defence_refund_percent,
@@ -235,7 +235,7 @@ impl ContractParams {
             }
         }
         if let Some(d) = self.defence {
-            if d.defence == defences::Defence::None || d.refund_percent > 100 || !self.security {
+            if d.defence == Defence::None || d.refund_percent > 100 || !self.security {
                 return Err(format!(
                     "defence {} with refund {} % needs a staking rule and a percentage",
                     d.defence.name(),

@@ -2,7 +2,7 @@
 //! only; every rounding choice is stated where it is made. The authors' variants
 //! ([`super::options`]) are arguments; their defaults are swarmfl's rules.
 
-use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
+use crate::config::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 
 /// `sum_i |a_i - b_i|`, the L1 distance in fixed-point units (the paper's mean distance times
 /// N). The caller guarantees equal lengths, `|a_i|, |b_i| < 2^47` and `len <= 2^16`, so the

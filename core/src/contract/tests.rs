@@ -3,9 +3,9 @@
 
 use std::sync::Arc;
 
-use super::options::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::*;
+use crate::config::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
 
 const TOKEN: u64 = 1_000_000_000;
 const STAKE: u64 = 5 * TOKEN;

@@ -39,8 +39,8 @@
 use std::collections::BTreeSet;
 
 use super::{BlockHash, ItemRef, Ledger, LedgerEvent, TxHash};
-use crate::byzantine::ledger::WithholdPolicy;
 use crate::config::Config;
+use crate::config::WithholdPolicy;
 use crate::radio::{Delivery, Message, Radio};
 use crate::rng::{self, Purpose};
 use crate::types::{RobotId, SimTime};

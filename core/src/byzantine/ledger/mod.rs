@@ -26,61 +26,10 @@ mod replay;
 mod spam_invalid;
 mod withhold;
 
-use serde::{Deserialize, Serialize};
-
-pub use withhold::WithholdPolicy;
-
-use crate::config::Config;
+use crate::config::{Config, LedgerBehaviour, WithholdPolicy};
 use crate::ledger::{BlockHash, BlockHeader, Ledger, LedgerEvent, Sig, Tx, WireBlock, WireItem};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{RobotId, SimTime};
-
-/// What the Byzantine robots do on the ledger.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LedgerBehaviour {
-    /// Seal, gossip and submit like everyone.
-    #[default]
-    Honest,
-    /// Seal two different blocks on one parent, each sent to part of the peers.
-    Equivocate,
-    /// Seal but release the blocks late, except to some peers.
-    Withhold,
-    /// Spam valid-looking transactions (future nonces, same-nonce variants).
-    Flood,
-    /// Re-send old transactions and transactions signed for another chain.
-    Replay,
-    /// Send malformed, forged and oversize blocks and transactions.
-    SpamInvalid,
-    /// Send blocks stamped far in the future.
-    FutureTimestamp,
-}
-
-impl LedgerBehaviour {
-    /// Every behaviour, honest first.
-    pub const ALL: [LedgerBehaviour; 7] = [
-        LedgerBehaviour::Honest,
-        LedgerBehaviour::Equivocate,
-        LedgerBehaviour::Withhold,
-        LedgerBehaviour::Flood,
-        LedgerBehaviour::Replay,
-        LedgerBehaviour::SpamInvalid,
-        LedgerBehaviour::FutureTimestamp,
-    ];
-
-    /// The name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            LedgerBehaviour::Honest => "honest",
-            LedgerBehaviour::Equivocate => "equivocate",
-            LedgerBehaviour::Withhold => "withhold",
-            LedgerBehaviour::Flood => "flood",
-            LedgerBehaviour::Replay => "replay",
-            LedgerBehaviour::SpamInvalid => "spam-invalid",
-            LedgerBehaviour::FutureTimestamp => "future-timestamp",
-        }
-    }
-}
 
 /// What a Byzantine robot sees when it acts.
 pub struct View<'a> {

@@ -5,25 +5,11 @@
 //! rule for it: fork choice takes the heavier branch; the cost is the reorgs and delays in the
 //! summary, bounded by the withholding time.
 
+use crate::config::WithholdPolicy;
 use crate::ledger::{BlockHash, Ledger};
 use crate::types::{RobotId, SimTime};
 
-/// Which robots withhold, and for how long (the network's gossip asks it).
-#[derive(Clone, Debug)]
-pub struct WithholdPolicy {
-    withholders: Vec<bool>,
-    hold_ms: u64,
-}
-
 impl WithholdPolicy {
-    /// `withholders[r]`: robot r withholds; blocks are held three periods of `period_ms`.
-    pub fn new(withholders: Vec<bool>, period_ms: u64) -> WithholdPolicy {
-        WithholdPolicy {
-            withholders,
-            hold_ms: 3 * period_ms,
-        }
-    }
-
     /// Whether `from` hides `block` from `to` at `now`.
     pub fn hides(
         &self,
@@ -33,17 +19,11 @@ impl WithholdPolicy {
         block: &BlockHash,
         now: SimTime,
     ) -> bool {
-        if !self
-            .withholders
-            .get(from as usize)
-            .copied()
-            .unwrap_or(false)
-            || from % 2 == to % 2
-        {
+        if !self.withholds(from) || from % 2 == to % 2 {
             return false;
         }
         ledger.block(block).is_some_and(|e| {
-            e.block.header.signer == from && e.block.header.timestamp_ms + self.hold_ms > now.0
+            e.block.header.signer == from && e.block.header.timestamp_ms + self.hold_ms() > now.0
         })
     }
 }

@@ -48,38 +48,7 @@ use serde::{Deserialize, Serialize};
 
 use super::payout::div_round_half_away;
 pub use super::rules::isqrt;
-
-/// A defence of the reward rule (`contract.defence`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Defence {
-    /// The rule's own rewards (the paper's ranking, or equal shares).
-    #[default]
-    None,
-    /// Pay by leave-one-out agreement of the centred updates.
-    Agreement,
-    /// Pay by leave-one-out agreement of the updates' parts the last step does not predict.
-    Innovation,
-}
-
-/// Every defence, `none` first.
-pub const ALL_DEFENCES: [Defence; 3] = [Defence::None, Defence::Agreement, Defence::Innovation];
-
-impl Defence {
-    /// The defence's name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            Defence::None => "none",
-            Defence::Agreement => "agreement",
-            Defence::Innovation => "innovation",
-        }
-    }
-
-    /// Looks a defence up by its configuration name.
-    pub fn from_name(name: &str) -> Option<Defence> {
-        ALL_DEFENCES.into_iter().find(|d| d.name() == name)
-    }
-}
+use crate::config::Defence;
 
 /// The defence in force in a contract (see [`super::ContractParams::defence`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]

@@ -32,13 +32,11 @@ use revm::primitives::{Address, Bytes, Log, TxKind, U256};
 use revm::{ExecuteCommitEvm, MainBuilder, MainContext};
 use serde::{Deserialize, Serialize};
 
-use super::options::ContractEngine;
 use super::{
     model_digest, Call, ContractParams, ContractState, Outcome, Payout, RoundSummary, Submission,
     Verdict, MAX_SAMPLES,
 };
-use crate::config::{Config, ConfigError};
-use crate::contract::rules::Rule;
+use crate::config::ContractEngine;
 use crate::types::RobotId;
 use abi::{Decoder, Encoder};
 
@@ -61,48 +59,6 @@ pub fn robot_address(robot: RobotId) -> Address {
     bytes[0] = 0x10;
     bytes[16..].copy_from_slice(&robot.to_be_bytes());
     Address::new(bytes)
-}
-
-/// Checks that the EVM contract implements the configured rules (called by config validation
-/// when `contract.engine = "evm"`). `contracts/SwarmFL.sol` is the paper's contract, with
-/// security on (`contract.rule = paper`) or off (`fedavg`), every variant option included. It
-/// has no robust aggregation rule and no round deadline: such a configuration is refused,
-/// naming the key, rather than run on a contract that would not do what it says.
-pub fn supports(config: &Config) -> Result<(), ConfigError> {
-    let c = &config.contract;
-    let rule = config.rule();
-    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
-        return Err(ConfigError::OutOfRange {
-            key: "contract.rule".to_string(),
-            value: rule.name().to_string(),
-            allowed: format!(
-                "paper (or fedavg, i.e. contract.security = false) with contract.engine = evm: \
-                 contracts/SwarmFL.sol implements the paper's rule only; set \
-                 contract.engine = native to run {}, or contract.rule = paper",
-                rule.name()
-            ),
-        });
-    }
-    if c.defence != crate::contract::defences::Defence::None {
-        return Err(ConfigError::OutOfRange {
-            key: "contract.defence".to_string(),
-            value: c.defence.name().to_string(),
-            allowed: "none with contract.engine = evm: contracts/SwarmFL.sol pays by the \
-                      paper's ranking only; set contract.engine = native to run a defence"
-                .to_string(),
-        });
-    }
-    if c.round_timeout_s != 0.0 {
-        return Err(ConfigError::OutOfRange {
-            key: "contract.round_timeout_s".to_string(),
-            value: c.round_timeout_s.to_string(),
-            allowed: "0 (no deadline) with contract.engine = evm: contracts/SwarmFL.sol has \
-                      no round deadline; set contract.round_timeout_s = 0, or \
-                      contract.engine = native"
-                .to_string(),
-        });
-    }
-    Ok(())
 }
 
 /// Gas of the calls of one kind (one outcome name).

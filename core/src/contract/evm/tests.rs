@@ -6,9 +6,9 @@ use std::sync::Arc;
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
 
-use super::super::options::*;
 use super::super::{Call, ContractParams, ContractState, Outcome};
 use super::*;
+use crate::config::*;
 
 const TOKEN: u64 = 1_000_000_000;
 

@@ -6,7 +6,7 @@
 //! rounds toward zero instead (the authors' Solidity division).
 
 use super::{Aggregate, Input};
-use crate::contract::options::FedAvgRounding;
+use crate::config::FedAvgRounding;
 use crate::contract::payout;
 
 /// FedAvg of all inputs; all are used, in submission order.

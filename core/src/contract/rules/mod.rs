@@ -31,49 +31,9 @@ pub mod multi_krum;
 pub mod paper;
 pub mod trimmed_mean;
 
-use serde::{Deserialize, Serialize};
+use crate::config::{ContractOptions, Rule};
 
-use super::options::ContractOptions;
 use super::payout::{self, div_round_half_away};
-
-/// A contract aggregation rule (`contract.rule`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Rule {
-    /// Sample-weighted average of every valid model; no stakes, no threshold, no rewards
-    /// (the paper's security off).
-    Fedavg,
-    /// The paper's contract: outlier threshold, sample-weighted FedAvg of the accepted models,
-    /// ranking by distance to the median distance, rewards and penalties.
-    Paper,
-    /// Krum: the model with the smallest sum of squared distances to its `q - f - 2` nearest.
-    Krum,
-    /// Multi-Krum: the unweighted mean of the `q - f` models with the best Krum scores.
-    MultiKrum,
-    /// Coordinate-wise median.
-    Median,
-    /// Coordinate-wise mean after dropping the `f` smallest and `f` largest values.
-    TrimmedMean,
-    /// Geometric median by a fixed number of fixed-point Weiszfeld steps.
-    Geomed,
-    /// Centered clipping around the shared model, radius the median distance.
-    CenteredClipping,
-    /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed mean.
-    Bulyan,
-}
-
-/// Every rule, in documentation order.
-pub const ALL_RULES: [Rule; 9] = [
-    Rule::Fedavg,
-    Rule::Paper,
-    Rule::Krum,
-    Rule::MultiKrum,
-    Rule::Median,
-    Rule::TrimmedMean,
-    Rule::Geomed,
-    Rule::CenteredClipping,
-    Rule::Bulyan,
-];
 
 /// One accepted submission as a rule sees it.
 #[derive(Clone, Copy, Debug)]
@@ -96,47 +56,10 @@ pub struct Aggregate {
 }
 
 impl Rule {
-    /// The rule's name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            Rule::Fedavg => "fedavg",
-            Rule::Paper => "paper",
-            Rule::Krum => "krum",
-            Rule::MultiKrum => "multi-krum",
-            Rule::Median => "median",
-            Rule::TrimmedMean => "trimmed-mean",
-            Rule::Geomed => "geomed",
-            Rule::CenteredClipping => "centered-clipping",
-            Rule::Bulyan => "bulyan",
-        }
-    }
-
-    /// Looks a rule up by its configuration name.
-    pub fn from_name(name: &str) -> Option<Rule> {
-        ALL_RULES.into_iter().find(|r| r.name() == name)
-    }
-
-    /// True when submissions stake tokens and the used ones are paid (every rule but fedavg).
-    pub fn stakes(self) -> bool {
-        self != Rule::Fedavg
-    }
-
     /// True when the outlier threshold rejects submissions as they arrive (paper only: the
     /// other rules judge a round's models together).
     pub fn uses_threshold(self) -> bool {
         self == Rule::Paper
-    }
-
-    /// The smallest quorum for which the rule is defined with `f` assumed Byzantine
-    /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed and centered
-    /// clipping `2f + 1`, bulyan `4f + 3`, fedavg and paper 1.
-    pub fn min_quorum(self, f: u32) -> u32 {
-        match self {
-            Rule::Fedavg | Rule::Paper => 1,
-            Rule::Krum | Rule::MultiKrum => 2 * f + 3,
-            Rule::Median | Rule::TrimmedMean | Rule::Geomed | Rule::CenteredClipping => 2 * f + 1,
-            Rule::Bulyan => 4 * f + 3,
-        }
     }
 
     /// Aggregates a round: `current` is the shared model the round was opened on, `inputs`
@@ -294,6 +217,7 @@ pub(crate) fn inputs_of<'a>(models: &[(&'a [i64], u64)]) -> Vec<Input<'a>> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::config::ALL_RULES;
 
     #[test]
     fn isqrt_is_the_floor_of_the_root() {

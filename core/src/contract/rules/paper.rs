@@ -11,7 +11,7 @@
 //! arrival (`threshold`, `int48_products`) and in the payouts (`payout_rounding`, `pool`).
 
 use super::{Aggregate, Input};
-use crate::contract::options::{ContractOptions, RankKey};
+use crate::config::{ContractOptions, RankKey};
 use crate::contract::payout;
 
 /// FedAvg of the accepted inputs; all used, in the paper's rank order.

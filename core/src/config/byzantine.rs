@@ -1,0 +1,91 @@
+//! What `byzantine.kind` and `byzantine.variant` name: the attacks themselves live in
+//! `byzantine/`, one file each.
+
+use serde::{Deserialize, Serialize};
+
+/// The behaviour of Byzantine robots (docs/SPEC.md section 5, and the attacks of `byzantine/`,
+/// each documented in its own file).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum ByzantineKind {
+    /// No Byzantine robots (the count must be 0).
+    None,
+    /// Uniformly random weights.
+    Faulty,
+    /// Resubmits the current shared model.
+    Malicious,
+    /// Follows the trend of the shared model to be ranked first.
+    Smart,
+    /// Reverses the last aggregation step.
+    SignFlip,
+    /// Gaussian noise on the shared model.
+    Gaussian,
+    /// A little is enough: the honest mean moved by a few honest standard deviations.
+    Alie,
+    /// Inner-product manipulation: the negated honest mean step.
+    Ipm,
+    /// Min-max: as far from the honest mean as the honest models are from each other.
+    MinMax,
+    /// Copies an honest model of the round (over-represents one robot's data).
+    Mimic,
+    /// A model just inside the outlier threshold, against the honest direction, with a huge
+    /// claimed sample count.
+    InflateSamples,
+    /// Trains honestly on corrupted trajectories.
+    PoisonData,
+    /// The Byzantine robots agree on one model.
+    Collude,
+    /// `smart` until the Byzantine robots hold a token share, then `collude`.
+    SmartThenCollude,
+}
+
+impl ByzantineKind {
+    /// Every kind, `none` first.
+    pub const ALL: [ByzantineKind; 14] = [
+        ByzantineKind::None,
+        ByzantineKind::Faulty,
+        ByzantineKind::Malicious,
+        ByzantineKind::Smart,
+        ByzantineKind::SignFlip,
+        ByzantineKind::Gaussian,
+        ByzantineKind::Alie,
+        ByzantineKind::Ipm,
+        ByzantineKind::MinMax,
+        ByzantineKind::Mimic,
+        ByzantineKind::InflateSamples,
+        ByzantineKind::PoisonData,
+        ByzantineKind::Collude,
+        ByzantineKind::SmartThenCollude,
+    ];
+
+    /// The kind's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            ByzantineKind::None => "none",
+            ByzantineKind::Faulty => "faulty",
+            ByzantineKind::Malicious => "malicious",
+            ByzantineKind::Smart => "smart",
+            ByzantineKind::SignFlip => "sign-flip",
+            ByzantineKind::Gaussian => "gaussian",
+            ByzantineKind::Alie => "alie",
+            ByzantineKind::Ipm => "ipm",
+            ByzantineKind::MinMax => "min-max",
+            ByzantineKind::Mimic => "mimic",
+            ByzantineKind::InflateSamples => "inflate-samples",
+            ByzantineKind::PoisonData => "poison-data",
+            ByzantineKind::Collude => "collude",
+            ByzantineKind::SmartThenCollude => "smart-then-collude",
+        }
+    }
+}
+
+/// Which formula a Byzantine behaviour follows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ByzantineVariant {
+    /// The paper's formulas.
+    Paper,
+    /// The reference implementation's variants (smart: positive-only noise, w(t) before the
+    /// first change).
+    Reference,
+}

@@ -1,0 +1,228 @@
+//! What the `contract` table names: the aggregation rule, the defence, the engine and the
+//! authors' variant options. How each one computes lives in `contract/` (`rules/`,
+//! `defences/`, `options.rs`, `evm/`).
+
+use serde::{Deserialize, Serialize};
+
+/// A contract aggregation rule (`contract.rule`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Rule {
+    /// Sample-weighted average of every valid model; no stakes, no threshold, no rewards
+    /// (the paper's security off).
+    Fedavg,
+    /// The paper's contract: outlier threshold, sample-weighted FedAvg of the accepted models,
+    /// ranking by distance to the median distance, rewards and penalties.
+    Paper,
+    /// Krum: the model with the smallest sum of squared distances to its `q - f - 2` nearest.
+    Krum,
+    /// Multi-Krum: the unweighted mean of the `q - f` models with the best Krum scores.
+    MultiKrum,
+    /// Coordinate-wise median.
+    Median,
+    /// Coordinate-wise mean after dropping the `f` smallest and `f` largest values.
+    TrimmedMean,
+    /// Geometric median by a fixed number of fixed-point Weiszfeld steps.
+    Geomed,
+    /// Centered clipping around the shared model, radius the median distance.
+    CenteredClipping,
+    /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed mean.
+    Bulyan,
+}
+
+/// Every rule, in documentation order.
+pub const ALL_RULES: [Rule; 9] = [
+    Rule::Fedavg,
+    Rule::Paper,
+    Rule::Krum,
+    Rule::MultiKrum,
+    Rule::Median,
+    Rule::TrimmedMean,
+    Rule::Geomed,
+    Rule::CenteredClipping,
+    Rule::Bulyan,
+];
+
+impl Rule {
+    /// The rule's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Rule::Fedavg => "fedavg",
+            Rule::Paper => "paper",
+            Rule::Krum => "krum",
+            Rule::MultiKrum => "multi-krum",
+            Rule::Median => "median",
+            Rule::TrimmedMean => "trimmed-mean",
+            Rule::Geomed => "geomed",
+            Rule::CenteredClipping => "centered-clipping",
+            Rule::Bulyan => "bulyan",
+        }
+    }
+
+    /// Looks a rule up by its configuration name.
+    pub fn from_name(name: &str) -> Option<Rule> {
+        ALL_RULES.into_iter().find(|r| r.name() == name)
+    }
+
+    /// True when submissions stake tokens and the used ones are paid (every rule but fedavg).
+    pub fn stakes(self) -> bool {
+        self != Rule::Fedavg
+    }
+
+    /// The smallest quorum for which the rule is defined with `f` assumed Byzantine
+    /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed and centered
+    /// clipping `2f + 1`, bulyan `4f + 3`, fedavg and paper 1.
+    pub fn min_quorum(self, f: u32) -> u32 {
+        match self {
+            Rule::Fedavg | Rule::Paper => 1,
+            Rule::Krum | Rule::MultiKrum => 2 * f + 3,
+            Rule::Median | Rule::TrimmedMean | Rule::Geomed | Rule::CenteredClipping => 2 * f + 1,
+            Rule::Bulyan => 4 * f + 3,
+        }
+    }
+}
+
+/// A defence of the reward rule (`contract.defence`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Defence {
+    /// The rule's own rewards (the paper's ranking, or equal shares).
+    #[default]
+    None,
+    /// Pay by leave-one-out agreement of the centred updates.
+    Agreement,
+    /// Pay by leave-one-out agreement of the updates' parts the last step does not predict.
+    Innovation,
+}
+
+/// Every defence, `none` first.
+pub const ALL_DEFENCES: [Defence; 3] = [Defence::None, Defence::Agreement, Defence::Innovation];
+
+impl Defence {
+    /// The defence's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Defence::None => "none",
+            Defence::Agreement => "agreement",
+            Defence::Innovation => "innovation",
+        }
+    }
+
+    /// Looks a defence up by its configuration name.
+    pub fn from_name(name: &str) -> Option<Defence> {
+        ALL_DEFENCES.into_iter().find(|d| d.name() == name)
+    }
+}
+
+/// Which machine executes the contract.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ContractEngine {
+    /// The Rust reducer of `contract/mod.rs`.
+    #[default]
+    Native,
+    /// The Solidity contract of `contracts/SwarmFL.sol`, its committed bytecode run in revm.
+    Evm,
+}
+
+/// The median of an even number of distances.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MedianRule {
+    /// The lower middle `sorted[(q - 1) / 2]` (swarmfl).
+    #[default]
+    Lower,
+    /// The floored mean of the two middles (authors).
+    Mean,
+}
+
+/// How FedAvg's quotient is rounded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum FedAvgRounding {
+    /// To the nearest integer, ties away from zero (swarmfl).
+    #[default]
+    Nearest,
+    /// Toward zero, Solidity's signed division (authors).
+    Truncate,
+}
+
+/// When a distance equal to the threshold is accepted.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ThresholdRule {
+    /// Accepted iff `d <= threshold * N` (swarmfl, the paper's "<=").
+    #[default]
+    Inclusive,
+    /// Accepted iff `d < threshold * N` (authors: `floor(d / N) < threshold`).
+    Strict,
+}
+
+/// The distance the ranking is computed on.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RankKey {
+    /// The exact L1 distance `d` (swarmfl).
+    #[default]
+    Distance,
+    /// The truncated mean absolute error `floor(d / N)` (authors), which creates ties.
+    Mae,
+}
+
+/// How equal ranking keys are ordered.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RankTies {
+    /// Submission order (a stable sort; swarmfl).
+    #[default]
+    Stable,
+    /// Whatever the authors' Hoare quicksort leaves (not stable).
+    Quicksort,
+}
+
+/// How the reward and penalty shares are rounded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub enum PayoutRounding {
+    /// `floor(stake * k s / sum)` rewards, `ceil(..)` penalties (swarmfl: exact to one unit).
+    #[default]
+    #[serde(rename = "exact")]
+    Exact,
+    /// The share normalised to 1e9 and floored first, `stake * floor(1e9 k s / sum) / 1e9`,
+    /// for rewards and penalties alike (authors).
+    #[serde(rename = "ratio_1e9")]
+    Ratio1e9,
+}
+
+/// What an aggregation distributes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PoolRule {
+    /// Everything the contract holds: the round's stakes plus earlier remainders (swarmfl).
+    #[default]
+    Carry,
+    /// The round's stakes only; remainders stay in the contract for good (authors).
+    Round,
+}
+
+/// Every variant option of the contract (all default: swarmfl's rules).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ContractOptions {
+    /// `contract.median`.
+    pub median: MedianRule,
+    /// `contract.fedavg_rounding`.
+    pub fedavg_rounding: FedAvgRounding,
+    /// `contract.int48_products`: refuse an accepted model when some `w_i * n`, or the round's
+    /// running sum with it, leaves int48 (the authors' `int48` accumulator under Solidity 0.8's
+    /// checked arithmetic reverts such a submission).
+    pub int48_products: bool,
+    /// `contract.threshold`.
+    pub threshold: ThresholdRule,
+    /// `contract.rank_key`.
+    pub rank_key: RankKey,
+    /// `contract.rank_ties`.
+    pub rank_ties: RankTies,
+    /// `contract.payout_rounding`.
+    pub payout_rounding: PayoutRounding,
+    /// `contract.pool`.
+    pub pool: PoolRule,
+}

@@ -1,0 +1,83 @@
+//! What `byzantine.ledger` names, and the withholding policy the network's gossip follows.
+//! The misbehaviours themselves live in `byzantine/ledger/`, one file each.
+
+use serde::{Deserialize, Serialize};
+
+use crate::types::RobotId;
+
+/// What the Byzantine robots do on the ledger.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum LedgerBehaviour {
+    /// Seal, gossip and submit like everyone.
+    #[default]
+    Honest,
+    /// Seal two different blocks on one parent, each sent to part of the peers.
+    Equivocate,
+    /// Seal but release the blocks late, except to some peers.
+    Withhold,
+    /// Spam valid-looking transactions (future nonces, same-nonce variants).
+    Flood,
+    /// Re-send old transactions and transactions signed for another chain.
+    Replay,
+    /// Send malformed, forged and oversize blocks and transactions.
+    SpamInvalid,
+    /// Send blocks stamped far in the future.
+    FutureTimestamp,
+}
+
+impl LedgerBehaviour {
+    /// Every behaviour, honest first.
+    pub const ALL: [LedgerBehaviour; 7] = [
+        LedgerBehaviour::Honest,
+        LedgerBehaviour::Equivocate,
+        LedgerBehaviour::Withhold,
+        LedgerBehaviour::Flood,
+        LedgerBehaviour::Replay,
+        LedgerBehaviour::SpamInvalid,
+        LedgerBehaviour::FutureTimestamp,
+    ];
+
+    /// The name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            LedgerBehaviour::Honest => "honest",
+            LedgerBehaviour::Equivocate => "equivocate",
+            LedgerBehaviour::Withhold => "withhold",
+            LedgerBehaviour::Flood => "flood",
+            LedgerBehaviour::Replay => "replay",
+            LedgerBehaviour::SpamInvalid => "spam-invalid",
+            LedgerBehaviour::FutureTimestamp => "future-timestamp",
+        }
+    }
+}
+
+/// Which robots withhold, and for how long (the network's gossip asks it).
+#[derive(Clone, Debug)]
+pub struct WithholdPolicy {
+    withholders: Vec<bool>,
+    hold_ms: u64,
+}
+
+impl WithholdPolicy {
+    /// `withholders[r]`: robot r withholds; blocks are held three periods of `period_ms`.
+    pub fn new(withholders: Vec<bool>, period_ms: u64) -> WithholdPolicy {
+        WithholdPolicy {
+            withholders,
+            hold_ms: 3 * period_ms,
+        }
+    }
+
+    /// Whether robot `robot` withholds its blocks.
+    pub fn withholds(&self, robot: RobotId) -> bool {
+        self.withholders
+            .get(robot as usize)
+            .copied()
+            .unwrap_or(false)
+    }
+
+    /// How long a withheld block is held after its timestamp, in milliseconds.
+    pub fn hold_ms(&self) -> u64 {
+        self.hold_ms
+    }
+}

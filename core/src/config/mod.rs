@@ -1,0 +1,36 @@
+//! The configuration: one serde tree holding every parameter of the system, with its default.
+//!
+//! Every number of docs/SPEC.md is a field here, documented where it is declared. A run is fully
+//! determined by a [`Config`] and a seed. Configurations come from a named preset
+//! ([`Preset`]), optionally overlaid with a TOML file and with `key.path=value` overrides
+//! ([`Config::set`]); [`Config::validate`] then checks every range and names the offending key.
+//!
+//! A leaf of the crate: it imports only `types`, `rng` and `faults`. The types that the
+//! configuration names (rules, defences, attacks, engines, options) are defined here, each
+//! domain keeps their behaviour; the checks that span domains live in `validate.rs`.
+
+mod byzantine;
+mod contract;
+mod error;
+mod ledger;
+mod overrides;
+mod preset;
+mod tree;
+mod validate;
+
+#[cfg(test)]
+mod tests;
+
+pub use byzantine::{ByzantineKind, ByzantineVariant};
+pub use contract::{
+    ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
+    RankKey, RankTies, Rule, ThresholdRule, ALL_DEFENCES, ALL_RULES,
+};
+pub use error::ConfigError;
+pub use ledger::{LedgerBehaviour, WithholdPolicy};
+pub use overrides::{is_reconfigurable, RECONFIGURABLE};
+pub use preset::Preset;
+pub use tree::{
+    Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, LearnConfig, LedgerConfig,
+    OutputConfig, RunConfig, WorldConfig,
+};

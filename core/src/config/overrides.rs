@@ -1,0 +1,341 @@
+//! How a configuration is resolved from a preset, a TOML file and `key.path=value` overrides,
+//! and which keys a fork may change in the middle of a run.
+
+use std::path::Path;
+
+use super::error::ConfigError;
+use super::preset::Preset;
+use super::tree::Config;
+
+impl Config {
+    /// Resolves a configuration: the preset, then the file (a partial TOML overlaid on the
+    /// preset; it may name its own `preset`), then each `key.path=value` override in order,
+    /// then validation.
+    pub fn resolve(
+        preset: Option<&str>,
+        file: Option<&Path>,
+        overrides: &[String],
+    ) -> Result<Config, ConfigError> {
+        let text = match file {
+            Some(path) => Some(std::fs::read_to_string(path).map_err(|e| ConfigError::Io {
+                path: path.display().to_string(),
+                message: e.to_string(),
+            })?),
+            None => None,
+        };
+        let source_name = file.map(|p| p.display().to_string()).unwrap_or_default();
+        Config::resolve_text(
+            preset,
+            text.as_deref().map(|t| (t, source_name.as_str())),
+            overrides,
+        )
+    }
+
+    /// Parses the text of a configuration file (a partial TOML overlaid on its own `preset`, or
+    /// on `paper`) and validates it; `source_name` names the text in errors. This is
+    /// [`Config::resolve`] without the file system and without overrides.
+    pub fn from_toml_str(text: &str, source_name: &str) -> Result<Config, ConfigError> {
+        Config::resolve_text(None, Some((text, source_name)), &[])
+    }
+
+    /// [`Config::resolve`] on a file's text and name instead of its path.
+    fn resolve_text(
+        preset: Option<&str>,
+        file: Option<(&str, &str)>,
+        overrides: &[String],
+    ) -> Result<Config, ConfigError> {
+        let mut file_table: Option<(toml::Table, &str)> = None;
+        let mut preset_name = preset.map(str::to_string);
+        if let Some((text, source_name)) = file {
+            let table: toml::Table = toml::from_str(text).map_err(|e| ConfigError::Parse {
+                source_name: source_name.to_string(),
+                message: e.to_string(),
+            })?;
+            if preset_name.is_none() {
+                if let Some(p) = table.get("preset").and_then(|v| v.as_str()) {
+                    preset_name = Some(p.to_string());
+                }
+            }
+            file_table = Some((table, source_name));
+        }
+        let preset = Preset::from_name(preset_name.as_deref().unwrap_or("paper"))?;
+        let mut config = preset.config();
+        let mut explicit = std::collections::BTreeSet::new();
+        if let Some((table, _)) = &file_table {
+            collect_keys("", table, &mut explicit);
+        }
+        if let Some((table, source_name)) = file_table {
+            let mut base = toml::Value::try_from(&config).expect("Config serialises");
+            merge(&mut base, toml::Value::Table(table), "", source_name)?;
+            config = base
+                .try_into()
+                .map_err(|e: toml::de::Error| ConfigError::Parse {
+                    source_name: source_name.to_string(),
+                    message: e.to_string(),
+                })?;
+            config.preset = preset.name().to_string();
+        }
+        for assignment in overrides {
+            config.set(assignment)?;
+            if let Some((key, _)) = assignment.split_once('=') {
+                explicit.insert(key.trim().to_string());
+            }
+        }
+        config.derive(&explicit);
+        config.validate().map_err(|e| match e {
+            ConfigError::OutOfRange { ref key, .. }
+                if !explicit.is_empty() && !explicit.contains(key) =>
+            {
+                ConfigError::NotSetByYou {
+                    key: key.clone(),
+                    preset: config.preset.clone(),
+                    set: explicit.iter().cloned().collect::<Vec<_>>().join(", "),
+                    source: Box::new(e),
+                }
+            }
+            e => e,
+        })?;
+        Ok(config)
+    }
+
+    /// Makes the values the user did not set follow the ones they did, where a preset's value
+    /// only suits the preset's swarm: `contract.penalised_ranks` is clamped to `quorum - 1` (a
+    /// swarm of 2..5 robots has a quorum of 1 or 2, so the paper's 2 of 7 cannot apply) and
+    /// `world.peer_refresh_s` is raised to `run.tick_s` (peers are refreshed at most once a
+    /// tick). `explicit` holds the dotted keys set by a file or an override: those are never
+    /// changed, so a contradiction among them is reported by [`Config::validate`] naming the
+    /// user's own key. A configuration that already validates is left as it is, so every
+    /// existing run keeps its records.
+    pub fn derive(&mut self, explicit: &std::collections::BTreeSet<String>) {
+        let set = |key: &str| explicit.contains(key);
+        if !set("contract.penalised_ranks") {
+            let max = self.quorum().saturating_sub(1);
+            self.contract.penalised_ranks = self.contract.penalised_ranks.min(max);
+        }
+        if !set("world.peer_refresh_s") && self.world.peer_refresh_s < self.run.tick_s {
+            self.world.peer_refresh_s = self.run.tick_s;
+        }
+    }
+
+    /// Applies one `key.path=value` override. The value is TOML (`0.5`, `true`, `"faulty"`,
+    /// `[1, 1, -1]`); a bare word is taken as a string. The key must exist and the value must
+    /// have the field's type.
+    pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
+        let (key, raw) = assignment
+            .split_once('=')
+            .ok_or_else(|| ConfigError::Override {
+                assignment: assignment.to_string(),
+                message: "expected key.path=value, e.g. --set world.robots=30".to_string(),
+            })?;
+        let key = key.trim();
+        let raw = raw.trim();
+        let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
+            Ok(mut t) => t.remove("v").expect("parsed table has v"),
+            Err(_) => toml::Value::String(raw.to_string()),
+        };
+        let mut root = toml::Value::try_from(&*self).expect("Config serialises");
+        let mut slot = &mut root;
+        let mut walked = String::new();
+        for part in key.split('.') {
+            let table = slot.as_table_mut().ok_or_else(|| ConfigError::UnknownKey {
+                key: key.to_string(),
+                allowed: format!("`{walked}` is a value, not a table; set `{walked}` itself"),
+            })?;
+            if !table.contains_key(part) {
+                let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
+                allowed.sort_unstable();
+                return Err(ConfigError::UnknownKey {
+                    key: key.to_string(),
+                    allowed: format!(
+                        "{}: {}",
+                        if walked.is_empty() {
+                            "top-level keys"
+                        } else {
+                            walked.as_str()
+                        },
+                        allowed.join(", ")
+                    ),
+                });
+            }
+            if !walked.is_empty() {
+                walked.push('.');
+            }
+            walked.push_str(part);
+            slot = table.get_mut(part).expect("checked above");
+        }
+        let value = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+            key: key.to_string(),
+            value: raw.to_string(),
+            expected,
+        })?;
+        *slot = value;
+        let updated: Config =
+            root.try_into()
+                .map_err(|e: toml::de::Error| ConfigError::WrongType {
+                    key: key.to_string(),
+                    value: raw.to_string(),
+                    expected: e.message().to_string(),
+                })?;
+        *self = updated;
+        Ok(())
+    }
+
+    /// Checks that `next` differs from `self` only in keys that may change in the middle of a
+    /// run ([`RECONFIGURABLE`]), and returns the changed keys.
+    pub fn check_reconfiguration(&self, next: &Config) -> Result<Vec<String>, ConfigError> {
+        let changed = self.changed_keys(next);
+        if let Some(key) = changed.iter().find(|k| !is_reconfigurable(k)) {
+            return Err(ConfigError::NotReconfigurable {
+                key: key.clone(),
+                allowed: RECONFIGURABLE.join(", "),
+            });
+        }
+        Ok(changed)
+    }
+}
+
+/// The configuration keys a fork may change in the middle of a run (a trailing `.*` stands for
+/// every key of that table). Everything else shapes the world, the model or the ledger from
+/// genesis on: change it with a new run instead.
+///
+/// - `run.duration_s`: the run ends at the new time (after the fork point).
+/// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
+/// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
+///   `penalised_ranks`, `rule`, `assumed_f`, `reward_weights` and the variant options
+///   (`median` .. `pool`): the contract's rules change for the blocks sealed after the fork
+///   point
+///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
+///   chain when it crosses the activation is restarted and its stakes refunded.
+/// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
+/// - `output.*`: presentation only.
+pub const RECONFIGURABLE: &[&str] = &[
+    "run.duration_s",
+    "learn.dropout",
+    "learn.learning_rate",
+    "learn.batch_size",
+    "learn.epochs",
+    "learn.train_fraction",
+    "learn.training_period_s",
+    "learn.training_duration_s",
+    "learn.min_train_samples",
+    "contract.security",
+    "contract.stake_tokens",
+    "contract.quorum_fraction",
+    "contract.outlier_threshold",
+    "contract.penalised_ranks",
+    "contract.rule",
+    "contract.assumed_f",
+    "contract.reward_weights",
+    "contract.median",
+    "contract.fedavg_rounding",
+    "contract.int48_products",
+    "contract.threshold",
+    "contract.rank_key",
+    "contract.rank_ties",
+    "contract.payout_rounding",
+    "contract.pool",
+    "contract.defence",
+    "contract.defence_refund_percent",
+    "byzantine.*",
+    "output.*",
+];
+
+/// True when `key` may change in the middle of a run (see [`RECONFIGURABLE`]).
+pub fn is_reconfigurable(key: &str) -> bool {
+    RECONFIGURABLE
+        .iter()
+        .any(|pattern| match pattern.strip_suffix('*') {
+            Some(table) => key.starts_with(table),
+            None => key == *pattern,
+        })
+}
+
+/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
+fn merge(
+    base: &mut toml::Value,
+    patch: toml::Value,
+    prefix: &str,
+    source_name: &str,
+) -> Result<(), ConfigError> {
+    match (base, patch) {
+        (toml::Value::Table(b), toml::Value::Table(p)) => {
+            for (k, v) in p {
+                let path = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                match b.get_mut(&k) {
+                    Some(slot) => merge(slot, v, &path, source_name)?,
+                    None => {
+                        let mut allowed: Vec<&str> = b.keys().map(String::as_str).collect();
+                        allowed.sort_unstable();
+                        return Err(ConfigError::UnknownKey {
+                            key: format!("{path} (in {source_name})"),
+                            allowed: format!(
+                                "{}: {}",
+                                if prefix.is_empty() {
+                                    "top-level keys"
+                                } else {
+                                    prefix
+                                },
+                                allowed.join(", ")
+                            ),
+                        });
+                    }
+                }
+            }
+            Ok(())
+        }
+        (slot, value) => {
+            let shown = value.to_string();
+            *slot = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+                key: format!("{prefix} (in {source_name})"),
+                value: shown,
+                expected,
+            })?;
+            Ok(())
+        }
+    }
+}
+
+/// Converts `value` to the type of `slot` where that loses nothing (an integer where a float is
+/// expected); otherwise says what type was expected.
+fn coerce(slot: &toml::Value, value: toml::Value) -> Result<toml::Value, String> {
+    use toml::Value as V;
+    match (slot, value) {
+        (V::Float(_), V::Integer(i)) => Ok(V::Float(i as f64)),
+        (V::Float(_), v @ V::Float(_)) => Ok(v),
+        (V::Integer(_), v @ V::Integer(_)) => Ok(v),
+        (V::Boolean(_), v @ V::Boolean(_)) => Ok(v),
+        (V::String(_), v @ V::String(_)) => Ok(v),
+        (V::Array(_), v @ V::Array(_)) => Ok(v),
+        (V::Table(_), v @ V::Table(_)) => Ok(v),
+        (slot, _) => Err(match slot {
+            V::Float(_) => "a number".to_string(),
+            V::Integer(_) => "an integer".to_string(),
+            V::Boolean(_) => "true or false".to_string(),
+            V::String(s) => format!("a string (currently {s:?})"),
+            V::Array(_) => "an array, e.g. [1, 1, -1]".to_string(),
+            V::Table(_) => "a table (name a field inside it)".to_string(),
+            V::Datetime(_) => "a datetime".to_string(),
+        }),
+    }
+}
+
+/// Every dotted key of a value in a (partial) TOML table (`world.robots`, not `world`).
+fn collect_keys(prefix: &str, table: &toml::Table, out: &mut std::collections::BTreeSet<String>) {
+    for (k, v) in table {
+        let key = if prefix.is_empty() {
+            k.clone()
+        } else {
+            format!("{prefix}.{k}")
+        };
+        match v {
+            toml::Value::Table(t) => collect_keys(&key, t, out),
+            _ => {
+                out.insert(key);
+            }
+        }
+    }
+}

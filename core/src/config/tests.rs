@@ -1,0 +1,298 @@
+use super::*;
+
+#[test]
+fn every_preset_is_valid_and_round_trips_through_toml() {
+    for preset in Preset::ALL {
+        let config = preset.config();
+        config
+            .validate()
+            .unwrap_or_else(|e| panic!("{preset}: {e}"));
+        let back: Config = toml::from_str(&config.to_toml()).unwrap();
+        assert_eq!(back, config, "{preset}");
+    }
+}
+
+/// `contract.rule` is listed in every resolved configuration; a configuration written
+/// before rules existed (no `rule`, no `assumed_f`) reads as `paper`, and
+/// `security = false` still means `fedavg`.
+#[test]
+fn the_rule_is_listed_and_old_configurations_read() {
+    let paper = Preset::Paper.config();
+    assert!(paper.to_toml().contains("rule = \"paper\""));
+    assert_eq!(paper.flat_values()["contract.rule"], "\"paper\"");
+    let mut old: toml::Table = toml::from_str(&paper.to_toml()).unwrap();
+    let contract = old["contract"].as_table_mut().unwrap();
+    contract.remove("rule");
+    contract.remove("assumed_f");
+    contract.insert("security".into(), toml::Value::Boolean(false));
+    let text = toml::to_string(&old).unwrap();
+    let c = Config::from_toml_str(&text, "old.toml").unwrap();
+    assert_eq!(c.contract.rule, Rule::Paper);
+    assert_eq!(c.rule(), Rule::Fedavg);
+    let mut krum = Preset::Paper.config();
+    krum.set("contract.rule=krum").unwrap();
+    krum.validate().unwrap();
+    krum.set("contract.assumed_f=3").unwrap();
+    let e = krum.validate().unwrap_err().to_string();
+    assert!(
+        e.contains("contract.assumed_f") && e.contains("krum"),
+        "{e}"
+    );
+}
+
+#[test]
+fn paper_quorum_is_seven() {
+    assert_eq!(Preset::Paper.config().quorum(), 7);
+    assert_eq!(
+        Preset::Paper.config().reward_weights(),
+        vec![1, 1, 1, 1, 1, -1, -1]
+    );
+}
+
+#[test]
+fn overrides_set_nested_fields_and_coerce_integers_to_floats() {
+    let c = Config::resolve(
+        Some("smoke"),
+        None,
+        &[
+            "world.rab_range_m=3".into(),
+            "byzantine.kind=faulty".into(),
+            "byzantine.count=2".into(),
+        ],
+    )
+    .unwrap();
+    assert_eq!(c.world.rab_range_m, 3.0);
+    assert_eq!(c.byzantine.kind, ByzantineKind::Faulty);
+    assert_eq!(c.byzantine.count, 2);
+}
+
+fn check_err(overrides: &[&str], expect: &str) {
+    let overrides: Vec<String> = overrides.iter().map(|s| s.to_string()).collect();
+    let err = Config::resolve(None, None, &overrides)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains(expect), "error {err:?} lacks {expect:?}");
+}
+
+#[test]
+fn errors_name_the_key_the_value_and_what_is_allowed() {
+    check_err(
+        &["world.robtos=3"],
+        "unknown configuration key `world.robtos`",
+    );
+    check_err(&["world.robtos=3"], "rab_range_m");
+    check_err(
+        &["world.robots=many"],
+        "`world.robots`: value `many` has the wrong type; expected an integer",
+    );
+    check_err(
+        &["world.robots=0"],
+        "`world.robots`: value 0 is out of range; allowed: an integer in [1, 10000]",
+    );
+    check_err(&["learn.dropout=1.5"], "learn.dropout");
+    check_err(&["byzantine.kind=evil"], "byzantine.kind");
+    check_err(&["byzantine.kind=faulty"], "byzantine.count");
+    check_err(&["noequals"], "expected key.path=value");
+    check_err(
+        &["world.robots.x=1"],
+        "unknown configuration key `world.robots.x`; `world.robots` is a value, not a table",
+    );
+    check_err(
+        &["preset=../../etc"],
+        "`preset`: value \"../../etc\" is out of range; allowed: one of paper, paper-text, reference",
+    );
+    let err = Config::resolve(Some("papr"), None, &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("unknown preset \"papr\"") && err.contains("e3-smart"),
+        "{err}"
+    );
+}
+
+/// `contract.engine = evm` runs contracts/SwarmFL.sol, the paper's contract with security
+/// on or off: every other rule, and the round deadline it lacks, are refused with the key,
+/// the value and the fix; native runs keep them.
+#[cfg(feature = "evm")]
+#[test]
+fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
+    for rule in ALL_RULES {
+        let set = |engine: &str| {
+            Config::resolve(
+                None,
+                None,
+                &[
+                    format!("contract.rule={}", rule.name()),
+                    format!("contract.engine={engine}"),
+                ],
+            )
+        };
+        set("native").unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+        match (rule, set("evm")) {
+            (Rule::Paper | Rule::Fedavg, got) => {
+                got.unwrap_or_else(|e| panic!("{}: {e}", rule.name()));
+            }
+            (_, Ok(_)) => panic!("{} accepted under evm", rule.name()),
+            (_, Err(e)) => {
+                let e = e.to_string();
+                assert!(
+                    e.contains(&format!("`contract.rule`: value {}", rule.name()))
+                        && e.contains("contract.engine = evm")
+                        && e.contains("set contract.engine = native"),
+                    "{e}"
+                );
+            }
+        }
+    }
+    // Security off is the fedavg rule, which the contract implements.
+    Config::resolve(
+        None,
+        None,
+        &[
+            "contract.engine=evm".into(),
+            "contract.security=false".into(),
+        ],
+    )
+    .unwrap();
+    check_err(
+        &["contract.engine=evm", "contract.round_timeout_s=300"],
+        "`contract.round_timeout_s`: value 300 is out of range; allowed: 0 (no deadline) \
+         with contract.engine = evm",
+    );
+    Config::resolve(None, None, &["contract.round_timeout_s=300".into()]).unwrap();
+}
+
+/// Without the `evm` feature, `contract.engine = evm` is refused with the command that
+/// builds the engine; `native` still runs.
+#[cfg(not(feature = "evm"))]
+#[test]
+fn the_evm_engine_names_the_feature_in_a_build_without_it() {
+    check_err(
+        &["contract.engine=evm"],
+        "`contract.engine`: value evm is out of range; allowed: native in this build of \
+         swarmfl, which was built without the EVM engine (cargo feature `evm`, off by \
+         default); rebuild with `cargo build --release -p replay-cli --features evm`",
+    );
+    Config::resolve(None, None, &["contract.engine=native".into()]).unwrap();
+}
+
+/// The authors' variant options describe the paper's contract: a robust rule would ignore
+/// them, so setting one with it is refused, naming the option.
+#[test]
+fn variant_options_are_refused_with_a_robust_rule() {
+    check_err(
+        &["contract.rule=median", "contract.median=mean"],
+        "`contract.median`: value \"mean\" is out of range; allowed: its default with \
+         contract.rule = median",
+    );
+    check_err(
+        &[
+            "contract.rule=krum",
+            "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]",
+        ],
+        "`contract.reward_weights`: value [5, 4, 3, 2, 1, -1, -2]",
+    );
+    check_err(
+        &["contract.rule=krum", "contract.pool=round"],
+        "remove `contract.pool`, or set contract.rule = paper",
+    );
+    for rule in ["paper", "fedavg"] {
+        Config::resolve(
+            None,
+            None,
+            &[
+                format!("contract.rule={rule}"),
+                "contract.median=mean".into(),
+                "contract.pool=round".into(),
+                "contract.reward_weights=[5, 4, 3, 2, 1, -1, -2]".into(),
+            ],
+        )
+        .unwrap_or_else(|e| panic!("{rule}: {e}"));
+    }
+}
+
+#[test]
+fn a_file_overlays_the_preset_and_names_itself_in_errors() {
+    let dir = std::env::temp_dir().join(format!("swarmfl-config-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let good = dir.join("good.toml");
+    std::fs::write(&good, "preset = \"reference\"\n[world]\nrobots = 20\n").unwrap();
+    let c = Config::resolve(None, Some(&good), &[]).unwrap();
+    assert_eq!(
+        (c.world.robots, c.world.rab_range_m, c.preset.as_str()),
+        (20, 2.0, "reference")
+    );
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[world]\nrobots = 20\nspeed = 3\n").unwrap();
+    let err = Config::resolve(None, Some(&bad), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("world.speed") && err.contains("bad.toml"),
+        "{err}"
+    );
+    let broken = dir.join("broken.toml");
+    std::fs::write(&broken, "[world\nrobots = 20\n").unwrap();
+    let err = Config::resolve(None, Some(&broken), &[])
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("broken.toml") && err.contains("line"), "{err}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn small_swarms_and_long_ticks_derive_what_the_user_did_not_set() {
+    for robots in 1..=5u32 {
+        let c = Config::resolve(Some("smoke"), None, &[format!("world.robots={robots}")])
+            .unwrap_or_else(|e| panic!("{robots} robots: {e}"));
+        assert_eq!(
+            c.contract.penalised_ranks,
+            c.quorum() - 1,
+            "{robots} robots"
+        );
+        assert!(c.reward_weights()[0] == 1);
+    }
+    // The paper's swarm keeps the paper's ranks: derivation changes nothing that validates.
+    let paper = Config::resolve(None, None, &["world.robots=15".into()]).unwrap();
+    assert_eq!(paper, Preset::Paper.config());
+    let c = Config::resolve(Some("smoke"), None, &["run.tick_s=10".into()]).unwrap();
+    assert_eq!(c.world.peer_refresh_s, 10.0);
+    let c = Config::resolve(None, None, &["world.peer_refresh_s=2".into()]).unwrap();
+    assert_eq!(c.world.peer_refresh_s, 2.0);
+    // What the user set is never changed: the error names their own key.
+    check_err(
+        &["world.robots=5", "contract.penalised_ranks=2"],
+        "`contract.penalised_ranks`: value 2 is out of range",
+    );
+    check_err(
+        &["run.tick_s=1", "world.peer_refresh_s=0.5"],
+        "`world.peer_refresh_s`: value 0.5",
+    );
+    // A preset value that conflicts with the user's and cannot be derived names both.
+    check_err(
+        &["data.input_waypoints=80"],
+        "you did not set `data.target_waypoints` (preset `paper` gives it), but it no \
+         longer fits what you set (data.input_waypoints)",
+    );
+}
+
+#[test]
+fn text_parses_like_a_file_and_names_its_source() {
+    let c = Config::from_toml_str("preset = \"smoke\"\n[world]\nrobots = 12\n", "mine").unwrap();
+    assert_eq!((c.world.robots, c.preset.as_str()), (12, "smoke"));
+    let paper = Config::from_toml_str("", "empty").unwrap();
+    assert_eq!(paper, Preset::Paper.config());
+    for (text, expect) in [
+        ("[world\n", "invalid configuration in mine"),
+        ("[world]\nrobots = \"x\"\n", "`world.robots (in mine)`"),
+        ("preset = 3\n", "`preset (in mine)`"),
+        ("preset = \"nope\"\n", "unknown preset \"nope\""),
+        (
+            "[world]\nrobots = 0\n",
+            "`world.robots`: value 0 is out of range",
+        ),
+    ] {
+        let err = Config::from_toml_str(text, "mine").unwrap_err().to_string();
+        assert!(err.contains(expect), "{text:?}: {err:?} lacks {expect:?}");
+    }
+}

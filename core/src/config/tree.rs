@@ -1,0 +1,474 @@
+//! The configuration tree: [`Config`] and its sections, one struct per table of the TOML
+//! text, every field documented where it is declared, and what the rest of swarmfl derives
+//! from them (ticks, rule in force, quorum, reward weights, the canonical text and its hash).
+
+use std::collections::BTreeMap;
+
+use serde::{Deserialize, Serialize};
+
+use super::byzantine::{ByzantineKind, ByzantineVariant};
+use super::contract::{
+    ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
+    RankKey, RankTies, Rule, ThresholdRule,
+};
+use super::ledger::LedgerBehaviour;
+use crate::faults::FaultsConfig;
+
+/// A complete, resolved configuration of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// The preset this configuration started from (informational; overrides may have changed it).
+    pub preset: String,
+    /// Simulated time.
+    pub run: RunConfig,
+    /// Arena, robots, physics and sensing (docs/SPEC.md section 1).
+    pub world: WorldConfig,
+    /// Trajectory data collection (docs/SPEC.md section 1, data collection).
+    pub data: DataConfig,
+    /// The model and its local training (docs/SPEC.md section 2).
+    pub learn: LearnConfig,
+    /// The per-robot blockchain nodes (docs/SPEC.md section 3).
+    pub ledger: LedgerConfig,
+    /// The federated-learning smart contract (docs/SPEC.md section 4).
+    pub contract: ContractConfig,
+    /// Byzantine robots (docs/SPEC.md section 5).
+    pub byzantine: ByzantineConfig,
+    /// Faults on the radio and the robots (none by default; beyond the paper).
+    #[serde(default)]
+    pub faults: FaultsConfig,
+    /// Log and metrics settings (docs/SPEC.md sections 6 and 8).
+    pub output: OutputConfig,
+}
+
+/// Simulated time of a run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunConfig {
+    /// Length of the run in simulated seconds (paper 5000, reference 4980).
+    pub duration_s: f64,
+    /// Simulation tick: the physics, sensing and data step (0.1 s = 10 Hz).
+    pub tick_s: f64,
+}
+
+/// The arena, the robots, their controller and their sensors.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct WorldConfig {
+    /// Number of robots in the swarm (every one a blockchain node).
+    pub robots: u32,
+    /// Side of the square, walled arena in metres (paper 5, reference 4), centred on the origin.
+    pub arena_side_m: f64,
+    /// Number of cylindrical obstacles.
+    pub cylinders: u32,
+    /// Radius of each cylinder in metres.
+    pub cylinder_radius_m: f64,
+    /// Number of box obstacles (square base, axis aligned).
+    pub boxes: u32,
+    /// Side of each box's square base in metres.
+    pub box_side_m: f64,
+    /// Obstacle centres are drawn uniformly in [-h, h]^2 with h this value (reference 1.5 m);
+    /// 0 means "anywhere inside the walls" (paper).
+    pub obstacle_spread_half_m: f64,
+    /// Robot body radius in metres (Pi-puck: 0.035).
+    pub robot_radius_m: f64,
+    /// Distance between the two wheels in metres (Pi-puck: 0.053).
+    pub wheel_base_m: f64,
+    /// Forward speed of the random walk in m/s.
+    pub cruise_speed_mps: f64,
+    /// Number of IR proximity sensors, evenly spaced around the body.
+    pub proximity_sensors: u32,
+    /// Range of each proximity ray, measured from the body surface, in metres.
+    pub proximity_range_m: f64,
+    /// A front proximity reading above this value (0..1, 1 = touching) makes the robot turn away.
+    pub proximity_threshold: f64,
+    /// Probability per second that a free robot starts a random turn (the random walk).
+    pub random_turn_rate_per_s: f64,
+    /// Longest random turn in seconds (the duration is uniform in [0, this]).
+    pub random_turn_max_s: f64,
+    /// Range-and-bearing (and radio) range in metres (paper 2.5, reference 2.0).
+    pub rab_range_m: f64,
+    /// Standard deviation of the Gaussian noise on each axis of the measured offset, in metres.
+    pub rab_noise_std_m: f64,
+    /// Whether obstacles block the line of sight of range-and-bearing messages.
+    pub rab_occlusion: bool,
+    /// Probability that a range-and-bearing message is lost (per robot pair and tick).
+    pub rab_packet_drop: f64,
+    /// Period of the peer-set refresh in seconds: the node's peers are the robots in range.
+    pub peer_refresh_s: f64,
+}
+
+/// Trajectory recording and the data set of each robot.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct DataConfig {
+    /// Consecutive ticks of one neighbour that form a trajectory (100 = 10 s).
+    pub trajectory_ticks: u32,
+    /// Waypoints of the model's input (0..32 = 3.2 s).
+    pub input_waypoints: u32,
+    /// Waypoints of the model's target (32..80 = 4.8 s); the rest of the trajectory is unused.
+    pub target_waypoints: u32,
+    /// Samples older than this many seconds are dropped from the robot's data set.
+    pub expiration_s: f64,
+    /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
+    pub heldout_samples: u32,
+}
+
+/// The model and local training.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LearnConfig {
+    /// LSTM units (the paper's model has 16).
+    pub lstm_units: u32,
+    /// Dropout rate after the LSTM layer, active during training only.
+    pub dropout: f64,
+    /// SGD learning rate: 0.01, what the authors' code ran (Keras' default); the paper's text says
+    /// 0.001 (preset `paper-text`). docs/SPEC.md section 2 has the evidence.
+    pub learning_rate: f64,
+    /// Mini-batch size.
+    pub batch_size: u32,
+    /// Passes over the training split per local training.
+    pub epochs: u32,
+    /// Fraction of the (chronological) data set used for training; the rest validates.
+    pub train_fraction: f64,
+    /// Period of a robot's training phase in simulated seconds.
+    pub training_period_s: f64,
+    /// Simulated time a local training takes before the model is submitted (paper: 0).
+    pub training_duration_s: f64,
+    /// Fewest training samples a robot needs before it trains and submits.
+    pub min_train_samples: u32,
+    /// How the robots' models are aggregated: through the blockchain (`chain`, the paper's
+    /// system), Flow-FL-style gossip of a virtual-stigmergy store (`gossip`) or an ideal
+    /// central server (`central`). See `aggregation` (ARCHITECTURE.md) for the baselines.
+    #[serde(default)]
+    pub aggregation: Aggregation,
+    /// `gossip` only: a robot leaves out of its average the stored models whose mean absolute
+    /// weight distance to its own current model exceeds `contract.outlier_threshold`
+    /// (Flow-FL has no such filter: off by default).
+    #[serde(default)]
+    pub gossip_outlier_filter: bool,
+}
+
+/// How the robots' trained models become their next starting model.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Aggregation {
+    /// Transactions to the smart contract on every robot's chain (the paper's system).
+    #[default]
+    Chain,
+    /// Flow-FL: a virtual-stigmergy store replicated by neighbour gossip; each robot averages
+    /// the newest models it holds.
+    Gossip,
+    /// An ideal server that receives every model instantly and aggregates FedAvg.
+    Central,
+}
+
+impl Aggregation {
+    /// The name used in configurations and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Aggregation::Chain => "chain",
+            Aggregation::Gossip => "gossip",
+            Aggregation::Central => "central",
+        }
+    }
+}
+
+/// The per-robot proof-of-authority nodes and the radio between them.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LedgerConfig {
+    /// Minimum time between a block and its child in seconds (Clique period).
+    pub block_period_s: f64,
+    /// Unit of the out-of-turn sealing delay: delays are uniform in [0, (N/2 + 1) * this).
+    pub wiggle_unit_s: f64,
+    /// Per-link bandwidth in bytes per second; 0 means unlimited.
+    pub bandwidth_bytes_per_s: u64,
+    /// Probability that a gossip message between two peers is lost.
+    pub packet_loss: f64,
+}
+
+/// The federated-learning contract.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContractConfig {
+    /// Security mechanisms (stake, outlier rejection, ranking, rewards) on or off (Exp. 1: off).
+    pub security: bool,
+    /// Tokens every robot holds at genesis.
+    pub initial_tokens: u64,
+    /// Tokens staked with every submission (Sybil protection).
+    pub stake_tokens: u64,
+    /// Integer units per token (balances are integers of this unit).
+    pub token_units: u64,
+    /// Fixed-point scale of on-chain weights (1e9, as the reference's int48).
+    pub weight_scale: u64,
+    /// Quorum fraction q: an aggregation needs max(floor(q * N_r), 1) accepted models.
+    pub quorum_fraction: f64,
+    /// Outlier threshold on the mean absolute weight distance to the shared model.
+    pub outlier_threshold: f64,
+    /// How many of the quorum's ranks are penalised (weight -1, the worst ranks); the others
+    /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
+    pub penalised_ranks: u32,
+    /// The aggregation rule (`fedavg`, `paper`, `krum`, `multi-krum`, `median`,
+    /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`; see `contract::rules`).
+    /// `security = false` means `fedavg` whatever this says (old configurations read as before).
+    #[serde(default = "default_rule")]
+    pub rule: Rule,
+    /// Byzantine submissions per round the robust rules assume (f): krum and multi-krum need
+    /// quorum >= 2f + 3, median, trimmed-mean, geomed and centered-clipping 2f + 1, bulyan
+    /// 4f + 3. Ignored by fedavg and paper.
+    #[serde(default = "default_assumed_f")]
+    pub assumed_f: u32,
+    /// A round that has not reached its quorum this many seconds (block time) after it opened
+    /// closes without aggregation and refunds the stakes of its accepted submissions; 0 = never.
+    /// Beyond the paper, whose contract has no deadline: off in every preset.
+    #[serde(default)]
+    pub round_timeout_s: f64,
+    /// Explicit reward weight per rank, best first (one per quorum rank, at least one
+    /// positive, each in -1000..=1000); empty (the default) derives them from
+    /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].
+    #[serde(default)]
+    pub reward_weights: Vec<i64>,
+    /// Which machine executes the contract: "native" (the Rust reducer) or "evm" (the Solidity
+    /// contract of `contracts/`, its committed bytecode run in revm; same events and results).
+    #[serde(default)]
+    pub engine: ContractEngine,
+    /// Median of an even count of distances: "lower" middle (swarmfl) or "mean" of the two
+    /// middles, floored (authors).
+    #[serde(default)]
+    pub median: MedianRule,
+    /// FedAvg rounding: "nearest", ties away from zero (swarmfl), or "truncate" toward zero
+    /// (authors).
+    #[serde(default)]
+    pub fedavg_rounding: FedAvgRounding,
+    /// Refuse (malformed) an accepted model when some `w_i * n`, or the round's running sum
+    /// with it, leaves int48: the authors' int48 accumulator reverts such a submission.
+    #[serde(default)]
+    pub int48_products: bool,
+    /// Outlier threshold: "inclusive", `d <= t * N` (swarmfl), or "strict", `d < t * N`
+    /// (authors).
+    #[serde(default)]
+    pub threshold: ThresholdRule,
+    /// Ranking key: exact L1 "distance" (swarmfl) or truncated "mae" `floor(d / N)` (authors).
+    #[serde(default)]
+    pub rank_key: RankKey,
+    /// Ranking ties: "stable" submission order (swarmfl) or the authors' "quicksort".
+    #[serde(default)]
+    pub rank_ties: RankTies,
+    /// Payout shares: "exact" to one unit (swarmfl) or "ratio_1e9", normalised to 1e9 and
+    /// floored (authors).
+    #[serde(default)]
+    pub payout_rounding: PayoutRounding,
+    /// Pool of an aggregation: "carry" (all the contract holds, remainders included; swarmfl)
+    /// or "round" (the round's stakes only; authors).
+    #[serde(default)]
+    pub pool: PoolRule,
+    /// A defence of the reward rule against robots that are paid without collecting data or
+    /// training (issue 16, beyond the paper): "none" (the rule's own rewards), "agreement" or
+    /// "innovation" (rewards follow a model's agreement with the round's other models; see
+    /// `contract::defences`). Needs a staking rule (security on); "none" in every preset but
+    /// `e5-smart-defence`.
+    #[serde(default)]
+    pub defence: Defence,
+    /// Percent (0..=100) of an aggregation's pool that a defence refunds in equal parts to the
+    /// used submissions; the rest is shared by score.
+    #[serde(default = "default_defence_refund_percent")]
+    pub defence_refund_percent: u32,
+}
+
+fn default_defence_refund_percent() -> u32 {
+    50
+}
+
+impl ContractConfig {
+    /// The variant options of the contract (docs/CONTRACT.md).
+    pub fn options(&self) -> ContractOptions {
+        ContractOptions {
+            median: self.median,
+            fedavg_rounding: self.fedavg_rounding,
+            int48_products: self.int48_products,
+            threshold: self.threshold,
+            rank_key: self.rank_key,
+            rank_ties: self.rank_ties,
+            payout_rounding: self.payout_rounding,
+            pool: self.pool,
+        }
+    }
+}
+
+fn default_rule() -> Rule {
+    Rule::Paper
+}
+
+fn default_assumed_f() -> u32 {
+    1
+}
+
+/// Which robots are Byzantine and how they behave.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ByzantineConfig {
+    /// Behaviour of the Byzantine robots.
+    pub kind: ByzantineKind,
+    /// How many robots are Byzantine (they replace honest ones: the swarm size stays).
+    pub count: u32,
+    /// Formula variant: the paper's or the reference implementation's.
+    pub variant: ByzantineVariant,
+    /// Samples a Byzantine robot claims with each submission (reference: 200).
+    pub claimed_samples: u32,
+    /// Faulty robots send weights uniform in [-this, this].
+    pub faulty_range: f64,
+    /// How many honest submissions of the current round the attacks that read them (`alie`,
+    /// `ipm`, `min-max`, `mimic`, `inflate-samples`) wait to see on their own chain before
+    /// submitting (at least 1; `alie` and `min-max` use at least 2).
+    #[serde(default = "default_wait_for_honest")]
+    pub wait_for_honest: u32,
+    /// `sign-flip`: the submitted model is w(t) - scale * (w(t) - w(t-1)); `ipm`: the
+    /// submitted step is -scale times the honest mean step (inner-product manipulation's
+    /// epsilon).
+    #[serde(default = "default_attack_scale")]
+    pub scale: f64,
+    /// `gaussian`: standard deviation of the noise added to every weight of w(t).
+    #[serde(default = "default_sigma")]
+    pub sigma: f64,
+    /// `alie`: how many honest standard deviations each weight is moved from the honest mean.
+    #[serde(default = "default_alie_z")]
+    pub alie_z: f64,
+    /// `inflate-samples` and `collude`: the fraction of the outlier threshold
+    /// (`contract.outlier_threshold`, mean absolute distance) the forged model moves from w(t).
+    #[serde(default = "default_threshold_fraction")]
+    pub threshold_fraction: f64,
+    /// `inflate-samples`: the sample count claimed (the contract's limit is 2^32 - 1).
+    #[serde(default = "default_inflated_samples")]
+    pub inflated_samples: u32,
+    /// Misbehaviour of the same robots on the ledger (sealing, gossip, transactions),
+    /// orthogonal to `kind` (beyond the paper; `honest` by default).
+    #[serde(default)]
+    pub ledger: LedgerBehaviour,
+    /// `smart-then-collude`: the share of the robots' tokens (balances on the robot's own
+    /// chain, Byzantine over all) above which the Byzantine robots stop acting `smart` and
+    /// all submit one harmful model; 0.5 = "more tokens than the honest robots together".
+    #[serde(default = "default_switch_token_share")]
+    pub switch_token_share: f64,
+}
+
+fn default_switch_token_share() -> f64 {
+    0.5
+}
+
+fn default_wait_for_honest() -> u32 {
+    2
+}
+
+fn default_attack_scale() -> f64 {
+    1.0
+}
+
+fn default_sigma() -> f64 {
+    0.1
+}
+
+fn default_alie_z() -> f64 {
+    1.0
+}
+
+fn default_threshold_fraction() -> f64 {
+    0.99
+}
+
+fn default_inflated_samples() -> u32 {
+    u32::MAX
+}
+
+/// Log and metrics settings.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct OutputConfig {
+    /// A full-state snapshot is written to the log every this many checkpoints (0 = never).
+    pub snapshot_every_blocks: u32,
+}
+
+impl Config {
+    /// Number of simulation ticks of the run.
+    pub fn ticks(&self) -> u64 {
+        (self.run.duration_s / self.run.tick_s).round() as u64
+    }
+
+    /// The aggregation rule in force: `fedavg` when `contract.security` is off, else
+    /// `contract.rule`.
+    pub fn rule(&self) -> Rule {
+        if self.contract.security {
+            self.contract.rule
+        } else {
+            Rule::Fedavg
+        }
+    }
+
+    /// The quorum: max(floor(q * N_r), 1).
+    pub fn quorum(&self) -> u32 {
+        ((self.contract.quorum_fraction * f64::from(self.world.robots)).floor() as u32).max(1)
+    }
+
+    /// The reward weight of each rank, best first: +1 for the rewarded, -1 for the
+    /// `penalised_ranks` worst (paper: [1, 1, 1, 1, 1, -1, -1]).
+    pub fn reward_weights(&self) -> Vec<i64> {
+        if !self.contract.reward_weights.is_empty() {
+            return self.contract.reward_weights.clone();
+        }
+        let q = self.quorum() as usize;
+        // At least the best rank is rewarded (validation enforces it; the clamp keeps
+        // unvalidated test configurations meaningful).
+        let p = (self.contract.penalised_ranks as usize).min(q - 1);
+        (0..q)
+            .map(|rank| if rank + p < q { 1 } else { -1 })
+            .collect()
+    }
+
+    /// The full TOML text of this configuration.
+    pub fn to_toml(&self) -> String {
+        toml::to_string(self).expect("a Config always serialises to TOML")
+    }
+
+    /// The blake3 hash of the canonical TOML text: names a configuration in results.
+    pub fn hash(&self) -> blake3::Hash {
+        blake3::hash(self.to_toml().as_bytes())
+    }
+
+    /// Every leaf of the configuration as `dotted.key -> value as TOML text`, sorted by key.
+    pub fn flat_values(&self) -> BTreeMap<String, String> {
+        fn flatten(prefix: &str, value: &toml::Value, out: &mut BTreeMap<String, String>) {
+            match value {
+                toml::Value::Table(t) => {
+                    for (k, v) in t {
+                        let key = if prefix.is_empty() {
+                            k.clone()
+                        } else {
+                            format!("{prefix}.{k}")
+                        };
+                        flatten(&key, v, out);
+                    }
+                }
+                v => {
+                    out.insert(prefix.to_string(), v.to_string());
+                }
+            }
+        }
+        let mut out = BTreeMap::new();
+        flatten(
+            "",
+            &toml::Value::try_from(self).expect("Config serialises"),
+            &mut out,
+        );
+        out
+    }
+
+    /// The dotted keys whose values differ between `self` and `other`, sorted.
+    pub fn changed_keys(&self, other: &Config) -> Vec<String> {
+        let (a, b) = (self.flat_values(), other.flat_values());
+        let keys: std::collections::BTreeSet<&String> = a.keys().chain(b.keys()).collect();
+        keys.into_iter()
+            .filter(|k| a.get(*k) != b.get(*k))
+            .cloned()
+            .collect()
+    }
+}

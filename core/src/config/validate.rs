@@ -1,0 +1,605 @@
+//! [`Config::validate`]: every range is one line of a table walked by one loop; the checks that
+//! relate several keys are named functions in the table, in the order they run (the first
+//! violation is the one reported). The checks that concern a domain's support of the
+//! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
+//! engine) read only configuration fields, so they live here too.
+
+use super::byzantine::ByzantineKind;
+use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
+use super::error::ConfigError;
+use super::ledger::LedgerBehaviour;
+use super::preset::Preset;
+use super::tree::{Aggregation, Config};
+use crate::faults::PartitionKind;
+
+/// A check that relates several keys: the first violation, if any.
+type Check = fn(&Config) -> Result<(), ConfigError>;
+
+/// One line of the validation table.
+enum Step {
+    /// `key`'s value is a finite number in `[lo, hi]`: (key, value, lo, hi).
+    Number(&'static str, f64, f64, f64),
+    /// `key`'s value is a finite number > 0: (key, value).
+    Positive(&'static str, f64),
+    /// `key`'s value is an integer in `[lo, hi]`: (key, value, lo, hi).
+    Integer(&'static str, u64, u64, u64),
+    /// A check across keys.
+    Across(Check),
+}
+
+impl Config {
+    /// Checks every value against its allowed range; the first violation is returned, naming
+    /// the key, the value and what is allowed.
+    pub fn validate(&self) -> Result<(), ConfigError> {
+        for step in table(self) {
+            match step {
+                Step::Number(key, value, lo, hi) => number(key, value, lo, hi)?,
+                Step::Positive(key, value) => positive(key, value)?,
+                Step::Integer(key, value, lo, hi) => integer(key, value, lo, hi)?,
+                Step::Across(check) => check(self)?,
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Every check of `c`, in the order they run.
+fn table(c: &Config) -> Vec<Step> {
+    use Step::{Across, Integer, Number, Positive};
+    let (run, w, d, l, g, k, b) = (
+        &c.run,
+        &c.world,
+        &c.data,
+        &c.learn,
+        &c.ledger,
+        &c.contract,
+        &c.byzantine,
+    );
+    vec![
+        Across(preset_is_known),
+        Positive("run.duration_s", run.duration_s),
+        Number("run.duration_s", run.duration_s, 0.0, 1.0e7),
+        Number("run.tick_s", run.tick_s, 0.001, 10.0),
+        Integer("world.robots", w.robots.into(), 1, 10_000),
+        Number("world.arena_side_m", w.arena_side_m, 0.1, 10_000.0),
+        Integer("world.cylinders", w.cylinders.into(), 0, 100_000),
+        Number(
+            "world.cylinder_radius_m",
+            w.cylinder_radius_m,
+            0.001,
+            1000.0,
+        ),
+        Integer("world.boxes", w.boxes.into(), 0, 100_000),
+        Number("world.box_side_m", w.box_side_m, 0.001, 1000.0),
+        Number(
+            "world.obstacle_spread_half_m",
+            w.obstacle_spread_half_m,
+            0.0,
+            5_000.0,
+        ),
+        Number("world.robot_radius_m", w.robot_radius_m, 0.001, 10.0),
+        Number("world.wheel_base_m", w.wheel_base_m, 0.001, 20.0),
+        Number("world.cruise_speed_mps", w.cruise_speed_mps, 0.0, 10.0),
+        Integer("world.proximity_sensors", w.proximity_sensors.into(), 1, 64),
+        Number("world.proximity_range_m", w.proximity_range_m, 0.001, 10.0),
+        Number("world.proximity_threshold", w.proximity_threshold, 0.0, 1.0),
+        Number(
+            "world.random_turn_rate_per_s",
+            w.random_turn_rate_per_s,
+            0.0,
+            100.0,
+        ),
+        Number("world.random_turn_max_s", w.random_turn_max_s, 0.0, 1000.0),
+        Number("world.rab_range_m", w.rab_range_m, 0.0, 10_000.0),
+        Number("world.rab_noise_std_m", w.rab_noise_std_m, 0.0, 100.0),
+        Number("world.rab_packet_drop", w.rab_packet_drop, 0.0, 1.0),
+        Number("world.peer_refresh_s", w.peer_refresh_s, run.tick_s, 1.0e6),
+        Integer(
+            "data.trajectory_ticks",
+            d.trajectory_ticks.into(),
+            2,
+            100_000,
+        ),
+        Integer("data.input_waypoints", d.input_waypoints.into(), 1, 10_000),
+        Integer(
+            "data.target_waypoints",
+            d.target_waypoints.into(),
+            1,
+            10_000,
+        ),
+        Across(waypoints_fit_the_trajectory),
+        Number("data.expiration_s", d.expiration_s, 0.0, 1.0e7),
+        Integer(
+            "data.heldout_samples",
+            d.heldout_samples.into(),
+            0,
+            1_000_000,
+        ),
+        Integer("learn.lstm_units", l.lstm_units.into(), 1, 1024),
+        Number("learn.dropout", l.dropout, 0.0, 0.99),
+        Number("learn.learning_rate", l.learning_rate, 0.0, 10.0),
+        Integer("learn.batch_size", l.batch_size.into(), 1, 100_000),
+        Integer("learn.epochs", l.epochs.into(), 0, 100_000),
+        Number("learn.train_fraction", l.train_fraction, 0.01, 1.0),
+        Positive("learn.training_period_s", l.training_period_s),
+        Number(
+            "learn.training_duration_s",
+            l.training_duration_s,
+            0.0,
+            1.0e6,
+        ),
+        Positive("ledger.block_period_s", g.block_period_s),
+        Number("ledger.wiggle_unit_s", g.wiggle_unit_s, 0.0, 1.0e6),
+        Number("ledger.packet_loss", g.packet_loss, 0.0, 1.0),
+        // Saturating: the table is built before the checks run, and an absurd initial_tokens
+        // must reach its own check below rather than overflow here.
+        Integer(
+            "contract.stake_tokens",
+            k.stake_tokens,
+            0,
+            k.initial_tokens.max(1).saturating_mul(1000),
+        ),
+        Integer("contract.token_units", k.token_units, 1, 1_000_000_000_000),
+        Integer(
+            "contract.weight_scale",
+            k.weight_scale,
+            1,
+            1_000_000_000_000,
+        ),
+        Across(tokens_fit_in_62_bits),
+        Number("contract.quorum_fraction", k.quorum_fraction, 0.0, 1.0),
+        Number(
+            "contract.outlier_threshold",
+            k.outlier_threshold,
+            0.0,
+            1.0e6,
+        ),
+        Integer(
+            "contract.penalised_ranks",
+            k.penalised_ranks.into(),
+            0,
+            u64::from(c.quorum() - 1),
+        ),
+        Across(robust_rules_need_security),
+        Across(assumed_f_fits_the_rule),
+        Across(reward_weights_fit_the_quorum),
+        Across(variant_options_fit_the_rule),
+        Integer("byzantine.count", b.count.into(), 0, w.robots.into()),
+        Across(count_matches_the_misbehaviour),
+        Number("contract.round_timeout_s", k.round_timeout_s, 0.0, 1.0e9),
+        Across(faults_fit_the_run),
+        Across(baseline_supports),
+        // After the baseline: a baseline refuses the engine naming learn.aggregation, in
+        // builds with or without the evm feature.
+        Across(engine_supports),
+        Integer(
+            "byzantine.claimed_samples",
+            b.claimed_samples.into(),
+            1,
+            1_000_000_000,
+        ),
+        Number("byzantine.faulty_range", b.faulty_range, 0.0, 1000.0),
+        Integer(
+            "byzantine.wait_for_honest",
+            b.wait_for_honest.into(),
+            1,
+            10_000,
+        ),
+        Number("byzantine.scale", b.scale, 0.0, 1.0e6),
+        Number("byzantine.sigma", b.sigma, 0.0, 1000.0),
+        Number("byzantine.alie_z", b.alie_z, -1000.0, 1000.0),
+        Number(
+            "byzantine.threshold_fraction",
+            b.threshold_fraction,
+            0.0,
+            1000.0,
+        ),
+        Integer(
+            "byzantine.inflated_samples",
+            b.inflated_samples.into(),
+            1,
+            u32::MAX.into(),
+        ),
+        Across(switch_token_share_is_a_share),
+        Integer(
+            "contract.defence_refund_percent",
+            k.defence_refund_percent.into(),
+            0,
+            100,
+        ),
+        Across(defences_need_stakes),
+    ]
+}
+
+fn out_of_range(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
+    Err(ConfigError::OutOfRange {
+        key: key.to_string(),
+        value,
+        allowed,
+    })
+}
+
+fn number(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value >= lo && value <= hi {
+        Ok(())
+    } else {
+        out_of_range(key, value.to_string(), format!("a number in [{lo}, {hi}]"))
+    }
+}
+
+fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value > 0.0 {
+        Ok(())
+    } else {
+        out_of_range(key, value.to_string(), "a finite number > 0".to_string())
+    }
+}
+
+fn integer(key: &str, value: u64, lo: u64, hi: u64) -> Result<(), ConfigError> {
+    if value >= lo && value <= hi {
+        Ok(())
+    } else {
+        out_of_range(
+            key,
+            value.to_string(),
+            format!("an integer in [{lo}, {hi}]"),
+        )
+    }
+}
+
+/// The preset names output folders (`runs/<preset>-seed<seed>`), so it must be one of the
+/// known names, never a path.
+fn preset_is_known(c: &Config) -> Result<(), ConfigError> {
+    if Preset::from_name(&c.preset).is_ok() {
+        return Ok(());
+    }
+    out_of_range(
+        "preset",
+        format!("{:?}", c.preset),
+        format!("one of {}", Preset::ALL.map(Preset::name).join(", ")),
+    )
+}
+
+fn waypoints_fit_the_trajectory(c: &Config) -> Result<(), ConfigError> {
+    let d = &c.data;
+    if d.input_waypoints + d.target_waypoints <= d.trajectory_ticks {
+        return Ok(());
+    }
+    out_of_range(
+        "data.target_waypoints",
+        d.target_waypoints.to_string(),
+        format!(
+            "input_waypoints + target_waypoints <= trajectory_ticks ({})",
+            d.trajectory_ticks
+        ),
+    )
+}
+
+fn tokens_fit_in_62_bits(c: &Config) -> Result<(), ConfigError> {
+    let total = u128::from(c.world.robots)
+        * u128::from(c.contract.initial_tokens)
+        * u128::from(c.contract.token_units);
+    if total <= u128::from(u64::MAX / 4) {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.initial_tokens",
+        c.contract.initial_tokens.to_string(),
+        "robots * initial_tokens * token_units must fit in 2^62 units".to_string(),
+    )
+}
+
+fn robust_rules_need_security(c: &Config) -> Result<(), ConfigError> {
+    if c.contract.security || matches!(c.contract.rule, Rule::Paper | Rule::Fedavg) {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.rule",
+        c.contract.rule.name().to_string(),
+        "fedavg or paper while contract.security = false (security off is the fedavg rule); \
+         set contract.security = true to use another rule"
+            .to_string(),
+    )
+}
+
+/// `contract.assumed_f` is at most the largest `f` for which the rule is defined with the
+/// quorum; a rule defined for no `f` at all names the rule instead.
+fn assumed_f_fits_the_rule(c: &Config) -> Result<(), ConfigError> {
+    let (rule, quorum, f) = (c.rule(), c.quorum(), c.contract.assumed_f);
+    let max_f = (0..=quorum)
+        .take_while(|&f| rule.min_quorum(f) <= quorum)
+        .last();
+    let Some(max_f) = max_f else {
+        return out_of_range(
+            "contract.rule",
+            rule.name().to_string(),
+            format!(
+                "a rule defined for quorum {quorum} (it needs quorum >= {} even with f = 0); \
+                 raise contract.quorum_fraction",
+                rule.min_quorum(0)
+            ),
+        );
+    };
+    if u64::from(f) <= u64::from(max_f) {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.assumed_f",
+        f.to_string(),
+        format!(
+            "an integer in [0, {max_f}] for rule {} with quorum {quorum} (it needs quorum >= {} \
+             with f = {f})",
+            rule.name(),
+            rule.min_quorum(f)
+        ),
+    )
+}
+
+fn reward_weights_fit_the_quorum(c: &Config) -> Result<(), ConfigError> {
+    let k = &c.contract.reward_weights;
+    if k.is_empty()
+        || (k.len() == c.quorum() as usize
+            && k.iter().any(|&w| w > 0)
+            && k.iter().all(|w| w.abs() <= 1000))
+    {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.reward_weights",
+        format!("{k:?}"),
+        format!(
+            "empty (derived from penalised_ranks) or one weight per rank of the quorum ({}), at \
+             least one positive, each in -1000..=1000",
+            c.quorum()
+        ),
+    )
+}
+
+/// The variant options (and `contract.reward_weights`) set away from swarmfl's defaults, as
+/// (key, value) pairs in key order.
+fn changed_options(config: &Config) -> Vec<(String, String)> {
+    let table = |o: &ContractOptions| toml::Table::try_from(o).expect("options encode as TOML");
+    let (mine, default) = (
+        table(&config.contract.options()),
+        table(&ContractOptions::default()),
+    );
+    let mut changed: Vec<(String, String)> = mine
+        .iter()
+        .filter(|&(k, v)| default.get(k) != Some(v))
+        .map(|(k, v)| (format!("contract.{k}"), v.to_string()))
+        .collect();
+    if !config.contract.reward_weights.is_empty() {
+        changed.push((
+            "contract.reward_weights".to_string(),
+            format!("{:?}", config.contract.reward_weights),
+        ));
+    }
+    changed.sort();
+    changed
+}
+
+/// The variant options describe the paper's contract (`fedavg` and `paper`); the robust rules
+/// would ignore them, so a configuration that sets one with a robust rule is refused rather
+/// than silently run under other rules than it says.
+fn variant_options_fit_the_rule(config: &Config) -> Result<(), ConfigError> {
+    let rule = config.rule();
+    if matches!(rule, Rule::Fedavg | Rule::Paper) {
+        return Ok(());
+    }
+    match changed_options(config).into_iter().next() {
+        None => Ok(()),
+        Some((key, value)) => Err(ConfigError::OutOfRange {
+            allowed: format!(
+                "its default with contract.rule = {} (the authors' variant options apply to \
+                 the paper's contract only: rules paper and fedavg); remove `{key}`, or set \
+                 contract.rule = paper",
+                rule.name()
+            ),
+            key,
+            value,
+        }),
+    }
+}
+
+fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
+    let b = &c.byzantine;
+    let misbehaves = b.kind != ByzantineKind::None || b.ledger != LedgerBehaviour::Honest;
+    if misbehaves == (b.count > 0) {
+        return Ok(());
+    }
+    out_of_range(
+        "byzantine.count",
+        b.count.to_string(),
+        format!(
+            "0 when byzantine.kind = \"none\" and byzantine.ledger = \"honest\", at least 1 \
+             otherwise (kind is {:?}, ledger is {:?}); set both, e.g. --set \
+             byzantine.kind=faulty --set byzantine.count=3",
+            b.kind, b.ledger
+        ),
+    )
+}
+
+fn faults_fit_the_run(c: &Config) -> Result<(), ConfigError> {
+    c.faults
+        .check(c.world.robots, c.run.duration_s)
+        .or_else(|(key, value, allowed)| out_of_range(&key, value, allowed))
+}
+
+/// Checks that a baseline aggregation can run the configuration. Without a chain there is no
+/// contract, no token, no block and no sealer, so what acts only on those is refused, naming
+/// the key and the fix, rather than silently ignored:
+/// - `contract.rule`: `gossip` and `central` average by FedAvg; `paper` (the default, whose
+///   threshold and rewards then do not apply) and `fedavg` are accepted, the robust rules are
+///   not (a robust server or merge would be a new baseline);
+/// - `contract.engine = "evm"`, `contract.round_timeout_s`: contract machinery;
+/// - `byzantine.ledger`: misbehaviour on a chain (Byzantine robots' model attacks,
+///   `byzantine.kind`, all work: see `AggregationState::attacker_view` in `aggregation`);
+/// - `faults.crashes` (a node's restart and resync), `faults.clock_skews` (block timestamps),
+///   partitions of kind `sealer` (Clique's in-turn sealer).
+///
+/// Partitions `split` and `isolate`, loss bursts and delays act on the stigmergy's gossip as on
+/// the ledger's. The `central` server is not on the radio, so they leave it untouched (accepted,
+/// so that one fault schedule compares the three aggregations).
+fn baseline_supports(config: &Config) -> Result<(), ConfigError> {
+    let kind = config.learn.aggregation;
+    if kind == Aggregation::Chain {
+        return Ok(());
+    }
+    let refuse = |key: &str, value: String, allowed: String| {
+        Err(ConfigError::OutOfRange {
+            key: key.to_string(),
+            value,
+            allowed: format!(
+                "{allowed} with learn.aggregation = {} (no chain, no contract); set \
+                 learn.aggregation = chain to use it",
+                kind.name()
+            ),
+        })
+    };
+    let rule = config.rule();
+    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
+        return refuse(
+            "contract.rule",
+            rule.name().to_string(),
+            "paper or fedavg (both mean plain FedAvg here)".to_string(),
+        );
+    }
+    if config.contract.engine == ContractEngine::Evm {
+        return refuse("contract.engine", "evm".to_string(), "native".to_string());
+    }
+    if config.contract.round_timeout_s != 0.0 {
+        return refuse(
+            "contract.round_timeout_s",
+            config.contract.round_timeout_s.to_string(),
+            "0 (no round deadline)".to_string(),
+        );
+    }
+    if config.byzantine.ledger != LedgerBehaviour::Honest {
+        return refuse(
+            "byzantine.ledger",
+            config.byzantine.ledger.name().to_string(),
+            "honest (byzantine.kind attacks all apply)".to_string(),
+        );
+    }
+    let f = &config.faults;
+    if !f.crashes.is_empty() {
+        return refuse(
+            "faults.crashes",
+            format!("{} crash(es)", f.crashes.len()),
+            "none (partitions, loss bursts and delays are supported)".to_string(),
+        );
+    }
+    if !f.clock_skews.is_empty() {
+        return refuse(
+            "faults.clock_skews",
+            format!("{} skew(s)", f.clock_skews.len()),
+            "none (clocks matter only to block timestamps)".to_string(),
+        );
+    }
+    if let Some(i) = f
+        .partitions
+        .iter()
+        .position(|p| p.kind == PartitionKind::Sealer)
+    {
+        return refuse(
+            &format!("faults.partitions[{i}].kind"),
+            "sealer".to_string(),
+            "split or isolate (there is no sealer)".to_string(),
+        );
+    }
+    Ok(())
+}
+
+/// `contract.engine = "evm"` only where the build and the Solidity contract support it.
+fn engine_supports(config: &Config) -> Result<(), ConfigError> {
+    if config.contract.engine == ContractEngine::Evm {
+        evm_supports(config)
+    } else {
+        Ok(())
+    }
+}
+
+/// Checks that the EVM contract implements the configured rules. `contracts/SwarmFL.sol` is
+/// the paper's contract, with security on (`contract.rule = paper`) or off (`fedavg`), every
+/// variant option included. It has no robust aggregation rule, no defence and no round
+/// deadline: such a configuration is refused, naming the key, rather than run on a contract
+/// that would not do what it says.
+#[cfg(feature = "evm")]
+fn evm_supports(config: &Config) -> Result<(), ConfigError> {
+    let c = &config.contract;
+    let rule = config.rule();
+    if !matches!(rule, Rule::Paper | Rule::Fedavg) {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.rule".to_string(),
+            value: rule.name().to_string(),
+            allowed: format!(
+                "paper (or fedavg, i.e. contract.security = false) with contract.engine = evm: \
+                 contracts/SwarmFL.sol implements the paper's rule only; set \
+                 contract.engine = native to run {}, or contract.rule = paper",
+                rule.name()
+            ),
+        });
+    }
+    if c.defence != Defence::None {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.defence".to_string(),
+            value: c.defence.name().to_string(),
+            allowed: "none with contract.engine = evm: contracts/SwarmFL.sol pays by the \
+                      paper's ranking only; set contract.engine = native to run a defence"
+                .to_string(),
+        });
+    }
+    if c.round_timeout_s != 0.0 {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.round_timeout_s".to_string(),
+            value: c.round_timeout_s.to_string(),
+            allowed: "0 (no deadline) with contract.engine = evm: contracts/SwarmFL.sol has \
+                      no round deadline; set contract.round_timeout_s = 0, or \
+                      contract.engine = native"
+                .to_string(),
+        });
+    }
+    Ok(())
+}
+
+/// Refuses `contract.engine = "evm"` in a build without the `evm` cargo feature, naming the
+/// feature and the command that builds it.
+#[cfg(not(feature = "evm"))]
+fn evm_supports(_config: &Config) -> Result<(), ConfigError> {
+    Err(ConfigError::OutOfRange {
+        key: "contract.engine".to_string(),
+        value: "evm".to_string(),
+        allowed: "native in this build of swarmfl, which was built without the EVM engine \
+                  (cargo feature `evm`, off by default); rebuild with \
+                  `cargo build --release -p replay-cli --features evm` to run \
+                  contracts/SwarmFL.sol, or set contract.engine = native"
+            .to_string(),
+    })
+}
+
+fn switch_token_share_is_a_share(c: &Config) -> Result<(), ConfigError> {
+    let share = c.byzantine.switch_token_share;
+    if share > 0.0 && share < 1.0 {
+        return Ok(());
+    }
+    out_of_range(
+        "byzantine.switch_token_share",
+        share.to_string(),
+        "a share strictly between 0 and 1 (0.5: more tokens than the honest robots together)"
+            .to_string(),
+    )
+}
+
+fn defences_need_stakes(c: &Config) -> Result<(), ConfigError> {
+    if c.contract.defence == Defence::None || c.rule().stakes() {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.defence",
+        c.contract.defence.name().to_string(),
+        "\"none\" with contract.security = false or contract.rule = fedavg (no stakes, no \
+         rewards to defend); set contract.security = true and a staking rule, or \
+         contract.defence = none"
+            .to_string(),
+    )
+}
