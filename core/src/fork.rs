@@ -262,7 +262,7 @@ fn config_at(
     reconfigurations.retain(|r| r.at_ms <= at.0);
     let mut current = root.clone();
     for r in &reconfigurations {
-        current = crate::sim::parse_config(&r.config_toml, "a reconfiguration of the parent")
+        current = crate::config::parse_config(&r.config_toml, "a reconfiguration of the parent")
             .map_err(|reason| ForkError::Override {
                 path: name.to_string(),
                 height,

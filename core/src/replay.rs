@@ -86,7 +86,7 @@ pub struct ReplayReport {
 
 /// The configuration recorded in a log's header.
 pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Config, ReplayError> {
-    crate::sim::parse_config(&reader.header().config_toml, &format!("{path} (header)")).map_err(
+    crate::config::parse_config(&reader.header().config_toml, &format!("{path} (header)")).map_err(
         |source| ReplayError::Config {
             path: path.to_string(),
             source,
@@ -100,7 +100,7 @@ pub fn reconfigured(record: &Record) -> Option<Config> {
         Record::Event {
             event: Event::Reconfigure(change),
             ..
-        } => crate::sim::parse_config(&change.config_toml, "the reconfiguration").ok(),
+        } => crate::config::parse_config(&change.config_toml, "the reconfiguration").ok(),
         _ => None,
     }
 }

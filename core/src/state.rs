@@ -10,14 +10,13 @@
 use std::sync::Arc;
 
 use crate::aggregation::AggregationState;
-use crate::config::{Aggregation, Config};
+use crate::config::{parse_config, Aggregation, Config};
 use crate::contract::ContractParams;
 use crate::event::{Checkpoint, CheckpointCause, Event, Reconfiguration};
 use crate::learn::{self, ModelShape};
 use crate::ledger::Ledger;
 use crate::metrics::Metrics;
 use crate::rng::{self, Purpose};
-use crate::sim::parse_config;
 use crate::types::{Digest, SimTime};
 use crate::world::{TickEvent, World, WorldError};
 

@@ -34,3 +34,14 @@ pub use tree::{
     Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, LearnConfig, LedgerConfig,
     OutputConfig, RunConfig, WorldConfig,
 };
+
+/// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
+/// reconfiguration's); `source_name` names it in errors.
+pub fn parse_config(text: &str, source_name: &str) -> Result<Config, ConfigError> {
+    let config: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+        source_name: source_name.to_string(),
+        message: e.to_string(),
+    })?;
+    config.validate()?;
+    Ok(config)
+}

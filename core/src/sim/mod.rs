@@ -52,17 +52,6 @@ pub use recorder::{Part, Profiler};
 /// training falls due: 16.5 s with 30.4 s of CPU, not kept.
 pub const DEFAULT_LOOKAHEAD_MS: u64 = 10_000;
 
-/// Parses and validates a resolved configuration recorded as TOML text (a log header's or a
-/// reconfiguration's); `source_name` names it in errors.
-pub fn parse_config(text: &str, source_name: &str) -> Result<Config, crate::config::ConfigError> {
-    let config: Config = toml::from_str(text).map_err(|e| crate::config::ConfigError::Parse {
-        source_name: source_name.to_string(),
-        message: e.to_string(),
-    })?;
-    config.validate()?;
-    Ok(config)
-}
-
 /// A copy of the world that runs ahead of the reduced state. The world does not depend on the
 /// ledger or on learning, so the controllers decide on the copy; their tick events wait in a
 /// queue for the reduced state, and the copy captures the data set of every honest learning
@@ -185,7 +174,7 @@ impl Sim {
                     current.ticks() * sim.tick_ms
                 )));
             }
-            let next = parse_config(&change.config_toml, "the reconfiguration")
+            let next = crate::config::parse_config(&change.config_toml, "the reconfiguration")
                 .map_err(|e| fail(e.to_string()))?;
             current
                 .check_reconfiguration(&next)
