@@ -43,18 +43,16 @@ impl Config {
     }
 }
 
-/// Every check of `c`, in the order they run.
+/// Every check of `c`, in the order they run. One row per key (kept by `rustfmt::skip`: a
+/// table reads best one line a row).
+#[rustfmt::skip]
 fn table(c: &Config) -> Vec<Step> {
     use Step::{Across, Integer, Number, Positive};
-    let (run, w, d, l, g, k, b) = (
-        &c.run,
-        &c.world,
-        &c.data,
-        &c.learn,
-        &c.ledger,
-        &c.contract,
-        &c.byzantine,
-    );
+    let (run, w, d, l) = (&c.run, &c.world, &c.data, &c.learn);
+    let (g, k, b) = (&c.ledger, &c.contract, &c.byzantine);
+    // Saturating: the table is built before any check runs, so an absurd initial_tokens must
+    // reach its own check (tokens_fit_in_62_bits) rather than overflow here.
+    let max_stake = k.initial_tokens.max(1).saturating_mul(1000);
     vec![
         Across(preset_is_known),
         Positive("run.duration_s", run.duration_s),
@@ -63,58 +61,28 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("world.robots", w.robots.into(), 1, 10_000),
         Number("world.arena_side_m", w.arena_side_m, 0.1, 10_000.0),
         Integer("world.cylinders", w.cylinders.into(), 0, 100_000),
-        Number(
-            "world.cylinder_radius_m",
-            w.cylinder_radius_m,
-            0.001,
-            1000.0,
-        ),
+        Number("world.cylinder_radius_m", w.cylinder_radius_m, 0.001, 1000.0),
         Integer("world.boxes", w.boxes.into(), 0, 100_000),
         Number("world.box_side_m", w.box_side_m, 0.001, 1000.0),
-        Number(
-            "world.obstacle_spread_half_m",
-            w.obstacle_spread_half_m,
-            0.0,
-            5_000.0,
-        ),
+        Number("world.obstacle_spread_half_m", w.obstacle_spread_half_m, 0.0, 5_000.0),
         Number("world.robot_radius_m", w.robot_radius_m, 0.001, 10.0),
         Number("world.wheel_base_m", w.wheel_base_m, 0.001, 20.0),
         Number("world.cruise_speed_mps", w.cruise_speed_mps, 0.0, 10.0),
         Integer("world.proximity_sensors", w.proximity_sensors.into(), 1, 64),
         Number("world.proximity_range_m", w.proximity_range_m, 0.001, 10.0),
         Number("world.proximity_threshold", w.proximity_threshold, 0.0, 1.0),
-        Number(
-            "world.random_turn_rate_per_s",
-            w.random_turn_rate_per_s,
-            0.0,
-            100.0,
-        ),
+        Number("world.random_turn_rate_per_s", w.random_turn_rate_per_s, 0.0, 100.0),
         Number("world.random_turn_max_s", w.random_turn_max_s, 0.0, 1000.0),
         Number("world.rab_range_m", w.rab_range_m, 0.0, 10_000.0),
         Number("world.rab_noise_std_m", w.rab_noise_std_m, 0.0, 100.0),
         Number("world.rab_packet_drop", w.rab_packet_drop, 0.0, 1.0),
         Number("world.peer_refresh_s", w.peer_refresh_s, run.tick_s, 1.0e6),
-        Integer(
-            "data.trajectory_ticks",
-            d.trajectory_ticks.into(),
-            2,
-            100_000,
-        ),
+        Integer("data.trajectory_ticks", d.trajectory_ticks.into(), 2, 100_000),
         Integer("data.input_waypoints", d.input_waypoints.into(), 1, 10_000),
-        Integer(
-            "data.target_waypoints",
-            d.target_waypoints.into(),
-            1,
-            10_000,
-        ),
+        Integer("data.target_waypoints", d.target_waypoints.into(), 1, 10_000),
         Across(waypoints_fit_the_trajectory),
         Number("data.expiration_s", d.expiration_s, 0.0, 1.0e7),
-        Integer(
-            "data.heldout_samples",
-            d.heldout_samples.into(),
-            0,
-            1_000_000,
-        ),
+        Integer("data.heldout_samples", d.heldout_samples.into(), 0, 1_000_000),
         Integer("learn.lstm_units", l.lstm_units.into(), 1, 1024),
         Number("learn.dropout", l.dropout, 0.0, 0.99),
         Number("learn.learning_rate", l.learning_rate, 0.0, 10.0),
@@ -122,44 +90,17 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("learn.epochs", l.epochs.into(), 0, 100_000),
         Number("learn.train_fraction", l.train_fraction, 0.01, 1.0),
         Positive("learn.training_period_s", l.training_period_s),
-        Number(
-            "learn.training_duration_s",
-            l.training_duration_s,
-            0.0,
-            1.0e6,
-        ),
+        Number("learn.training_duration_s", l.training_duration_s, 0.0, 1.0e6),
         Positive("ledger.block_period_s", g.block_period_s),
         Number("ledger.wiggle_unit_s", g.wiggle_unit_s, 0.0, 1.0e6),
         Number("ledger.packet_loss", g.packet_loss, 0.0, 1.0),
-        // Saturating: the table is built before the checks run, and an absurd initial_tokens
-        // must reach its own check below rather than overflow here.
-        Integer(
-            "contract.stake_tokens",
-            k.stake_tokens,
-            0,
-            k.initial_tokens.max(1).saturating_mul(1000),
-        ),
+        Integer("contract.stake_tokens", k.stake_tokens, 0, max_stake),
         Integer("contract.token_units", k.token_units, 1, 1_000_000_000_000),
-        Integer(
-            "contract.weight_scale",
-            k.weight_scale,
-            1,
-            1_000_000_000_000,
-        ),
+        Integer("contract.weight_scale", k.weight_scale, 1, 1_000_000_000_000),
         Across(tokens_fit_in_62_bits),
         Number("contract.quorum_fraction", k.quorum_fraction, 0.0, 1.0),
-        Number(
-            "contract.outlier_threshold",
-            k.outlier_threshold,
-            0.0,
-            1.0e6,
-        ),
-        Integer(
-            "contract.penalised_ranks",
-            k.penalised_ranks.into(),
-            0,
-            u64::from(c.quorum() - 1),
-        ),
+        Number("contract.outlier_threshold", k.outlier_threshold, 0.0, 1.0e6),
+        Integer("contract.penalised_ranks", k.penalised_ranks.into(), 0, (c.quorum() - 1).into()),
         Across(robust_rules_need_security),
         Across(assumed_f_fits_the_rule),
         Across(reward_weights_fit_the_quorum),
@@ -172,41 +113,16 @@ fn table(c: &Config) -> Vec<Step> {
         // After the baseline: a baseline refuses the engine naming learn.aggregation, in
         // builds with or without the evm feature.
         Across(engine_supports),
-        Integer(
-            "byzantine.claimed_samples",
-            b.claimed_samples.into(),
-            1,
-            1_000_000_000,
-        ),
+        Integer("byzantine.claimed_samples", b.claimed_samples.into(), 1, 1_000_000_000),
         Number("byzantine.faulty_range", b.faulty_range, 0.0, 1000.0),
-        Integer(
-            "byzantine.wait_for_honest",
-            b.wait_for_honest.into(),
-            1,
-            10_000,
-        ),
+        Integer("byzantine.wait_for_honest", b.wait_for_honest.into(), 1, 10_000),
         Number("byzantine.scale", b.scale, 0.0, 1.0e6),
         Number("byzantine.sigma", b.sigma, 0.0, 1000.0),
         Number("byzantine.alie_z", b.alie_z, -1000.0, 1000.0),
-        Number(
-            "byzantine.threshold_fraction",
-            b.threshold_fraction,
-            0.0,
-            1000.0,
-        ),
-        Integer(
-            "byzantine.inflated_samples",
-            b.inflated_samples.into(),
-            1,
-            u32::MAX.into(),
-        ),
+        Number("byzantine.threshold_fraction", b.threshold_fraction, 0.0, 1000.0),
+        Integer("byzantine.inflated_samples", b.inflated_samples.into(), 1, u32::MAX.into()),
         Across(switch_token_share_is_a_share),
-        Integer(
-            "contract.defence_refund_percent",
-            k.defence_refund_percent.into(),
-            0,
-            100,
-        ),
+        Integer("contract.defence_refund_percent", k.defence_refund_percent.into(), 0, 100),
         Across(defences_need_stakes),
     ]
 }
