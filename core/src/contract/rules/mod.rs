@@ -31,9 +31,8 @@ pub mod multi_krum;
 pub mod paper;
 pub mod trimmed_mean;
 
-use crate::config::{ContractOptions, Rule};
-
 use super::payout::{self, div_round_half_away};
+use crate::config::{ContractOptions, Rule};
 
 /// One accepted submission as a rule sees it.
 #[derive(Clone, Copy, Debug)]
