@@ -7,9 +7,7 @@
 //! The task list of an experiment with points `p = 0..P` (in the order [`experiment`] lists
 //! them) and `R` runs is point-major: task `i = p * R + (seed - 1)`, seeds `1..=R`.
 
-use swarmfl_core::config::{ByzantineKind, Defence, Rule};
-use swarmfl_core::contract::defences::ALL_DEFENCES;
-use swarmfl_core::contract::rules::ALL_RULES;
+use swarmfl_core::config::{ByzantineKind, Defence, Rule, ALL_DEFENCES, ALL_RULES};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
 pub const EXPERIMENTS: [&str; 8] = [
