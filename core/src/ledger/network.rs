@@ -37,10 +37,10 @@
 //!   out the blocks its policy hides from the receiver (and everything after them).
 
 use std::collections::BTreeSet;
+use std::sync::Arc;
 
 use super::{BlockHash, ItemRef, Ledger, LedgerEvent, TxHash};
 use crate::config::Config;
-use crate::config::WithholdPolicy;
 use crate::radio::{Delivery, Message, Radio};
 use crate::rng::{self, Purpose};
 use crate::types::{RobotId, SimTime};
@@ -48,6 +48,21 @@ use crate::types::{RobotId, SimTime};
 /// The sealings due: each node's sealing time on its current head, and the nodes that are up
 /// then, by time. Updated from the ledger's journal of head changes, so a poll looks only at
 /// the nodes whose head or head time changed since the last one.
+/// A rule by which some nodes' gossip hides blocks from some peers: how a ledger misbehaviour
+/// (`byzantine.ledger = "withhold"`, `byzantine/ledger/withhold.rs`) acts on the network. The
+/// ledger defines the question and the attack answers it, so the ledger never names an attack.
+pub trait GossipFilter: std::fmt::Debug + Send + Sync {
+    /// Whether `from`'s gossip hides `block` from `to` at `now`.
+    fn hides(
+        &self,
+        ledger: &Ledger,
+        from: RobotId,
+        to: RobotId,
+        block: &BlockHash,
+        now: SimTime,
+    ) -> bool;
+}
+
 #[derive(Clone, Debug, Default)]
 struct SealSchedule {
     /// Per node, its sealing time on its head (None: it may not seal there).
@@ -99,7 +114,7 @@ pub struct Network {
     dropped: Vec<u64>,
     seals: SealSchedule,
     skews_ms: Vec<i64>,
-    withhold: Option<WithholdPolicy>,
+    withhold: Option<Arc<dyn GossipFilter>>,
 }
 
 impl Network {
@@ -125,9 +140,9 @@ impl Network {
         }
     }
 
-    /// Makes the gossip of withholding nodes follow `policy`.
-    pub fn set_withhold(&mut self, policy: Option<WithholdPolicy>) {
-        self.withhold = policy;
+    /// Makes the gossip hide what `filter` says (a ledger misbehaviour; `None`: honest gossip).
+    pub fn set_withhold(&mut self, filter: Option<Arc<dyn GossipFilter>>) {
+        self.withhold = filter;
     }
 
     /// A node restarted: the messages in flight to it are gone (the ledger drops them too).

@@ -26,7 +26,10 @@ mod replay;
 mod spam_invalid;
 mod withhold;
 
+use std::sync::Arc;
+
 use crate::config::{Config, LedgerBehaviour, WithholdPolicy};
+use crate::ledger::network::GossipFilter;
 use crate::ledger::{BlockHash, BlockHeader, Ledger, LedgerEvent, Sig, Tx, WireBlock, WireItem};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{RobotId, SimTime};
@@ -99,8 +102,10 @@ impl LedgerAgents {
     }
 
     /// The gossip filter of withholding robots, if any.
-    pub fn withhold_policy(&self) -> Option<WithholdPolicy> {
-        self.withhold.clone()
+    pub fn withhold_policy(&self) -> Option<Arc<dyn GossipFilter>> {
+        self.withhold
+            .clone()
+            .map(|policy| Arc::new(policy) as Arc<dyn GossipFilter>)
     }
 
     /// The injections right after `node` sealed `block` at `now`.

@@ -6,12 +6,12 @@
 //! summary, bounded by the withholding time.
 
 use crate::config::WithholdPolicy;
+use crate::ledger::network::GossipFilter;
 use crate::ledger::{BlockHash, Ledger};
 use crate::types::{RobotId, SimTime};
 
-impl WithholdPolicy {
-    /// Whether `from` hides `block` from `to` at `now`.
-    pub fn hides(
+impl GossipFilter for WithholdPolicy {
+    fn hides(
         &self,
         ledger: &Ledger,
         from: RobotId,
