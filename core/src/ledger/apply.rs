@@ -3,6 +3,7 @@
 
 use std::collections::BTreeMap;
 
+use super::intake::Carry;
 use super::{
     block, Applied, BlockEntry, BlockHash, BlockHeader, Flight, ItemRef, Ledger, LedgerError,
     LedgerEvent, RejectReason, Sig, TxHash, MAX_EVIDENCE,
@@ -56,6 +57,11 @@ impl Ledger {
                 let bytes: u64 = items.iter().map(|i| self.item_bytes(i)).sum();
                 self.metrics.on_send(bytes, *lost);
                 if !lost {
+                    for item in items {
+                        if let ItemRef::Tx(h) = item {
+                            self.carry_tx(h, Carry::Add);
+                        }
+                    }
                     self.flights.insert(
                         seq,
                         Flight {
@@ -77,6 +83,7 @@ impl Ledger {
                         ItemRef::Tx(h) => self.receive_tx(flight.to, *h, at, &mut applied),
                     }
                 }
+                self.uncarry(&flight);
                 self.nodes[flight.to as usize].version += 1;
             }
             LedgerEvent::Inject { node, bytes } => self.inject(*node, bytes, at, &mut applied),
@@ -86,7 +93,16 @@ impl Ledger {
                 n.head_since = at;
                 n.version += 1;
                 self.head_journal.push(*node);
-                self.flights.retain(|_, f| f.to != *node);
+                let lost: Vec<u64> = self
+                    .flights
+                    .iter()
+                    .filter(|(_, f)| f.to == *node)
+                    .map(|(seq, _)| *seq)
+                    .collect();
+                for seq in lost {
+                    let flight = self.flights.remove(&seq).expect("listed above");
+                    self.uncarry(&flight);
+                }
                 applied.head_changes += 1;
             }
         }
@@ -116,9 +132,24 @@ impl Ledger {
         Ok((header.hash_and_size().0, entry))
     }
 
+    /// A message left the air (delivered, or lost with its receiver's restart): its
+    /// transactions are carried by one message fewer.
+    fn uncarry(&mut self, flight: &Flight) {
+        for item in &flight.items {
+            if let ItemRef::Tx(h) = item {
+                self.carry_tx(h, Carry::Remove);
+            }
+        }
+    }
+
+    /// Stores a valid block once; its transactions are carried by it from then on (blocks are
+    /// never removed).
     pub(super) fn insert_valid(&mut self, hash: BlockHash, entry: BlockEntry) {
         if self.blocks.contains_key(&hash) {
             return;
+        }
+        for tx in &entry.block.txs {
+            self.carry_tx(tx, Carry::Add);
         }
         let parent = entry.block.header.parent;
         self.sealed_on

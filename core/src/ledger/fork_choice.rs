@@ -2,6 +2,7 @@
 //! recent-signer rule) to an equally heavy one on which the node may seal; the canonical chain
 //! and mempool follow the head.
 
+use super::intake::Leaves;
 use super::{BlockHash, Ledger};
 use crate::types::{RobotId, SimTime};
 
@@ -63,26 +64,53 @@ impl Ledger {
         n.head_since = at;
         n.version += 1;
         self.head_journal.push(node);
-        // Transactions of abandoned blocks return to the mempool; then the mempool keeps only
-        // what is still pending on the new chain.
-        for b in &abandoned {
-            for tx in &self.blocks[b].block.txs {
-                let n = &mut self.nodes[node as usize];
-                if !n.mempool.contains(tx) {
-                    let body = &self.txs[tx].tx;
-                    n.mempool.insert(*tx, body.sender, body.nonce, n.arrivals);
-                    n.arrivals += 1;
-                }
-            }
-        }
-        let next = self.blocks[&new_head].next_nonce.clone();
-        self.nodes[node as usize].mempool.retain_from_nonces(&next);
+        self.return_abandoned(node, &abandoned, new_head);
         for b in branch.iter().rev() {
             for tx in &self.blocks[b].block.txs {
                 if self.txs[tx].tx.sender == node {
                     self.metrics.on_included_own(tx, at);
                 }
             }
+        }
+    }
+
+    /// After a reorg, the transactions of the abandoned blocks (in chain and block order)
+    /// return to the mempool through the same caps as new ones ([`Ledger::make_room`]): a
+    /// reorg must not let a flooder's abandoned transactions past them. First the mempool
+    /// keeps only what is still pending on the new chain; then each returning transaction
+    /// still pending there is admitted if it fits. One that does not fit stays known to the
+    /// node (it holds the abandoned block) without being pending, like one a full mempool
+    /// evicts. Each returning transaction takes an arrival number, pending or not, as every
+    /// one did before the caps applied here: arrival numbers enter the node's digest, so runs
+    /// that never reach the caps keep their records.
+    fn return_abandoned(&mut self, node: RobotId, abandoned: &[BlockHash], new_head: BlockHash) {
+        let n = &mut self.nodes[node as usize];
+        let mut returning = Vec::new();
+        for b in abandoned {
+            for tx in &self.blocks[b].block.txs {
+                if !n.mempool.contains(tx) {
+                    returning.push((*tx, n.arrivals));
+                    n.arrivals += 1;
+                }
+            }
+        }
+        let next = self.blocks[&new_head].next_nonce.clone();
+        n.mempool.retain_from_nonces(&next);
+        for (tx, arrival) in returning {
+            let body = &self.txs[&tx].tx;
+            let (sender, nonce) = (body.sender, body.nonce);
+            if nonce < next[sender as usize] {
+                continue;
+            }
+            let Ok(victim) = self.make_room(node, sender) else {
+                continue;
+            };
+            if let Some(victim) = victim {
+                self.leave_mempool(node, victim, Leaves::Evicted);
+            }
+            self.nodes[node as usize]
+                .mempool
+                .insert(tx, sender, nonce, arrival);
         }
     }
 }

@@ -12,6 +12,25 @@ use super::{
 };
 use crate::types::{Digest, RobotId, SimTime};
 
+/// A change of the number of things (stored blocks, messages in flight) that carry a
+/// transaction.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Carry {
+    /// One more carries it.
+    Add,
+    /// One fewer carries it.
+    Remove,
+}
+
+/// Why a pending transaction leaves a mempool to make room.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) enum Leaves {
+    /// Another transaction with the same sender and nonce and a lower id replaces it.
+    Replaced,
+    /// A full mempool evicts it (see [`MEMPOOL_MAX`]).
+    Evicted,
+}
+
 impl Ledger {
     /// A transaction's storage entry with its intrinsic checks (sender, size, signature).
     fn tx_entry(&self, tx: &Tx, size: usize) -> TxEntry {
@@ -32,6 +51,7 @@ impl Ledger {
             size_bytes: size as u32,
             intrinsic,
             held_by: vec![0u64; self.robots.div_ceil(64) as usize].into(),
+            carried_by: 0,
         }
     }
 
@@ -59,6 +79,7 @@ impl Ledger {
             if !self.holds_tx(node, &hash) {
                 self.remember_refused(node, hash);
             }
+            self.drop_if_unused(&hash);
         }
         let n = &mut self.nodes[node as usize];
         n.rejections.push_back(Rejection { at, item, reason });
@@ -101,54 +122,21 @@ impl Ledger {
             let reason = RejectReason::NonceGap { nonce, expected };
             return self.reject(node, item, reason, at, applied);
         }
-        // The sender's pending transactions, and the one with the same nonce (the lowest id
-        // if several), if any.
-        let mine_len = n.mempool.count_of(sender) as usize;
+        // A pending transaction with the same nonce (the lowest id if several) gives way to a
+        // lower id; otherwise the caps decide.
         let same = n.mempool.lowest_with_nonce(sender, nonce);
-        let mut evict = None;
-        if let Some(same) = same {
-            if same < hash {
+        let leaving = match same {
+            Some(same) if same < hash => {
                 return self.reject(node, item, RejectReason::NonceTaken { nonce }, at, applied);
             }
-            evict = Some((same, true));
-        } else if mine_len as u32 >= MEMPOOL_PER_SENDER {
-            let reason = RejectReason::SenderCap {
-                sender,
-                pending: mine_len as u32,
-            };
-            return self.reject(node, item, reason, at, applied);
-        } else if n.mempool.len() as u32 >= MEMPOOL_MAX {
-            // The sender with the most pending (the highest id on ties) gives up its highest
-            // nonce, if it has more pending than this sender would have.
-            let (victim, count) = n.mempool.busiest().expect("a full mempool has senders");
-            if count as usize <= mine_len + 1 {
-                let reason = RejectReason::MempoolFull {
-                    pending: n.mempool.len() as u32,
-                };
-                return self.reject(node, item, reason, at, applied);
-            }
-            let highest = n
-                .mempool
-                .of_sender(victim)
-                .next_back()
-                .expect("the busiest sender has pending transactions")
-                .1;
-            evict = Some((highest, false));
-        }
-        if let Some((old, replaced)) = evict {
-            // A replaced or evicted transaction leaves the node (as in geth's pool): it is no
-            // longer known, so a flood of admitted-then-evicted transactions cannot grow the
-            // node's memory. It joins the bounded refused set, so that peers do not send it
-            // again at once; it becomes known again if a block carries it.
-            self.nodes[node as usize].mempool.remove(&old);
-            self.release_tx(node, &old);
-            self.remember_refused(node, old);
-            let n = &mut self.nodes[node as usize];
-            if replaced {
-                n.mempool_replaced += 1;
-            } else {
-                n.mempool_evicted += 1;
-            }
+            Some(same) => Some((same, Leaves::Replaced)),
+            None => match self.make_room(node, sender) {
+                Ok(victim) => victim.map(|v| (v, Leaves::Evicted)),
+                Err(reason) => return self.reject(node, item, reason, at, applied),
+            },
+        };
+        if let Some((old, how)) = leaving {
+            self.leave_mempool(node, old, how);
         }
         self.hold_tx(node, &hash);
         let n = &mut self.nodes[node as usize];
@@ -157,6 +145,57 @@ impl Ledger {
         n.arrivals += 1;
         applied.accepted += 1;
         self.metrics.on_seen(&hash, node, at);
+    }
+
+    /// The mempool's caps for one more pending transaction from `sender` at `node`: Ok(None)
+    /// when it fits, Ok(Some(victim)) when it fits once `victim` leaves (a full mempool), or
+    /// why it does not fit. New and returning (reorg) transactions go through the same caps.
+    pub(super) fn make_room(
+        &self,
+        node: RobotId,
+        sender: RobotId,
+    ) -> Result<Option<TxHash>, RejectReason> {
+        let mempool = &self.nodes[node as usize].mempool;
+        let mine = mempool.count_of(sender);
+        if mine >= MEMPOOL_PER_SENDER {
+            return Err(RejectReason::SenderCap {
+                sender,
+                pending: mine,
+            });
+        }
+        if (mempool.len() as u32) < MEMPOOL_MAX {
+            return Ok(None);
+        }
+        // The sender with the most pending (the highest id on ties) gives up its highest
+        // nonce, if it has more pending than this sender would have.
+        let (victim, count) = mempool.busiest().expect("a full mempool has senders");
+        if count <= mine + 1 {
+            return Err(RejectReason::MempoolFull {
+                pending: mempool.len() as u32,
+            });
+        }
+        let highest = mempool
+            .of_sender(victim)
+            .next_back()
+            .expect("the busiest sender has pending transactions")
+            .1;
+        Ok(Some(highest))
+    }
+
+    /// A replaced or evicted transaction leaves the node (as in geth's pool): it is no longer
+    /// known, so a flood of admitted-then-evicted transactions cannot grow the node's memory.
+    /// It joins the bounded refused set, so that peers do not send it again at once; it
+    /// becomes known again if a block carries it. Unused, it leaves the shared storage.
+    pub(super) fn leave_mempool(&mut self, node: RobotId, old: TxHash, how: Leaves) {
+        self.nodes[node as usize].mempool.remove(&old);
+        self.release_tx(node, &old);
+        self.remember_refused(node, old);
+        self.drop_if_unused(&old);
+        let n = &mut self.nodes[node as usize];
+        match how {
+            Leaves::Replaced => n.mempool_replaced += 1,
+            Leaves::Evicted => n.mempool_evicted += 1,
+        }
     }
 
     /// Marks that `node` holds the stored transaction `hash`; returns whether it is new to it.
@@ -180,6 +219,37 @@ impl Ledger {
             .expect("a held transaction is stored");
         if entry.set_held_by(node, false) {
             self.nodes[node as usize].held_txs -= 1;
+        }
+    }
+
+    /// Removes a stored transaction that no node holds and nothing carries (no stored block,
+    /// no message in flight): a refused, replaced or evicted transaction, so that a sender
+    /// cannot grow the shared storage with variants every node refuses. Nothing else reads a
+    /// transaction in that state: a node only sends or seals what it holds, and a node that
+    /// refused it remembers that by id in its own bounded refused set. If it comes again, it is
+    /// stored again with the same checks, so outcomes are as if it had been kept.
+    pub(super) fn drop_if_unused(&mut self, hash: &TxHash) {
+        if self.txs.get(hash).is_some_and(TxEntry::unused) {
+            self.txs.remove(hash);
+        }
+    }
+
+    /// Counts one more (`Carry::Add`) or one fewer (`Carry::Remove`) stored block or message
+    /// in flight carrying the stored transaction `hash`.
+    pub(super) fn carry_tx(&mut self, hash: &TxHash, change: Carry) {
+        let entry = self
+            .txs
+            .get_mut(hash)
+            .expect("a carried transaction is stored");
+        match change {
+            Carry::Add => entry.carried_by += 1,
+            Carry::Remove => {
+                assert!(entry.carried_by > 0, "a transaction uncarried more than carried");
+                entry.carried_by -= 1;
+            }
+        }
+        if change == Carry::Remove {
+            self.drop_if_unused(hash);
         }
     }
 

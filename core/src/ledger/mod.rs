@@ -285,6 +285,10 @@ pub struct TxEntry {
     /// they know), one bit per robot: every node's set of known transactions, kept once per
     /// transaction rather than once per node (N bits instead of N ids).
     held_by: Box<[u64]>,
+    /// How many stored blocks and messages in flight carry the transaction. With `held_by`,
+    /// what keeps it stored: when neither any node holds it nor anything carries it, it leaves
+    /// the storage (see `Ledger::drop_if_unused`), so refused variants cannot grow it.
+    carried_by: u32,
 }
 
 impl TxEntry {
@@ -293,6 +297,12 @@ impl TxEntry {
         self.held_by
             .get((node / 64) as usize)
             .is_some_and(|word| word & (1u64 << (node % 64)) != 0)
+    }
+
+    /// Whether no node holds the transaction and no stored block or message in flight
+    /// carries it.
+    fn unused(&self) -> bool {
+        self.carried_by == 0 && self.held_by.iter().all(|word| *word == 0)
     }
 
     /// Marks whether `node` holds the transaction; returns whether that changed.

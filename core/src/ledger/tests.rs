@@ -911,3 +911,92 @@ fn a_peer_that_forgot_a_refused_transaction_is_sent_it_again() {
     assert!(offered, "{:?}", &log[sent_before..]);
     assert_eq!(last_rejection(&ledger, 1), Some("nonce_taken"));
 }
+
+/// The shared storage's transactions: how many, and their encoded bytes.
+fn storage(ledger: &Ledger) -> (usize, u64) {
+    let bytes = ledger.txs.values().map(|e| u64::from(e.size_bytes)).sum();
+    (ledger.txs.len(), bytes)
+}
+
+#[test]
+fn refused_transactions_leave_the_shared_storage() {
+    // One key signs 3,000 variants that every node refuses (each is too far ahead of the
+    // sender's nonce): none may stay stored, or the key grows every node's memory at will.
+    let (_, mut ledger, _) = setup(3, 41);
+    let keys = ledger.keys().clone();
+    let inject = |ledger: &mut Ledger, node: RobotId, at_ms: u64, tx: &Tx| {
+        let bytes = WireItem::Tx(tx.clone()).encode();
+        ledger
+            .apply(SimTime(at_ms), &LedgerEvent::Inject { node, bytes })
+            .unwrap();
+    };
+    for i in 0..3_000u64 {
+        let far = Tx::signed(&keys, 2, MAX_NONCE_GAP + 1 + i, 0, transfer(1, i));
+        for node in 0..3 {
+            inject(&mut ledger, node, 1_000, &far);
+        }
+    }
+    assert_eq!(ledger.node(0).rejected_total(), 3_000);
+    assert_eq!(storage(&ledger), (0, 0), "refused variants stay stored");
+    // A replaced transaction that no other node holds leaves too; its replacement stays.
+    let mut pair: Vec<Tx> = (1..=2)
+        .map(|amount| Tx::signed(&keys, 2, 0, 0, transfer(1, amount)))
+        .collect();
+    pair.sort_by_key(|tx| tx.hash_and_size().0);
+    inject(&mut ledger, 0, 2_000, &pair[1]);
+    inject(&mut ledger, 0, 2_000, &pair[0]);
+    assert_eq!(ledger.stats().mempool_replaced, 1);
+    let low = pair[0].hash_and_size().0;
+    assert_eq!(ledger.txs.keys().copied().collect::<Vec<_>>(), vec![low]);
+    // A refused variant that comes again is refused again, stored or not.
+    inject(&mut ledger, 1, 3_000, &pair[1]);
+    assert_eq!(ledger.mempool(1), vec![pair[1].hash_and_size().0]);
+}
+
+#[test]
+fn a_reorg_returns_abandoned_transactions_through_the_mempool_caps() {
+    // A block on genesis carries 308 transactions: 20 from sender 1, 16 from each of 18
+    // others. A heavier sibling without them abandons it: at most MEMPOOL_PER_SENDER per
+    // sender and MEMPOOL_MAX in all may return, as if they had arrived new.
+    let (_, mut ledger, _) = setup(20, 43);
+    let g = ledger.genesis();
+    let keys = ledger.keys().clone();
+    let txs: Vec<Tx> = (1..20)
+        .flat_map(|sender| (0..if sender == 1 { 20 } else { 16 }).map(move |n| (sender, n)))
+        .map(|(sender, nonce)| Tx::signed(&keys, sender, nonce, 0, transfer(0, 1)))
+        .collect();
+    let ids: Vec<TxHash> = txs.iter().map(|tx| tx.hash_and_size().0).collect();
+    // Out of turn (signer 2 at height 1, difficulty 1), then in turn (signer 1, difficulty 2).
+    let full = header(&ledger, g, 2, &ids, |_| {});
+    let full = inject_block(&mut ledger, 0, 11_000, full, txs);
+    assert_eq!(ledger.head(0).0, full);
+    let empty = header(&ledger, g, 1, &[], |_| {});
+    let empty = inject_block(&mut ledger, 0, 12_000, empty, vec![]);
+    assert_eq!(ledger.head(0).0, empty);
+    let mempool = ledger.mempool(0);
+    let busiest = (1..20)
+        .map(|sender| {
+            mempool
+                .iter()
+                .filter(|h| ledger.tx(h).unwrap().tx.sender == sender)
+                .count()
+        })
+        .max()
+        .unwrap();
+    assert!(
+        mempool.len() <= MEMPOOL_MAX as usize && busiest <= MEMPOOL_PER_SENDER as usize,
+        "{} pending, {busiest} from one sender",
+        mempool.len()
+    );
+    assert_eq!(mempool.len(), MEMPOOL_MAX as usize);
+    // The same selection as for new arrivals: the lowest nonces of each sender stay.
+    for sender in 1..20 {
+        let nonces: Vec<u64> = mempool
+            .iter()
+            .map(|h| &ledger.tx(h).unwrap().tx)
+            .filter(|tx| tx.sender == sender)
+            .map(|tx| tx.nonce)
+            .collect();
+        assert_eq!(nonces, (0..nonces.len() as u64).collect::<Vec<_>>());
+    }
+}
