@@ -244,7 +244,10 @@ impl Ledger {
         match change {
             Carry::Add => entry.carried_by += 1,
             Carry::Remove => {
-                assert!(entry.carried_by > 0, "a transaction uncarried more than carried");
+                assert!(
+                    entry.carried_by > 0,
+                    "a transaction uncarried more than carried"
+                );
                 entry.carried_by -= 1;
             }
         }
