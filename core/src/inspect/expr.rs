@@ -19,10 +19,21 @@
 //! is true when it is non-zero and not NaN. A comparison with NaN (e.g. `loss` before the first
 //! round closed) is false. Division by zero follows IEEE (inf or NaN).
 //!
+//! An expression is at most [`MAX_LEN_BYTES`] long and nests at most [`MAX_DEPTH`] parentheses
+//! and unary operators deep: the parser recurses once per level, so without a bound a
+//! command-line argument could overflow the stack before the log is even opened.
+//!
 //! The identifiers (checked when parsing) are those of [`IDENTS`], [`INDEXED`] (`balance[i]`)
 //! and [`NODE_FIELDS`] (`node[i].height`); see [`super::BlockValues`] for their exact meaning.
 
 use std::fmt;
+
+/// The longest expression accepted, bytes. It also bounds the depth of the tree a chain of
+/// binary operators builds (`1+1+...`), which evaluation and drop walk recursively.
+pub const MAX_LEN_BYTES: usize = 4096;
+
+/// The deepest nesting accepted: open parentheses plus pending unary operators (`!`, `-`).
+pub const MAX_DEPTH: usize = 128;
 
 /// The plain identifiers and what they mean.
 pub const IDENTS: &[(&str, &str)] = &[
@@ -280,6 +291,8 @@ struct Parser<'a> {
     toks: Vec<(Tok, usize)>,
     pos: usize,
     src: &'a str,
+    /// Open parentheses plus pending unary operators at `pos`; at most [`MAX_DEPTH`].
+    depth: usize,
 }
 
 impl Parser<'_> {
@@ -297,6 +310,23 @@ impl Parser<'_> {
             message: format!("found {}, expected {expected}", self.peek()),
             source_text: self.src.to_string(),
         }
+    }
+
+    /// Enters one more level of nesting at the current token (an opening parenthesis or a
+    /// unary operator), refusing to go deeper than [`MAX_DEPTH`].
+    fn descend(&mut self) -> Result<(), ParseError> {
+        if self.depth == MAX_DEPTH {
+            return Err(ParseError {
+                column: self.column(),
+                message: format!(
+                    "expression nests deeper than {MAX_DEPTH} (parentheses and `!`/`-` \
+                     operators); expected at most {MAX_DEPTH} levels"
+                ),
+                source_text: self.src.to_string(),
+            });
+        }
+        self.depth += 1;
+        Ok(())
     }
 
     fn eat(&mut self, op: &str) -> bool {
@@ -378,13 +408,16 @@ impl Parser<'_> {
     }
 
     fn unary(&mut self) -> Result<Expr, ParseError> {
-        if self.eat("!") {
-            Ok(Expr::Unary(UnOp::Not, Box::new(self.unary()?)))
-        } else if self.eat("-") {
-            Ok(Expr::Unary(UnOp::Neg, Box::new(self.unary()?)))
-        } else {
-            self.primary()
-        }
+        let op = match self.peek() {
+            Tok::Op("!") => UnOp::Not,
+            Tok::Op("-") => UnOp::Neg,
+            _ => return self.primary(),
+        };
+        self.descend()?;
+        self.pos += 1;
+        let operand = self.unary()?;
+        self.depth -= 1;
+        Ok(Expr::Unary(op, Box::new(operand)))
     }
 
     fn index(&mut self) -> Result<u32, ParseError> {
@@ -405,9 +438,11 @@ impl Parser<'_> {
                 Ok(Expr::Num(n))
             }
             Tok::Op("(") => {
+                self.descend()?;
                 self.pos += 1;
                 let e = self.or()?;
                 self.expect(")")?;
+                self.depth -= 1;
                 Ok(e)
             }
             Tok::Ident(name) => {
@@ -458,17 +493,40 @@ impl Parser<'_> {
     }
 }
 
+/// Refuses an expression longer than [`MAX_LEN_BYTES`], pointing at the first character past
+/// the limit; the error shows only the accepted prefix, not the whole text.
+fn check_length(src: &str) -> Result<(), ParseError> {
+    if src.len() <= MAX_LEN_BYTES {
+        return Ok(());
+    }
+    let mut end = MAX_LEN_BYTES;
+    while !src.is_char_boundary(end) {
+        end -= 1;
+    }
+    let prefix = &src[..end];
+    Err(ParseError {
+        column: prefix.chars().count() + 1,
+        message: format!(
+            "expression is {} bytes long; expected at most {MAX_LEN_BYTES}",
+            src.len()
+        ),
+        source_text: format!("{prefix}..."),
+    })
+}
+
 fn names(list: &[(&str, &str)]) -> String {
     list.iter().map(|(n, _)| *n).collect::<Vec<_>>().join(", ")
 }
 
 impl Expr {
-    /// Parses an expression (see the module docs for the grammar).
+    /// Parses an expression (see the module docs for the grammar and the limits).
     pub fn parse(src: &str) -> Result<Expr, ParseError> {
+        check_length(src)?;
         let mut p = Parser {
             toks: tokenize(src)?,
             pos: 0,
             src,
+            depth: 0,
         };
         let e = p.or()?;
         if *p.peek() != Tok::End {

@@ -108,6 +108,57 @@ fn parse_errors_say_what_was_expected_and_show_the_column() {
 }
 
 #[test]
+fn deep_or_long_expressions_are_refused_with_the_column_not_a_stack_overflow() {
+    use super::expr::{MAX_DEPTH, MAX_LEN_BYTES};
+    // At the limit: accepted.
+    let at = format!("{}1{}", "(".repeat(MAX_DEPTH), ")".repeat(MAX_DEPTH));
+    check(&at, Ok(1.0));
+    check(&format!("{}1", "!".repeat(MAX_DEPTH)), Ok(1.0));
+    check(&format!("{}1", "-".repeat(MAX_DEPTH)), Ok(1.0));
+    // One deeper: refused at the offending token's column.
+    let over = format!(
+        "{}1{}",
+        "(".repeat(MAX_DEPTH + 1),
+        ")".repeat(MAX_DEPTH + 1)
+    );
+    check(&over, Err(MAX_DEPTH + 1));
+    check(
+        &format!("{}1", "!".repeat(MAX_DEPTH + 1)),
+        Err(MAX_DEPTH + 1),
+    );
+    let mixed = format!("{}1{}", "!(-".repeat(50), ")".repeat(50));
+    let e = Expr::parse(&mixed).unwrap_err();
+    assert_eq!(e.column, MAX_DEPTH + 1, "{e}");
+    assert!(
+        e.to_string().contains(&format!(
+            "at column {}: expression nests deeper than {MAX_DEPTH}",
+            MAX_DEPTH + 1
+        )),
+        "{e}"
+    );
+    // The inputs of the security review: far beyond both limits, refused by length.
+    for src in [
+        format!("{}1{}", "(".repeat(5000), ")".repeat(5000)),
+        format!("{}1", "!".repeat(40_000)),
+    ] {
+        let e = Expr::parse(&src).unwrap_err();
+        assert_eq!(e.column, MAX_LEN_BYTES + 1, "{}", e.message);
+        assert!(
+            e.message.contains(&format!(
+                "{} bytes long; expected at most {MAX_LEN_BYTES}",
+                src.len()
+            )),
+            "{}",
+            e.message
+        );
+    }
+    // A long but shallow expression within the limit still parses.
+    let sum = format!("1{}", " + 1".repeat((MAX_LEN_BYTES - 1) / 4));
+    assert!(sum.len() <= MAX_LEN_BYTES);
+    check(&sum, Ok(((MAX_LEN_BYTES - 1) / 4 + 1) as f64));
+}
+
+#[test]
 fn eval_errors_name_the_robot() {
     let e = Expr::parse("balance[7] > 1").unwrap();
     assert!(e.eval(&Fixed).is_err());
