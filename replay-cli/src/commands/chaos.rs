@@ -45,6 +45,20 @@ fn replay_command(seed: u64, duration_s: f64) -> String {
     format!("swarmfl chaos --seeds 1 --first-seed {seed} --duration {duration_s}")
 }
 
+/// The last seed of the campaign `first..first + seeds`, refusing a range that runs past
+/// `u64::MAX` (it would wrap to an empty range and pass with nothing checked).
+fn last_seed(seeds: u64, first: u64) -> anyhow::Result<u64> {
+    let span = seeds - 1;
+    first.checked_add(span).ok_or_else(|| {
+        anyhow::anyhow!(
+            "--first-seed {first} with --seeds {seeds} runs past the largest seed {}: \
+             with --seeds {seeds} the largest allowed --first-seed is {}",
+            u64::MAX,
+            u64::MAX - span
+        )
+    })
+}
+
 /// Runs `swarmfl chaos`.
 pub fn command(args: ChaosArgs) -> anyhow::Result<ExitCode> {
     run(args.seeds, args.first_seed, args.duration, args.json)
@@ -57,8 +71,9 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         duration_s.is_finite() && duration_s >= 1.0,
         "--duration must be at least 1 (seconds), got {duration_s}"
     );
+    let last = last_seed(seeds, first)?;
     let start = Instant::now();
-    let results: Vec<(u64, anyhow::Result<Outcome>)> = (first..first + seeds)
+    let results: Vec<(u64, anyhow::Result<Outcome>)> = (first..=last)
         .into_par_iter()
         .map(|seed| {
             let config = chaos::draw(seed, duration_s);
@@ -82,8 +97,13 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
             (seed, outcome)
         })
         .collect();
+    anyhow::ensure!(
+        results.len() as u64 == seeds,
+        "ran {} seeds instead of {seeds}",
+        results.len()
+    );
     let mut report = Report {
-        runs: seeds,
+        runs: results.len() as u64,
         duration_s,
         first_seed: first,
         violations: Vec::new(),
@@ -100,6 +120,12 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
     };
     for (seed, outcome) in results {
         let outcome = outcome.map_err(|e| e.context(format!("seed {seed}")))?;
+        // Every run checks at least its genesis block, so a run that checked none did not check
+        // anything and must not count as a pass.
+        anyhow::ensure!(
+            outcome.blocks_checked > 0,
+            "seed {seed}: no block was checked, so the run proves nothing"
+        );
         report.blocks_checked += outcome.blocks_checked;
         report.liveness_checked += u64::from(outcome.liveness_checked);
         report.max_deepest_reorg = report.max_deepest_reorg.max(outcome.deepest_reorg);
@@ -135,4 +161,22 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
     } else {
         ExitCode::from(1)
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::last_seed;
+
+    #[test]
+    fn the_seed_range_ends_at_u64_max_and_never_wraps() {
+        assert_eq!(last_seed(1, u64::MAX).unwrap(), u64::MAX);
+        assert_eq!(last_seed(2, u64::MAX - 1).unwrap(), u64::MAX);
+        assert_eq!(last_seed(10, 5).unwrap(), 14);
+        let e = last_seed(2, u64::MAX).unwrap_err().to_string();
+        assert!(
+            e.contains("--first-seed 18446744073709551615 with --seeds 2")
+                && e.contains("largest allowed --first-seed is 18446744073709551614"),
+            "{e}"
+        );
+    }
 }
