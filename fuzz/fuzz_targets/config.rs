@@ -45,6 +45,10 @@ fuzz_target!(|data: &[u8]| {
                         key.contains(SOURCE)
                     }
                     ConfigError::OutOfRange { key, .. } => !key.is_empty(),
+                    ConfigError::NotSetByYou { key, .. }
+                    | ConfigError::NotReconfigurable { key, .. } => {
+                        !key.is_empty() && message.contains(key.as_str())
+                    }
                     ConfigError::UnknownPreset { name, .. } => message.contains(name.as_str()),
                     ConfigError::Io { .. } | ConfigError::Override { .. } => false,
                 };

@@ -138,6 +138,8 @@ fn damaged(data: &[u8]) {
             contract: Digest::of(&[input.u8(), 1]),
             metrics: Digest::default(),
             params: Digest::default(),
+            // Present in baseline (stigmergy, central) runs, absent in chain runs.
+            aggregation: (flags & 0x20 != 0).then(|| Digest::of(&[input.u8(), 2])),
         });
         writer.append(&record).expect("writes to memory");
         written.push(record);
