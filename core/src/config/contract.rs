@@ -89,7 +89,7 @@ pub enum Defence {
     /// The rule's own rewards (the paper's ranking, or equal shares).
     #[default]
     None,
-    /// Pay by leave-one-out agreement of the centred updates.
+    /// Pay by leave-one-out agreement of the centered updates.
     Agreement,
     /// Pay by leave-one-out agreement of the updates' parts the last step does not predict.
     Innovation,

@@ -57,7 +57,7 @@ pub struct RunConfig {
 pub struct WorldConfig {
     /// Number of robots in the swarm (every one a blockchain node).
     pub robots: u32,
-    /// Side of the square, walled arena in metres (paper 5, reference 4), centred on the origin.
+    /// Side of the square, walled arena in metres (paper 5, reference 4), centered on the origin.
     pub arena_side_m: f64,
     /// Number of cylindrical obstacles.
     pub cylinders: u32,
@@ -67,7 +67,7 @@ pub struct WorldConfig {
     pub boxes: u32,
     /// Side of each box's square base in metres.
     pub box_side_m: f64,
-    /// Obstacle centres are drawn uniformly in [-h, h]^2 with h this value (reference 1.5 m);
+    /// Obstacle centers are drawn uniformly in [-h, h]^2 with h this value (reference 1.5 m);
     /// 0 means "anywhere inside the walls" (paper).
     pub obstacle_spread_half_m: f64,
     /// Robot body radius in metres (Pi-puck: 0.035).

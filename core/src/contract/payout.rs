@@ -23,7 +23,7 @@ pub fn distance_units(a: &[i64], b: &[i64]) -> u64 {
 
 /// FedAvg: `w_i = sum_k n_k w_k,i / sum_k n_k`, computed exactly in `i128` and rounded to the
 /// nearest integer, ties away from zero (symmetric, so the average of a model and its negation
-/// stays centred), or truncated toward zero with [`FedAvgRounding::Truncate`]. `models` is
+/// stays centered), or truncated toward zero with [`FedAvgRounding::Truncate`]. `models` is
 /// non-empty, all of one length, with `n_k >= 1`.
 pub fn fedavg(models: &[(&[i64], u64)], rounding: FedAvgRounding) -> Vec<i64> {
     assert!(!models.is_empty(), "FedAvg of no models");

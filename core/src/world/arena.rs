@@ -1,4 +1,4 @@
-//! The arena: square walls centred on the origin, static obstacles, and a uniform grid that
+//! The arena: square walls centered on the origin, static obstacles, and a uniform grid that
 //! finds what is near a point without scanning everything.
 //!
 //! Geometry conventions: a robot is a disk; it *overlaps* something when the distance between
@@ -26,20 +26,20 @@ const MAX_CELLS_PER_AXIS: u32 = 256;
 /// A static obstacle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Obstacle {
-    /// A cylinder: a disk of radius `radius_m` centred at (`x`, `y`).
+    /// A cylinder: a disk of radius `radius_m` centered at (`x`, `y`).
     Cylinder {
-        /// Centre x in metres.
+        /// Center x in metres.
         x: f64,
-        /// Centre y in metres.
+        /// Center y in metres.
         y: f64,
         /// Radius in metres.
         radius_m: f64,
     },
-    /// An axis-aligned box with a square base of half side `half_side_m` centred at (`x`, `y`).
+    /// An axis-aligned box with a square base of half side `half_side_m` centered at (`x`, `y`).
     Box {
-        /// Centre x in metres.
+        /// Center x in metres.
         x: f64,
-        /// Centre y in metres.
+        /// Center y in metres.
         y: f64,
         /// Half of the side in metres.
         half_side_m: f64,
@@ -47,8 +47,8 @@ pub enum Obstacle {
 }
 
 impl Obstacle {
-    /// The centre.
-    pub fn centre(&self) -> (f64, f64) {
+    /// The center.
+    pub fn center(&self) -> (f64, f64) {
         match *self {
             Obstacle::Cylinder { x, y, .. } | Obstacle::Box { x, y, .. } => (x, y),
         }
@@ -115,7 +115,7 @@ impl Obstacle {
     /// Time of impact along `dir` (unit) from `origin`, at most `max_m`, with parry's ray cast
     /// (solid: an origin inside gives 0).
     pub fn ray_toi(&self, origin: (f64, f64), dir: (f64, f64), max_m: f64) -> Option<f64> {
-        let (cx, cy) = self.centre();
+        let (cx, cy) = self.center();
         let ray = Ray::new(
             Point2::new(origin.0 - cx, origin.1 - cy),
             Vector2::new(dir.0, dir.1),
@@ -133,7 +133,7 @@ impl Obstacle {
 
     /// Whether the segment from `a` to `b` crosses the obstacle (line of sight blocked).
     pub fn blocks_segment(&self, a: (f64, f64), b: (f64, f64)) -> bool {
-        let (cx, cy) = self.centre();
+        let (cx, cy) = self.center();
         let e = self.extent_m();
         // Cheap rejection on bounding boxes first.
         if a.0.max(b.0) < cx - e
@@ -254,7 +254,7 @@ impl Arena {
                     w.box_side_m
                 )
             };
-            // Centres are uniform in [-s, s]^2, where the obstacle stays inside the walls.
+            // Centers are uniform in [-s, s]^2, where the obstacle stays inside the walls.
             let inside = half - extent;
             let s = if w.obstacle_spread_half_m > 0.0 {
                 w.obstacle_spread_half_m.min(inside)
@@ -298,7 +298,7 @@ impl Arena {
                     why: format!(
                         "no spot free of the other obstacles after {PLACEMENT_ATTEMPTS} attempts: \
                          world.cylinders = {} (world.cylinder_radius_m = {}) and world.boxes = {} \
-                         (world.box_side_m = {}) do not fit with centres in [-{s}, {s}]^2 \
+                         (world.box_side_m = {}) do not fit with centers in [-{s}, {s}]^2 \
                          (world.arena_side_m = {}, world.obstacle_spread_half_m = {}); use fewer or \
                          smaller obstacles, a larger spread or a larger arena",
                         w.cylinders, w.cylinder_radius_m, w.boxes, w.box_side_m, w.arena_side_m,
@@ -316,7 +316,7 @@ impl Arena {
         let grid = GridShape::new(half_side_m, min_cell_m);
         let mut obstacle_cells = vec![Vec::new(); grid.cell_count()];
         for (i, o) in obstacles.iter().enumerate() {
-            let (x, y) = o.centre();
+            let (x, y) = o.center();
             let e = o.extent_m();
             grid.for_cells(x - e, y - e, x + e, y + e, |c| {
                 obstacle_cells[c as usize].push(i as u32)

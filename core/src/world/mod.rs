@@ -611,7 +611,7 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
 }
 
 /// The first tick of each held-out observation window: `ceil(wanted / robots)` windows of
-/// `window_ticks` ticks, each centred in its equal share of the run's `run_ticks`. When the run
+/// `window_ticks` ticks, each centered in its equal share of the run's `run_ticks`. When the run
 /// is too short for the windows to be apart, they follow each other from tick 0.
 fn heldout_window_starts(
     wanted: usize,

@@ -28,7 +28,7 @@ pub struct Body {
     pub dt_s: f64,
 }
 
-/// Robots indexed by the grid cell of their centre; kept exact as robots move.
+/// Robots indexed by the grid cell of their center; kept exact as robots move.
 #[derive(Clone, Debug, Default)]
 pub struct RobotGrid {
     cells: Vec<Vec<u32>>,
@@ -74,7 +74,7 @@ impl RobotGrid {
         }
     }
 
-    /// Calls `f` for every robot whose centre lies in a cell overlapping the box.
+    /// Calls `f` for every robot whose center lies in a cell overlapping the box.
     pub fn near(
         &self,
         shape: &GridShape,

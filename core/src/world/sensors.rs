@@ -5,7 +5,7 @@
 //! `1 - distance / range` to the nearest wall, obstacle or robot (1 at contact, 0 at range or
 //! with nothing in range).
 //!
-//! Range-and-bearing: robot `i` is in contact with `j` when their centres are at most
+//! Range-and-bearing: robot `i` is in contact with `j` when their centers are at most
 //! `rab_range_m` apart and, with `rab_occlusion`, no obstacle crosses the segment between them
 //! (robots do not occlude). Contact is symmetric; it defines the links, the peer sets and
 //! `mean_neighbours`. Each tick, each message from a contact is lost with probability

@@ -98,7 +98,7 @@ fn obstacles_follow_the_spread_and_the_seed() {
     let a = World::new(&c, 5).unwrap();
     assert_eq!(a.arena().obstacles.len(), 10);
     for o in &a.arena().obstacles {
-        let (x, y) = o.centre();
+        let (x, y) = o.center();
         assert!(x.abs() <= 1.5 && y.abs() <= 1.5, "{o:?}");
     }
     for (i, o) in a.arena().obstacles.iter().enumerate() {
@@ -339,7 +339,7 @@ fn events_of_the_wrong_size_are_errors() {
 #[test]
 fn heldout_windows_spread_over_the_run() {
     // The paper: 200 samples of 15 robots = 14 windows of 100 ticks over 50,000 ticks; each
-    // window centred in its 3571-tick share.
+    // window centered in its 3571-tick share.
     let starts = heldout_window_starts(200, 15, 50_000, 100);
     assert_eq!(starts.len(), 14);
     assert_eq!(starts[0], 1735);
@@ -357,7 +357,7 @@ fn the_heldout_set_comes_from_the_whole_run() {
     c.run.duration_s = 600.0;
     let w = World::new(&c, 4).unwrap();
     let times: Vec<u64> = w.heldout().iter().map(|s| s.time.0).collect();
-    // Two windows, each centred in its 300 s half: they end at 155 s and 455 s.
+    // Two windows, each centered in its 300 s half: they end at 155 s and 455 s.
     assert_eq!(times.len(), 20);
     assert!(times[..15].iter().all(|&t| t == 155_000), "{times:?}");
     assert!(times[15..].iter().all(|&t| t == 455_000), "{times:?}");

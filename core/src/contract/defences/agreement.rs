@@ -2,7 +2,7 @@
 //! agrees with the other used submissions' updates of its round, not its distance to the median
 //! distance, and not its claimed sample count.
 //!
-//! Score: the cosine between the submission's centred update `w_k - w(t)` and the mean centred
+//! Score: the cosine between the submission's centered update `w_k - w(t)` and the mean centered
 //! update of the *other* used submissions (leave-one-out, so a model cannot agree with itself);
 //! payout: a flat refund of `contract.defence_refund_percent` of the pool, the rest shared in
 //! proportion to the positive scores (both exactly in [`super`]'s module doc).

@@ -1,10 +1,10 @@
 //! `innovation` (`contract.defence = "innovation"`): as [`super::agreement`], after removing
 //! from every update the part the chain already predicts: its component along the last public
-//! step `w(t) - w(t-1)` (centred). What remains is what the submitter's own data and training
+//! step `w(t) - w(t-1)` (centered). What remains is what the submitter's own data and training
 //! added this round; a robot is paid for agreeing with the others on *that*.
 //!
-//! Exactly: `e` = the centred `w(t) - w(t-1)`, `e_hat_i = round(e_i * 2^30 / isqrt(|e|^2))`
-//! (a unit vector in 2^30 fixed point); each centred update `c` becomes
+//! Exactly: `e` = the centered `w(t) - w(t-1)`, `e_hat_i = round(e_i * 2^30 / isqrt(|e|^2))`
+//! (a unit vector in 2^30 fixed point); each centered update `c` becomes
 //! `c_i - round((c . e_hat) * e_hat_i / 2^60)`; then the scores and payouts of [`super`]. In
 //! round 0 (no w(t-1)) or after a step of zero it is `agreement`.
 //!
@@ -21,11 +21,11 @@
 //! any other public direction (e.g. the step before last) keeps whatever agreement that
 //! direction has with the present one.
 
-use super::{centre, dot_exact, isqrt};
+use super::{center, dot_exact, isqrt};
 use crate::contract::payout::div_round_half_away;
 
-/// Removes from each of `updates` (centred, coordinates below 2^49) its component along the
-/// centred step `shared - previous`.
+/// Removes from each of `updates` (centered, coordinates below 2^49) its component along the
+/// centered step `shared - previous`.
 pub fn detrend(updates: &mut [Vec<i128>], shared: &[i64], previous: &[i64]) {
     assert_eq!(shared.len(), previous.len(), "models of different lengths");
     let mut step: Vec<i128> = shared
@@ -33,7 +33,7 @@ pub fn detrend(updates: &mut [Vec<i128>], shared: &[i64], previous: &[i64]) {
         .zip(previous)
         .map(|(&w, &p)| i128::from(w) - i128::from(p))
         .collect();
-    centre(&mut step);
+    center(&mut step);
     let norm = isqrt(dot_exact(&step, &step) as u128) as i128;
     if norm == 0 {
         return;
@@ -60,7 +60,7 @@ mod tests {
     fn a_trend_extrapolation_earns_nothing_but_new_information_does() {
         let n = 1000usize;
         let previous: Vec<i64> = vec![0; n];
-        // The last step: +-1e6 alternating in blocks (centred).
+        // The last step: +-1e6 alternating in blocks (centered).
         let trend: Vec<i64> = (0..n)
             .map(|i| if i % 4 < 2 { 1_000_000 } else { -1_000_000 })
             .collect();

@@ -11,8 +11,8 @@
 //! pool is shared by score. Claimed sample counts play no part in the payout (they are
 //! unverifiable). So a defence combines with every staking rule (`paper`, `krum`, `median`, ...).
 //!
-//! - [`agreement`]: the score is the cosine between the submission's centred update and the
-//!   mean centred update of the others (leave-one-out).
+//! - [`agreement`]: the score is the cosine between the submission's centered update and the
+//!   mean centered update of the others (leave-one-out).
 //! - [`innovation`]: the same after removing, from every update, its component along the last
 //!   public step `w(t) - w(t-1)`: only what the chain could not predict earns.
 //!
@@ -30,7 +30,7 @@
 //!
 //! # Scores, exactly (integers only)
 //!
-//! `u_k = w_k - w(t)` (`|u_k,i| < 2^48`); centred: `c_k,i = u_k,i - m_k` with
+//! `u_k = w_k - w(t)` (`|u_k,i| < 2^48`); centered: `c_k,i = u_k,i - m_k` with
 //! `m_k = round(sum_i u_k,i / N)` (ties away from zero); the reference of `k` is
 //! `r_k,i = round((sum_j c_j,i - c_k,i) / (u - 1))`; the score is
 //! `cos(c_k, r_k) = (dot / isqrt(|r|^2)) * 10^9 / isqrt(|c|^2)`, each division truncated
@@ -71,7 +71,7 @@ pub fn scores(
     previous: Option<&[i64]>,
     models: &[&[i64]],
 ) -> Vec<i64> {
-    let mut updates: Vec<Vec<i128>> = models.iter().map(|m| centred_update(m, shared)).collect();
+    let mut updates: Vec<Vec<i128>> = models.iter().map(|m| centered_update(m, shared)).collect();
     match defence {
         Defence::None | Defence::Agreement => {}
         Defence::Innovation => {
@@ -84,19 +84,19 @@ pub fn scores(
 }
 
 /// `w - w(t)` minus its rounded mean coordinate.
-pub fn centred_update(model: &[i64], shared: &[i64]) -> Vec<i128> {
+pub fn centered_update(model: &[i64], shared: &[i64]) -> Vec<i128> {
     assert_eq!(model.len(), shared.len(), "models of different lengths");
     let mut u: Vec<i128> = model
         .iter()
         .zip(shared)
         .map(|(&w, &s)| i128::from(w) - i128::from(s))
         .collect();
-    centre(&mut u);
+    center(&mut u);
     u
 }
 
 /// Subtracts the rounded mean coordinate from `v` (non-empty).
-pub fn centre(v: &mut [i128]) {
+pub fn center(v: &mut [i128]) {
     if v.is_empty() {
         return;
     }
@@ -221,7 +221,7 @@ mod tests {
 
     #[test]
     fn centring_removes_a_common_offset() {
-        let u = centred_update(&[11, 12, 13, 14], &[0, 0, 0, 0]);
+        let u = centered_update(&[11, 12, 13, 14], &[0, 0, 0, 0]);
         // Mean 12.5 rounds to 13.
         assert_eq!(u, vec![-2, -1, 0, 1]);
     }

@@ -1,7 +1,7 @@
 //! `centered-clipping` (Karimireddy et al., 2021): clip every model's difference from a
-//! centre to a radius, average, move the centre, [`ITERATIONS`] times.
+//! center to a radius, average, move the center, [`ITERATIONS`] times.
 //!
-//! The centre starts at the shared model `v = w(t)` the round was opened on. The radius is
+//! The center starts at the shared model `v = w(t)` the round was opened on. The radius is
 //! `tau` = the lower median (`sorted[(q - 1) / 2]`) of the models' Euclidean distances to
 //! `w(t)`, each `floor(sqrt(.))` of the exact squared distance: half the models are never
 //! clipped, so honest progress passes while a far model contributes at most `tau`. One
@@ -19,7 +19,7 @@ use crate::contract::payout::div_round_half_away;
 /// Clipping iterations per aggregation.
 pub const ITERATIONS: usize = 3;
 
-/// The centre after [`ITERATIONS`] clipped averaging steps from `current`.
+/// The center after [`ITERATIONS`] clipped averaging steps from `current`.
 pub fn aggregate(current: &[i64], inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();
     let mut norms: Vec<u128> = inputs

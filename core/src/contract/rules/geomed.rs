@@ -63,7 +63,7 @@ mod tests {
     }
 
     #[test]
-    fn symmetric_points_keep_their_centre() {
+    fn symmetric_points_keep_their_center() {
         let a = aggregate(
             &inputs_of(&[(&[0, 0], 1), (&[2, 0], 1), (&[0, 2], 1), (&[2, 2], 1)]),
             1,

@@ -348,7 +348,7 @@ fn draw_on<DB: DrawingBackend>(
         }
     }
     if text {
-        // Axis labels at the centre of each row and column (plotters' mesh labels sit on the
+        // Axis labels at the center of each row and column (plotters' mesh labels sit on the
         // cell boundaries of an integer axis).
         for (c, name) in map.cols.iter().enumerate() {
             let (px, py) = chart.backend_coord(&(c as i32, 0));
