@@ -4,7 +4,7 @@
 //! runs cover every rule and every attack; `scripts/rules-attacks-smoke.sh` runs all 108 pairs
 //! at `smoke` length through the CLI.
 
-use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset, ALL_RULES};
+use swarmfl_core::config::{Aggregation, ByzantineKind, Config, Preset, Rule};
 use swarmfl_core::event::{Event, Record};
 use swarmfl_core::metrics::LearnAction;
 use swarmfl_core::sim::Sim;
@@ -55,7 +55,7 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
         .enumerate()
         .collect();
     kinds.into_par_iter().for_each(|(i, kind)| {
-        let rule = ALL_RULES[i % ALL_RULES.len()];
+        let rule = Rule::ALL[i % Rule::ALL.len()];
         let mut config = Preset::Smoke.config();
         config.run.duration_s = 250.0;
         config.learn.learning_rate = 0.01;

@@ -8,7 +8,7 @@
 use std::sync::Arc;
 
 use proptest::prelude::*;
-use swarmfl_core::config::{Rule, ALL_RULES};
+use swarmfl_core::config::Rule;
 use swarmfl_core::contract::{
     Call, ContractParams, ContractState, Outcome, RobustRule, MAX_WEIGHT_MAGNITUDE,
 };
@@ -174,7 +174,7 @@ proptest! {
     fn every_rule_conserves_tokens_under_hostile_input(
         txs in proptest::collection::vec(tx(), 1..160)
     ) {
-        for rule in ALL_RULES {
+        for rule in Rule::ALL {
             run(rule, &txs)?;
         }
     }
@@ -191,7 +191,7 @@ fn hostile_sequences_reach_aggregations_under_every_rule() {
         TestRng::deterministic_rng(Default::default()),
     );
     let strategy = proptest::collection::vec(tx(), 150..160);
-    for rule in ALL_RULES {
+    for rule in Rule::ALL {
         let mut rounds = 0;
         for _ in 0..10 {
             let txs = strategy.new_tree(&mut runner).expect("generates").current();

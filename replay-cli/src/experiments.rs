@@ -7,7 +7,7 @@
 //! The task list of an experiment with points `p = 0..P` (in the order [`experiment`] lists
 //! them) and `R` runs is point-major: task `i = p * R + (seed - 1)`, seeds `1..=R`.
 
-use swarmfl_core::config::{ByzantineKind, Defence, Rule, ALL_DEFENCES, ALL_RULES};
+use swarmfl_core::config::{ByzantineKind, Defence, Rule};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
 pub const EXPERIMENTS: [&str; 8] = [
@@ -197,7 +197,7 @@ fn baselines_grid() -> Vec<Point> {
 /// `<rule>--<attack>--<count>` (`paper--none--0`, `krum--alie--3`).
 fn e4_points() -> Vec<Point> {
     let mut points = Vec::new();
-    for rule in ALL_RULES {
+    for rule in Rule::ALL {
         let base = vec![
             format!("contract.rule={}", rule.name()),
             format!("contract.assumed_f={}", e4_assumed_f(rule)),
@@ -243,7 +243,7 @@ pub const E5_SWITCH_COUNTS: [u32; 3] = [3, 5, 7];
 /// (`agreement--smart--3`, `none--none--0`).
 fn e5_points() -> Vec<Point> {
     let mut points = Vec::new();
-    for defence in ALL_DEFENCES {
+    for defence in Defence::ALL {
         let mut grid: Vec<(ByzantineKind, u32)> = vec![(ByzantineKind::None, 0)];
         grid.extend((1..=7).map(|count| (ByzantineKind::Smart, count)));
         grid.extend(

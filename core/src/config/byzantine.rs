@@ -40,7 +40,7 @@ pub enum ByzantineKind {
 }
 
 impl ByzantineKind {
-    /// Every kind, `none` first.
+    /// Every variant, in documentation order.
     pub const ALL: [ByzantineKind; 14] = [
         ByzantineKind::None,
         ByzantineKind::Faulty,

@@ -30,20 +30,20 @@ pub enum Rule {
     Bulyan,
 }
 
-/// Every rule, in documentation order.
-pub const ALL_RULES: [Rule; 9] = [
-    Rule::Fedavg,
-    Rule::Paper,
-    Rule::Krum,
-    Rule::MultiKrum,
-    Rule::Median,
-    Rule::TrimmedMean,
-    Rule::Geomed,
-    Rule::CenteredClipping,
-    Rule::Bulyan,
-];
-
 impl Rule {
+    /// Every variant, in documentation order.
+    pub const ALL: [Rule; 9] = [
+        Rule::Fedavg,
+        Rule::Paper,
+        Rule::Krum,
+        Rule::MultiKrum,
+        Rule::Median,
+        Rule::TrimmedMean,
+        Rule::Geomed,
+        Rule::CenteredClipping,
+        Rule::Bulyan,
+    ];
+
     /// The rule's name as written in configurations.
     pub fn name(self) -> &'static str {
         match self {
@@ -61,7 +61,7 @@ impl Rule {
 
     /// Looks a rule up by its configuration name.
     pub fn from_name(name: &str) -> Option<Rule> {
-        ALL_RULES.into_iter().find(|r| r.name() == name)
+        Rule::ALL.into_iter().find(|r| r.name() == name)
     }
 
     /// True when submissions stake tokens and the used ones are paid (every rule but fedavg).
@@ -95,10 +95,10 @@ pub enum Defence {
     Innovation,
 }
 
-/// Every defence, `none` first.
-pub const ALL_DEFENCES: [Defence; 3] = [Defence::None, Defence::Agreement, Defence::Innovation];
-
 impl Defence {
+    /// Every variant, in documentation order.
+    pub const ALL: [Defence; 3] = [Defence::None, Defence::Agreement, Defence::Innovation];
+
     /// The defence's name as written in configurations.
     pub fn name(self) -> &'static str {
         match self {
@@ -110,7 +110,7 @@ impl Defence {
 
     /// Looks a defence up by its configuration name.
     pub fn from_name(name: &str) -> Option<Defence> {
-        ALL_DEFENCES.into_iter().find(|d| d.name() == name)
+        Defence::ALL.into_iter().find(|d| d.name() == name)
     }
 }
 

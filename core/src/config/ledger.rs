@@ -27,7 +27,7 @@ pub enum LedgerBehaviour {
 }
 
 impl LedgerBehaviour {
-    /// Every behaviour, honest first.
+    /// Every variant, in documentation order.
     pub const ALL: [LedgerBehaviour; 7] = [
         LedgerBehaviour::Honest,
         LedgerBehaviour::Equivocate,

@@ -24,7 +24,7 @@ mod tests;
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
-    RankKey, RankTies, Rule, ThresholdRule, ALL_DEFENCES, ALL_RULES,
+    RankKey, RankTies, Rule, ThresholdRule,
 };
 pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};

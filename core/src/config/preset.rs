@@ -48,7 +48,7 @@ pub enum Preset {
 }
 
 impl Preset {
-    /// Every preset, in the order `swarmfl presets` lists them.
+    /// Every variant, in documentation order (the order `swarmfl presets` lists them).
     pub const ALL: [Preset; 12] = [
         Preset::Paper,
         Preset::PaperText,

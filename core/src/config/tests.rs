@@ -116,7 +116,7 @@ fn errors_name_the_key_the_value_and_what_is_allowed() {
 #[cfg(feature = "evm")]
 #[test]
 fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
-    for rule in ALL_RULES {
+    for rule in Rule::ALL {
         let set = |engine: &str| {
             Config::resolve(
                 None,
@@ -295,4 +295,20 @@ fn text_parses_like_a_file_and_names_its_source() {
         let err = Config::from_toml_str(text, "mine").unwrap_err().to_string();
         assert!(err.contains(expect), "{text:?}: {err:?} lacks {expect:?}");
     }
+}
+
+/// Every enum with a hand-written `name()` and an `ALL` list: `name()` is the serde name that
+/// configurations are written with, so the two cannot drift apart.
+#[test]
+fn hand_written_names_are_the_serde_names() {
+    fn check<T: serde::Serialize + std::fmt::Debug>(all: &[T], name: impl Fn(&T) -> &'static str) {
+        for variant in all {
+            let serde_name = serde_json::to_value(variant).unwrap();
+            assert_eq!(serde_name.as_str(), Some(name(variant)), "{variant:?}");
+        }
+    }
+    check(&Rule::ALL, |r| r.name());
+    check(&Defence::ALL, |d| d.name());
+    check(&ByzantineKind::ALL, |k| k.name());
+    check(&LedgerBehaviour::ALL, |b| b.name());
 }

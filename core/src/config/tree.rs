@@ -229,15 +229,15 @@ pub struct ContractConfig {
     /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].
     #[serde(default)]
     pub reward_weights: Vec<i64>,
-    /// Which machine executes the contract: "native" (the Rust reducer) or "evm" (the Solidity
+    /// Which machine executes the contract: `native` (the Rust reducer) or `evm` (the Solidity
     /// contract of `contracts/`, its committed bytecode run in revm; same events and results).
     #[serde(default)]
     pub engine: ContractEngine,
-    /// Median of an even count of distances: "lower" middle (swarmfl) or "mean" of the two
+    /// Median of an even count of distances: `lower` middle (swarmfl) or `mean` of the two
     /// middles, floored (authors).
     #[serde(default)]
     pub median: MedianRule,
-    /// FedAvg rounding: "nearest", ties away from zero (swarmfl), or "truncate" toward zero
+    /// FedAvg rounding: `nearest`, ties away from zero (swarmfl), or `truncate` toward zero
     /// (authors).
     #[serde(default)]
     pub fedavg_rounding: FedAvgRounding,
@@ -245,28 +245,28 @@ pub struct ContractConfig {
     /// with it, leaves int48: the authors' int48 accumulator reverts such a submission.
     #[serde(default)]
     pub int48_products: bool,
-    /// Outlier threshold: "inclusive", `d <= t * N` (swarmfl), or "strict", `d < t * N`
+    /// Outlier threshold: `inclusive`, `d <= t * N` (swarmfl), or `strict`, `d < t * N`
     /// (authors).
     #[serde(default)]
     pub threshold: ThresholdRule,
-    /// Ranking key: exact L1 "distance" (swarmfl) or truncated "mae" `floor(d / N)` (authors).
+    /// Ranking key: exact L1 `distance` (swarmfl) or truncated `mae` `floor(d / N)` (authors).
     #[serde(default)]
     pub rank_key: RankKey,
-    /// Ranking ties: "stable" submission order (swarmfl) or the authors' "quicksort".
+    /// Ranking ties: `stable` submission order (swarmfl) or the authors' `quicksort`.
     #[serde(default)]
     pub rank_ties: RankTies,
-    /// Payout shares: "exact" to one unit (swarmfl) or "ratio_1e9", normalised to 1e9 and
+    /// Payout shares: `exact` to one unit (swarmfl) or `ratio_1e9`, normalised to 1e9 and
     /// floored (authors).
     #[serde(default)]
     pub payout_rounding: PayoutRounding,
-    /// Pool of an aggregation: "carry" (all the contract holds, remainders included; swarmfl)
-    /// or "round" (the round's stakes only; authors).
+    /// Pool of an aggregation: `carry` (all the contract holds, remainders included; swarmfl)
+    /// or `round` (the round's stakes only; authors).
     #[serde(default)]
     pub pool: PoolRule,
     /// A defence of the reward rule against robots that are paid without collecting data or
-    /// training (issue 16, beyond the paper): "none" (the rule's own rewards), "agreement" or
-    /// "innovation" (rewards follow a model's agreement with the round's other models; see
-    /// `contract::defences`). Needs a staking rule (security on); "none" in every preset but
+    /// training (issue 16, beyond the paper): `none` (the rule's own rewards), `agreement` or
+    /// `innovation` (rewards follow a model's agreement with the round's other models; see
+    /// `contract::defences`). Needs a staking rule (security on); `none` in every preset but
     /// `e5-smart-defence`.
     #[serde(default)]
     pub defence: Defence,
@@ -308,11 +308,12 @@ fn default_assumed_f() -> u32 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ByzantineConfig {
-    /// Behaviour of the Byzantine robots.
+    /// Behaviour of the Byzantine robots: one of [`ByzantineKind`] (`none`, `faulty`,
+    /// `malicious`, `smart`, ...).
     pub kind: ByzantineKind,
     /// How many robots are Byzantine (they replace honest ones: the swarm size stays).
     pub count: u32,
-    /// Formula variant: the paper's or the reference implementation's.
+    /// Formula variant: the paper's (`paper`) or the reference implementation's (`reference`).
     pub variant: ByzantineVariant,
     /// Samples a Byzantine robot claims with each submission (reference: 200).
     pub claimed_samples: u32,
@@ -342,7 +343,8 @@ pub struct ByzantineConfig {
     #[serde(default = "default_inflated_samples")]
     pub inflated_samples: u32,
     /// Misbehaviour of the same robots on the ledger (sealing, gossip, transactions),
-    /// orthogonal to `kind` (beyond the paper; `honest` by default).
+    /// orthogonal to `kind` (beyond the paper; `honest` by default): one of
+    /// [`LedgerBehaviour`].
     #[serde(default)]
     pub ledger: LedgerBehaviour,
     /// `smart-then-collude`: the share of the robots' tokens (balances on the robot's own

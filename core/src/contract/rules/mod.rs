@@ -216,7 +216,6 @@ pub(crate) fn inputs_of<'a>(models: &[(&'a [i64], u64)]) -> Vec<Input<'a>> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::config::ALL_RULES;
 
     #[test]
     fn isqrt_is_the_floor_of_the_root() {
@@ -272,7 +271,7 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        for rule in ALL_RULES {
+        for rule in Rule::ALL {
             assert_eq!(Rule::from_name(rule.name()), Some(rule));
         }
     }
