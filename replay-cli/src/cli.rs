@@ -317,8 +317,7 @@ pub struct BenchArgs {
     /// `scale` only: the swarm sizes, comma-separated.
     #[arg(long, value_name = "N,N,..")]
     pub robots: Option<String>,
-    /// `scale` only: simulated seconds per size (default 300; the 960-robot size then takes
-    /// about 1.5 min on a 2-core machine, the others under 20 s each).
+    /// `scale` only: simulated seconds per size (default 300).
     #[arg(long)]
     pub duration_s: Option<f64>,
 }
@@ -354,12 +353,13 @@ Identifiers, at each block of the final canonical chain:
                     inspect), also the shared model's version
   loss              paper metric of the last round closed up to the block (NaN before)
   heldout_loss      loss of the block's shared model on the held-out set
-  byzantine_tokens  MEAN balance of the Byzantine robots, tokens (NaN without any)
-  honest_tokens     MEAN balance of the honest robots, tokens (NaN without any)
+  byzantine_tokens  mean balance of the Byzantine robots, tokens (NaN without any)
+  honest_tokens     mean balance of the honest robots, tokens (NaN without any)
   byzantine_wealth  byzantine_tokens plus the group's stakes in the current round, per robot
   honest_wealth     honest_tokens plus the group's stakes in the current round, per robot
   byzantine_sum     total balance of the Byzantine robots, tokens
   honest_sum        total balance of the honest robots, tokens
+  byzantine_share   byzantine_sum / (byzantine_sum + honest_sum), 0..1
   accepted          accepted submissions in the current round
   outliers          outlier submissions in the current round
   pool              tokens held by the contract (stakes and carried remainders)
@@ -368,8 +368,8 @@ Identifiers, at each block of the final canonical chain:
   node[i].height    height of node i's head right after the block was sealed
 Examples: \"byzantine_tokens > honest_tokens\", \"loss > 0.1\", \"round >= 50\",
 \"node[3].height + 5 < node[0].height\".
-Both modes first fold the whole log once (checking every checkpoint, ~0.6 s for a paper run) to
-learn the final canonical chain; the search then evaluates the per-block values in memory.";
+Both modes first fold the whole log once (checking every checkpoint) to learn the final
+canonical chain; the search then evaluates the per-block values in memory.";
 
 #[derive(Clone, Copy, Debug, ValueEnum)]
 pub enum FixturesAction {

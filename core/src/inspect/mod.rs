@@ -19,24 +19,22 @@
 //! [`crate::ledger::BlockEntry`] of the final ledger carries it, which is what `bisect` and
 //! `export` read (node head heights come from the index).
 //!
-//! # Sidecar index instead of snapshots (measured)
+//! # Sidecar index instead of snapshots
 //!
 //! The final canonical chain (which block *is* height H) is only known at the end of the log,
 //! so a first lookup needs the whole fold; `swarmfl inspect` then writes the sidecar index `LOG.idx` ([`Sidecar`]:
 //! the final canonical chain with every block's sealing-checkpoint record index, tied to the log
 //! by its size and footer); later lookups ([`block_report_indexed`]) fold only up to the block.
 //!
-//! On the 5000 s `paper` log (85 102 records, 677 sealed blocks, 495 canonical, 15 robots),
-//! release build, on a shared and busy 2-core machine: `swarmfl replay` 0.60 s;
-//! `inspect --block H` without the index 0.55 to 0.97 s for any H (whole fold + report), with
-//! the index 6 ms (H = 0), 0.2 s (H = 100), 0.4 s (H = 300), 0.7 s (H = 495);
-//! `bisect` 0.52 to 0.7 s (the whole fold, then microseconds of evaluation; `heldout_loss` adds
-//! about 1 ms per distinct round evaluated); `export` 0.86 s.
+//! The index exists because a lookup without it repeats the whole fold, and on a paper-sized log
+//! that fold, not the report, is the cost; with the index the cost grows with the asked height.
+//! The timings are in docs/PERFORMANCE.md, "Replay, inspect and bisect".
 //!
 //! Full-state snapshots every K blocks would bound the fold to K blocks' worth of records, but
 //! need serde for `Ledger` and `World` (not derived today: the ledger shares blocks and
 //! transactions through `Arc`s, the world holds its random streams) and `LogReader` seeking to
-//! a byte offset. At this scale the fold is below the 1 s target, so they are not written.
+//! a byte offset. At the paper's scale the fold stays below the 1 s target (docs/PERFORMANCE.md), so they are
+//! not written.
 
 //! # Files
 //!

@@ -45,11 +45,9 @@ pub use recorder::{Part, Profiler};
 /// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
 /// window in which honest trainings are speculated in parallel. A performance knob only: the
 /// records do not depend on it (a test runs with 0, with this and with a wider window).
-/// Measured on the 2-core reference machine (`paper`, seed 1, trainings in the background):
-/// 5 s, 10 s and 20 s give 17.7 s, 16.5 s and 16.4 s of wall time with 29.8 s, 28.5 s and
-/// 29.7 s of CPU; 10 s wastes the fewest speculated trainings, which matters when two runs
-/// share the cores (`sweep --jobs 2`). Speculating at every tick instead of only when a
-/// training falls due: 16.5 s with 30.4 s of CPU, not kept.
+/// 10 s: wider windows gained almost nothing, narrower ones cost wall time, and 10 s wastes the
+/// fewest speculated trainings, which matters when two runs share the cores (`sweep --jobs 2`);
+/// see docs/PERFORMANCE.md, "The paper run".
 pub const DEFAULT_LOOKAHEAD_MS: u64 = 10_000;
 
 /// A copy of the world that runs ahead of the reduced state. The world does not depend on the
