@@ -400,8 +400,8 @@ and its stakes refunded). Keys a fork may change:
   run.duration_s                     the run ends at the new time
   learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
   contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks,
-  reward_weights, median, fedavg_rounding, int48_products, threshold, rank_key, rank_ties,
-  payout_rounding, pool
+  rule, assumed_f, reward_weights, median, fedavg_rounding, int48_products, threshold,
+  rank_key, rank_ties, payout_rounding, pool, defence, defence_refund_percent
   byzantine.*                        which robots misbehave, and how
   output.*
 
@@ -434,3 +434,28 @@ else SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN (MIN 0 if unset) of SLURM_ARRAY_
 Each task writes DIR/<experiment>/<point>/seed<N>.json (the run's summary plus a `sweep`
 section) atomically; existing, parseable result files are skipped, so re-running the same
 command resumes a sweep and retries failed tasks.";
+
+#[cfg(test)]
+mod tests {
+    use super::FORK_HELP;
+    use swarmfl_core::config::RECONFIGURABLE;
+
+    /// `fork --help` lists every key a fork may change: a key, its table's `.*`, or (for the
+    /// contract's many keys, listed after `contract.`) its name as a word.
+    #[test]
+    fn the_fork_help_lists_every_reconfigurable_key() {
+        let words: Vec<&str> = FORK_HELP
+            .split(|c: char| !(c.is_alphanumeric() || c == '_'))
+            .collect();
+        for key in RECONFIGURABLE {
+            let (table, name) = key.split_once('.').expect("a dotted key");
+            let listed = FORK_HELP.contains(key)
+                || FORK_HELP.contains(&format!("{table}.*"))
+                || (table == "contract" && words.contains(&name));
+            assert!(
+                listed,
+                "`fork --help` does not list the reconfigurable key {key}"
+            );
+        }
+    }
+}

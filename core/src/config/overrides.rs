@@ -201,9 +201,9 @@ impl Config {
 /// - `run.duration_s`: the run ends at the new time (after the fork point).
 /// - `learn.*` except `lstm_units`: the robots' next trainings use the new hyper-parameters.
 /// - `contract.security`, `stake_tokens`, `quorum_fraction`, `outlier_threshold`,
-///   `penalised_ranks`, `rule`, `assumed_f`, `reward_weights` and the variant options
-///   (`median` .. `pool`): the contract's rules change for the blocks sealed after the fork
-///   point
+///   `penalised_ranks`, `rule`, `assumed_f`, `reward_weights`, the variant options
+///   (`median` .. `pool`), `defence` and `defence_refund_percent`: the contract's rules change
+///   for the blocks sealed after the fork point
 ///   (activation by block timestamp, as Ethereum's time-based upgrades); the round open on a
 ///   chain when it crosses the activation is restarted and its stakes refunded.
 /// - `byzantine.*`: which robots misbehave, and how, from the fork point on.
