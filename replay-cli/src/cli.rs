@@ -87,6 +87,12 @@ pub enum Command {
     Sweep(SweepArgs),
     /// Merge a sweep's results: means and 95 % CIs, the paper's figures (SVG, PNG), report.md.
     Report(ReportArgs),
+    /// Check that committed studies come from this build: every result file's configuration
+    /// under today's presets, the report re-made from the results, and a few tasks per
+    /// experiment re-run (the fastest by recorded wall time) compared field by field, wall-clock
+    /// fields apart. Exits 1 naming each file that differs. A study whose README.md has a line
+    /// `Stale: <why>` is reported as stale and not checked.
+    Recheck(RecheckArgs),
     /// A seeded fault campaign: each seed draws a configuration, Byzantine behaviours and a
     /// fault schedule, runs it and checks invariants at every block (conservation, validity,
     /// agreement after heals, liveness). Exits 1 on a violation, naming the seed and the
@@ -287,6 +293,20 @@ pub struct ReportArgs {
     /// Report directory.
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl recheck`.
+#[derive(Args, Debug)]
+pub struct RecheckArgs {
+    /// Study directories, each with a sweep's `results/` and the report made from it
+    /// (e.g. reproduction/full-study).
+    pub dirs: Vec<PathBuf>,
+    /// Tasks re-run per experiment of each study (0: only the configuration and report checks).
+    #[arg(long, default_value_t = 1)]
+    pub tasks: usize,
+    /// Re-runs in parallel; default the number of cores.
+    #[arg(long)]
+    pub jobs: Option<usize>,
 }
 
 /// The arguments of `swarmfl chaos`.

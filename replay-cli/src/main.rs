@@ -48,6 +48,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Export(args) => export::command(args),
         Command::Sweep(args) => sweep::command(args),
         Command::Report(args) => report::command(args),
+        Command::Recheck(args) => recheck::command(args),
         Command::Chaos(args) => chaos::command(args),
         Command::Presets => presets::command(),
         Command::Config { config } => config::command(&config),

@@ -13,6 +13,7 @@ pub mod fixtures;
 pub mod fork;
 pub mod inspect;
 pub mod presets;
+pub mod recheck;
 pub mod replay;
 pub mod report;
 pub mod run;
