@@ -1,0 +1,68 @@
+#!/usr/bin/env bash
+# Re-makes committed studies under reproduction/ with the build at the tip, so that every
+# result file comes from it (`swarmfl recheck`, run by CI, checks that they do).
+#
+#   scripts/remake-studies.sh full-study e5-smart-defence     # the ones named
+#   scripts/remake-studies.sh all                              # every study below
+#
+# Each study's results/ is emptied first (git keeps the old ones), its sweeps run with
+# `--jobs ${JOBS:-2}`, then `swarmfl report` writes its report beside results/. `sweep` resumes:
+# if this script is interrupted, run it again with RESUME=1 and it keeps the finished files.
+# The wall time of every sweep is printed and appended to reproduction/<study>/walltime.txt
+# (one line per sweep: experiment, tasks, seconds), for the study's README.
+set -euo pipefail
+cd "$(dirname "$0")/.."
+
+bin=${SWARMFL:-target/release/swarmfl}
+jobs=${JOBS:-2}
+if [ ! -x "$bin" ]; then
+  cargo build --release --locked -p replay-cli
+fi
+
+# study name -> the sweeps that make it ("experiment [sweep args...]", one per line).
+sweeps_of() {
+  case "$1" in
+    full-study)
+      printf '%s\n' e1-expiration e1-faulty e2-faulty e2-malicious e3-smart ;;
+    reduced-study)
+      printf '%s\n' "e1-expiration --runs 5" "e1-faulty --runs 5" "e2-faulty --runs 5" \
+        "e2-malicious --runs 5" "e3-smart --runs 5" ;;
+    e0-baselines)
+      printf '%s\n' "e0-baselines --runs 3" ;;
+    e5-smart-defence)
+      printf '%s\n' "e5-smart-defence --runs 3" ;;
+    *)
+      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e5-smart-defence)" >&2
+      return 1 ;;
+  esac
+}
+
+studies=("$@")
+if [ "${#studies[@]}" -eq 0 ]; then
+  echo "usage: scripts/remake-studies.sh STUDY... | all" >&2
+  exit 2
+fi
+if [ "${studies[0]}" = all ]; then
+  studies=(full-study reduced-study e0-baselines e5-smart-defence)
+fi
+
+for study in "${studies[@]}"; do
+  dir=reproduction/$study
+  recipe=$(sweeps_of "$study")
+  if [ "${RESUME:-0}" != 1 ]; then
+    rm -rf "$dir/results"
+    : > "$dir/walltime.txt"
+  fi
+  mkdir -p "$dir/results"
+  while read -r line; do
+    read -r experiment args <<< "$line"
+    start=$(date +%s)
+    # shellcheck disable=SC2086
+    "$bin" sweep "$experiment" $args --jobs "$jobs" --out "$dir/results"
+    end=$(date +%s)
+    tasks=$(find "$dir/results/$experiment" -name 'seed*.json' | wc -l)
+    echo "$experiment $tasks $((end - start))" | tee -a "$dir/walltime.txt"
+  done <<< "$recipe"
+  "$bin" report "$dir/results" --out "$dir"
+  awk '{ s += $3 } END { printf "%s: %d s of sweeps in all\n", FILENAME, s }' "$dir/walltime.txt"
+done
