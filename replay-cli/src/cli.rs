@@ -78,9 +78,12 @@ pub enum Command {
     #[command(after_long_help = FORK_HELP)]
     Fork(ForkArgs),
     /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
-    /// accepted, outliers), balances.csv (every robot's balance after every block of the final
-    /// canonical chain), chain_bytes.csv (every node's chain size at every sealing) and
-    /// trajectories.csv (the samples of every robot's data set at the end of the run).
+    /// accepted, outliers; a gossip or central run: per aggregation), submissions.csv (every
+    /// counted submission of every closed round: outcome, distance, samples claimed, reward),
+    /// balances.csv (every robot's balance after every block of the final canonical chain),
+    /// chain_bytes.csv (every node's chain size at every sealing) and trajectories.csv (the
+    /// samples of every robot's data set at the end of the run). A baseline run has no blocks
+    /// or tokens: rounds.csv and trajectories.csv only.
     Export(ExportArgs),
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]

@@ -1,58 +1,8 @@
-//! The `swarmfl` command: run, replay and inspect swarmfl simulations.
-
-mod cli;
-mod commands;
-mod exit;
-mod experiments;
-mod png;
-mod progress;
-mod results;
+//! The `swarmfl` command: run, replay and inspect swarmfl simulations (the commands live in
+//! the crate's library, `lib.rs`, which the Python package shares).
 
 use std::process::ExitCode;
 
-use clap::Parser;
-
-use crate::cli::{Cli, Command};
-use crate::commands::*;
-
 fn main() -> ExitCode {
-    // Output piped into `head` and the like ends quietly, as other command-line tools do,
-    // instead of panicking on the broken pipe.
-    // SAFETY: called once at start-up, before any other thread exists; SIG_DFL is a valid
-    // disposition for SIGPIPE.
-    unsafe {
-        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
-    }
-    let cli = Cli::parse();
-    match dispatch(cli.command) {
-        Ok(code) => code,
-        Err(e) => {
-            eprintln!("error: {e:#}");
-            ExitCode::from(exit::of_error(&e))
-        }
-    }
-}
-
-/// Runs one subcommand.
-fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
-    match command {
-        Command::Run(args) => run::command(args),
-        Command::Replay(args) => replay::command(args),
-        Command::Snapshot(args) => snapshot::command(args),
-        Command::View(args) => view::command(args),
-        Command::Diff(args) => diff::command(args),
-        Command::Fixtures(args) => fixtures::command(args),
-        Command::Inspect(args) => inspect::command(args),
-        Command::Bisect(args) => bisect::command(args),
-        Command::Fork(args) => fork::command(args),
-        Command::Export(args) => export::command(args),
-        Command::Sweep(args) => sweep::command(args),
-        Command::Report(args) => report::command(args),
-        Command::Recheck(args) => recheck::command(args),
-        Command::Chaos(args) => chaos::command(args),
-        Command::Presets => presets::command(),
-        Command::Config { config } => config::command(&config),
-        Command::Bench(args) => bench::command(args),
-        Command::BenchScaleOne(args) => bench::scale_one(args),
-    }
+    swarmfl_cli::main()
 }

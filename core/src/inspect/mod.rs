@@ -42,7 +42,8 @@
 //! chain, [`index_run`]), `fold.rs` (the record fold shared by the index and a block's report),
 //! `sidecar.rs` (`LOG.idx`), `at_block.rs` (the state at a block, [`block_report`]),
 //! `values.rs` (per-block values for predicates), `bisect.rs` (the first block where a
-//! predicate holds), `export.rs` (the closed rounds `swarmfl export` writes) and `error.rs`.
+//! predicate holds), `export.rs` (the closed rounds), `tables.rs` (every table `swarmfl export`
+//! writes and the Python package loads, as typed columns) and `error.rs`.
 //! A baseline run (no blocks) is looked into by time instead, in [`timeline`]. The predicate
 //! language of `bisect` is in [`expr`] (grammar in its module docs).
 
@@ -54,6 +55,7 @@ pub mod expr;
 mod fold;
 mod index;
 mod sidecar;
+mod tables;
 pub mod timeline;
 mod values;
 
@@ -71,4 +73,5 @@ pub use expr::{EvalError, Expr, ParseError};
 pub use fold::LastLearning;
 pub use index::{index_run, BlockRow, ChainBytesRow, RunIndex, StateAtBlock};
 pub use sidecar::{read_sidecar, sidecar_path, Sidecar, SIDECAR_VERSION};
+pub use tables::{poses_table, Column, Table};
 pub use values::{BlockValues, ChainValues};

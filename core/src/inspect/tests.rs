@@ -412,3 +412,173 @@ fn blocks_are_found_inspected_and_bisected() {
     assert!(index.truncated.is_none());
     std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }
+
+/// A short smoke run of `aggregation` (no Byzantine robots), written to a temporary log.
+fn baseline_run(
+    name: &str,
+    aggregation: crate::config::Aggregation,
+) -> (PathBuf, crate::config::Config) {
+    let mut config = Preset::Smoke.config();
+    config.run.duration_s = 200.0;
+    config.learn.aggregation = aggregation;
+    config.validate().unwrap();
+    let dir = std::env::temp_dir().join(format!("swarmfl-tables-{}-{name}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.swlog");
+    let header = Header::new(3, config.to_toml());
+    let mut writer = LogWriter::create(&path, &header).unwrap();
+    for record in Sim::new(config.clone(), 3).unwrap() {
+        writer.append(&record).unwrap();
+    }
+    writer.finish().unwrap();
+    (path, config)
+}
+
+fn u64s<'a>(t: &'a Table, name: &str) -> &'a [u64] {
+    match t.column(name) {
+        Some(Column::U64(v)) => v,
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+fn f64s<'a>(t: &'a Table, name: &str) -> &'a [f64] {
+    match t.column(name) {
+        Some(Column::F64(v)) => v,
+        other => panic!("{name}: {other:?}"),
+    }
+}
+
+fn same(a: f64, b: f64) -> bool {
+    a == b || (a.is_nan() && b.is_nan())
+}
+
+#[test]
+fn chain_tables_agree_with_the_rounds_and_conserve_tokens() {
+    let path = short_run("tables");
+    let index = index_run(&path, None).unwrap();
+    let rounds = index.rounds_table().unwrap();
+    let rows = index.rounds();
+    assert!(rows.len() >= 2, "the run closes rounds: {}", rows.len());
+    assert_eq!(rounds.rows(), rows.len());
+    assert_eq!(
+        u64s(&rounds, "round"),
+        rows.iter().map(|r| r.round).collect::<Vec<_>>()
+    );
+    // Every closed round's counted submissions, as many accepted and outliers as the round's row.
+    let subs = index.submissions_table().unwrap();
+    let (sub_round, outcome) = (
+        u64s(&subs, "round"),
+        match subs.column("outcome") {
+            Some(Column::Str(v)) => v.clone(),
+            other => panic!("{other:?}"),
+        },
+    );
+    for r in &rows {
+        let of = |what: &str| {
+            sub_round
+                .iter()
+                .zip(&outcome)
+                .filter(|(&n, o)| n == r.round && o.as_str() == what)
+                .count() as u64
+        };
+        assert_eq!(
+            (of("accepted"), of("outlier")),
+            (r.accepted, r.outliers),
+            "round {}",
+            r.round
+        );
+    }
+    let robots = u64s(&subs, "robot");
+    let byz = match subs.column("byzantine") {
+        Some(Column::Bool(v)) => v,
+        other => panic!("{other:?}"),
+    };
+    for (r, b) in robots.iter().zip(byz) {
+        assert_eq!(*b, index.byzantine[*r as usize]);
+    }
+    assert!(byz.iter().any(|&b| b), "the smart robots submit");
+    let reward: f64 = f64s(&subs, "reward_tokens").iter().sum();
+    assert!(reward > 0.0, "security is on: rounds pay");
+    // Balances: one row per robot per block; with the contract's holdings they sum to the
+    // robots' initial tokens at every block.
+    let balances = index.balances_table().unwrap();
+    let n = index.config.world.robots as usize;
+    assert_eq!(balances.rows(), index.chain.len() * n);
+    let tokens = f64s(&balances, "balance_tokens");
+    for (h, block) in tokens.chunks(n).enumerate() {
+        let held = index.tokens(index.contract_at(h as u64).holdings_units);
+        let total: f64 = block.iter().sum::<f64>() + held;
+        let expect = index.tokens(index.contract_at(0).balances.iter().sum::<u64>());
+        assert!(
+            (total - expect).abs() < 1e-6,
+            "block {h}: {total} != {expect}"
+        );
+    }
+    let chain_bytes = index.chain_bytes_table().unwrap();
+    assert_eq!(chain_bytes.rows(), index.chain_bytes.len() * n);
+}
+
+#[test]
+fn baseline_rounds_are_its_aggregations_and_chain_tables_say_why_not() {
+    let (path, config) = baseline_run("gossip", crate::config::Aggregation::Gossip);
+    let index = index_run(&path, None).unwrap();
+    let rounds = index.rounds_table().unwrap();
+    let (contract, _) = crate::aggregation::summary::summarise(
+        &config,
+        &index.final_state.aggregation,
+        &index.final_state.metrics,
+        index.final_state.world.heldout(),
+        &index.byzantine,
+    );
+    assert!(contract.rounds > 0, "the gossip run aggregates");
+    assert_eq!(
+        rounds.rows() as u64,
+        contract.rounds,
+        "as many rows as summary.json's rounds"
+    );
+    for (a, b) in f64s(&rounds, "loss").iter().zip(&contract.loss_by_round) {
+        assert!(same(*a, *b));
+    }
+    for (a, b) in f64s(&rounds, "time_s").iter().zip(&contract.round_times_s) {
+        assert!(same(*a, *b));
+    }
+    for table in [
+        index.submissions_table(),
+        index.balances_table(),
+        index.chain_bytes_table(),
+    ] {
+        let e = table.unwrap_err().to_string();
+        assert!(
+            e.contains("a gossip run has no") && e.contains("learn.aggregation"),
+            "{e}"
+        );
+    }
+}
+
+#[test]
+fn poses_are_sampled_at_the_rate_asked() {
+    let (path, config) = baseline_run("poses", crate::config::Aggregation::Central);
+    let t = poses_table(&path, 10.0).unwrap();
+    let n = config.world.robots as usize;
+    let times = f64s(&t, "time_s");
+    assert_eq!(t.rows() % n, 0);
+    let samples: Vec<f64> = times.chunks(n).map(|c| c[0]).collect();
+    assert_eq!(samples[0], 0.0);
+    for w in samples.windows(2) {
+        assert!((w[1] - w[0] - 10.0).abs() < 0.15, "{w:?}");
+    }
+    assert!(samples.len() >= 20, "200 s at 10 s: {}", samples.len());
+    // The last sample is the state the full replay reaches at that time.
+    let last = *samples.last().unwrap();
+    let (state, _, _) =
+        crate::replay::state_at_time(&path, crate::types::SimTime((last * 1000.0) as u64)).unwrap();
+    let xs = f64s(&t, "x");
+    assert_eq!(
+        &xs[xs.len() - n..],
+        state.world.poses().iter().map(|p| p.x).collect::<Vec<_>>()
+    );
+    for bad in [0.0, -1.0, f64::NAN] {
+        let e = poses_table(&path, bad).unwrap_err().to_string();
+        assert!(e.contains("positive number of seconds"), "{e}");
+    }
+}

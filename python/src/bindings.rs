@@ -1,0 +1,270 @@
+//! The PyO3 functions and classes of `swarmfl._swarmfl` (see `swarmfl/__init__.py` for the
+//! Python API built on them).
+//!
+//! Every error becomes a `swarmfl.SwarmflError` whose message is the command's (`error: ...`
+//! without the prefix): a bad key, a missing or damaged log, a bad expression. A simulation
+//! runs with the interpreter released (other Python threads go on).
+
+use std::path::PathBuf;
+
+use pyo3::exceptions::PyException;
+use pyo3::prelude::*;
+use pyo3::types::{PyBytes, PyList};
+use swarmfl_core::config::{Aggregation, Config};
+use swarmfl_core::inspect::{self, timeline, Column, Expr, RunIndex, Table};
+use swarmfl_core::types::SimTime;
+
+pyo3::create_exception!(
+    _swarmfl,
+    SwarmflError,
+    PyException,
+    "An error of swarmfl: the message is the `swarmfl` command's for the same input."
+);
+
+/// The Python exception of an error, with the command's message.
+fn err(e: impl Into<anyhow::Error>) -> PyErr {
+    let e: anyhow::Error = e.into();
+    SwarmflError::new_err(format!("{e:#}"))
+}
+
+/// A table as `[(name, dtype, data)]`: `data` is the little-endian bytes of the column for the
+/// numeric dtypes (`u8`, `i8`, `f8`, `f4`, `?`: numpy's codes, read with `numpy.frombuffer`),
+/// a list of `str` for `str`.
+fn table<'py>(py: Python<'py>, t: &Table) -> PyResult<Bound<'py, PyList>> {
+    let out = PyList::empty(py);
+    for (name, column) in &t.columns {
+        let (dtype, data): (&str, Bound<'py, PyAny>) = match column {
+            Column::U64(v) => ("<u8", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
+            Column::I64(v) => ("<i8", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
+            Column::F64(v) => ("<f8", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
+            Column::F32(v) => ("<f4", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
+            Column::Bool(v) => ("?", bytes(py, v.iter().map(|&b| u8::from(b)))),
+            Column::Str(v) => ("str", PyList::new(py, v)?.into_any()),
+        };
+        out.append((*name, dtype, data))?;
+    }
+    Ok(out)
+}
+
+fn bytes<'py>(py: Python<'py>, it: impl Iterator<Item = u8>) -> Bound<'py, PyAny> {
+    let v: Vec<u8> = it.collect();
+    PyBytes::new(py, &v).into_any()
+}
+
+/// Resolves a configuration as `swarmfl run --preset P --config F --set K=V...` does.
+fn resolve(
+    preset: Option<&str>,
+    config: Option<PathBuf>,
+    overrides: &[String],
+) -> PyResult<Config> {
+    Config::resolve(preset, config.as_deref(), overrides).map_err(err)
+}
+
+/// Runs a simulation into `out` (`run.swlog`, `summary.json`) as `swarmfl run` does, and
+/// returns the summary's JSON text.
+#[pyfunction]
+#[pyo3(signature = (preset, config, overrides, seed, out, quiet))]
+fn run(
+    py: Python<'_>,
+    preset: Option<String>,
+    config: Option<PathBuf>,
+    overrides: Vec<String>,
+    seed: u64,
+    out: PathBuf,
+    quiet: bool,
+) -> PyResult<String> {
+    let config = resolve(preset.as_deref(), config, &overrides)?;
+    let outcome = py
+        .detach(|| swarmfl_cli::api::run(config, seed, &out, quiet))
+        .map_err(err)?;
+    serde_json::to_string(&outcome.summary).map_err(err)
+}
+
+/// The resolved configuration's TOML text (what a run's header records).
+#[pyfunction]
+#[pyo3(signature = (preset, config, overrides))]
+fn config_toml(
+    preset: Option<String>,
+    config: Option<PathBuf>,
+    overrides: Vec<String>,
+) -> PyResult<String> {
+    Ok(resolve(preset.as_deref(), config, &overrides)?.to_toml())
+}
+
+/// Writes the CSV tables of a log into a directory, as `swarmfl export` does.
+#[pyfunction]
+fn export(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<()> {
+    py.detach(|| swarmfl_cli::api::export(&log, &out))
+        .map_err(err)
+}
+
+/// Every robot's pose every `every_s` simulated seconds (`inspect::poses_table`).
+#[pyfunction]
+fn poses<'py>(py: Python<'py>, log: PathBuf, every_s: f64) -> PyResult<Bound<'py, PyList>> {
+    let t = py
+        .detach(|| inspect::poses_table(&log, every_s))
+        .map_err(err)?;
+    table(py, &t)
+}
+
+/// The state right after block `block` of a chain run's final canonical chain, as the JSON
+/// text of `swarmfl inspect --block B --json`.
+#[pyfunction]
+fn at_block(py: Python<'_>, log: PathBuf, block: u64) -> PyResult<String> {
+    let report = py
+        .detach(|| {
+            let index = inspect::index_run(&log, Some(block))?;
+            inspect::block_report(&index, block, None)
+        })
+        .map_err(err)?;
+    serde_json::to_string(&report).map_err(err)
+}
+
+/// The state of a baseline run at the last checkpoint at or before `time_s`, as JSON text.
+#[pyfunction]
+fn at_time(py: Python<'_>, log: PathBuf, time_s: f64) -> PyResult<String> {
+    if !(time_s.is_finite() && time_s >= 0.0) {
+        return Err(SwarmflError::new_err(format!(
+            "{}: the time must be a non-negative number of seconds, got {time_s}",
+            log.display()
+        )));
+    }
+    let at = SimTime((time_s * 1000.0).round() as u64);
+    let report = py.detach(|| timeline::report_at(&log, at)).map_err(err)?;
+    serde_json::to_string(&report).map_err(err)
+}
+
+/// The first checkpoint of a baseline run where `expr` holds: `(time_s, leaves)` or None.
+#[pyfunction]
+fn bisect_by_time(
+    py: Python<'_>,
+    log: PathBuf,
+    expr: String,
+    monotone: bool,
+) -> PyResult<Option<(f64, Vec<(String, f64)>)>> {
+    let predicate = Expr::parse(&expr).map_err(err)?;
+    let (hit, _) = py
+        .detach(|| timeline::bisect_by_time(&log, &predicate, monotone))
+        .map_err(err)?;
+    Ok(hit)
+}
+
+/// One fold of a log (`inspect::index_run`): its tables and its per-block values.
+#[pyclass(unsendable, module = "swarmfl._swarmfl")]
+struct Index {
+    index: RunIndex,
+}
+
+#[pymethods]
+impl Index {
+    /// Folds the log at `path` (checking every checkpoint).
+    #[new]
+    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
+        let index = py
+            .detach(|| inspect::index_run(&path, None).map_err(anyhow::Error::from))
+            .map_err(err)?;
+        Ok(Index { index })
+    }
+
+    /// `chain`, `gossip` or `central`.
+    #[getter]
+    fn aggregation(&self) -> &'static str {
+        self.index.config.learn.aggregation.name()
+    }
+
+    /// The run's seed.
+    #[getter]
+    fn seed(&self) -> u64 {
+        self.index.seed
+    }
+
+    /// Records in the log.
+    #[getter]
+    fn records(&self) -> u64 {
+        self.index.records
+    }
+
+    /// The last height of the final canonical chain (0 for a baseline run).
+    #[getter]
+    fn last_height(&self) -> u64 {
+        self.index.last_height()
+    }
+
+    /// Why the log is truncated (its intact prefix was read), or None.
+    #[getter]
+    fn truncated(&self) -> Option<String> {
+        self.index.truncated.clone()
+    }
+
+    /// Which robots are Byzantine, in robot order.
+    #[getter]
+    fn byzantine(&self) -> Vec<bool> {
+        self.index.byzantine.clone()
+    }
+
+    /// The run's resolved configuration as TOML.
+    #[getter]
+    fn config_toml(&self) -> String {
+        self.index.config.to_toml()
+    }
+
+    /// The rounds table (`RunIndex::rounds_table`).
+    fn rounds<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.rounds_table().map_err(err)?)
+    }
+
+    /// The submissions table (`RunIndex::submissions_table`).
+    fn submissions<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.submissions_table().map_err(err)?)
+    }
+
+    /// The balances table (`RunIndex::balances_table`).
+    fn balances<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.balances_table().map_err(err)?)
+    }
+
+    /// The chain sizes table (`RunIndex::chain_bytes_table`).
+    fn chain_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.chain_bytes_table().map_err(err)?)
+    }
+
+    /// The final data sets (`RunIndex::trajectories_table`).
+    fn trajectories<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.trajectories_table())
+    }
+
+    /// The first block of a chain run where `expr` holds, as `swarmfl bisect`: `(height,
+    /// time_s, leaves)` or None.
+    fn bisect(
+        &self,
+        expr: &str,
+        monotone: bool,
+    ) -> PyResult<Option<(u64, f64, Vec<(String, f64)>)>> {
+        if self.index.config.learn.aggregation != Aggregation::Chain {
+            return Err(SwarmflError::new_err(format!(
+                "{}: a {} run has no blocks: bisect it by time",
+                self.index.path,
+                self.aggregation()
+            )));
+        }
+        let predicate = Expr::parse(expr).map_err(err)?;
+        let values = self.index.values();
+        let hit = inspect::bisect(&values, &predicate, monotone).map_err(err)?;
+        Ok(hit.map(|h| (h.height, h.time_s, h.values)))
+    }
+}
+
+/// The module `swarmfl._swarmfl`.
+#[pymodule]
+fn _swarmfl(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("SwarmflError", m.py().get_type::<SwarmflError>())?;
+    m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(config_toml, m)?)?;
+    m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(poses, m)?)?;
+    m.add_function(wrap_pyfunction!(at_block, m)?)?;
+    m.add_function(wrap_pyfunction!(at_time, m)?)?;
+    m.add_function(wrap_pyfunction!(bisect_by_time, m)?)?;
+    m.add_class::<Index>()?;
+    Ok(())
+}

@@ -1,0 +1,242 @@
+"""swarmfl from Python: run simulations, open their logs and load their tables as pandas
+DataFrames.
+
+    >>> import swarmfl
+    >>> r = swarmfl.run(preset="smoke", seed=7)
+    >>> r.rounds.head()
+
+Everything is computed by the Rust core that the ``swarmfl`` command uses (the extension
+module ``swarmfl._swarmfl``): a run made here writes the same ``run.swlog`` and
+``summary.json`` as ``swarmfl run``, and every table is the one ``swarmfl export`` writes,
+handed over column by column (no Python loop over records). Errors raise
+:class:`SwarmflError` with the command's message. See docs/PYTHON.md.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+from pathlib import Path
+from types import SimpleNamespace
+from typing import Any, Mapping, Optional, Union
+
+import numpy as np
+import pandas as pd
+
+from . import _swarmfl
+from ._swarmfl import SwarmflError
+
+__all__ = ["run", "open", "Run", "SwarmflError", "config"]
+
+PathLike = Union[str, "os.PathLike[str]"]
+
+
+def _frame(columns) -> pd.DataFrame:
+    """A DataFrame from the extension's ``[(name, dtype, data)]`` columns."""
+    data = {}
+    for name, dtype, payload in columns:
+        if dtype == "str":
+            data[name] = pd.Series(payload, dtype="object")
+        else:
+            data[name] = np.frombuffer(payload, dtype=np.dtype(dtype)).copy()
+    return pd.DataFrame(data)
+
+
+def _toml_value(value: Any) -> str:
+    """A Python value as the TOML text ``--set key=value`` takes."""
+    if isinstance(value, bool):
+        return "true" if value else "false"
+    if isinstance(value, (int, float)):
+        return repr(value)
+    if isinstance(value, str):
+        return json.dumps(value)
+    if isinstance(value, (list, tuple)):
+        return "[" + ", ".join(_toml_value(v) for v in value) + "]"
+    raise SwarmflError(
+        f"cannot set a value of type {type(value).__name__} ({value!r}): "
+        "use a bool, int, float, str or a list of them"
+    )
+
+
+def _overrides(set: Optional[Mapping[str, Any]]) -> list:
+    if set is None:
+        return []
+    if not isinstance(set, Mapping):
+        raise SwarmflError(
+            f"set= takes a mapping of key to value, e.g. set={{'world.robots': 30}}, got {type(set).__name__}"
+        )
+    return [f"{key}={_toml_value(value)}" for key, value in set.items()]
+
+
+def config(preset: Optional[str] = None, set: Optional[Mapping[str, Any]] = None,
+           config: Optional[PathLike] = None) -> str:
+    """The resolved configuration (TOML text) of a preset, a file and overrides, as
+    ``swarmfl config`` prints it; raises :class:`SwarmflError` on a bad key or value."""
+    return _swarmfl.config_toml(preset, None if config is None else os.fspath(config), _overrides(set))
+
+
+def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, Any]] = None,
+        out: Optional[PathLike] = None, config: Optional[PathLike] = None,
+        quiet: bool = True) -> "Run":
+    """Simulates a run, as ``swarmfl run --preset PRESET --seed SEED --set K=V ... --out OUT``.
+
+    ``set`` maps configuration keys to values (``{"byzantine.count": 3, "contract.rule":
+    "median"}``); ``config`` names a TOML file overlaid on the preset. Without ``out`` the run
+    goes into a new temporary directory (kept: its path is ``Run.path``). ``quiet=False`` shows
+    the command's progress bar on the terminal. Returns the :class:`Run`.
+    """
+    if preset is None and config is None:
+        preset = "paper"
+    if not isinstance(seed, int) or isinstance(seed, bool) or seed < 0:
+        raise SwarmflError(f"seed must be a non-negative integer, got {seed!r}")
+    if out is None:
+        out = tempfile.mkdtemp(prefix=f"swarmfl-{preset or 'run'}-seed{seed}-")
+    overrides = _overrides(set)
+    summary = _swarmfl.run(preset, None if config is None else os.fspath(config), overrides,
+                           seed, os.fspath(out), quiet)
+    r = Run(Path(out) / "run.swlog")
+    r._summary = json.loads(summary)
+    return r
+
+
+def open(path: PathLike) -> "Run":
+    """Opens an existing run: its directory (holding ``run.swlog``) or the log itself."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "run.swlog"
+    if not p.exists():
+        raise SwarmflError(f"cannot open {p}: no such file (give a run directory or its run.swlog)")
+    return Run(p)
+
+
+def _namespace(value: Any) -> Any:
+    """JSON values as attribute-access objects (lists stay lists)."""
+    if isinstance(value, dict):
+        return SimpleNamespace(**{k: _namespace(v) for k, v in value.items()})
+    if isinstance(value, list):
+        return [_namespace(v) for v in value]
+    return value
+
+
+class Run:
+    """A run's log and what is computed from it. Tables are computed on first use, from one
+    fold of the log (checking every checkpoint), and cached."""
+
+    def __init__(self, log: PathLike):
+        self.log = Path(log)
+        self.path = self.log.parent
+        self._summary: Optional[dict] = None
+        self._index = None
+        self._cache: dict = {}
+
+    def __repr__(self) -> str:
+        return f"swarmfl.Run({str(self.log)!r})"
+
+    @property
+    def index(self):
+        if self._index is None:
+            self._index = _swarmfl.Index(os.fspath(self.log))
+        return self._index
+
+    @property
+    def aggregation(self) -> str:
+        """``chain``, ``gossip`` or ``central``."""
+        return self.index.aggregation
+
+    @property
+    def summary(self) -> dict:
+        """``summary.json`` as a dict (the run's directory must hold it)."""
+        if self._summary is None:
+            p = self.path / "summary.json"
+            if not p.exists():
+                raise SwarmflError(f"cannot read {p}: no such file (re-make it with swarmfl run)")
+            self._summary = json.loads(p.read_text())
+        return self._summary
+
+    @property
+    def summary_frame(self) -> pd.DataFrame:
+        """The summary flattened into one row (nested keys joined by dots)."""
+        return pd.json_normalize(self.summary)
+
+    def _table(self, name: str) -> pd.DataFrame:
+        if name not in self._cache:
+            self._cache[name] = _frame(getattr(self.index, name)())
+        return self._cache[name].copy()
+
+    @property
+    def rounds(self) -> pd.DataFrame:
+        """Every aggregation: a chain run's closed rounds (round, block, time_s, loss,
+        heldout_loss, accepted, outliers, mean_honest_distance); a gossip or central run's
+        aggregations (round, time_s, robot (-1 = the server), models, loss, heldout_loss)."""
+        return self._table("rounds")
+
+    @property
+    def submissions(self) -> pd.DataFrame:
+        """Per counted submission of every closed round (chain runs): round, block, robot,
+        byzantine, outcome, distance (mean absolute distance per weight, model units),
+        samples (claimed), stake_tokens, reward_tokens."""
+        return self._table("submissions")
+
+    @property
+    def balances(self) -> pd.DataFrame:
+        """Every robot's balance after every block (chain runs): block, time_s, robot,
+        balance_tokens, byzantine."""
+        return self._table("balances")
+
+    @property
+    def chain_bytes(self) -> pd.DataFrame:
+        """Every node's canonical chain size at every sealing (chain runs)."""
+        return self._table("chain_bytes")
+
+    @property
+    def trajectories(self) -> pd.DataFrame:
+        """The samples of every robot's final data set, one row per waypoint."""
+        return self._table("trajectories")
+
+    def poses(self, every_s: float = 1.0) -> pd.DataFrame:
+        """Every robot's pose (time_s, robot, x, y, theta) every ``every_s`` simulated seconds."""
+        key = ("poses", float(every_s))
+        if key not in self._cache:
+            self._cache[key] = _frame(_swarmfl.poses(os.fspath(self.log), float(every_s)))
+        return self._cache[key].copy()
+
+    def at(self, block: Optional[int] = None, time_s: Optional[float] = None):
+        """The state right after ``block`` of the final canonical chain (a chain run), or at
+        the last checkpoint at or before ``time_s`` (a baseline run), as attribute objects
+        (``.to_dict`` is not needed: ``vars()`` works; the raw dict is ``.raw``)."""
+        if (block is None) == (time_s is None):
+            raise SwarmflError("give exactly one of block= (a chain run) or time_s= (a baseline run)")
+        if block is not None:
+            if not isinstance(block, int) or isinstance(block, bool) or block < 0:
+                raise SwarmflError(f"block must be a non-negative integer, got {block!r}")
+            raw = json.loads(_swarmfl.at_block(os.fspath(self.log), block))
+        else:
+            raw = json.loads(_swarmfl.at_time(os.fspath(self.log), float(time_s)))
+        ns = _namespace(raw)
+        ns.raw = raw
+        return ns
+
+    def bisect(self, expr: str, monotone: bool = False):
+        """The first block where the predicate ``expr`` holds (``swarmfl bisect``'s language,
+        e.g. ``"round >= 5"``), or None; for a baseline run, the first checkpoint's time (s).
+        The leaf values that made it true are in ``Run.last_bisect``."""
+        if self.aggregation == "chain":
+            hit = self.index.bisect(expr, monotone)
+            if hit is None:
+                self.last_bisect = None
+                return None
+            height, time_s, leaves = hit
+            self.last_bisect = {"block": height, "time_s": time_s, "values": dict(leaves)}
+            return height
+        hit = _swarmfl.bisect_by_time(os.fspath(self.log), expr, monotone)
+        if hit is None:
+            self.last_bisect = None
+            return None
+        time_s, leaves = hit
+        self.last_bisect = {"time_s": time_s, "values": dict(leaves)}
+        return time_s
+
+    def export(self, out: PathLike) -> None:
+        """Writes the CSV tables into ``out``, as ``swarmfl export``."""
+        _swarmfl.export(os.fspath(self.log), os.fspath(out))

@@ -1,0 +1,64 @@
+//! The `swarmfl` command as a library: the binary (`main.rs`) is [`main`], and the Python
+//! package (`python/`) calls the same functions through [`api`], so a run, an export or a sweep
+//! made from Python writes exactly what the command writes.
+
+mod cli;
+mod commands;
+mod exit;
+mod experiments;
+mod png;
+mod progress;
+mod results;
+
+pub mod api;
+
+use std::process::ExitCode;
+
+use clap::Parser;
+
+use crate::cli::{Cli, Command};
+use crate::commands::*;
+
+/// The `swarmfl` command: parses the process's arguments, runs the subcommand and maps an
+/// error to its exit code (`exit.rs`).
+pub fn main() -> ExitCode {
+    // Output piped into `head` and the like ends quietly, as other command-line tools do,
+    // instead of panicking on the broken pipe.
+    // SAFETY: called once at start-up, before any other thread exists; SIG_DFL is a valid
+    // disposition for SIGPIPE.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
+    let cli = Cli::parse();
+    match dispatch(cli.command) {
+        Ok(code) => code,
+        Err(e) => {
+            eprintln!("error: {e:#}");
+            ExitCode::from(exit::of_error(&e))
+        }
+    }
+}
+
+/// Runs one subcommand.
+fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
+    match command {
+        Command::Run(args) => run::command(args),
+        Command::Replay(args) => replay::command(args),
+        Command::Snapshot(args) => snapshot::command(args),
+        Command::View(args) => view::command(args),
+        Command::Diff(args) => diff::command(args),
+        Command::Fixtures(args) => fixtures::command(args),
+        Command::Inspect(args) => inspect::command(args),
+        Command::Bisect(args) => bisect::command(args),
+        Command::Fork(args) => fork::command(args),
+        Command::Export(args) => export::command(args),
+        Command::Sweep(args) => sweep::command(args),
+        Command::Report(args) => report::command(args),
+        Command::Chaos(args) => chaos::command(args),
+        Command::Recheck(args) => recheck::command(args),
+        Command::Presets => presets::command(),
+        Command::Config { config } => config::command(&config),
+        Command::Bench(args) => bench::command(args),
+        Command::BenchScaleOne(args) => bench::scale_one(args),
+    }
+}
