@@ -141,13 +141,16 @@ fn bisect_by_time(
     log: PathBuf,
     expr: String,
     monotone: bool,
-) -> PyResult<Option<(f64, Vec<(String, f64)>)>> {
+) -> PyResult<Option<(f64, Leaves)>> {
     let predicate = Expr::parse(&expr).map_err(err)?;
     let (hit, _) = py
         .detach(|| timeline::bisect_by_time(&log, &predicate, monotone))
         .map_err(err)?;
     Ok(hit)
 }
+
+/// The leaf values of a predicate where it holds: `(name, value)`.
+type Leaves = Vec<(String, f64)>;
 
 /// One fold of a log (`inspect::index_run`): its tables and its per-block values.
 #[pyclass(unsendable, module = "swarmfl._swarmfl")]
@@ -235,11 +238,7 @@ impl Index {
 
     /// The first block of a chain run where `expr` holds, as `swarmfl bisect`: `(height,
     /// time_s, leaves)` or None.
-    fn bisect(
-        &self,
-        expr: &str,
-        monotone: bool,
-    ) -> PyResult<Option<(u64, f64, Vec<(String, f64)>)>> {
+    fn bisect(&self, expr: &str, monotone: bool) -> PyResult<Option<(u64, f64, Leaves)>> {
         if self.index.config.learn.aggregation != Aggregation::Chain {
             return Err(SwarmflError::new_err(format!(
                 "{}: a {} run has no blocks: bisect it by time",
