@@ -13,13 +13,20 @@
 //!   [`PREFIX_BOUND_BLOCKS`] blocks (a lagging node is behind, not in disagreement);
 //! - *liveness*: within [`LIVENESS_MS`] after the last fault heals, the round of some honest
 //!   node's head advances (an aggregation) or a deadline closes a round; not checked when the
-//!   run ends before that time.
+//!   run ends before that time;
+//! - *punishment*: on every honest node's canonical chain, no block is sealed by a sealer
+//!   that the chain's evidence removed (the removed sets recomputed here from the evidence
+//!   the headers carry, and compared with the ledger's), and no honest sealer is ever
+//!   removed; and once an honest node holds evidence of an equivocation on a parent of the
+//!   heaviest honest chain, that chain removes the sealer within [`PUNISH_MS`] (counted from
+//!   the last heal if later).
 //!
 //! The drawn configurations are small and fast (5 to 15 robots, small models, short training
 //! periods) so a campaign of hundreds of seeds fits in minutes; Byzantine robots stay below a
 //! third of the swarm (Clique, like every BFT-style protocol, needs an honest majority).
 
-use std::collections::BTreeSet;
+use std::collections::{BTreeMap, BTreeSet};
+use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
@@ -42,6 +49,12 @@ pub const SETTLE_MS: u64 = 60_000;
 
 /// Time after the last heal within which a round must close, ms.
 pub const LIVENESS_MS: u64 = 240_000;
+
+/// Time after an honest node first holds evidence of an equivocation (or after the last heal,
+/// if later) within which the heaviest honest chain removes the sealer, ms: enough for a
+/// holder's turn to seal to come round in a swarm of 15 at a 10 s period, with room for its
+/// block to be orphaned once.
+pub const PUNISH_MS: u64 = 240_000;
 
 /// The configuration seed `seed` of a campaign with runs of `duration_s` draws.
 pub fn draw(seed: u64, duration_s: f64) -> Config {
@@ -123,6 +136,10 @@ pub struct Outcome {
     pub deepest_reorg: u64,
     /// Equivocation sites detected.
     pub equivocations: u64,
+    /// Sealers removed from the signer set (for equivocating) on the heaviest honest chain
+    /// at the end.
+    #[serde(default)]
+    pub removed_sealers: u64,
     /// Rounds closed by aggregation on the heaviest honest chain.
     pub rounds: u64,
 }
@@ -143,6 +160,8 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
         blocks_checked: 0,
         round_at_heal: None,
         live: false,
+        removed_on: BTreeMap::new(),
+        evidence_since: BTreeMap::new(),
     };
     let mut outcome = Outcome {
         liveness_checked: watch.liveness_checked,
@@ -176,6 +195,9 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
     outcome.height = stats.canonical_height;
     outcome.deepest_reorg = stats.deepest_reorg;
     outcome.equivocations = stats.equivocations.iter().map(|e| e.sites).sum();
+    outcome.removed_sealers = reference_node(&watch.honest, ledger).map_or(0, |r| {
+        ledger.removed_signers(&ledger.head(r).0).len() as u64
+    });
     outcome.rounds = watch
         .honest
         .iter()
@@ -205,15 +227,16 @@ type SwarmCheck = fn(&mut Watch, &Ledger, u64) -> Result<(), Broken>;
 
 /// The invariants of each honest node, in the order they are checked: all of them for one
 /// node, then the next node; the first broken one is reported.
-const NODE_CHECKS: [NodeCheck; 4] = [
+const NODE_CHECKS: [NodeCheck; 5] = [
     supply_conserved,
     no_negative_balance,
     stakes_held,
     chain_valid,
+    removed_stop_sealing,
 ];
 
 /// The invariants of the swarm, checked after every node's.
-const SWARM_CHECKS: [SwarmCheck; 2] = [agreement, liveness];
+const SWARM_CHECKS: [SwarmCheck; 3] = [agreement, liveness, equivocators_removed];
 
 /// What the checks know of the run and remember between checkpoints.
 struct Watch {
@@ -233,6 +256,11 @@ struct Watch {
     round_at_heal: Option<u64>,
     /// Whether a round closed or timed out since then.
     live: bool,
+    /// The removed signers after each block of an honest canonical chain seen so far, as
+    /// recomputed here from the evidence in the headers (genesis: none).
+    removed_on: BTreeMap<BlockHash, Arc<BTreeSet<RobotId>>>,
+    /// When an honest node was first seen holding evidence against (sealer, parent), ms.
+    evidence_since: BTreeMap<(RobotId, BlockHash), u64>,
 }
 
 impl Watch {
@@ -310,6 +338,128 @@ fn chain_valid(watch: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Bro
             return Err((
                 "validity",
                 format!("node {r} accepted an invalid block: {e}"),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// *Punishment*: along the node's canonical chain (the blocks not seen before), the removed
+/// signers recomputed from the evidence the headers carry: no block is sealed by a signer its
+/// parent's chain removed, the ledger's removed set after each block is the same, and no
+/// honest robot is ever removed.
+fn removed_stop_sealing(watch: &mut Watch, ledger: &Ledger, r: RobotId) -> Result<(), Broken> {
+    let chain = ledger.canonical_chain(r);
+    let known = chain.iter().rposition(|h| watch.removed_on.contains_key(h));
+    let start = match known {
+        Some(i) => i + 1,
+        None => {
+            watch
+                .removed_on
+                .insert(ledger.genesis(), Arc::new(BTreeSet::new()));
+            1
+        }
+    };
+    for hash in &chain[start..] {
+        let Some(entry) = ledger.block(hash) else {
+            return Err(("punishment", format!("node {r}: block {hash:?} not stored")));
+        };
+        let h = &entry.block.header;
+        let before = watch
+            .removed_on
+            .get(&h.parent)
+            .cloned()
+            .expect("the chain is walked from a block already seen");
+        if before.contains(&h.signer) {
+            return Err((
+                "punishment",
+                format!(
+                    "node {r}: block {} at height {} is sealed by {}, which its chain removed \
+                     for equivocating",
+                    hash.short(),
+                    h.height,
+                    h.signer
+                ),
+            ));
+        }
+        let after = if h.evidence.is_empty() {
+            before
+        } else {
+            let mut set = (*before).clone();
+            set.extend(h.evidence.iter().map(|e| e.signer));
+            Arc::new(set)
+        };
+        if let Some(honest) = after.iter().find(|s| watch.honest.binary_search(s).is_ok()) {
+            return Err((
+                "punishment",
+                format!(
+                    "node {r}: block {} at height {} removes honest sealer {honest}",
+                    hash.short(),
+                    h.height
+                ),
+            ));
+        }
+        let cached = ledger.removed_signers(hash);
+        if !cached.iter().eq(after.iter()) {
+            return Err((
+                "punishment",
+                format!(
+                    "node {r}: after block {} the ledger removed {cached:?}, the evidence {:?}",
+                    hash.short(),
+                    after
+                ),
+            ));
+        }
+        watch.removed_on.insert(*hash, after);
+    }
+    Ok(())
+}
+
+/// The heaviest honest node's id (ties to the lowest id) among `nodes`.
+fn reference_node(nodes: &[RobotId], ledger: &Ledger) -> Option<RobotId> {
+    nodes
+        .iter()
+        .copied()
+        .max_by_key(|&r| (ledger.head_total_difficulty(r), std::cmp::Reverse(r)))
+}
+
+/// *Punishment*: an honest node's evidence of an equivocation on a parent of the heaviest
+/// honest chain (of the nodes up) leads that chain to remove the sealer within [`PUNISH_MS`]
+/// of the first checkpoint at which some honest node held it, or of the last heal if later.
+fn equivocators_removed(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
+    for &r in &watch.honest {
+        for key in ledger.node(r).evidence().keys() {
+            watch.evidence_since.entry(*key).or_insert(now_ms);
+        }
+    }
+    let up: Vec<RobotId> = watch
+        .honest
+        .iter()
+        .copied()
+        .filter(|&r| !watch.faults.is_down(r, now_ms))
+        .collect();
+    let Some(reference) = reference_node(&up, ledger) else {
+        return Ok(());
+    };
+    let chain = ledger.canonical_chain(reference);
+    let head = ledger.head(reference).0;
+    for (&(sealer, parent), &since) in &watch.evidence_since {
+        let deadline = since.max(watch.heal_ms) + PUNISH_MS;
+        if now_ms <= deadline || ledger.removed_at(&head, sealer) {
+            continue;
+        }
+        let on_chain = ledger
+            .block(&parent)
+            .is_some_and(|e| chain.get(e.block.header.height as usize) == Some(&parent));
+        if on_chain {
+            return Err((
+                "punishment",
+                format!(
+                    "sealer {sealer} equivocated on block {} (evidence held since {} s) and is \
+                     still a signer on node {reference}'s chain",
+                    parent.short(),
+                    since / 1000
+                ),
             ));
         }
     }

@@ -21,14 +21,18 @@ impl Ledger {
         self.check_event(event)?;
         // A sealing is built and validated before anything changes.
         let sealed = match event {
-            LedgerEvent::Seal { node, txs, .. } => {
-                Some(self.build_seal(*node, txs, at).map_err(|reason| {
-                    LedgerError::InvalidSeal {
+            LedgerEvent::Seal {
+                node,
+                txs,
+                evidence,
+                ..
+            } => Some(
+                self.build_seal(*node, txs, evidence, at)
+                    .map_err(|reason| LedgerError::InvalidSeal {
                         node: *node,
                         reason,
-                    }
-                })?)
-            }
+                    })?,
+            ),
             _ => None,
         };
         self.metrics.sample_until(at, &self.nodes, &self.blocks);
@@ -109,23 +113,29 @@ impl Ledger {
         Ok(applied)
     }
 
-    /// The block `node` seals on its head at `at` with `txs`, validated.
+    /// The block `node` seals on its head at `at` with `txs` and the proofs of the twin pairs
+    /// `evidence`, validated.
     fn build_seal(
         &self,
         node: RobotId,
         txs: &[TxHash],
+        evidence: &[(BlockHash, BlockHash)],
         at: SimTime,
     ) -> Result<(BlockHash, BlockEntry), RejectReason> {
         let n = self.node(node);
         let height = n.canonical.len() as u64;
+        let evidence = self.evidence_of(evidence).ok_or_else(|| {
+            RejectReason::BadEvidence("a named pair is not an equivocation".into())
+        })?;
         let mut header = BlockHeader {
             parent: n.head,
             height,
             timestamp_ms: self.clock_ms(node, at),
             signer: node,
-            difficulty: self.expected_difficulty(height, node),
+            difficulty: self.expected_difficulty(&n.head, node),
             tx_root: block::tx_root(txs),
             signature: Sig::ZERO,
+            evidence,
         };
         header.signature = self.keys.sign(node, &header.signing_hash());
         let entry = self.validate(&header, txs, &BTreeMap::new())?;

@@ -2,6 +2,7 @@
 //! block against every rule, a node's whole canonical chain. Tests and `inspect` use them to
 //! confirm that the cached results are what a fresh verification gives.
 
+use super::evidence::bits;
 use super::{block, BlockEntry, BlockHash, Ledger, MAX_BLOCK_BYTES};
 use crate::contract::ContractState;
 use crate::types::RobotId;
@@ -60,8 +61,10 @@ impl Ledger {
     }
 
     /// The header half of [`Ledger::check_block`]: linkage, signer and signature, period,
-    /// difficulty, the recent-signer rule, and the cached recent signers against a walk of
-    /// the block's own chain.
+    /// the signer still in the signer set, difficulty, the recent-signer rule, the evidence
+    /// (verified again) and the removed signers after it, and the cached recent signers
+    /// against a walk of the block's own chain. The parent's removed signers are taken from
+    /// its entry (checked in turn when the parent is).
     fn check_header_afresh(
         &self,
         hash: &BlockHash,
@@ -79,11 +82,24 @@ impl Ledger {
         if h.timestamp_ms < ph.timestamp_ms + self.period_ms {
             return Err("sealed before the period elapsed");
         }
-        if h.difficulty != self.expected_difficulty(h.height, h.signer) {
+        if bits::has(&parent.removed_signers, h.signer) {
+            return Err("a removed signer sealed");
+        }
+        if h.difficulty != self.difficulty_after(parent, h.signer) {
             return Err("wrong difficulty");
         }
+        if self.check_evidence(h, parent).is_err() {
+            return Err("bad equivocation evidence");
+        }
+        let mut removed = parent.removed_signers.to_vec();
+        for ev in &h.evidence {
+            bits::add(&mut removed, ev.signer);
+        }
+        if removed[..] != entry.removed_signers[..] {
+            return Err("cached removed signers differ from the chain's evidence");
+        }
         let mut cursor = h.parent;
-        for _ in 0..self.robots / 2 {
+        for _ in 0..self.signers_after(parent) / 2 {
             let c = &self.blocks[&cursor].block.header;
             if c.height == 0 {
                 break;
@@ -96,7 +112,7 @@ impl Ledger {
         // The cached recent signers against a walk of the block's own chain.
         let mut recent = vec![0u64; self.robots.div_ceil(64) as usize];
         let mut cursor = *hash;
-        for _ in 0..self.robots / 2 {
+        for _ in 0..self.signers_after(entry) / 2 {
             let c = &self.blocks[&cursor].block.header;
             if c.height == 0 {
                 break;
@@ -158,9 +174,10 @@ impl Ledger {
         Ok(())
     }
 
-    /// Checks a node's canonical chain from scratch: linkage, every Clique rule, every
-    /// signature (verified again, not from the cache), nonces, transaction roots, and the
-    /// contract state after every block against a fresh re-execution.
+    /// Checks a node's canonical chain from scratch: linkage, every Clique rule (with the
+    /// signer set shrunk by the evidence the chain carries), every signature (verified again,
+    /// not from the cache), nonces, transaction roots, and the contract state after every
+    /// block against a fresh re-execution.
     pub fn check_chain(&self, node: RobotId) -> Result<(), String> {
         let chain = self.canonical_chain(node);
         if chain.first() != Some(&self.genesis) {
@@ -173,6 +190,7 @@ impl Ledger {
         let mut nonces = vec![0u64; self.robots as usize];
         let mut td = 0u64;
         let mut recent: Vec<RobotId> = Vec::new();
+        let mut removed = vec![0u64; self.robots.div_ceil(64) as usize];
         for (height, pair) in chain.windows(2).enumerate() {
             let height = height as u64 + 1;
             let (parent, child) = (&self.blocks[&pair[0]], &self.blocks[&pair[1]]);
@@ -189,14 +207,32 @@ impl Ledger {
             if h.timestamp_ms < parent.block.header.timestamp_ms + self.period_ms {
                 return fail("sealed before the period elapsed");
             }
-            if h.difficulty != self.expected_difficulty(height, h.signer) {
+            if bits::has(&removed, h.signer) {
+                return fail("a removed signer sealed");
+            }
+            if h.difficulty != self.difficulty_in_turn(height, h.signer, Some(&removed)) {
                 return fail("wrong difficulty");
             }
-            let window = (self.robots / 2) as usize;
+            let window = ((self.robots - bits::count(&removed)) / 2) as usize;
             if recent.iter().rev().take(window).any(|&s| s == h.signer) {
                 return fail("recent signer sealed again");
             }
             recent.push(h.signer);
+            for ev in &h.evidence {
+                if ev.verify(&self.keys).is_err()
+                    || ev.signer == h.signer
+                    || bits::has(&removed, ev.signer)
+                    || ev.height > height
+                    || height - ev.height > super::evidence::MAX_EVIDENCE_AGE_BLOCKS
+                    || chain.get(ev.height as usize - 1) != Some(&ev.parent)
+                {
+                    return fail("bad equivocation evidence");
+                }
+                bits::add(&mut removed, ev.signer);
+            }
+            if removed[..] != child.removed_signers[..] {
+                return fail("removed signers differ from the chain's evidence");
+            }
             if h.tx_root != block::tx_root(&child.block.txs) {
                 return fail("transaction root mismatch");
             }

@@ -8,6 +8,7 @@
 
 use serde::{Deserialize, Serialize};
 
+use super::evidence::{evidence_root, Evidence};
 use super::keys::Sig;
 use super::tx::{Tx, TxHash};
 use crate::types::{Digest, RobotId};
@@ -40,30 +41,49 @@ pub struct BlockHeader {
     pub tx_root: Digest,
     /// The signer's ed25519 signature of [`BlockHeader::signing_hash`].
     pub signature: Sig,
+    /// Equivocation proofs against other sealers (see `ledger/evidence.rs`): the block removes
+    /// them from its chain's signer set. Absent from the encoding when empty, so a block
+    /// without evidence encodes (and hashes) as before the field existed.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub evidence: Vec<Evidence>,
 }
 
+/// What a signer signs: the header without its signature, the evidence by its digest (so that
+/// an equivocation's proof need not nest the evidence its headers carried).
 #[derive(Serialize)]
-struct UnsignedHeader<'a> {
-    parent: &'a BlockHash,
-    height: u64,
-    timestamp_ms: u64,
-    signer: RobotId,
-    difficulty: u64,
-    tx_root: &'a Digest,
+pub(super) struct UnsignedHeader<'a> {
+    pub(super) parent: &'a BlockHash,
+    pub(super) height: u64,
+    pub(super) timestamp_ms: u64,
+    pub(super) signer: RobotId,
+    pub(super) difficulty: u64,
+    pub(super) tx_root: &'a Digest,
+    /// Absent when the header carries no evidence: the signing hash of such a header is the
+    /// one it had before evidence existed.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub(super) evidence_root: Option<Digest>,
+}
+
+impl UnsignedHeader<'_> {
+    /// blake3 of the encoding.
+    pub(super) fn digest(&self) -> Digest {
+        Digest::of(&rmp_serde::to_vec(self).expect("a header always encodes"))
+    }
 }
 
 impl BlockHeader {
     /// The digest the signer signs.
     pub fn signing_hash(&self) -> Digest {
-        let body = UnsignedHeader {
+        UnsignedHeader {
             parent: &self.parent,
             height: self.height,
             timestamp_ms: self.timestamp_ms,
             signer: self.signer,
             difficulty: self.difficulty,
             tx_root: &self.tx_root,
-        };
-        Digest::of(&rmp_serde::to_vec(&body).expect("a header always encodes"))
+            evidence_root: evidence_root(&self.evidence),
+        }
+        .digest()
     }
 
     /// The block id and the encoded header size in bytes.
@@ -132,6 +152,7 @@ mod tests {
             difficulty: 2,
             tx_root: tx_root(&[]),
             signature: Sig::ZERO,
+            evidence: Vec::new(),
         };
         let mut signed = h.clone();
         signed.signature = Sig([7; 64]);

@@ -20,6 +20,8 @@
 //!   every block a node holds, side branches included (what a node's disk would hold).
 //! - *equivocations*: per sealer, the parents on which it signed two blocks that some node
 //!   knows both of (`sites`), and how many nodes hold such evidence against it.
+//! - *removed sealers*: the sealers that the final canonical chain removed from the signer
+//!   set, by the equivocation evidence its blocks carry (`ledger/evidence.rs`).
 //! - *orphaned blocks*: valid blocks not on the final canonical chain (the heaviest head over
 //!   nodes, ties to the lowest node id); their transactions are *re-included* when the final
 //!   chain holds them too, *dropped* otherwise.
@@ -138,6 +140,9 @@ pub struct LedgerStats {
     /// Equivocations detected, per sealer (see the module doc).
     #[serde(default)]
     pub equivocations: Vec<EquivocationStat>,
+    /// Sealers removed from the signer set on the final canonical chain, ascending.
+    #[serde(default)]
+    pub removed_sealers: Vec<u32>,
     /// Valid blocks off the final canonical chain.
     #[serde(default)]
     pub orphaned_blocks: u64,
@@ -378,6 +383,10 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         .nodes
         .get(final_node)
         .map(|n| &ledger.blocks[&n.head].state);
+    let removed_sealers = ledger
+        .nodes
+        .get(final_node)
+        .map_or_else(Vec::new, |n| ledger.removed_signers(&n.head));
     LedgerStats {
         equivocations: by_sealer
             .into_iter()
@@ -387,6 +396,7 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
                 detected_by,
             })
             .collect(),
+        removed_sealers,
         orphaned_blocks,
         orphaned_txs_reincluded: reincluded,
         orphaned_txs_dropped: orphan_txs.len() as u64 - reincluded,

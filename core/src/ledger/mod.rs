@@ -26,6 +26,7 @@
 mod apply;
 mod audit;
 pub mod block;
+pub mod evidence;
 mod fork_choice;
 mod intake;
 mod journal;
@@ -43,6 +44,7 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 pub use block::{Block, BlockHash, BlockHeader, WireBlock, WireItem};
+pub use evidence::Evidence;
 pub use keys::{Keys, Sig};
 pub use metrics::{EquivocationStat, LedgerStats};
 pub use network::Network;
@@ -109,7 +111,8 @@ pub enum LedgerEvent {
         tx: Tx,
     },
     /// `node` seals a block on its head `parent` holding `txs` in this order, at the event's
-    /// time. Difficulty, height and signature follow from the rules and the node's key.
+    /// time, carrying the proofs of the equivocations named by `evidence`. Difficulty, height
+    /// and signature follow from the rules and the node's key.
     Seal {
         /// The sealing node.
         node: RobotId,
@@ -117,6 +120,11 @@ pub enum LedgerEvent {
         parent: BlockHash,
         /// Transaction ids, in execution order; the node must know them.
         txs: Vec<TxHash>,
+        /// Equivocations the block proves, each as the pair of twin block ids (lower id first)
+        /// the node holds as evidence ([`Node::evidence`]); absent from the record when empty,
+        /// so honest runs' records do not change.
+        #[serde(default, skip_serializing_if = "Vec::is_empty")]
+        evidence: Vec<(BlockHash, BlockHash)>,
     },
     /// `from` sends `items` to `to` in one message; a `lost` message never arrives. Messages
     /// are numbered by the order of their `Send` events, from 0.
@@ -260,10 +268,16 @@ pub struct BlockEntry {
     /// `state.digest()`, computed once (checkpoints read it for every node's head).
     pub state_digest: Digest,
     /// Clique's recent signers of a child: bit `s` is set when robot `s` sealed one of the
-    /// last floor(N/2) blocks of the chain ending with this one (genesis excluded). One bit
+    /// last floor(S/2) blocks of the chain ending with this one (genesis excluded), S the
+    /// signers authorised after it (N until a removal, see `removed_signers`). One bit
     /// per robot, computed once, so that [`Ledger::signed_recently`] costs one lookup instead
     /// of a walk of up to N/2 ancestors.
     pub recent_signers: Arc<[u64]>,
+    /// The sealers removed from the signer set on the chain ending with this block, one bit
+    /// per robot: those against which the block or an ancestor carried evidence
+    /// (`ledger/evidence.rs`). They may not seal its children. All zero (shared with genesis)
+    /// while nobody is removed.
+    pub removed_signers: Arc<[u64]>,
     /// Each sender's next nonce after the block.
     pub next_nonce: Arc<[u64]>,
     /// The outcome of each transaction, in block order.
@@ -377,6 +391,7 @@ impl Ledger {
             difficulty: 0,
             tx_root: block::tx_root(&[]),
             signature: Sig::ZERO,
+            evidence: Vec::new(),
         };
         let (genesis, size) = header.hash_and_size();
         let state = ContractState::genesis(&params);
@@ -391,6 +406,7 @@ impl Ledger {
             state_digest: state.digest(),
             state,
             recent_signers: vec![0u64; robots.div_ceil(64) as usize].into(),
+            removed_signers: vec![0u64; robots.div_ceil(64) as usize].into(),
             next_nonce: vec![0u64; robots as usize].into(),
             receipts: Arc::from(Vec::new()),
             children: 0,
@@ -686,7 +702,7 @@ impl Ledger {
         }
     }
 
-    /// Clique's recent-signer rule: whether `signer` sealed one of the last floor(N/2) blocks
+    /// Clique's recent-signer rule: whether `signer` sealed one of the last floor(S/2) blocks
     /// of the chain ending at `parent` (so that it may not seal a child of `parent`). False
     /// when `parent` is not stored.
     pub fn signed_recently(&self, parent: &BlockHash, signer: RobotId) -> bool {
@@ -698,14 +714,120 @@ impl Ledger {
         })
     }
 
-    /// The difficulty a block at `height` sealed by `signer` must have: 2 in turn (height mod
-    /// N == signer), 1 otherwise.
-    pub fn expected_difficulty(&self, height: u64, signer: RobotId) -> u64 {
-        if height % u64::from(self.robots) == u64::from(signer) {
+    /// Whether `signer` is removed from the signer set on the chain ending at `parent` (so
+    /// that it may not seal a child of `parent`). False when `parent` is not stored.
+    pub fn removed_at(&self, parent: &BlockHash, signer: RobotId) -> bool {
+        self.blocks
+            .get(parent)
+            .is_some_and(|e| evidence::bits::has(&e.removed_signers, signer))
+    }
+
+    /// The sealers removed from the signer set on the chain ending at `block`, ascending
+    /// (empty when `block` is not stored).
+    pub fn removed_signers(&self, block: &BlockHash) -> Vec<RobotId> {
+        self.blocks.get(block).map_or_else(Vec::new, |e| {
+            (0..self.robots)
+                .filter(|&r| evidence::bits::has(&e.removed_signers, r))
+                .collect()
+        })
+    }
+
+    /// How many signers are authorised for the children of `entry` (all robots but the
+    /// removed ones).
+    pub(crate) fn signers_after(&self, entry: &BlockEntry) -> u32 {
+        self.robots - evidence::bits::count(&entry.removed_signers)
+    }
+
+    /// The difficulty a child of `parent` sealed by `signer` must have: 2 in turn, 1
+    /// otherwise. In turn at height h is the (h mod S)-th of the S authorised signers in id
+    /// order (Clique's rule); with nobody removed, the robot h mod N. A parent not stored
+    /// counts as one where nobody is removed.
+    pub fn expected_difficulty(&self, parent: &BlockHash, signer: RobotId) -> u64 {
+        match self.blocks.get(parent) {
+            Some(entry) => self.difficulty_after(entry, signer),
+            None => self.difficulty_in_turn(1, signer, None),
+        }
+    }
+
+    /// [`Ledger::expected_difficulty`] of a child of the stored `parent`.
+    pub(crate) fn difficulty_after(&self, parent: &BlockEntry, signer: RobotId) -> u64 {
+        let height = parent.block.header.height + 1;
+        self.difficulty_in_turn(height, signer, Some(&parent.removed_signers))
+    }
+
+    pub(crate) fn difficulty_in_turn(
+        &self,
+        height: u64,
+        signer: RobotId,
+        removed: Option<&[u64]>,
+    ) -> u64 {
+        let removed = removed.filter(|r| r.iter().any(|w| *w != 0));
+        let in_turn = match removed {
+            None => height % u64::from(self.robots) == u64::from(signer),
+            Some(removed) => {
+                let signers = self.robots - evidence::bits::count(removed);
+                let k = (height % u64::from(signers.max(1))) as u32;
+                evidence::bits::nth_absent(removed, self.robots, k) == Some(signer)
+            }
+        };
+        if in_turn {
             2
         } else {
             1
         }
+    }
+
+    /// Whether `node` may seal a child of `parent` under Clique's rules: it is still a signer
+    /// there and did not sign recently.
+    pub fn may_seal_on(&self, parent: &BlockHash, node: RobotId) -> bool {
+        !self.signed_recently(parent, node) && !self.removed_at(parent, node)
+    }
+
+    /// The evidence `node` would carry in a block sealed on its head now: each pair of twin
+    /// blocks it holds as evidence ([`Node::evidence`], in (signer, parent) order) against a
+    /// sealer other than itself that is still a signer at its head, whose parent is on its
+    /// canonical chain no more than [`evidence::MAX_EVIDENCE_AGE_BLOCKS`] below the new
+    /// block; one per sealer, at most [`evidence::MAX_BLOCK_EVIDENCE`].
+    pub fn sealable_evidence(&self, node: RobotId) -> Vec<(BlockHash, BlockHash)> {
+        let n = self.node(node);
+        let head = &self.blocks[&n.head];
+        let height = n.canonical.len() as u64;
+        let mut out: Vec<(BlockHash, BlockHash)> = Vec::new();
+        let mut last_signer = None;
+        for ((signer, parent), pair) in &n.evidence {
+            if out.len() == evidence::MAX_BLOCK_EVIDENCE {
+                break;
+            }
+            if *signer == node
+                || last_signer == Some(*signer)
+                || evidence::bits::has(&head.removed_signers, *signer)
+            {
+                continue;
+            }
+            let Some(p) = self.blocks.get(parent) else {
+                continue;
+            };
+            let parent_height = p.block.header.height;
+            let on_chain = n.canonical.get(parent_height as usize) == Some(parent);
+            if !on_chain || height - (parent_height + 1) > evidence::MAX_EVIDENCE_AGE_BLOCKS {
+                continue;
+            }
+            last_signer = Some(*signer);
+            out.push(*pair);
+        }
+        out
+    }
+
+    /// The proofs of the twin pairs `pairs` (stored blocks), in order; None for a pair that is
+    /// not an equivocation.
+    pub(crate) fn evidence_of(&self, pairs: &[(BlockHash, BlockHash)]) -> Option<Vec<Evidence>> {
+        pairs
+            .iter()
+            .map(|(a, b)| {
+                let (a, b) = (self.blocks.get(a)?, self.blocks.get(b)?);
+                Evidence::of(&a.block.header, &b.block.header)
+            })
+            .collect()
     }
 
     /// The node's pending transactions that a block on its head may include, in execution
@@ -739,8 +861,12 @@ impl Ledger {
         }
         runs.retain(|run| !run.is_empty());
         let mut out = Vec::new();
-        // Header bytes: a generous bound on the encoded header (about 170 bytes).
-        let mut bytes = 256u64;
+        // Header bytes: a generous bound on the encoded header (about 170 bytes), plus the
+        // evidence the block will carry.
+        let mut bytes = 256u64
+            + self
+                .evidence_of(&self.sealable_evidence(node))
+                .map_or(0, |ev| ev.iter().map(|e| e.size_bytes() + 8).sum());
         while out.len() < block::MAX_BLOCK_TXS {
             let best = runs
                 .iter()

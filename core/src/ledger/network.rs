@@ -9,7 +9,9 @@
 //! polled):
 //! - *Sealing*: a node may seal on its head at head.timestamp + period (in turn) or that plus a
 //!   delay (out of turn), but not before its head was adopted, and not at all while Clique's
-//!   recent-signer rule forbids it. The out-of-turn delay is uniform in
+//!   recent-signer rule forbids it or once its head's chain removed it from the signer set
+//!   (equivocation). A sealing carries the evidence the node holds against sealers still in
+//!   the set ([`Ledger::sealable_evidence`]). The out-of-turn delay is uniform in
 //!   [0, (N/2 + 1) * wiggle_unit) and is a pure function of (seed, node, parent): keyed blake3
 //!   with the key `rng::derive_bytes(seed, Purpose::Sealing, node)`. Being a function of the
 //!   parent rather than a position in a stream, it cannot depend on polling or on how many
@@ -182,9 +184,10 @@ impl Network {
     /// When `node` will seal on its current head, if it may: a function of its head, the
     /// time it adopted it and the run's constants only.
     pub fn seal_time(&self, ledger: &Ledger, node: RobotId) -> Option<SimTime> {
-        let (head, height) = ledger.head(node);
+        let (head, _) = ledger.head(node);
         let since = ledger.head_since(node);
-        if ledger.signed_recently(&head, node) {
+        if !ledger.may_seal_on(&head, node) {
+            // Signed recently, or removed from the signer set for equivocating.
             None
         } else {
             let parent_ms = ledger
@@ -194,7 +197,7 @@ impl Network {
                 .header
                 .timestamp_ms;
             let base = parent_ms + ledger.period_ms();
-            let delay = if ledger.expected_difficulty(height + 1, node) == 2 {
+            let delay = if ledger.expected_difficulty(&head, node) == 2 {
                 0
             } else {
                 self.sealing_delay_ms(node, &head)
@@ -306,7 +309,16 @@ impl Network {
                     let node = best.2;
                     let (parent, _) = ledger.head(node);
                     let txs = ledger.sealable_txs(node);
-                    return Some((best.0, LedgerEvent::Seal { node, parent, txs }));
+                    let evidence = ledger.sealable_evidence(node);
+                    return Some((
+                        best.0,
+                        LedgerEvent::Seal {
+                            node,
+                            parent,
+                            txs,
+                            evidence,
+                        },
+                    ));
                 }
                 _ => {
                     if self.radio.open_round() {

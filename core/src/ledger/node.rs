@@ -82,9 +82,16 @@ pub enum RejectReason {
         /// 2 in turn, 1 out of turn.
         expected: u64,
     },
-    /// The signer sealed one of the last floor(N/2) blocks of the chain.
+    /// The signer sealed one of the last floor(S/2) blocks of the chain (S signers).
     #[error("signer {0} signed recently")]
     RecentSigner(RobotId),
+    /// The signer was removed from the signer set on the block's chain (evidence of an
+    /// equivocation carried by an ancestor).
+    #[error("signer {0} was removed from the signer set for equivocating")]
+    RemovedSigner(RobotId),
+    /// The block carries equivocation evidence that does not hold on its chain.
+    #[error("bad equivocation evidence: {0}")]
+    BadEvidence(String),
     /// The transaction root does not match the transactions.
     #[error("transaction root mismatch")]
     BadTxRoot,
@@ -144,6 +151,8 @@ impl RejectReason {
             RejectReason::FutureBlock { .. } => "future_block",
             RejectReason::BadDifficulty { .. } => "bad_difficulty",
             RejectReason::RecentSigner(_) => "recent_signer",
+            RejectReason::RemovedSigner(_) => "removed_signer",
+            RejectReason::BadEvidence(_) => "bad_evidence",
             RejectReason::BadTxRoot => "bad_tx_root",
             RejectReason::BadTx { .. } => "bad_tx",
             RejectReason::NonceTaken { .. } => "nonce_taken",

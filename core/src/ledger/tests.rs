@@ -40,9 +40,10 @@ fn header(
         height,
         timestamp_ms: parent_ms + ledger.period_ms(),
         signer,
-        difficulty: ledger.expected_difficulty(height, signer),
+        difficulty: ledger.expected_difficulty(&parent, signer),
         tx_root: block::tx_root(txs),
         signature: Sig::ZERO,
+        evidence: Vec::new(),
     };
     edit(&mut h);
     if h.signature == Sig::ZERO && signer < ledger.robots() {
@@ -135,7 +136,7 @@ fn difficulty_is_two_in_turn_and_one_out_of_turn() {
         (10, 0, 2),
     ] {
         assert_eq!(
-            ledger.expected_difficulty(height, signer),
+            ledger.difficulty_in_turn(height, signer, None),
             expect,
             "height {height} signer {signer}"
         );
@@ -151,6 +152,7 @@ fn sealing_follows_the_signer_rules() {
         node: 1,
         parent: g,
         txs: vec![],
+        evidence: vec![],
     };
     let err = ledger.apply(SimTime(9_999), &early).unwrap_err();
     assert!(
@@ -177,6 +179,7 @@ fn sealing_follows_the_signer_rules() {
                 node: 3,
                 parent: g,
                 txs: vec![],
+                evidence: vec![],
             },
         )
         .unwrap();
@@ -189,6 +192,7 @@ fn sealing_follows_the_signer_rules() {
         node: 1,
         parent: b1,
         txs: vec![],
+        evidence: vec![],
     };
     let err = ledger.apply(SimTime(20_000), &again).unwrap_err();
     assert!(
@@ -218,6 +222,7 @@ fn sealing_follows_the_signer_rules() {
                 node: 1,
                 parent: b4,
                 txs: vec![],
+                evidence: vec![],
             },
         )
         .unwrap();
@@ -331,6 +336,7 @@ fn forged_malformed_replayed_and_out_of_order_items_are_rejected_with_reasons() 
                 node: 0,
                 parent: g,
                 txs,
+                evidence: vec![],
             },
         )
         .unwrap();
@@ -471,6 +477,7 @@ fn invalid_events_are_errors_and_change_nothing() {
                 node: 7,
                 parent: g,
                 txs: vec![],
+                evidence: vec![],
             },
         ),
         (
@@ -479,6 +486,7 @@ fn invalid_events_are_errors_and_change_nothing() {
                 node: 1,
                 parent: Digest::of(b"p"),
                 txs: vec![],
+                evidence: vec![],
             },
         ),
         (
@@ -487,6 +495,7 @@ fn invalid_events_are_errors_and_change_nothing() {
                 node: 1,
                 parent: g,
                 txs: vec![tx_unknown],
+                evidence: vec![],
             },
         ),
         (

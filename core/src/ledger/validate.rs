@@ -4,6 +4,7 @@
 use std::collections::BTreeMap;
 use std::sync::Arc;
 
+use super::evidence::{bits, MAX_BLOCK_EVIDENCE, MAX_EVIDENCE_AGE_BLOCKS};
 use super::{
     block, Block, BlockEntry, BlockHash, BlockHeader, ItemRef, Ledger, LedgerError, LedgerEvent,
     RejectReason, TxEntry, TxHash, MAX_BLOCK_BYTES,
@@ -25,9 +26,26 @@ impl Ledger {
         };
         match event {
             LedgerEvent::Submit { tx } => node_ok(tx.sender),
-            LedgerEvent::Seal { node, parent, txs } => {
+            LedgerEvent::Seal {
+                node,
+                parent,
+                txs,
+                evidence,
+            } => {
                 node_ok(*node)?;
                 let n = self.node(*node);
+                for (a, b) in evidence {
+                    let held = self.blocks.get(a).is_some_and(|e| {
+                        let h = &e.block.header;
+                        n.evidence.get(&(h.signer, h.parent)) == Some(&(*a, *b))
+                    });
+                    if !held {
+                        return Err(LedgerError::UnknownItem {
+                            node: *node,
+                            item: ItemRef::Block(*b),
+                        });
+                    }
+                }
                 if *parent != n.head {
                     return Err(LedgerError::SealNotOnHead {
                         node: *node,
@@ -111,15 +129,24 @@ impl Ledger {
                 earliest_ms,
             });
         }
-        let expected = self.expected_difficulty(header.height, header.signer);
+        let expected = self.difficulty_after(parent, header.signer);
         if header.difficulty != expected {
             return Err(RejectReason::BadDifficulty {
                 got: header.difficulty,
                 expected,
             });
         }
+        if bits::has(&parent.removed_signers, header.signer) {
+            return Err(RejectReason::RemovedSigner(header.signer));
+        }
         if self.signed_recently(&header.parent, header.signer) {
             return Err(RejectReason::RecentSigner(header.signer));
+        }
+        if header.evidence.len() > MAX_BLOCK_EVIDENCE {
+            return Err(RejectReason::Malformed(format!(
+                "{} evidence entries, more than the {MAX_BLOCK_EVIDENCE} allowed",
+                header.evidence.len()
+            )));
         }
         if !self
             .keys
@@ -127,7 +154,72 @@ impl Ledger {
         {
             return Err(RejectReason::BadSignature);
         }
+        self.check_evidence(header, parent)?;
         Ok(parent)
+    }
+
+    /// The evidence a header carries, on the chain ending at its (stored) parent: each proof
+    /// verifies alone, accuses another sealer than the block's, one still a signer here and
+    /// not accused twice, and names as parent a block of this chain at most
+    /// [`MAX_EVIDENCE_AGE_BLOCKS`] below the new block (which binds the proof to the chain).
+    pub(super) fn check_evidence(
+        &self,
+        header: &BlockHeader,
+        parent: &BlockEntry,
+    ) -> Result<(), RejectReason> {
+        let mut accused = Vec::new();
+        for (i, ev) in header.evidence.iter().enumerate() {
+            let bad = |why: String| Err(RejectReason::BadEvidence(format!("entry {i}: {why}")));
+            if let Err(why) = ev.verify(&self.keys) {
+                return bad(why);
+            }
+            if ev.signer == header.signer {
+                return bad("a sealer does not carry evidence against itself".into());
+            }
+            if bits::has(&parent.removed_signers, ev.signer) || accused.contains(&ev.signer) {
+                return bad(format!("signer {} is already removed", ev.signer));
+            }
+            if ev.height > header.height || header.height - ev.height > MAX_EVIDENCE_AGE_BLOCKS {
+                return bad(format!(
+                    "an equivocation at height {} cannot be proven at height {} (at most {} \
+                     blocks back)",
+                    ev.height, header.height, MAX_EVIDENCE_AGE_BLOCKS
+                ));
+            }
+            if self.ancestor_at(&header.parent, ev.height - 1) != Some(ev.parent) {
+                return bad("its parent is not on this chain".into());
+            }
+            accused.push(ev.signer);
+        }
+        Ok(())
+    }
+
+    /// The block at `height` on the chain ending at the stored `from`, by a walk down.
+    fn ancestor_at(&self, from: &BlockHash, height: u64) -> Option<BlockHash> {
+        let mut cursor = *from;
+        loop {
+            let h = &self.blocks.get(&cursor)?.block.header;
+            if h.height == height {
+                return Some(cursor);
+            }
+            if h.height < height {
+                return None;
+            }
+            cursor = h.parent;
+        }
+    }
+
+    /// The removed signers after a block on `parent` carrying `header`'s evidence: the
+    /// parent's, plus the accused (shared with the parent when there is no evidence).
+    pub(super) fn removed_after(&self, parent: &BlockEntry, header: &BlockHeader) -> Arc<[u64]> {
+        if header.evidence.is_empty() {
+            return parent.removed_signers.clone();
+        }
+        let mut set = parent.removed_signers.to_vec();
+        for ev in &header.evidence {
+            bits::add(&mut set, ev.signer);
+        }
+        set.into()
     }
 
     /// Validates a block against its parent: header rules and signature first, then the body
@@ -141,6 +233,8 @@ impl Ledger {
     ) -> Result<BlockEntry, RejectReason> {
         let parent = self.validate_header(header)?;
         let ph = &parent.block.header;
+        let removed_signers = self.removed_after(parent, header);
+        let signers = self.robots - bits::count(&removed_signers);
         if txs.len() > block::MAX_BLOCK_TXS {
             return Err(RejectReason::Malformed(format!(
                 "{} transactions, more than the {} allowed",
@@ -208,7 +302,8 @@ impl Ledger {
             chain_bytes: parent.chain_bytes + size_bytes,
             state_digest: state.digest(),
             state,
-            recent_signers: self.recent_signers_after(&header.parent, header.signer),
+            recent_signers: self.recent_signers_after(&header.parent, header.signer, signers),
+            removed_signers,
             next_nonce: next_nonce.into(),
             receipts: receipts.into(),
             children: 0,
@@ -216,17 +311,22 @@ impl Ledger {
     }
 
     /// The recent signers (see [`BlockEntry::recent_signers`]) of a block sealed by `signer`
-    /// on the stored block `parent`: the signer itself and the signers of the floor(N/2) - 1
-    /// blocks of the chain ending at `parent`, genesis excluded. Walks the ancestors once per
-    /// new block.
-    fn recent_signers_after(&self, parent: &BlockHash, signer: RobotId) -> Arc<[u64]> {
+    /// on the stored block `parent`, with `signers` authorised signers after it: the signer
+    /// itself and the signers of the floor(signers/2) - 1 blocks of the chain ending at
+    /// `parent`, genesis excluded. Walks the ancestors once per new block.
+    fn recent_signers_after(
+        &self,
+        parent: &BlockHash,
+        signer: RobotId,
+        signers: u32,
+    ) -> Arc<[u64]> {
         let mut bits = vec![0u64; self.robots.div_ceil(64) as usize];
         let mut set = |s: RobotId| {
             if let Some(word) = bits.get_mut((s / 64) as usize) {
                 *word |= 1u64 << (s % 64);
             }
         };
-        let limit = self.robots / 2;
+        let limit = signers / 2;
         if limit > 0 {
             set(signer);
         }

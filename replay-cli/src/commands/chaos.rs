@@ -30,6 +30,9 @@ struct Report {
     liveness_checked: u64,
     max_deepest_reorg: u64,
     equivocations_detected: u64,
+    /// Sealers removed from the signer set for equivocating, summed over runs (each run's
+    /// heaviest honest chain at the end).
+    removed_sealers: u64,
     bounds: Bounds,
 }
 
@@ -38,6 +41,7 @@ struct Bounds {
     prefix_bound_blocks: u64,
     settle_s: u64,
     liveness_s: u64,
+    punish_s: u64,
 }
 
 /// The command that replays seed `seed` alone.
@@ -83,8 +87,13 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
                     Ok(o) => match &o.violation {
                         None => eprintln!(
                             "seed {seed}: ok ({} blocks checked, height {}, deepest reorg {}, \
-                             {} equivocations, {} rounds)",
-                            o.blocks_checked, o.height, o.deepest_reorg, o.equivocations, o.rounds
+                             {} equivocations, {} sealers removed, {} rounds)",
+                            o.blocks_checked,
+                            o.height,
+                            o.deepest_reorg,
+                            o.equivocations,
+                            o.removed_sealers,
+                            o.rounds
                         ),
                         Some(v) => eprintln!(
                             "seed {seed}: VIOLATION {} at {} ms: {}",
@@ -112,10 +121,12 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         liveness_checked: 0,
         max_deepest_reorg: 0,
         equivocations_detected: 0,
+        removed_sealers: 0,
         bounds: Bounds {
             prefix_bound_blocks: chaos::PREFIX_BOUND_BLOCKS,
             settle_s: chaos::SETTLE_MS / 1000,
             liveness_s: chaos::LIVENESS_MS / 1000,
+            punish_s: chaos::PUNISH_MS / 1000,
         },
     };
     for (seed, outcome) in results {
@@ -130,6 +141,7 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         report.liveness_checked += u64::from(outcome.liveness_checked);
         report.max_deepest_reorg = report.max_deepest_reorg.max(outcome.deepest_reorg);
         report.equivocations_detected += outcome.equivocations;
+        report.removed_sealers += outcome.removed_sealers;
         if let Some(violation) = outcome.violation {
             report.violations.push(SeedViolation {
                 seed,
@@ -143,9 +155,12 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
         println!(
-            "{} runs of {duration_s} s, {} blocks checked, {} violations, {:.1} s wall",
+            "{} runs of {duration_s} s, {} blocks checked, {} equivocations detected, {} sealers \
+             removed, {} violations, {:.1} s wall",
             report.runs,
             report.blocks_checked,
+            report.equivocations_detected,
+            report.removed_sealers,
             report.violations.len(),
             report.wall_s
         );

@@ -8,7 +8,8 @@
 //! items, so replays need no agent; honest nodes check every injected byte. One file per
 //! behaviour; each says what honest nodes do about it:
 //! - `equivocate`: seals two blocks on one parent (evidence kept per sealer, see
-//!   [`crate::ledger::Node::evidence`]; fork choice settles the branch);
+//!   [`crate::ledger::Node::evidence`]; fork choice settles the branch, and the next honest
+//!   sealing that holds the evidence carries it, removing the sealer from the signer set);
 //! - `withhold`: releases its blocks late to half of its peers (delays and reorgs, bounded by
 //!   the withholding time);
 //! - `flood`: transaction spam (bounded by the mempool caps and the nonce window);
@@ -178,9 +179,10 @@ pub(crate) fn signed_block(
         height,
         timestamp_ms,
         signer: robot,
-        difficulty: ledger.expected_difficulty(height, robot),
+        difficulty: ledger.expected_difficulty(&parent, robot),
         tx_root: crate::ledger::block::tx_root(&ids),
         signature: Sig::ZERO,
+        evidence: Vec::new(),
     };
     header.signature = ledger.keys().sign(robot, &header.signing_hash());
     WireBlock { header, txs }
