@@ -201,6 +201,7 @@ fn params(
         options,
         engine,
         defence: None,
+        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 

@@ -30,6 +30,7 @@ fn params(security: bool) -> ContractParams {
         options: Default::default(),
         engine: Default::default(),
         defence: None,
+        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 
@@ -222,7 +223,8 @@ fn run(security: bool, txs: &[Tx]) -> Result<(), TestCaseError> {
             Outcome::Duplicate
             | Outcome::InsufficientStake
             | Outcome::InsufficientFunds
-            | Outcome::Malformed(_) => {
+            | Outcome::Malformed(_)
+            | Outcome::OverGasLimit { .. } => {
                 prop_assert_eq!(&state, &before, "a failed call changed the state");
             }
         }

@@ -42,6 +42,7 @@ fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
             defence,
             refund_percent,
         }),
+        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 

@@ -38,6 +38,7 @@ fn params(rule: Rule) -> ContractParams {
         options: Default::default(),
         engine: Default::default(),
         defence: None,
+        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 

@@ -31,8 +31,8 @@ pub use ledger::{LedgerBehaviour, WithholdPolicy};
 pub use overrides::{is_reconfigurable, RECONFIGURABLE};
 pub use preset::Preset;
 pub use tree::{
-    Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, LearnConfig, LedgerConfig,
-    OutputConfig, RunConfig, WorldConfig,
+    default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,
+    LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig, AUTHORS_BLOCK_GAS_LIMIT,
 };
 
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a

@@ -288,6 +288,7 @@ impl Config {
                 payout_rounding: PayoutRounding::Exact,
                 pool: PoolRule::Carry,
                 defence: Defence::None,
+                block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
                 defence_refund_percent: 50,
             },
             byzantine: ByzantineConfig {

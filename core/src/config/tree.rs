@@ -274,10 +274,35 @@ pub struct ContractConfig {
     /// used submissions; the rest is shared by score.
     #[serde(default = "default_defence_refund_percent")]
     pub defence_refund_percent: u32,
+    /// The most gas one block holds, under `engine = "evm"` (the native engine has no gas): a
+    /// call that needs more can never be included, so the contract refuses it (outcome
+    /// `over_gas_limit`, its state unchanged, counted in the summary's submissions by
+    /// outcome). Default: the authors' genesis, 0x9000000000000 = 2533274790395904
+    /// (`TrajectoryPrediction/reset-geth` of github.com/teksander/geth-argos); Ethereum
+    /// mainnet's 30000000 refuses the paper's submissions (docs/CONTRACT.md, "Gas"). Left
+    /// out of the recorded configuration at its default, so existing runs keep their hashes.
+    #[serde(
+        default = "default_block_gas_limit",
+        skip_serializing_if = "is_default_block_gas_limit"
+    )]
+    pub block_gas_limit: u64,
 }
 
 fn default_defence_refund_percent() -> u32 {
     50
+}
+
+/// The authors' genesis gas limit (`contract.block_gas_limit`'s default): their
+/// `reset-geth` replaces puppeth's 0x47b760 (4.7M) with 0x9000000000000.
+pub const AUTHORS_BLOCK_GAS_LIMIT: u64 = 0x9000000000000;
+
+/// `contract.block_gas_limit`'s default, [`AUTHORS_BLOCK_GAS_LIMIT`].
+pub fn default_block_gas_limit() -> u64 {
+    AUTHORS_BLOCK_GAS_LIMIT
+}
+
+fn is_default_block_gas_limit(limit: &u64) -> bool {
+    *limit == AUTHORS_BLOCK_GAS_LIMIT
 }
 
 impl ContractConfig {

@@ -108,6 +108,9 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("byzantine.count", b.count.into(), 0, w.robots.into()),
         Across(count_matches_the_misbehaviour),
         Number("contract.round_timeout_s", k.round_timeout_s, 0.0, 1.0e9),
+        // At least a plain transaction's intrinsic gas; at most what revm's gas counter holds
+        // with room to spare.
+        Integer("contract.block_gas_limit", k.block_gas_limit, 21_000, 1 << 62),
         Across(faults_fit_the_run),
         Across(baseline_supports),
         // After the baseline: a baseline refuses the engine naming learn.aggregation, in

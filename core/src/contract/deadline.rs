@@ -72,6 +72,7 @@ mod tests {
             options: Default::default(),
             engine: Default::default(),
             defence: None,
+            block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         }
     }
 

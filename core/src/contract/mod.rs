@@ -118,6 +118,11 @@ pub struct ContractParams {
     /// execute the same contract, so a run's chain is the same under either.
     #[serde(skip)]
     pub engine: ContractEngine,
+    /// The most gas one block holds (`contract.block_gas_limit`; the `evm` engine refuses a
+    /// call that needs more, the native engine has no gas). Like the engine, not part of the
+    /// genesis commitment (the log's header records the configuration).
+    #[serde(skip, default = "crate::config::default_block_gas_limit")]
+    pub block_gas_limit: u64,
 }
 
 /// A robust rule of [`ContractParams`].
@@ -162,6 +167,7 @@ impl ContractParams {
                 _ => None,
             },
             engine: c.engine,
+            block_gas_limit: c.block_gas_limit,
         }
     }
 
@@ -334,6 +340,12 @@ pub enum Outcome {
     InsufficientFunds,
     /// The call was malformed (reason given); nothing changed.
     Malformed(String),
+    /// The call needs more gas than a block holds (`contract.block_gas_limit`, the `evm`
+    /// engine only): no block can include it, so nothing changed.
+    OverGasLimit {
+        /// The block gas limit it exceeded.
+        gas_limit: u64,
+    },
 }
 
 impl Outcome {
@@ -348,6 +360,7 @@ impl Outcome {
             Outcome::Transferred => "transferred",
             Outcome::InsufficientFunds => "insufficient_funds",
             Outcome::Malformed(_) => "malformed",
+            Outcome::OverGasLimit { .. } => "over_gas_limit",
         }
     }
 

@@ -28,6 +28,7 @@ fn params(security: bool) -> ContractParams {
         options: Default::default(),
         engine: Default::default(),
         defence: None,
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 

@@ -438,6 +438,9 @@ fn outcome_detail(outcome: &Outcome) -> String {
             distance_units,
         } => format!("round {}, distance {distance_units}", round + 1),
         Outcome::Malformed(reason) => reason.clone(),
+        Outcome::OverGasLimit { gas_limit } => {
+            format!("needs more gas than a block holds (contract.block_gas_limit {gas_limit})")
+        }
         _ => String::new(),
     }
 }

@@ -49,8 +49,9 @@ pub const OWNER: Address = Address::new([0xc0; 20]);
 /// The EVM fork the bytecode is compiled for (`evmVersion: prague` in `contracts/compile.js`).
 const SPEC: SpecId = SpecId::PRAGUE;
 
-/// Gas limit of one call: far above any call of the contract, so gas never decides an outcome
-/// (the measured gas is reported instead).
+/// Gas limit of the chain's own calls (deployment, rules changes, state reads): far above any
+/// of them, so gas never decides their outcome. A robot's transaction gets the block gas
+/// limit instead (`contract.block_gas_limit`).
 const GAS_LIMIT: u64 = 1 << 40;
 
 /// The account address of robot `robot`: `0x10` followed by zeros and the id, big endian.
@@ -185,7 +186,9 @@ impl EvmState {
             rules: Rules::of(params),
             gas: BTreeMap::new(),
         };
-        let result = state.transact(OWNER, TxKind::Create, data.into());
+        let result = state
+            .transact(OWNER, TxKind::Create, data.into(), GAS_LIMIT)
+            .expect("deploying runs within its gas limit");
         let (gas, created) = match result {
             ExecutionResult::Success {
                 gas,
@@ -199,8 +202,16 @@ impl EvmState {
         state
     }
 
-    /// Runs one transaction and commits it.
-    fn transact(&mut self, caller: Address, kind: TxKind, data: Bytes) -> ExecutionResult {
+    /// Runs one transaction with `gas_limit` gas (also the block's limit) and commits it; an
+    /// error when the EVM refuses it before execution (its intrinsic gas, calldata included,
+    /// exceeds the limit).
+    fn transact(
+        &mut self,
+        caller: Address,
+        kind: TxKind,
+        data: Bytes,
+        gas_limit: u64,
+    ) -> Result<ExecutionResult, String> {
         let db = std::mem::take(&mut self.db);
         let mut evm = Context::mainnet()
             .modify_cfg_chained(|cfg| {
@@ -211,7 +222,7 @@ impl EvmState {
             .modify_block_chained(|block| {
                 // Gas price and base fee 0: calls cost the callers nothing, the gas is measured.
                 block.basefee = 0;
-                block.gas_limit = u64::MAX;
+                block.gas_limit = gas_limit;
             })
             .with_db(db)
             .build_mainnet();
@@ -219,7 +230,7 @@ impl EvmState {
             .caller(caller)
             .kind(kind)
             .data(data)
-            .gas_limit(GAS_LIMIT)
+            .gas_limit(gas_limit)
             .gas_price(0)
             .build()
             .expect("a complete transaction");
@@ -227,21 +238,45 @@ impl EvmState {
         self.db = std::mem::take(&mut evm.ctx.journaled_state.database);
         // The database would keep every log forever; the result carries this call's.
         self.db.cache.logs.clear();
-        result.expect("the EVM runs a call on an in-memory database without error")
+        match result {
+            Ok(result) => Ok(result),
+            // Only the transaction's own validity can fail on an in-memory database with a
+            // zero gas price: its intrinsic gas against the limit.
+            Err(revm::context::result::EVMError::Transaction(e)) => Err(e.to_string()),
+            Err(e) => panic!("the EVM failed on an in-memory database: {e:?}"),
+        }
     }
 
-    /// Calls the contract and requires success (the contract never reverts on input; a revert
-    /// is a bug of the contract or of this binding).
+    /// Calls the contract as the chain (unlimited gas) and requires success (the contract
+    /// never reverts on input; a revert is a bug of the contract or of this binding).
     fn call(&mut self, caller: Address, data: Vec<u8>) -> CallResult {
-        match self.transact(caller, TxKind::Call(self.contract), data.into()) {
-            ExecutionResult::Success {
+        self.call_within(caller, data, GAS_LIMIT)
+            .unwrap_or_else(|| panic!("a call of the chain ran out of {GAS_LIMIT} gas"))
+    }
+
+    /// Calls the contract with at most `gas_limit` gas: None when the call needs more (refused
+    /// before execution, or out of gas, its changes undone); otherwise as [`EvmState::call`].
+    fn call_within(
+        &mut self,
+        caller: Address,
+        data: Vec<u8>,
+        gas_limit: u64,
+    ) -> Option<CallResult> {
+        let kind = TxKind::Call(self.contract);
+        match self.transact(caller, kind, data.into(), gas_limit) {
+            Ok(ExecutionResult::Success {
                 gas, logs, output, ..
-            } => CallResult {
+            }) => Some(CallResult {
                 output: output.into_data(),
                 logs,
                 gas: gas.tx_gas_used(),
-            },
-            other => panic!("SwarmFL call reverted: {other:?}"),
+            }),
+            Ok(ExecutionResult::Halt {
+                reason: revm::context::result::HaltReason::OutOfGas(_),
+                ..
+            })
+            | Err(_) => None,
+            Ok(other) => panic!("SwarmFL call reverted: {other:?}"),
         }
     }
 
@@ -342,7 +377,16 @@ pub fn execute(
             (data, None, 0)
         }
     };
-    let result = evm.call(robot_address(sender), data);
+    let Some(result) = evm.call_within(robot_address(sender), data, params.block_gas_limit) else {
+        // No block could include it: refused, nothing changed (a real chain's pool refuses a
+        // transaction whose gas exceeds the block's).
+        let gas_limit = params.block_gas_limit;
+        evm.gas
+            .entry(Outcome::OverGasLimit { gas_limit }.name().to_string())
+            .or_default()
+            .add(gas_limit);
+        return Outcome::OverGasLimit { gas_limit };
+    };
     let d = Decoder::new(&result.output);
     let code = to_u64(d.word(0));
     let round = to_u64(d.word(1));

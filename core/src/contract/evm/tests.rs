@@ -88,6 +88,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         options,
         engine: ContractEngine::Native,
         defence: None,
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
     }
 }
 
@@ -337,4 +338,72 @@ fn the_binding_matches_the_committed_abi() {
     ] {
         assert!(names.iter().any(|n| n == used), "{used} not in {names:?}");
     }
+}
+
+#[test]
+fn a_submission_over_the_block_gas_limit_is_refused_and_changes_nothing() {
+    // The paper's model length. The first accepted submission writes the round's FedAvg sum
+    // into storage slots that are still zero, the dearest call of a run (about 39.6M gas).
+    let mut rng = Pcg64::seed_from_u64(11);
+    let mut p = random_params(&mut rng, 2848);
+    p.engine = ContractEngine::Evm;
+    p.security = true;
+    p.quorum = p.quorum.max(3);
+    p.outlier_threshold_units = 50_000_000;
+    p.stake_units = TOKEN;
+    p.initial_units = 21 * TOKEN;
+    let submit = |weights: &Arc<[i64]>| Call::SubmitModel {
+        weights: weights.clone(),
+        samples: 100,
+    };
+    let model = ContractState::genesis(&p).weights.clone();
+
+    // Without a binding limit (the authors' genesis value): accepted, and above 30M gas.
+    let mut free = ContractState::genesis(&p);
+    assert!(matches!(
+        free.execute(&p, 0, p.stake_units, &submit(&model)),
+        Outcome::Accepted { .. }
+    ));
+    let used = free.evm.as_ref().unwrap().gas["accepted"].max_gas;
+    assert!(used > 30_000_000, "{used} gas");
+
+    // Mainnet's 30M: refused, and nothing changed; the next submission meets the same zero
+    // slots, so it is refused too (under 30M every submission of a run is).
+    let tight = ContractParams {
+        block_gas_limit: 30_000_000,
+        ..p.clone()
+    };
+    let mut state = ContractState::genesis(&tight);
+    let before = state.digest();
+    for sender in 0..2 {
+        let outcome = state.execute(&tight, sender, tight.stake_units, &submit(&model));
+        assert_eq!(
+            outcome,
+            Outcome::OverGasLimit {
+                gas_limit: 30_000_000
+            }
+        );
+        assert_eq!(outcome.name(), "over_gas_limit");
+        assert_eq!(state.digest(), before, "a refused call changed the state");
+        assert_eq!(state.submissions.len(), 0);
+    }
+    // A limit below the calldata's own cost is refused before execution, the same way.
+    let tiny = ContractParams {
+        block_gas_limit: 21_000,
+        ..p.clone()
+    };
+    let mut state = ContractState::genesis(&tiny);
+    assert_eq!(
+        state.execute(&tiny, 0, tiny.stake_units, &submit(&model)),
+        Outcome::OverGasLimit { gas_limit: 21_000 }
+    );
+    assert_eq!(state.balances, ContractState::genesis(&tiny).balances);
+    let gas = &state.evm.as_ref().unwrap().gas;
+    assert_eq!(gas["over_gas_limit"].calls, 1, "{gas:?}");
+    // A transfer fits in any such block.
+    let transfer = Call::Transfer {
+        to: 1,
+        amount_units: 1,
+    };
+    assert_eq!(state.execute(&tight, 0, 0, &transfer), Outcome::Transferred);
 }
