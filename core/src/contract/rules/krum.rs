@@ -3,6 +3,12 @@
 //! models (exact in `u128`); the model with the smallest score (ties: the earlier submission)
 //! becomes the shared model, exactly. Needs `q >= 2f + 3`. Sample counts are ignored.
 //!
+//! The neighbour count follows Blanchard et al. (their Krum sums over the `n - f - 2` closest
+//! vectors). ByzFL's `Krum(f)` (and its `MultiKrum`) sums over `n - f - 1` (it drops the zero
+//! self-distance from each sorted row and keeps the next `n - f - 1`), so on the same vectors
+//! the two can pick different models; `multi-krum` here uses the same `n - f - 2` as Krum.
+//! `tests/byzfl.rs` checks [`super::krum_scores`] with ByzFL's count against ByzFL's choice.
+//!
 //! Used: the selected model, then the `m` models its score summed over (nearest first, ties to
 //! the earlier submission): they vouched for it. The other `f + 1` lose their stakes.
 

@@ -26,6 +26,7 @@ pub mod centered_clipping;
 pub mod fedavg;
 pub mod geomed;
 pub mod krum;
+pub mod meamed;
 pub mod median;
 pub mod multi_krum;
 pub mod paper;
