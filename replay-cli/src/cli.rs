@@ -26,6 +26,8 @@ pub struct ConfigArgs {
     #[arg(long)]
     pub config: Option<PathBuf>,
     /// Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`).
+    /// `contract.rule` takes fedavg, paper, krum, multi-krum, median, trimmed-mean, geomed,
+    /// centered-clipping, bulyan, mda, meamed, monna, signguard or dnc (docs/GUIDE.md).
     #[arg(long = "set", value_name = "KEY=VALUE")]
     pub overrides: Vec<String>,
 }
@@ -461,7 +463,26 @@ command resumes a sweep and retries failed tasks.";
 #[cfg(test)]
 mod tests {
     use super::FORK_HELP;
-    use swarmfl_core::config::RECONFIGURABLE;
+    use swarmfl_core::config::{Rule, RECONFIGURABLE};
+
+    /// `run --help` (the `--set` flag) names every aggregation rule.
+    #[test]
+    fn the_set_help_lists_every_rule() {
+        use clap::CommandFactory;
+        let mut cmd = super::Cli::command();
+        let run = cmd.find_subcommand_mut("run").expect("a run subcommand");
+        let help = run.render_long_help().to_string();
+        let words: Vec<&str> = help
+            .split(|c: char| !(c.is_alphanumeric() || c == '-'))
+            .collect();
+        for rule in Rule::ALL {
+            assert!(
+                words.contains(&rule.name()),
+                "`run --help` does not list the rule {}",
+                rule.name()
+            );
+        }
+    }
 
     /// `fork --help` lists every key a fork may change: a key, its table's `.*`, or (for the
     /// contract's many keys, listed after `contract.`) its name as a word.

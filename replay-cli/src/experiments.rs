@@ -28,6 +28,21 @@ pub const EXPERIMENTS: [&str; 8] = [
 /// 0, 1, 3, 5, 7 would be 441.
 pub const E4_COUNTS: [u32; 3] = [0, 3, 7];
 
+/// The rules of the published `e4-robustness` grid (the first nine of [`Rule::ALL`]): the rules
+/// issue #33 added (mda, meamed, monna, signguard, dnc) are not in it, so the committed study
+/// keeps its 225 points.
+pub const E4_RULES: [Rule; 9] = [
+    Rule::Fedavg,
+    Rule::Paper,
+    Rule::Krum,
+    Rule::MultiKrum,
+    Rule::Median,
+    Rule::TrimmedMean,
+    Rule::Geomed,
+    Rule::CenteredClipping,
+    Rule::Bulyan,
+];
+
 /// The assumed Byzantine count `e4-robustness` gives each rule: 2 (a rule built for the
 /// expected 1.4 and a margin), except bulyan, whose maximum at quorum 7 is 1.
 pub fn e4_assumed_f(rule: Rule) -> u32 {
@@ -197,7 +212,7 @@ fn baselines_grid() -> Vec<Point> {
 /// `<rule>--<attack>--<count>` (`paper--none--0`, `krum--alie--3`).
 fn e4_points() -> Vec<Point> {
     let mut points = Vec::new();
-    for rule in Rule::ALL {
+    for rule in E4_RULES {
         let base = vec![
             format!("contract.rule={}", rule.name()),
             format!("contract.assumed_f={}", e4_assumed_f(rule)),

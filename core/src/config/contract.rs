@@ -28,11 +28,21 @@ pub enum Rule {
     CenteredClipping,
     /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed mean.
     Bulyan,
+    /// Minimum-diameter averaging: the mean of the `q - f` models of the smallest diameter.
+    Mda,
+    /// Mean around the median: per weight, the mean of the `q - f` values nearest the median.
+    Meamed,
+    /// MoNNA: the mean of the `q - f` models nearest the shared model.
+    Monna,
+    /// SignGuard: norm and sign-statistics filters, then the mean clipped to the median norm.
+    Signguard,
+    /// Divide and conquer: drop the `f` models farthest along the top principal direction.
+    Dnc,
 }
 
 impl Rule {
     /// Every variant, in documentation order.
-    pub const ALL: [Rule; 9] = [
+    pub const ALL: [Rule; 14] = [
         Rule::Fedavg,
         Rule::Paper,
         Rule::Krum,
@@ -42,6 +52,11 @@ impl Rule {
         Rule::Geomed,
         Rule::CenteredClipping,
         Rule::Bulyan,
+        Rule::Mda,
+        Rule::Meamed,
+        Rule::Monna,
+        Rule::Signguard,
+        Rule::Dnc,
     ];
 
     /// The rule's name as written in configurations.
@@ -56,6 +71,11 @@ impl Rule {
             Rule::Geomed => "geomed",
             Rule::CenteredClipping => "centered-clipping",
             Rule::Bulyan => "bulyan",
+            Rule::Mda => "mda",
+            Rule::Meamed => "meamed",
+            Rule::Monna => "monna",
+            Rule::Signguard => "signguard",
+            Rule::Dnc => "dnc",
         }
     }
 
@@ -70,16 +90,43 @@ impl Rule {
     }
 
     /// The smallest quorum for which the rule is defined with `f` assumed Byzantine
-    /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed and centered
-    /// clipping `2f + 1`, bulyan `4f + 3`, fedavg and paper 1.
+    /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed, centered
+    /// clipping, mda, meamed, monna, signguard and dnc `2f + 1`, bulyan `4f + 3`, fedavg and
+    /// paper 1.
     pub fn min_quorum(self, f: u32) -> u32 {
         match self {
             Rule::Fedavg | Rule::Paper => 1,
             Rule::Krum | Rule::MultiKrum => 2 * f + 3,
-            Rule::Median | Rule::TrimmedMean | Rule::Geomed | Rule::CenteredClipping => 2 * f + 1,
+            Rule::Median
+            | Rule::TrimmedMean
+            | Rule::Geomed
+            | Rule::CenteredClipping
+            | Rule::Mda
+            | Rule::Meamed
+            | Rule::Monna
+            | Rule::Signguard
+            | Rule::Dnc => 2 * f + 1,
             Rule::Bulyan => 4 * f + 3,
         }
     }
+}
+
+/// The most subsets one `mda` aggregation may visit (`C(q, f)`, `contract::rules::mda`);
+/// validation keeps every configuration within it.
+pub const MDA_MAX_SUBSETS: u64 = 1 << 20;
+
+/// `C(q, f)`, the subsets `mda` visits with quorum `q`, or `None` above [`MDA_MAX_SUBSETS`].
+pub fn mda_subsets(q: u64, f: u64) -> Option<u64> {
+    let k = f.min(q.saturating_sub(f));
+    let mut c: u128 = 1;
+    for i in 0..k {
+        // C(q, i + 1) = C(q, i) (q - i) / (i + 1), exact at every step.
+        c = c * u128::from(q - i) / u128::from(i + 1);
+        if c > u128::from(MDA_MAX_SUBSETS) {
+            return None;
+        }
+    }
+    u64::try_from(c).ok()
 }
 
 /// A defence of the reward rule (`contract.defence`).

@@ -23,8 +23,8 @@ mod tests;
 
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
-    ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
-    RankKey, RankTies, Rule, ThresholdRule,
+    mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,
+    PayoutRounding, PoolRule, RankKey, RankTies, Rule, ThresholdRule, MDA_MAX_SUBSETS,
 };
 pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};

@@ -210,13 +210,15 @@ pub struct ContractConfig {
     /// are rewarded (+1). The paper's k = [1, 1, 1, 1, 1, -1, -1] is 2 of 7.
     pub penalised_ranks: u32,
     /// The aggregation rule (`fedavg`, `paper`, `krum`, `multi-krum`, `median`,
-    /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`; see `contract::rules`).
+    /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`, `mda`, `meamed`, `monna`,
+    /// `signguard`, `dnc`; see `contract::rules`).
     /// `security = false` means `fedavg` whatever this says (old configurations read as before).
     #[serde(default = "default_rule")]
     pub rule: Rule,
     /// Byzantine submissions per round the robust rules assume (f): krum and multi-krum need
-    /// quorum >= 2f + 3, median, trimmed-mean, geomed and centered-clipping 2f + 1, bulyan
-    /// 4f + 3. Ignored by fedavg and paper.
+    /// quorum >= 2f + 3, median, trimmed-mean, geomed, centered-clipping, mda, meamed, monna,
+    /// signguard and dnc 2f + 1, bulyan 4f + 3 (and mda at most 2^20 subsets C(quorum, f)).
+    /// Ignored by fedavg and paper (and read by signguard only for its quorum).
     #[serde(default = "default_assumed_f")]
     pub assumed_f: u32,
     /// A round that has not reached its quorum this many seconds (block time) after it opened

@@ -103,6 +103,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("contract.penalised_ranks", k.penalised_ranks.into(), 0, (c.quorum() - 1).into()),
         Across(robust_rules_need_security),
         Across(assumed_f_fits_the_rule),
+        Across(mda_search_fits),
         Across(reward_weights_fit_the_quorum),
         Across(variant_options_fit_the_rule),
         Integer("byzantine.count", b.count.into(), 0, w.robots.into()),
@@ -250,6 +251,24 @@ fn assumed_f_fits_the_rule(c: &Config) -> Result<(), ConfigError> {
              with f = {f})",
             rule.name(),
             rule.min_quorum(f)
+        ),
+    )
+}
+
+/// `mda` visits `C(q, f)` subsets per round: at most [`super::MDA_MAX_SUBSETS`].
+fn mda_search_fits(c: &Config) -> Result<(), ConfigError> {
+    let (q, f) = (u64::from(c.quorum()), u64::from(c.contract.assumed_f));
+    if c.rule() != Rule::Mda || super::mda_subsets(q, f).is_some() {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.assumed_f",
+        f.to_string(),
+        format!(
+            "an f with C(quorum, f) <= {} for rule mda (quorum {q}: it searches every subset \
+             of quorum - f models); lower contract.assumed_f or contract.quorum_fraction, or \
+             choose another rule",
+            super::MDA_MAX_SUBSETS
         ),
     )
 }

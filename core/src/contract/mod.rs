@@ -239,6 +239,17 @@ impl ContractParams {
                     self.quorum
                 ));
             }
+            if r.rule == Rule::Mda
+                && crate::config::mda_subsets(u64::from(self.quorum), u64::from(r.assumed_f))
+                    .is_none()
+            {
+                return Err(format!(
+                    "mda with quorum {} and assumed_f {} searches more than {} subsets",
+                    self.quorum,
+                    r.assumed_f,
+                    crate::config::MDA_MAX_SUBSETS
+                ));
+            }
         }
         if let Some(d) = self.defence {
             if d.defence == Defence::None || d.refund_percent > 100 || !self.security {

@@ -225,7 +225,10 @@ mod tests {
                 .collect();
             let refs: Vec<&[i64]> = models.iter().map(|w| &w[..]).collect();
             let (z, steps) = weiszfeld(&refs, MAX_STEPS);
-            assert!(steps < MAX_STEPS, "case {case}: no fixed point in {steps} steps");
+            assert!(
+                steps < MAX_STEPS,
+                "case {case}: no fixed point in {steps} steps"
+            );
             let exact = weiszfeld_f64(&models);
             for (i, (&zi, &ei)) in z.iter().zip(&exact).enumerate() {
                 let err = (zi as f64 - ei).abs();

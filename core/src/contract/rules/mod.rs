@@ -18,18 +18,22 @@
 //!   built to withstand; [`Rule::min_quorum`] is the smallest quorum for which the rule is
 //!   defined with that `f`.
 //! - Rules that produce an aggregate without selecting models (median, trimmed mean, geometric
-//!   median, centered clipping) *use* the `q - f` submissions nearest (L1) to their aggregate
+//!   median, centered clipping, meamed) *use* the `q - f` submissions nearest (L1) to their aggregate
 //!   ([`nearest`]): the `f` farthest are the ones the rule treats as suspect.
 
 pub mod bulyan;
 pub mod centered_clipping;
+pub mod dnc;
 pub mod fedavg;
 pub mod geomed;
 pub mod krum;
+pub mod mda;
 pub mod meamed;
 pub mod median;
+pub mod monna;
 pub mod multi_krum;
 pub mod paper;
+pub mod signguard;
 pub mod trimmed_mean;
 
 use super::payout::{self, div_round_half_away};
@@ -95,6 +99,11 @@ impl Rule {
             Rule::Geomed => geomed::aggregate(inputs, f),
             Rule::CenteredClipping => centered_clipping::aggregate(current, inputs, f),
             Rule::Bulyan => bulyan::aggregate(inputs, f),
+            Rule::Mda => mda::aggregate(inputs, f),
+            Rule::Meamed => meamed::aggregate(inputs, f),
+            Rule::Monna => monna::aggregate(current, inputs, f),
+            Rule::Signguard => signguard::aggregate(current, inputs, f),
+            Rule::Dnc => dnc::aggregate(inputs, f),
         };
         debug_assert_eq!(aggregate.weights.len(), current.len());
         debug_assert!(aggregate.used.iter().all(|&i| i < inputs.len()));
