@@ -2,8 +2,8 @@
 # Every aggregation rule against every attack: a `smoke` run (600 s, or DURATION_S) with
 # COUNT Byzantine robots (default 3) for each (rule, attack) pair, then `swarmfl replay` on its
 # log, which must report bit-exact. Prints one line per pair with the final held-out loss and
-# the wall time of run and replay. PAIRS=diagonal runs only 12 pairs (attack i with rule
-# i mod 9, so every rule and every attack appears) instead of all 108.
+# the wall time of run and replay. PAIRS=diagonal runs only 14 pairs (pair i is rule i mod 14
+# with attack i mod 12, so every rule and every attack appears) instead of all 168.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DURATION_S=${DURATION_S:-600}
@@ -15,7 +15,7 @@ trap 'rm -rf "$OUT"' EXIT
 
 cargo build --release --locked -p replay-cli
 BIN=target/release/swarmfl
-RULES=(fedavg paper krum multi-krum median trimmed-mean geomed centered-clipping bulyan)
+RULES=(fedavg paper krum multi-krum median trimmed-mean geomed centered-clipping bulyan mda meamed monna signguard dnc)
 ATTACKS=(faulty malicious smart sign-flip gaussian alie ipm min-max mimic inflate-samples poison-data collude)
 
 one() {
@@ -42,7 +42,8 @@ PY
 }
 
 if [ "$PAIRS" = diagonal ]; then
-    for i in "${!ATTACKS[@]}"; do one "${RULES[$((i % 9))]}" "${ATTACKS[$i]}"; done
+    n=$(( ${#RULES[@]} > ${#ATTACKS[@]} ? ${#RULES[@]} : ${#ATTACKS[@]} ))
+    for ((i = 0; i < n; i++)); do one "${RULES[$((i % ${#RULES[@]}))]}" "${ATTACKS[$((i % ${#ATTACKS[@]}))]}"; done
 else
     for rule in "${RULES[@]}"; do for attack in "${ATTACKS[@]}"; do one "$rule" "$attack"; done; done
 fi

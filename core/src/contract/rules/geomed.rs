@@ -7,10 +7,14 @@
 //! Weiszfeld needs many steps to walk back from it; the median already lies inside the honest
 //! majority's range whenever `q >= 2f + 1`, so the steps only refine it.
 //!
-//! One step: for each model `d_k = max(floor(sqrt(sum_i (w_k,i - z_i)^2)), 1)` (the 1-unit
-//! floor keeps a model sitting on `z` finite), `d_min = min_k d_k`,
-//! `b_k = floor(2^64 d_min / d_k)` and `z_i = sum_k b_k w_k,i / sum_k b_k`, exact in `i128`
-//! and rounded half away from zero. Rescaling by `d_min` keeps every weight in `[1, 2^64]`
+//! One step: for each model `d_k = floor(sqrt(sum_i (w_k,i - z_i)^2))`, `d_min` the smallest
+//! non-zero `d_k`, `b_k = floor(2^64 d_min / d_k)` (0 for a model on `z`) and
+//! `T_i = sum_k b_k w_k,i / sum_k b_k`, exact in `i128` and rounded half away from zero. When
+//! no model sits on `z` the step is `T`. When `eta` models sit on `z` (plain Weiszfeld would
+//! stay there), Vardi and Zhang's (2000) correction: `r = |T - z| B / (2^64 d_min)`
+//! (`B = sum_k b_k`); if `r <= eta`, `z` is the median and the step returns it; otherwise the
+//! step is `T` pulled back toward `z` by `eta 2^64 d_min / B` units along `T - z` (the
+//! quotients taken with `B >> 32` so that they stay in `u128`). Rescaling by `d_min` keeps every weight in `[1, 2^64]`
 //! (so the sums stay below 2^125, as with `2^64 / d_k`) while the nearest model's weight is
 //! exactly 2^64: the weights keep 64 significant bits however far the models are, where
 //! `floor(2^64 / d_k)` kept only `64 - log2(d_k)` (7.8 % of the spread from exact Weiszfeld
@@ -64,20 +68,31 @@ pub fn weiszfeld(models: &[&[i64]], max_steps: usize) -> (Vec<i64>, usize) {
     (z, max_steps)
 }
 
-/// One fixed-point Weiszfeld step from `z`.
+/// One fixed-point Weiszfeld step from `z`, with Vardi and Zhang's (2000) correction when `z`
+/// sits on models (plain Weiszfeld would stay there: the 1-unit floor gives such a model a
+/// weight `d_min` times the others').
 fn step_from(models: &[&[i64]], z: &[i64]) -> Vec<i64> {
-    let d: Vec<u128> = models
-        .iter()
-        .map(|w| isqrt(squared_distance(w, z)).max(1))
-        .collect();
-    let d_min = *d.iter().min().expect("non-empty");
+    let squared: Vec<u128> = models.iter().map(|w| squared_distance(w, z)).collect();
+    // eta models coincide with z; the step averages the others.
+    let eta = squared.iter().filter(|&&d| d == 0).count();
+    if eta == models.len() {
+        return z.to_vec();
+    }
+    let d: Vec<u128> = squared.iter().map(|&s| isqrt(s)).collect();
+    let d_min = *d.iter().filter(|&&dk| dk > 0).min().expect("a model off z");
     // d_min <= d_k < 2^57, so 2^64 d_min < 2^121 and each weight lies in [1, 2^64].
     let b: Vec<i128> = d
         .iter()
-        .map(|&dk| i128::try_from((d_min << 64) / dk).expect("at most 2^64"))
+        .map(|&dk| {
+            if dk == 0 {
+                0
+            } else {
+                i128::try_from((d_min << 64) / dk).expect("at most 2^64")
+            }
+        })
         .collect();
     let total: i128 = b.iter().sum();
-    (0..z.len())
+    let t: Vec<i64> = (0..z.len())
         .map(|i| {
             let num: i128 = models
                 .iter()
@@ -85,6 +100,34 @@ fn step_from(models: &[&[i64]], z: &[i64]) -> Vec<i64> {
                 .map(|(w, &bk)| bk * i128::from(w[i]))
                 .sum();
             i64::try_from(div_round_half_away(num, total)).expect("a weighted mean of i64")
+        })
+        .collect();
+    if eta == 0 {
+        return t;
+    }
+    // Vardi-Zhang: with R = sum_{k off z} (w_k - z) / d_k and r = |R|, z is the median when
+    // r <= eta; otherwise the step is T - eta R / (r |R| / r) ... = T - (T - z) eta / r. Here
+    // R = (T - z) B / (2^64 d_min) with B = sum b_k, so r = |T - z| B / (2^64 d_min) and the
+    // step pulls T back toward z by the length s = eta 2^64 d_min / B along T - z.
+    // Computed with B >> 32 to stay in u128: |T - z| < 2^58, B >> 32 < 2^47.
+    let diff: Vec<i128> = t
+        .iter()
+        .zip(z)
+        .map(|(&a, &c)| i128::from(a) - i128::from(c))
+        .collect();
+    let norm = isqrt(diff.iter().map(|&x| x.unsigned_abs().pow(2)).sum());
+    let b_hi = (total as u128 >> 32).max(1);
+    let eta = eta as u128;
+    if norm * b_hi <= (eta * d_min) << 32 {
+        return z.to_vec(); // r <= eta: z is the geometric median
+    }
+    let s = i128::try_from(((eta * d_min) << 32) / b_hi).expect("below 2^104");
+    let norm = i128::try_from(norm).expect("below 2^58");
+    t.iter()
+        .zip(&diff)
+        .map(|(&ti, &x)| {
+            i64::try_from(i128::from(ti) - div_round_half_away(x * s, norm))
+                .expect("between z and T")
         })
         .collect()
 }
@@ -110,9 +153,9 @@ mod tests {
 
     #[test]
     fn moves_from_the_median_to_the_cluster() {
-        // Median of 0, 0, 0, 10 = 0, where three models sit (distances floored to 1) and the
-        // fourth is 10 away: d_min = 1, weights 2^64, 2^64, 2^64, 2^64 / 10:
-        // z = 10 (2^64 / 10) / (3.1 * 2^64) = 0.32 -> 0, the start: a fixed point.
+        // Median of 0, 0, 0, 10 = 0, where three models sit (eta = 3) and the fourth is 10
+        // away: T = 10, r = |T - z| B / (2^64 d_min) = 10 * 2^64 / (10 * 2^64) = 1 <= 3: z = 0
+        // is the geometric median, a fixed point.
         let a = aggregate(
             &inputs_of(&[(&[0], 1), (&[0], 1), (&[0], 1), (&[10], 1_000_000)]),
             1,
@@ -137,22 +180,25 @@ mod tests {
         // z = (4 + 100 / 97) / (1 / 3 + 1 + 1 / 97) = 5.0309 / 1.3436 = 3.744 -> 4.
         let models: [&[i64]; 3] = [&[0], &[4], &[100]];
         assert_eq!(step_from(&models, &[3]), vec![4]);
+        // From z = 4, on a model (eta = 1): T = 100 / 96 / (1 / 4 + 1 / 96) = 4.0 -> 4... the
+        // others are 0 (4 away) and 100 (96 away): T = (0 / 4 + 100 / 96) / (1 / 4 + 1 / 96)
+        // = 4, r = |T - z| ... = 0 <= 1: 4 is the median of 0, 4, 100.
+        assert_eq!(step_from(&models, &[4]), vec![4]);
+        // 2-D, a point on a model that is not the median: models (0, 0), (10, 0), (10, 1),
+        // (10, -1) from z = (0, 0): T = (10, 0) (weights about equal), r = 10 * B / (2^64
+        // d_min) = 10 (1 + 2 * 10 / sqrt(101)) / 10 = 2.99 > 1: the step leaves (0, 0) toward
+        // T, pulled back by 2^64 d_min / B = 10 / 2.99 = 3.34: (6.66, 0); in integers
+        // d = 0, 10, floor(sqrt(101)) = 10, 10 and the pull floor(10 / 3) = 3: (7, 0).
+        let models: [&[i64]; 4] = [&[0, 0], &[10, 0], &[10, 1], &[10, -1]];
+        assert_eq!(step_from(&models, &[0, 0]), vec![7, 0]);
     }
 
-    /// Exact Weiszfeld in f64 from the coordinate-wise median, run far past convergence.
+    /// Exact Weiszfeld in f64 from the mean (which, unlike the median, is almost surely on no
+    /// model, so plain Weiszfeld converges), run far past convergence.
     fn weiszfeld_f64(models: &[Vec<i64>]) -> Vec<f64> {
         let len = models[0].len();
         let mut z: Vec<f64> = (0..len)
-            .map(|i| {
-                let mut c: Vec<f64> = models.iter().map(|w| w[i] as f64).collect();
-                c.sort_by(f64::total_cmp);
-                let n = c.len();
-                if n % 2 == 1 {
-                    c[n / 2]
-                } else {
-                    (c[n / 2 - 1] + c[n / 2]) / 2.0
-                }
-            })
+            .map(|i| models.iter().map(|w| w[i] as f64).sum::<f64>() / models.len() as f64)
             .collect();
         for _ in 0..20_000 {
             let b: Vec<f64> = models
@@ -230,6 +276,29 @@ mod tests {
                 "case {case}: no fixed point in {steps} steps"
             );
             let exact = weiszfeld_f64(&models);
+            let cost = |p: &[f64]| -> f64 {
+                models
+                    .iter()
+                    .map(|w| {
+                        w.iter()
+                            .zip(p)
+                            .map(|(&x, &c)| (x as f64 - c).powi(2))
+                            .sum::<f64>()
+                            .sqrt()
+                    })
+                    .sum()
+            };
+            let zf: Vec<f64> = z.iter().map(|&v| v as f64).collect();
+            // Every minimiser costs the same; ours may cost a few units more.
+            assert!(
+                cost(&zf) <= cost(&exact) + 1e-4 * spread as f64,
+                "case {case}: cost {} vs exact {}",
+                cost(&zf),
+                cost(&exact)
+            );
+            if len == 1 && q % 2 == 0 {
+                continue; // on a line with an even count the minimisers form an interval
+            }
             for (i, (&zi, &ei)) in z.iter().zip(&exact).enumerate() {
                 let err = (zi as f64 - ei).abs();
                 assert!(
