@@ -2,8 +2,11 @@
 # Every aggregation rule against every attack: a `smoke` run (600 s, or DURATION_S) with
 # COUNT Byzantine robots (default 3) for each (rule, attack) pair, then `swarmfl replay` on its
 # log, which must report bit-exact. Prints one line per pair with the final held-out loss and
-# the wall time of run and replay. PAIRS=diagonal runs only 14 pairs (pair i is rule i mod 14
-# with attack i mod 12, so every rule and every attack appears) instead of all 168.
+
+# the wall time of run and replay. PAIRS=diagonal runs only 16 pairs (pair i is rule i mod 14
+# with attack i mod 16, so every rule and every attack appears) instead of all 224. Then every
+# pre-aggregator (contract.preaggregators) runs once in front of a rule against an adaptive
+# attack (PREAGG=0 skips them), replayed the same way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DURATION_S=${DURATION_S:-600}
@@ -16,27 +19,35 @@ trap 'rm -rf "$OUT"' EXIT
 cargo build --release --locked -p replay-cli
 BIN=target/release/swarmfl
 RULES=(fedavg paper krum multi-krum median trimmed-mean geomed centered-clipping bulyan mda meamed monna signguard dnc)
-ATTACKS=(faulty malicious smart sign-flip gaussian alie ipm min-max mimic inflate-samples poison-data collude)
+ATTACKS=(faulty malicious smart sign-flip gaussian alie ipm min-max mimic inflate-samples poison-data collude
+         optimal-alie optimal-ipm inf mirror-targets)
+# (pre-aggregator chain, rule, attack): each stage once, and one chain of two.
+PREAGGS=('["nnm"] krum optimal-alie' '["bucketing"] median optimal-ipm' '["clipping"] paper inf'
+         '["arc"] trimmed-mean mirror-targets' '["nnm","arc"] geomed optimal-ipm')
+PREAGG=${PREAGG:-1}
 
 one() {
-    local rule=$1 attack=$2 dir="$OUT/$1-$2"
+    local rule=$1 attack=$2 chain=${3:-[]}
+    local dir="$OUT/$1-$2-$(printf %s "$chain" | tr -dc a-z)"
     local t0 t1 t2
     t0=$(date +%s.%N)
     $BIN run --preset smoke --seed "$SEED" --out "$dir" --quiet \
         --set run.duration_s="$DURATION_S" --set learn.learning_rate=0.01 \
         --set contract.rule="$rule" --set contract.assumed_f=1 \
-        --set byzantine.kind="$attack" --set byzantine.count="$COUNT"
+        --set byzantine.kind="$attack" --set byzantine.count="$COUNT" \
+        --set "contract.preaggregators=$chain"
     t1=$(date +%s.%N)
     $BIN replay "$dir/run.swlog" > "$dir/replay.txt"
     t2=$(date +%s.%N)
     grep -q "bit-exact" "$dir/replay.txt" || { echo "$rule $attack: replay not bit-exact"; cat "$dir/replay.txt"; exit 1; }
-    python3 - "$dir/summary.json" "$rule" "$attack" "$t0" "$t1" "$t2" <<'PY'
+    python3 - "$dir/summary.json" "$rule" "$attack" "$t0" "$t1" "$t2" "$chain" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
 h = (s.get("contract") or {}).get("heldout_loss_by_round") or []
 loss = f"{h[-1]:.5f}" if h else "n/a"
 t0, t1, t2 = map(float, sys.argv[4:7])
-print(f"{sys.argv[2]:18} {sys.argv[3]:16} rounds {len(h):3}  held-out {loss:>9}  run {t1-t0:5.1f} s  replay {t2-t1:4.1f} s  bit-exact")
+chain = "" if sys.argv[7] == "[]" else " after " + sys.argv[7]
+print(f"{sys.argv[2] + chain:18} {sys.argv[3]:16} rounds {len(h):3}  held-out {loss:>9}  run {t1-t0:5.1f} s  replay {t2-t1:4.1f} s  bit-exact")
 PY
     rm -f "$dir/run.swlog"
 }
@@ -46,4 +57,10 @@ if [ "$PAIRS" = diagonal ]; then
     for ((i = 0; i < n; i++)); do one "${RULES[$((i % ${#RULES[@]}))]}" "${ATTACKS[$((i % ${#ATTACKS[@]}))]}"; done
 else
     for rule in "${RULES[@]}"; do for attack in "${ATTACKS[@]}"; do one "$rule" "$attack"; done; done
+fi
+if [ "$PREAGG" = 1 ]; then
+    for entry in "${PREAGGS[@]}"; do
+        read -r chain rule attack <<< "$entry"
+        one "$rule" "$attack" "$chain"
+    done
 fi

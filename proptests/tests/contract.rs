@@ -31,6 +31,7 @@ fn params(security: bool) -> ContractParams {
         engine: Default::default(),
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     }
 }
 

@@ -37,6 +37,7 @@ fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
         },
         round_timeout_ms: 0,
         options: Default::default(),
+        preagg: None,
         engine: Default::default(),
         defence: Some(DefenceParams {
             defence,

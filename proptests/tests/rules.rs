@@ -39,6 +39,7 @@ fn params(rule: Rule) -> ContractParams {
         engine: Default::default(),
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     }
 }
 

@@ -221,9 +221,9 @@ fn e4_points() -> Vec<Point> {
             let kinds: Vec<ByzantineKind> = if count == 0 {
                 vec![ByzantineKind::None]
             } else {
-                // smart-then-collude is e5-smart-defence's attack: the e4 grid stays as
-                // published (12 attacks).
-                ByzantineKind::ALL[1..]
+                // smart-then-collude is e5-smart-defence's attack, and the kinds after it are
+                // issue 33's: the e4 grid stays as published (12 attacks).
+                ByzantineKind::ALL[1..=13]
                     .iter()
                     .copied()
                     .filter(|&k| k != ByzantineKind::SmartThenCollude)

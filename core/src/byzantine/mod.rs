@@ -16,7 +16,10 @@
 //! `faulty`, `malicious`, `smart` (the paper's, docs/SPEC.md section 5), `sign-flip`, `gaussian`,
 //! `alie`, `ipm`, `min-max`, `mimic`, `inflate-samples`, `poison-data`, `collude`,
 //! `smart-then-collude` (the paper's open problem: smart until the coalition holds a token
-//! share, then one harmful model). Models are
+//! share, then one harmful model), and the adaptive and extreme attacks of issue 33:
+//! `optimal-alie` and `optimal-ipm` (their factor line-searched against the contract's own
+//! pre-aggregators and rule on the robot's chain, `line_search.rs`), `inf` (every weight at the
+//! edge of int48) and `mirror-targets` (label flipping for trajectories). Models are
 //! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
 //! driver converts them to fixed point as it does honest models.
 
@@ -24,12 +27,17 @@ pub mod alie;
 pub mod collude;
 pub mod faulty;
 pub mod gaussian;
+pub mod inf;
 pub mod inflate_samples;
 pub mod ipm;
 pub mod ledger;
+pub mod line_search;
 pub mod malicious;
 pub mod mimic;
 pub mod min_max;
+pub mod mirror_targets;
+pub mod optimal_alie;
+pub mod optimal_ipm;
 pub mod poison_data;
 pub mod sign_flip;
 pub mod smart;
@@ -160,6 +168,10 @@ pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
         ByzantineKind::PoisonData => Box::new(poison_data::PoisonData),
         ByzantineKind::Collude => Box::new(collude::Collude),
         ByzantineKind::SmartThenCollude => Box::new(smart_then_collude::SmartThenCollude),
+        ByzantineKind::OptimalAlie => Box::new(optimal_alie::OptimalAlie),
+        ByzantineKind::OptimalIpm => Box::new(optimal_ipm::OptimalIpm),
+        ByzantineKind::Inf => Box::new(inf::Inf),
+        ByzantineKind::MirrorTargets => Box::new(mirror_targets::MirrorTargets),
     })
 }
 

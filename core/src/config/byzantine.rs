@@ -37,11 +37,19 @@ pub enum ByzantineKind {
     Collude,
     /// `smart` until the Byzantine robots hold a token share, then `collude`.
     SmartThenCollude,
+    /// `alie` with its factor line-searched against the contract's rule on the robot's chain.
+    OptimalAlie,
+    /// `ipm` with its factor line-searched against the contract's rule on the robot's chain.
+    OptimalIpm,
+    /// Extreme values: every weight at the edge of int48.
+    Inf,
+    /// Trains honestly on trajectories whose targets are mirrored across the heading.
+    MirrorTargets,
 }
 
 impl ByzantineKind {
     /// Every variant, in documentation order.
-    pub const ALL: [ByzantineKind; 14] = [
+    pub const ALL: [ByzantineKind; 18] = [
         ByzantineKind::None,
         ByzantineKind::Faulty,
         ByzantineKind::Malicious,
@@ -56,6 +64,10 @@ impl ByzantineKind {
         ByzantineKind::PoisonData,
         ByzantineKind::Collude,
         ByzantineKind::SmartThenCollude,
+        ByzantineKind::OptimalAlie,
+        ByzantineKind::OptimalIpm,
+        ByzantineKind::Inf,
+        ByzantineKind::MirrorTargets,
     ];
 
     /// The kind's name as written in configurations.
@@ -75,6 +87,10 @@ impl ByzantineKind {
             ByzantineKind::PoisonData => "poison-data",
             ByzantineKind::Collude => "collude",
             ByzantineKind::SmartThenCollude => "smart-then-collude",
+            ByzantineKind::OptimalAlie => "optimal-alie",
+            ByzantineKind::OptimalIpm => "optimal-ipm",
+            ByzantineKind::Inf => "inf",
+            ByzantineKind::MirrorTargets => "mirror-targets",
         }
     }
 }

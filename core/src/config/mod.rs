@@ -14,6 +14,7 @@ mod contract;
 mod error;
 mod ledger;
 mod overrides;
+mod preagg;
 mod preset;
 mod tree;
 mod validate;
@@ -29,6 +30,7 @@ pub use contract::{
 pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};
 pub use overrides::{is_reconfigurable, RECONFIGURABLE};
+pub use preagg::Preaggregator;
 pub use preset::Preset;
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,

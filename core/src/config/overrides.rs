@@ -65,7 +65,7 @@ impl Config {
             collect_keys("", table, &mut explicit);
         }
         if let Some((table, source_name)) = file_table {
-            let mut base = toml::Value::try_from(&config).expect("Config serialises");
+            let mut base = full_tree(&config);
             merge(&mut base, toml::Value::Table(table), "", source_name)?;
             config = base
                 .try_into()
@@ -133,7 +133,7 @@ impl Config {
             Ok(mut t) => t.remove("v").expect("parsed table has v"),
             Err(_) => toml::Value::String(raw.to_string()),
         };
-        let mut root = toml::Value::try_from(&*self).expect("Config serialises");
+        let mut root = full_tree(self);
         let mut slot = &mut root;
         let mut walked = String::new();
         for part in key.split('.') {
@@ -251,6 +251,31 @@ pub fn is_reconfigurable(key: &str) -> bool {
 }
 
 /// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
+/// The configuration as a TOML tree with every key, including those [`Config::to_toml`]
+/// leaves out at their default (`contract.preaggregators`, `contract.bucket_size`,
+/// `contract.clip_radius`, `byzantine.search_evals`: keys added after records existed, whose
+/// recording would move every run's hash), so that files and `--set` find them.
+pub(super) fn full_tree(config: &Config) -> toml::Value {
+    let mut root = toml::Value::try_from(config).expect("Config serialises");
+    let (c, b) = (&config.contract, &config.byzantine);
+    let omitted = [
+        (
+            "contract",
+            "preaggregators",
+            toml::Value::try_from(&c.preaggregators).expect("names serialise"),
+        ),
+        ("contract", "bucket_size", toml::Value::Integer(c.bucket_size.into())),
+        ("contract", "clip_radius", toml::Value::Float(c.clip_radius)),
+        ("byzantine", "search_evals", toml::Value::Integer(b.search_evals.into())),
+    ];
+    for (table, key, value) in omitted {
+        if let Some(t) = root.get_mut(table).and_then(toml::Value::as_table_mut) {
+            t.entry(key).or_insert(value);
+        }
+    }
+    root
+}
+
 fn merge(
     base: &mut toml::Value,
     patch: toml::Value,

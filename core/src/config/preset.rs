@@ -290,6 +290,9 @@ impl Config {
                 defence: Defence::None,
                 block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
                 defence_refund_percent: 50,
+                preaggregators: Vec::new(),
+                bucket_size: 2,
+                clip_radius: 1.0,
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,
@@ -305,6 +308,7 @@ impl Config {
                 inflated_samples: u32::MAX,
                 ledger: LedgerBehaviour::Honest,
                 switch_token_share: 0.5,
+                search_evals: 20,
             },
             faults: FaultsConfig::default(),
             output: OutputConfig {

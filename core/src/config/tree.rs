@@ -12,6 +12,7 @@ use super::contract::{
     RankKey, RankTies, Rule, ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
+use super::preagg::{self, Preaggregator};
 use crate::faults::FaultsConfig;
 
 /// A complete, resolved configuration of a run.
@@ -288,6 +289,26 @@ pub struct ContractConfig {
         skip_serializing_if = "is_default_block_gas_limit"
     )]
     pub block_gas_limit: u64,
+    /// Pre-aggregation stages in front of the rule, applied in list order (`nnm`,
+    /// `bucketing`, `clipping`, `arc`; see `contract::preagg`), e.g. `["nnm"]`. Needs a staking
+    /// rule on the native contract; the rule then runs on the stages' output, the rewards stay
+    /// on the submissions made (docs/CONTRACT.md). Empty (the default): the rule alone.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub preaggregators: Vec<Preaggregator>,
+    /// `bucketing`: models per bucket, `s` (1..=quorum; 2 by default; the last bucket holds the
+    /// remainder when `s` does not divide the quorum).
+    #[serde(
+        default = "preagg::default_bucket_size",
+        skip_serializing_if = "preagg::is_default_bucket_size"
+    )]
+    pub bucket_size: u32,
+    /// `clipping`: the radius, in weight units, of the L2 norm of an update `w_k - w(t)`
+    /// beyond which it is scaled back onto the sphere (in (0, 1e6]; 1.0 by default).
+    #[serde(
+        default = "preagg::default_clip_radius",
+        skip_serializing_if = "preagg::is_default_clip_radius"
+    )]
+    pub clip_radius: f64,
 }
 
 fn default_defence_refund_percent() -> u32 {
@@ -379,6 +400,22 @@ pub struct ByzantineConfig {
     /// all submit one harmful model; 0.5 = "more tokens than the honest robots together".
     #[serde(default = "default_switch_token_share")]
     pub switch_token_share: f64,
+    /// `optimal-alie` and `optimal-ipm`: evaluations of the contract's aggregation per line
+    /// search of the attack factor (1..=1000; 20 by default, as ByzFL). Left out of the
+    /// recorded configuration at its default.
+    #[serde(
+        default = "default_search_evals",
+        skip_serializing_if = "is_default_search_evals"
+    )]
+    pub search_evals: u32,
+}
+
+fn default_search_evals() -> u32 {
+    20
+}
+
+fn is_default_search_evals(n: &u32) -> bool {
+    *n == default_search_evals()
 }
 
 fn default_switch_token_share() -> f64 {
@@ -453,9 +490,16 @@ impl Config {
             .collect()
     }
 
-    /// The full TOML text of this configuration.
+    /// The TOML text of this configuration as runs record it (keys added after records
+    /// existed are left out at their default: see [`Config::to_toml_full`]).
     pub fn to_toml(&self) -> String {
         toml::to_string(self).expect("a Config always serialises to TOML")
+    }
+
+    /// The TOML text with every key, also those [`Config::to_toml`] leaves out at their
+    /// default: what `swarmfl config` prints, so every key can be read and set.
+    pub fn to_toml_full(&self) -> String {
+        toml::to_string(&super::overrides::full_tree(self)).expect("a TOML tree serialises")
     }
 
     /// The blake3 hash of the canonical TOML text: names a configuration in results.

@@ -126,8 +126,10 @@ fn table(c: &Config) -> Vec<Step> {
         Number("byzantine.threshold_fraction", b.threshold_fraction, 0.0, 1000.0),
         Integer("byzantine.inflated_samples", b.inflated_samples.into(), 1, u32::MAX.into()),
         Across(switch_token_share_is_a_share),
+        Integer("byzantine.search_evals", b.search_evals.into(), 1, 1000),
         Integer("contract.defence_refund_percent", k.defence_refund_percent.into(), 0, 100),
         Across(defences_need_stakes),
+        Across(super::preagg::chain_fits),
     ]
 }
 

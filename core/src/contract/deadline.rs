@@ -73,6 +73,7 @@ mod tests {
             engine: Default::default(),
             defence: None,
             block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+            preagg: None,
         }
     }
 

@@ -51,6 +51,7 @@ pub mod evm;
 pub mod evm;
 pub mod options;
 pub mod payout;
+pub mod preagg;
 pub mod rules;
 
 #[cfg(test)]
@@ -114,6 +115,11 @@ pub struct ContractParams {
     /// defence is the one they had before defences existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub defence: Option<defences::DefenceParams>,
+    /// The pre-aggregator chain in front of the rule (`contract.preaggregators`, see
+    /// [`preagg`]); `None` without stages, and then left out of the encoding, so the
+    /// parameters' digest of runs without pre-aggregators is the one they had before.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preagg: Option<preagg::PreaggParams>,
     /// Which machine executes the contract. Not part of the genesis commitment: both engines
     /// execute the same contract, so a run's chain is the same under either.
     #[serde(skip)]
@@ -166,8 +172,37 @@ impl ContractParams {
                 // Without stakes there are no rewards to defend.
                 _ => None,
             },
+            preagg: if c.preaggregators.is_empty() {
+                None
+            } else {
+                Some(preagg::PreaggParams {
+                    stages: c.preaggregators.clone(),
+                    assumed_f: c.assumed_f,
+                    bucket_size: c.bucket_size,
+                    clip_radius_units: (c.clip_radius * c.weight_scale as f64).round() as u64,
+                })
+            },
             engine: c.engine,
             block_gas_limit: c.block_gas_limit,
+        }
+    }
+
+    /// A round's aggregate under these rules: the pre-aggregator chain, if any, then the rule
+    /// (`inputs` the accepted submissions in chain order, `seed` bucketing's, see
+    /// [`preagg::shuffle_seed`]). What the contract computes when a round closes, and what an
+    /// attacker evaluates on the submissions its node holds.
+    pub fn round_aggregate(
+        &self,
+        current: &[i64],
+        inputs: &[rules::Input],
+        seed: [u8; 32],
+    ) -> rules::Aggregate {
+        let (rule, f) = (self.rule(), self.assumed_f() as usize);
+        match &self.preagg {
+            None => rule.aggregate(current, inputs, f, &self.options),
+            Some(chain) => {
+                preagg::aggregate(rule, chain, current, inputs, f, &self.options, seed)
+            }
         }
     }
 
@@ -258,6 +293,12 @@ impl ContractParams {
                     d.defence.name(),
                     d.refund_percent
                 ));
+            }
+        }
+        if let Some(chain) = &self.preagg {
+            chain.check(self.rule(), self.assumed_f(), self.quorum)?;
+            if !self.security || self.engine == ContractEngine::Evm {
+                return Err("pre-aggregators need a staking rule and the native engine".into());
             }
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {
@@ -745,12 +786,18 @@ impl ContractState {
                 distance_units: s.distance_units,
             })
             .collect();
-        let aggregate = rule.aggregate(
-            &self.weights,
-            &inputs,
-            params.assumed_f() as usize,
-            &params.options,
-        );
+        let seed = match params.preagg {
+            // Only bucketing reads it; computed only when a chain can.
+            Some(_) => {
+                let accepted: Vec<(RobotId, Digest)> = accepted
+                    .iter()
+                    .map(|s| (s.sender, s.weights_digest))
+                    .collect();
+                preagg::shuffle_seed(self.round, &self.weights_digest, &accepted)
+            }
+            None => [0; 32],
+        };
+        let aggregate = params.round_aggregate(&self.weights, &inputs, seed);
         let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 

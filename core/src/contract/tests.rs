@@ -29,6 +29,7 @@ fn params(security: bool) -> ContractParams {
         engine: Default::default(),
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     }
 }
 

@@ -7,6 +7,6 @@ use crate::cli::ConfigArgs;
 /// Runs `swarmfl config`.
 pub fn command(args: &ConfigArgs) -> anyhow::Result<ExitCode> {
     let config = args.resolve()?;
-    print!("{}", config.to_toml());
+    print!("{}", config.to_toml_full());
     Ok(ExitCode::SUCCESS)
 }

@@ -89,6 +89,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         engine: ContractEngine::Native,
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     }
 }
 
