@@ -20,9 +20,9 @@ cargo build --release --locked -p replay-cli
 BIN=target/release/swarmfl
 RULES=(fedavg paper krum multi-krum median trimmed-mean geomed centered-clipping bulyan mda meamed monna signguard dnc)
 ATTACKS=(faulty malicious smart sign-flip gaussian alie ipm min-max mimic inflate-samples poison-data collude
-         optimal-alie optimal-ipm inf mirror-targets)
+         optimal-alie optimal-ipm extreme-value mirror-targets)
 # (pre-aggregator chain, rule, attack): each stage once, and one chain of two.
-PREAGGS=('["nnm"] krum optimal-alie' '["bucketing"] median optimal-ipm' '["clipping"] paper inf'
+PREAGGS=('["nnm"] krum optimal-alie' '["bucketing"] median optimal-ipm' '["clipping"] paper extreme-value'
          '["arc"] trimmed-mean mirror-targets' '["nnm","arc"] geomed optimal-ipm')
 PREAGG=${PREAGG:-1}
 

@@ -98,13 +98,12 @@ fn tx() -> impl Strategy<Value = Tx> {
             },
         },
     );
-    let transfer = (sender, 0..ROBOTS + 2, 0u64..30 * TOKEN).prop_map(|(sender, to, amount_units)| {
-        Tx {
+    let transfer =
+        (sender, 0..ROBOTS + 2, 0u64..30 * TOKEN).prop_map(|(sender, to, amount_units)| Tx {
             sender,
             value_units: 0,
             call: Call::Transfer { to, amount_units },
-        }
-    });
+        });
     prop_oneof![8 => submit, 1 => transfer]
 }
 
@@ -113,9 +112,17 @@ fn run(p: &ContractParams, txs: &[Tx]) -> Result<u64, TestCaseError> {
     for (step, tx) in txs.iter().enumerate() {
         let before = state.clone();
         let outcome = state.execute(p, tx.sender, tx.value_units, &tx.call);
-        prop_assert_eq!(state.total_units(), p.total_units(), "conservation at step {}", step);
+        prop_assert_eq!(
+            state.total_units(),
+            p.total_units(),
+            "conservation at step {}",
+            step
+        );
         let staked: u64 = state.submissions.iter().map(|s| s.stake_units).sum();
-        prop_assert!(staked <= state.holdings_units, "the contract holds the stakes");
+        prop_assert!(
+            staked <= state.holdings_units,
+            "the contract holds the stakes"
+        );
         let Outcome::Aggregated { payouts, .. } = &outcome else {
             continue;
         };
@@ -130,7 +137,9 @@ fn run(p: &ContractParams, txs: &[Tx]) -> Result<u64, TestCaseError> {
         prop_assert!(paid <= last.pool_units);
         prop_assert_eq!(last.pool_units - paid, last.carried_units);
         let mut robots: Vec<RobotId> = payouts.iter().map(|p| p.robot).collect();
-        prop_assert!(robots.iter().all(|r| accepted.iter().any(|s| s.sender == *r)));
+        prop_assert!(robots
+            .iter()
+            .all(|r| accepted.iter().any(|s| s.sender == *r)));
         robots.sort_unstable();
         robots.dedup();
         prop_assert_eq!(robots.len(), payouts.len(), "pays each robot once");
@@ -188,7 +197,11 @@ fn hostile_sequences_reach_aggregations_under_every_chain() {
 
     let pairs = pairs();
     for rule in Rule::ALL.into_iter().filter(|r| r.stakes()) {
-        assert!(pairs.iter().any(|p| p.rule() == rule), "{} covered", rule.name());
+        assert!(
+            pairs.iter().any(|p| p.rule() == rule),
+            "{} covered",
+            rule.name()
+        );
     }
     for stage in Preaggregator::ALL {
         assert!(
@@ -210,6 +223,11 @@ fn hostile_sequences_reach_aggregations_under_every_chain() {
             let txs = strategy.new_tree(&mut runner).expect("generates").current();
             rounds += run(p, &txs).expect("the properties hold");
         }
-        assert!(rounds >= 2, "{} {:?}: {rounds} aggregations", p.rule().name(), p.preagg);
+        assert!(
+            rounds >= 2,
+            "{} {:?}: {rounds} aggregations",
+            p.rule().name(),
+            p.preagg
+        );
     }
 }

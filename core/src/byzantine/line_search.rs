@@ -122,7 +122,10 @@ pub fn objective(view: &View, round: &Round, forged: &[f32]) -> Option<u128> {
         .collect();
     let seed = preagg::shuffle_seed(view.chain.round, &view.chain.weights_digest, &digests);
     let aggregate = params.round_aggregate(current, &inputs, seed);
-    Some(rules::squared_distance(&aggregate.weights, &round.honest_mean))
+    Some(rules::squared_distance(
+        &aggregate.weights,
+        &round.honest_mean,
+    ))
 }
 
 /// The factor found by the search, with `evals` evaluations of `score` in all (at least 1).
@@ -185,7 +188,13 @@ mod tests {
     fn refused_factors_lose_and_ties_keep_the_smaller() {
         // Everything beyond 5 is refused: 0 (score 1), 10 refused: contraction 0 + 8 refused,
         // 6.4 refused, 5.12 refused, 4.096 accepted with 2 > 1.
-        let x = search(6, |x| if x > 5.0 { None } else { Some(1 + u128::from(x > 4.0)) });
+        let x = search(6, |x| {
+            if x > 5.0 {
+                None
+            } else {
+                Some(1 + u128::from(x > 4.0))
+            }
+        });
         assert_eq!(x, 10.0 * RATIO * RATIO * RATIO * RATIO);
         // A flat objective keeps the start.
         assert_eq!(search(20, |_| Some(7)), START);

@@ -18,16 +18,16 @@
 //! `smart-then-collude` (the paper's open problem: smart until the coalition holds a token
 //! share, then one harmful model), and the adaptive and extreme attacks of issue 33:
 //! `optimal-alie` and `optimal-ipm` (their factor line-searched against the contract's own
-//! pre-aggregators and rule on the robot's chain, `line_search.rs`), `inf` (every weight at the
+//! pre-aggregators and rule on the robot's chain, `line_search.rs`), `extreme-value` (every weight at the
 //! edge of int48) and `mirror-targets` (label flipping for trajectories). Models are
 //! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
 //! driver converts them to fixed point as it does honest models.
 
 pub mod alie;
 pub mod collude;
+pub mod extreme_value;
 pub mod faulty;
 pub mod gaussian;
-pub mod inf;
 pub mod inflate_samples;
 pub mod ipm;
 pub mod ledger;
@@ -170,7 +170,7 @@ pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
         ByzantineKind::SmartThenCollude => Box::new(smart_then_collude::SmartThenCollude),
         ByzantineKind::OptimalAlie => Box::new(optimal_alie::OptimalAlie),
         ByzantineKind::OptimalIpm => Box::new(optimal_ipm::OptimalIpm),
-        ByzantineKind::Inf => Box::new(inf::Inf),
+        ByzantineKind::ExtremeValue => Box::new(extreme_value::ExtremeValue),
         ByzantineKind::MirrorTargets => Box::new(mirror_targets::MirrorTargets),
     })
 }

@@ -42,7 +42,7 @@ pub enum ByzantineKind {
     /// `ipm` with its factor line-searched against the contract's rule on the robot's chain.
     OptimalIpm,
     /// Extreme values: every weight at the edge of int48.
-    Inf,
+    ExtremeValue,
     /// Trains honestly on trajectories whose targets are mirrored across the heading.
     MirrorTargets,
 }
@@ -66,7 +66,7 @@ impl ByzantineKind {
         ByzantineKind::SmartThenCollude,
         ByzantineKind::OptimalAlie,
         ByzantineKind::OptimalIpm,
-        ByzantineKind::Inf,
+        ByzantineKind::ExtremeValue,
         ByzantineKind::MirrorTargets,
     ];
 
@@ -89,7 +89,7 @@ impl ByzantineKind {
             ByzantineKind::SmartThenCollude => "smart-then-collude",
             ByzantineKind::OptimalAlie => "optimal-alie",
             ByzantineKind::OptimalIpm => "optimal-ipm",
-            ByzantineKind::Inf => "inf",
+            ByzantineKind::ExtremeValue => "extreme-value",
             ByzantineKind::MirrorTargets => "mirror-targets",
         }
     }

@@ -264,9 +264,17 @@ pub(super) fn full_tree(config: &Config) -> toml::Value {
             "preaggregators",
             toml::Value::try_from(&c.preaggregators).expect("names serialise"),
         ),
-        ("contract", "bucket_size", toml::Value::Integer(c.bucket_size.into())),
+        (
+            "contract",
+            "bucket_size",
+            toml::Value::Integer(c.bucket_size.into()),
+        ),
         ("contract", "clip_radius", toml::Value::Float(c.clip_radius)),
-        ("byzantine", "search_evals", toml::Value::Integer(b.search_evals.into())),
+        (
+            "byzantine",
+            "search_evals",
+            toml::Value::Integer(b.search_evals.into()),
+        ),
     ];
     for (table, key, value) in omitted {
         if let Some(t) = root.get_mut(table).and_then(toml::Value::as_table_mut) {

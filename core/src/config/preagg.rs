@@ -90,18 +90,26 @@ fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> 
 }
 
 /// The pre-aggregator chain fits the rest of the configuration: a staking rule on the chain's
-/// native contract, at most [`MAX_STAGES`] stages, a bucket size in `1..=quorum`, a positive
+/// native contract, at most [`MAX_STAGES`] stages, a bucket size of at least 1 (at most the quorum under
+/// bucketing), a positive
 /// radius, NNM and ARC given more models than `contract.assumed_f`, and the rule defined for
 /// the number of models the chain leaves.
 pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
     let k = &c.contract;
     let stages = &k.preaggregators;
     let (quorum, f) = (c.quorum(), k.assumed_f);
-    if !(1..=quorum.max(1)).contains(&k.bucket_size) {
+    // The quorum bounds the bucket size only where bucketing runs: a swarm of 2 robots has a
+    // quorum of 1, and the default size must not refuse it.
+    let max_bucket = if stages.contains(&Preaggregator::Bucketing) {
+        quorum.max(1)
+    } else {
+        u32::MAX
+    };
+    if !(1..=max_bucket).contains(&k.bucket_size) {
         return refuse(
             "contract.bucket_size",
             k.bucket_size.to_string(),
-            format!("an integer in [1, {quorum}] (the quorum)"),
+            format!("an integer in [1, {max_bucket}] (at most the quorum with bucketing)"),
         );
     }
     if !(k.clip_radius.is_finite() && k.clip_radius > 0.0 && k.clip_radius <= 1.0e6) {

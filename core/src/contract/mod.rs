@@ -200,9 +200,7 @@ impl ContractParams {
         let (rule, f) = (self.rule(), self.assumed_f() as usize);
         match &self.preagg {
             None => rule.aggregate(current, inputs, f, &self.options),
-            Some(chain) => {
-                preagg::aggregate(rule, chain, current, inputs, f, &self.options, seed)
-            }
+            Some(chain) => preagg::aggregate(rule, chain, current, inputs, f, &self.options, seed),
         }
     }
 

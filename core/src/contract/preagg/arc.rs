@@ -65,11 +65,7 @@ mod tests {
         // n = 5, f = 2: k = floor(2 * 2 * 3 / 5) = 2. Norms around 0: 1, 3, 2, 50, 10.
         // Sorted: 1 (0), 2 (2), 3 (1), 10 (4), 50 (3); r = 3; clip models 4 and 3:
         // 10 -> 3, 50 -> 3; the rest unchanged.
-        let out = apply(
-            &staged_of(&[&[1], &[-3], &[2], &[50], &[10]]),
-            &[0],
-            2,
-        );
+        let out = apply(&staged_of(&[&[1], &[-3], &[2], &[50], &[10]]), &[0], 2);
         let w: Vec<i64> = out.iter().map(|s| s.weights[0]).collect();
         assert_eq!(w, vec![1, -3, 2, 3, 3]);
     }

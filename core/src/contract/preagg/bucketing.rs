@@ -74,10 +74,7 @@ mod tests {
             value(4),
         ];
         let out = apply(&models, 2, seed);
-        assert_eq!(
-            out.iter().map(|s| s.weights[0]).collect::<Vec<_>>(),
-            expect
-        );
+        assert_eq!(out.iter().map(|s| s.weights[0]).collect::<Vec<_>>(), expect);
         assert_eq!(
             out.iter().map(|s| s.samples).collect::<Vec<_>>(),
             vec![2, 2, 1]

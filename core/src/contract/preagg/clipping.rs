@@ -35,11 +35,7 @@ mod tests {
         // Around (10, 10), radius 5: update (3, 4) has norm 5 and stays; (30, 40) has norm 50
         // and becomes (3, 4); (-7, 1): |x|^2 = 50, floor(sqrt) = 7 > 5:
         // -7 * 5 / 7 = -5, 1 * 5 / 7 = 0.71 -> 1.
-        let out = apply(
-            &staged_of(&[&[13, 14], &[40, 50], &[3, 11]]),
-            &[10, 10],
-            5,
-        );
+        let out = apply(&staged_of(&[&[13, 14], &[40, 50], &[3, 11]]), &[10, 10], 5);
         let w: Vec<Vec<i64>> = out.iter().map(|s| s.weights.clone()).collect();
         assert_eq!(w, vec![vec![13, 14], vec![13, 14], vec![5, 11]]);
     }

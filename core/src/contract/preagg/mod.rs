@@ -58,8 +58,7 @@ impl PreaggParams {
         }
         let mut count = quorum;
         for stage in &self.stages {
-            if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && self.assumed_f >= count
-            {
+            if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && self.assumed_f >= count {
                 return Err(format!(
                     "{} needs more than f = {} models, gets {count}",
                     stage.name(),

@@ -70,10 +70,7 @@ mod tests {
         // it takes itself and the earlier, -1: -1 / 2 = -0.5 -> -1.
         // Model 0 (-1): itself and 0 -> -0.5 -> -1. Model 2 (1): itself and 0 -> 0.5 -> 1.
         let out = apply(&staged_of(&[&[-1, 5], &[0, 5], &[1, 5]]), 1);
-        assert_eq!(
-            weights(&out),
-            vec![vec![-1, 5], vec![-1, 5], vec![1, 5]]
-        );
+        assert_eq!(weights(&out), vec![vec![-1, 5], vec![-1, 5], vec![1, 5]]);
     }
 
     #[test]

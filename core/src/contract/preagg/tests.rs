@@ -36,7 +36,10 @@ fn nnm_then_median_pays_the_raw_models_nearest_the_result() {
     );
     assert_eq!(a.weights, vec![3]);
     assert_eq!(a.used, vec![1, 2, 0, 3]);
-    assert_eq!(Rule::Median.aggregate(&[0], &inputs, 1, &options).weights, vec![4]);
+    assert_eq!(
+        Rule::Median.aggregate(&[0], &inputs, 1, &options).weights,
+        vec![4]
+    );
 }
 
 #[test]
@@ -91,7 +94,10 @@ fn paper_keeps_its_ranking_of_the_submissions_and_averages_the_clipped() {
         [0; 32],
     );
     assert_eq!(a.weights, vec![4]);
-    assert_eq!(a.used, Rule::Paper.aggregate(&[0], &inputs, 0, &options).used);
+    assert_eq!(
+        a.used,
+        Rule::Paper.aggregate(&[0], &inputs, 0, &options).used
+    );
     assert_eq!(a.used, vec![2, 0, 1]);
 }
 

@@ -1,4 +1,4 @@
-//! `inf`, the extreme-value attack (ByzFL's `Inf`, which sends `+inf` in every coordinate):
+//! `extreme-value`, the extreme-value attack (ByzFL's `Inf`, which sends `+inf` in every coordinate):
 //! every weight is the largest value the contract accepts, `+(2^47 - 1) / scale` rounded down
 //! to the nearest `f32` that still converts inside int48 ([`extreme`]). A literal infinity would
 //! not reach any rule: the driver cannot put it on chain and the contract refuses weights
@@ -12,8 +12,9 @@ use super::{submit, Action, Attack, View};
 use crate::learn;
 use crate::rng::Rng;
 
-/// The `inf` agent.
-pub struct Inf;
+/// The `extreme-value` agent (not named `inf`: a bare `inf` is a TOML float, so
+/// `--set byzantine.kind=inf` would not read as a name).
+pub struct ExtremeValue;
 
 /// The largest positive `f32` whose fixed-point value at `scale` (> 0) lies inside int48.
 pub fn extreme(scale: u64) -> f32 {
@@ -30,9 +31,12 @@ pub fn extreme(scale: u64) -> f32 {
     unreachable!("an f32 below 2^47 / {scale} lies within 64 units of the last place");
 }
 
-impl Attack for Inf {
+impl Attack for ExtremeValue {
     fn act(&self, view: &View, _rng: &mut Rng) -> Action {
-        submit(view, vec![extreme(view.weight_scale); view.chain.weights.len()])
+        submit(
+            view,
+            vec![extreme(view.weight_scale); view.chain.weights.len()],
+        )
     }
 }
 
@@ -47,7 +51,10 @@ mod tests {
             let fixed = learn::to_fixed(&[v], scale).expect("inside int48");
             assert!(fixed[0] > 0 && fixed[0].unsigned_abs() < 1 << 47);
             let next = f32::from_bits(v.to_bits() + 1);
-            assert!(learn::to_fixed(&[next], scale).is_err(), "the next f32 is outside");
+            assert!(
+                learn::to_fixed(&[next], scale).is_err(),
+                "the next f32 is outside"
+            );
         }
         // Scale 1e9: 2^47 / 1e9 = 140737.488..; the f32 grid there is 1/64: 140737.484375.
         assert_eq!(extreme(1_000_000_000), 140_737.484_375);
