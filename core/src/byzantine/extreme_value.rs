@@ -57,6 +57,6 @@ mod tests {
             );
         }
         // Scale 1e9: 2^47 / 1e9 = 140737.488..; the f32 grid there is 1/64: 140737.484375.
-        assert_eq!(extreme(1_000_000_000), 140_737.484_375);
+        assert_eq!(f64::from(extreme(1_000_000_000)), 140_737.484_375_f64);
     }
 }

@@ -85,7 +85,7 @@ mod tests {
             time: SimTime(0),
             points: vec![[0.0, 0.0], [1.0, 1.0], [1.0, 2.0]],
         };
-        assert_eq!(mirror(&[s.clone()], 2)[0].points[2], [2.0, 1.0]);
+        assert_eq!(mirror(std::slice::from_ref(&s), 2)[0].points[2], [2.0, 1.0]);
         // One input waypoint, no target, a standing robot: unchanged.
         assert_eq!(mirror(&[s.clone()], 1)[0], s);
         assert_eq!(mirror(&[s.clone()], 3)[0], s);

@@ -10,9 +10,9 @@
 //! bucket, so the rule after it faces at most `f` bad models among `ceil(n / s)`.
 //!
 //! Determinism: `pi` is a Fisher-Yates shuffle driven by blake3's XOF keyed by the round's
-//! seed ([`super::shuffle_seed`], chain data every node holds): draw `i` (from `n - 1` down to
-//! 1) takes 8 bytes `u` and swaps position `i` with `floor(u * (i + 1) / 2^64)` (a bias below
-//! `n / 2^64`, no rejection loop). Means round half away from zero; a bucket's samples are the
+//! seed ([`super::shuffle_seed`], chain data every node holds): the draw for position `i`, from
+//! `n - 1` down to position one, takes 8 bytes `u` and swaps position `i` with
+//! `floor(u * (i + 1) / 2^64)`, a bias below `n / 2^64` and no rejection loop. Means round half away from zero; a bucket's samples are the
 //! sum of its members'.
 
 use super::{mean_of, Staged};
