@@ -87,12 +87,12 @@ mod tests {
         };
         assert_eq!(mirror(std::slice::from_ref(&s), 2)[0].points[2], [2.0, 1.0]);
         // One input waypoint, no target, a standing robot: unchanged.
-        assert_eq!(mirror(&[s.clone()], 1)[0], s);
-        assert_eq!(mirror(&[s.clone()], 3)[0], s);
+        assert_eq!(mirror(std::slice::from_ref(&s), 1)[0], s);
+        assert_eq!(mirror(std::slice::from_ref(&s), 3)[0], s);
         let standing = Sample {
             time: SimTime(0),
             points: vec![[1.0, 1.0], [1.0, 1.0], [5.0, 2.0]],
         };
-        assert_eq!(mirror(&[standing.clone()], 2)[0], standing);
+        assert_eq!(mirror(std::slice::from_ref(&standing), 2)[0], standing);
     }
 }
