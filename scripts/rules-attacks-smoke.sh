@@ -2,7 +2,6 @@
 # Every aggregation rule against every attack: a `smoke` run (600 s, or DURATION_S) with
 # COUNT Byzantine robots (default 3) for each (rule, attack) pair, then `swarmfl replay` on its
 # log, which must report bit-exact. Prints one line per pair with the final held-out loss and
-
 # the wall time of run and replay. PAIRS=diagonal runs only 16 pairs (pair i is rule i mod 14
 # with attack i mod 16, so every rule and every attack appears) instead of all 224. Then every
 # pre-aggregator (contract.preaggregators) runs once in front of a rule against an adaptive
