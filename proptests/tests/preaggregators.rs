@@ -55,6 +55,7 @@ fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
         options: Default::default(),
         engine: Default::default(),
         defence: None,
+        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: Some(PreaggParams {
             stages: stages.to_vec(),
             assumed_f: 1,

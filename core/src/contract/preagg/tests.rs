@@ -166,6 +166,7 @@ fn a_contract_round_with_nnm_conserves_tokens_and_pays_the_nearest() {
         options: Default::default(),
         engine: Default::default(),
         defence: None,
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: Some(chain(&[Preaggregator::Nnm], 2)),
     };
     p.check().unwrap();
@@ -217,8 +218,10 @@ fn parameters_without_a_chain_encode_as_before() {
         engine: Default::default(),
         defence: None,
         preagg: None,
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
     };
     let q = ContractParams {
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: Some(chain(&[Preaggregator::Bucketing], 0)),
         ..p.clone()
     };
