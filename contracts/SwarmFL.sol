@@ -4,7 +4,9 @@ pragma solidity 0.8.30;
 /// @title swarmfl's federated-learning contract (docs/CONTRACT.md).
 /// @notice The same rules as the Rust contract of `core/src/contract/`, integer for integer:
 /// staked submissions, outlier rejection by mean absolute distance, FedAvg at the quorum,
-/// ranking around the median distance, payouts from the pool with the remainder carried.
+/// ranking around the median distance, payouts from the pool with the remainder carried; a
+/// bound on claimed samples and a round deadline (beyond the paper: the authors' contract has
+/// neither).
 /// Tokens are the contract's own ledger (`balances`, in units); the stake a call offers is an
 /// explicit argument, so a deployment needs no ether to flow.
 /// @dev A call that fails a check returns its outcome code and changes nothing; it never
@@ -21,7 +23,7 @@ contract SwarmFL {
     uint8 constant INSUFFICIENT_FUNDS = 6;
     uint8 constant BAD_SENDER = 10; // the sender is not an account
     uint8 constant SAMPLES_ZERO = 11;
-    uint8 constant SAMPLES_LIMIT = 12; // a = samples
+    uint8 constant SAMPLES_LIMIT = 12; // a = samples, b = the claim bound
     uint8 constant BAD_LENGTH = 13; // a = length
     uint8 constant WEIGHT_RANGE = 14; // a = index, b = weight (two's complement)
     uint8 constant VALUE_EXCEEDS = 15; // a = value offered
@@ -68,6 +70,8 @@ contract SwarmFL {
     uint256 maxDistance; // threshold_units * N
     int64[] rewardWeights; // per rank, best first
     uint256 flags;
+    uint64 maxSamples; // the claim bound, 1..MAX_SAMPLES
+    uint64 roundTimeoutMs; // the round deadline in ms of block time; 0 = none
 
     mapping(address => uint32) accountPlusOne;
     uint64[] balances;
@@ -80,6 +84,12 @@ contract SwarmFL {
     uint32 acceptedCount;
     Submission[] submissions;
     mapping(uint32 => uint64) submittedRoundPlusOne;
+
+    // The round deadline's clock (ms of block time, set by the chain through `enterBlock`).
+    uint64 blockTimeMs;
+    uint64 roundOpenedMs;
+    uint64 roundsTimedOut;
+    uint64 timeoutRefundedUnits;
 
     modifier onlyOwner() {
         require(msg.sender == owner, "owner only");
@@ -95,7 +105,9 @@ contract SwarmFL {
         uint32 quorumSize,
         uint256 maxDistanceUnits,
         int64[] memory weightsPerRank,
-        uint256 optionFlags
+        uint256 optionFlags,
+        uint64 claimBound,
+        uint64 timeoutMs
     ) {
         require(accounts.length > 0 && accounts.length < 2 ** 32, "accounts");
         require(genesis.length > 0 && genesis.length <= 2 ** 16, "model length");
@@ -119,7 +131,9 @@ contract SwarmFL {
         }
         uint256 accSlots = (genesis.length + 1) / 2;
         for (uint256 s = 0; s < accSlots; s++) accPacked.push(0);
-        _configure(stake, securityOn, quorumSize, maxDistanceUnits, weightsPerRank, optionFlags);
+        _configure(
+            stake, securityOn, quorumSize, maxDistanceUnits, weightsPerRank, optionFlags, claimBound, timeoutMs
+        );
     }
 
     // ----- calls ---------------------------------------------------------------------------
@@ -134,7 +148,8 @@ contract SwarmFL {
         uint32 sender = who - 1;
         if (submittedRoundPlusOne[sender] == round + 1) return (DUPLICATE, 0, 0, 0, 0);
         if (samples == 0) return (SAMPLES_ZERO, 0, 0, 0, 0);
-        if (samples > MAX_SAMPLES) return (SAMPLES_LIMIT, 0, 0, samples, 0);
+        // No robot can collect more than the bound in its data window (docs/CONTRACT.md).
+        if (samples > maxSamples) return (SAMPLES_LIMIT, 0, 0, samples, maxSamples);
         uint256 n = w.length;
         if (n != modelLen) return (BAD_LENGTH, 0, 0, n, 0);
         for (uint256 i = 0; i < n; i++) {
@@ -203,6 +218,29 @@ contract SwarmFL {
         totalSamples = 0;
     }
 
+    /// Enters a block with timestamp `timestampMs` (the chain calls it before the block's
+    /// transactions): records the block time and, when the open round is `roundTimeoutMs` old,
+    /// closes it without aggregation. The accepted submissions get their stakes back, the
+    /// outliers' stay in the pool, everyone may submit again; round and model stay.
+    function enterBlock(uint64 timestampMs) external onlyOwner {
+        blockTimeMs = timestampMs;
+        if (roundTimeoutMs == 0 || uint256(timestampMs) < uint256(roundOpenedMs) + roundTimeoutMs) return;
+        roundOpenedMs = timestampMs;
+        if (submissions.length == 0) return; // nothing to refund: the round opens again
+        for (uint256 i = 0; i < submissions.length; i++) {
+            Submission memory s = submissions[i];
+            submittedRoundPlusOne[s.sender] = 0;
+            if (s.outlier) continue;
+            holdings -= s.stake;
+            balances[s.sender] += s.stake;
+            timeoutRefundedUnits += s.stake;
+        }
+        delete submissions;
+        acceptedCount = 0;
+        totalSamples = 0;
+        roundsTimedOut += 1;
+    }
+
     /// Changes the rules (between rounds: call `restartRound` first when a round is open).
     function configure(
         uint64 stake,
@@ -210,10 +248,14 @@ contract SwarmFL {
         uint32 quorumSize,
         uint256 maxDistanceUnits,
         int64[] calldata weightsPerRank,
-        uint256 optionFlags
+        uint256 optionFlags,
+        uint64 claimBound,
+        uint64 timeoutMs
     ) external onlyOwner {
         require(submissions.length == 0, "restart the open round first");
-        _configure(stake, securityOn, quorumSize, maxDistanceUnits, weightsPerRank, optionFlags);
+        _configure(
+            stake, securityOn, quorumSize, maxDistanceUnits, weightsPerRank, optionFlags, claimBound, timeoutMs
+        );
     }
 
     // ----- views ---------------------------------------------------------------------------
@@ -232,6 +274,12 @@ contract SwarmFL {
         version = round;
     }
 
+    /// The round deadline's clock: the last block time, when the open round opened, the
+    /// rounds closed by the deadline and the stake units they refunded.
+    function deadline() external view returns (uint64, uint64, uint64, uint64) {
+        return (blockTimeMs, roundOpenedMs, roundsTimedOut, timeoutRefundedUnits);
+    }
+
     /// The open round's counted submissions, in submission order.
     function getSubmissions() external view returns (Submission[] memory) {
         return submissions;
@@ -245,9 +293,12 @@ contract SwarmFL {
         uint32 quorumSize,
         uint256 maxDistanceUnits,
         int64[] memory weightsPerRank,
-        uint256 optionFlags
+        uint256 optionFlags,
+        uint64 claimBound,
+        uint64 timeoutMs
     ) internal {
         require(quorumSize >= 1 && quorumSize <= robots, "quorum");
+        require(claimBound >= 1 && claimBound <= MAX_SAMPLES, "claim bound");
         require(weightsPerRank.length == quorumSize, "one reward weight per rank");
         bool rewarded = false;
         for (uint256 r = 0; r < weightsPerRank.length; r++) {
@@ -260,6 +311,8 @@ contract SwarmFL {
         maxDistance = maxDistanceUnits;
         rewardWeights = weightsPerRank;
         flags = optionFlags;
+        maxSamples = claimBound;
+        roundTimeoutMs = timeoutMs;
     }
 
     /// sum_i |w_i - w_a,i|: below 2^64 (|w| < 2^47, at most 2^16 weights).
@@ -349,6 +402,7 @@ contract SwarmFL {
         acceptedCount = 0;
         totalSamples = 0;
         round += 1;
+        roundOpenedMs = blockTimeMs;
     }
 
     /// Ranks the accepted models and pays them from `pool`; returns the units paid.

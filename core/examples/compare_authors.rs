@@ -197,6 +197,7 @@ fn params(
         reward_weights: k.to_vec(),
         genesis_weights: genesis.clone(),
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         robust: None,
         options,
         engine,

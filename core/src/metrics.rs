@@ -182,6 +182,15 @@ pub struct ContractSummary {
     /// round that aggregated Byzantine models only.
     #[serde(default)]
     pub mean_honest_distance_by_round: Vec<f64>,
+    /// The claim bound the contract enforced: the most samples a submission could claim
+    /// (`contract.max_claimed_samples`, derived from the data window when 0; a larger claim is
+    /// counted under `submissions.malformed`). `None` without a contract (baselines).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub max_claimed_samples: Option<u64>,
+    /// Rounds closed by the deadline (`contract.round_timeout_s`) along the final canonical
+    /// chain (its head's count).
+    #[serde(default)]
+    pub rounds_timed_out: u64,
     /// `submitModel` transactions on the final canonical chain by outcome.
     pub submissions: BTreeMap<String, u64>,
     /// Honest models aggregated, Byzantine models aggregated.
@@ -313,6 +322,8 @@ pub fn summarise(
         mean_honest_distance: None,
         outlier_threshold: config.contract.outlier_threshold,
         mean_honest_distance_by_round: vec![],
+        max_claimed_samples: Some(ledger.params().claim_bound.max_samples),
+        rounds_timed_out: ledger.head_state(best).rounds_timed_out,
         submissions: BTreeMap::new(),
         aggregated_honest: 0,
         aggregated_byzantine: 0,

@@ -27,6 +27,7 @@ fn params(security: bool) -> ContractParams {
         genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
         robust: None,
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         options: Default::default(),
         engine: Default::default(),
         defence: None,

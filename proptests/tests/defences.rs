@@ -36,6 +36,7 @@ fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
             rule => Some(RobustRule { rule, assumed_f: 1 }),
         },
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         options: Default::default(),
         preagg: None,
         engine: Default::default(),

@@ -35,6 +35,7 @@ fn params(rule: Rule) -> ContractParams {
             rule => Some(RobustRule { rule, assumed_f: 1 }),
         },
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         options: Default::default(),
         engine: Default::default(),
         defence: None,

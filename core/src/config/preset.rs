@@ -12,7 +12,7 @@ use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::tree::{
     Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, LearnConfig, LedgerConfig,
-    OutputConfig, RunConfig, WorldConfig,
+    OutputConfig, RunConfig, WorldConfig, DEFAULT_ROUND_TIMEOUT_S,
 };
 use crate::faults::FaultsConfig;
 
@@ -276,7 +276,8 @@ impl Config {
                 penalised_ranks: 2,
                 rule: Rule::Paper,
                 assumed_f: 1,
-                round_timeout_s: 0.0,
+                round_timeout_s: DEFAULT_ROUND_TIMEOUT_S,
+                max_claimed_samples: 0,
                 reward_weights: Vec::new(),
                 engine: ContractEngine::Native,
                 median: MedianRule::Lower,

@@ -154,12 +154,17 @@ fn the_evm_engine_refuses_what_the_solidity_contract_lacks() {
         ],
     )
     .unwrap();
-    check_err(
-        &["contract.engine=evm", "contract.round_timeout_s=300"],
-        "`contract.round_timeout_s`: value 300 is out of range; allowed: 0 (no deadline) \
-         with contract.engine = evm",
-    );
-    Config::resolve(None, None, &["contract.round_timeout_s=300".into()]).unwrap();
+    // The round deadline and the claim bound are in the Solidity contract too (issue 37).
+    Config::resolve(
+        None,
+        None,
+        &[
+            "contract.engine=evm".into(),
+            "contract.round_timeout_s=300".into(),
+            "contract.max_claimed_samples=100".into(),
+        ],
+    )
+    .unwrap();
 }
 
 /// Without the `evm` feature, `contract.engine = evm` is refused with the command that
@@ -311,4 +316,49 @@ fn hand_written_names_are_the_serde_names() {
     check(&Defence::ALL, |d| d.name());
     check(&ByzantineKind::ALL, |k| k.name());
     check(&LedgerBehaviour::ALL, |b| b.name());
+}
+
+/// The round deadline and the claim bound are on in every preset; a recorded configuration
+/// without the keys (a log header of an older build) reads as no deadline and the derived
+/// bound, which is what re-simulates those records; a bad value names the key.
+#[test]
+fn every_preset_has_a_deadline_and_the_derived_claim_bound() {
+    for preset in Preset::ALL {
+        let c = preset.config();
+        assert_eq!(
+            c.contract.round_timeout_s,
+            crate::config::DEFAULT_ROUND_TIMEOUT_S,
+            "{}",
+            preset.name()
+        );
+        assert_eq!(c.contract.max_claimed_samples, 0, "{}", preset.name());
+    }
+    let text = Preset::Paper.config().to_toml();
+    let old: String = text
+        .lines()
+        .filter(|l| !l.starts_with("max_claimed_samples") && !l.starts_with("round_timeout_s"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    assert_ne!(old, text);
+    let read = crate::config::parse_config(&old, "an old header").unwrap();
+    assert_eq!(
+        read.contract.round_timeout_s, 0.0,
+        "old records had no deadline"
+    );
+    assert_eq!(read.contract.max_claimed_samples, 0, "the derived bound");
+    check_err(
+        &["contract.max_claimed_samples=4294967296"],
+        "`contract.max_claimed_samples`: value 4294967296 is out of range",
+    );
+    let c = Config::resolve(None, None, &["contract.max_claimed_samples=500".into()]).unwrap();
+    assert_eq!(c.contract.max_claimed_samples, 500);
+    // Baselines have no contract: the defaults pass, an explicit bound or deadline is refused.
+    Config::resolve(None, None, &["learn.aggregation=gossip".into()]).unwrap();
+    check_err(
+        &[
+            "learn.aggregation=central",
+            "contract.max_claimed_samples=500",
+        ],
+        "`contract.max_claimed_samples`: value 500 is out of range; allowed: 0 (derived",
+    );
 }

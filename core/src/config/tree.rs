@@ -189,6 +189,12 @@ pub struct LedgerConfig {
     pub packet_loss: f64,
 }
 
+/// The round deadline every preset sets (`contract.round_timeout_s`), in seconds: longer than
+/// any round of the paper's experiments (measured on the fixtures and on `paper`, `e1-*`,
+/// `e2-*`, `e3-*`: see `contract/deadline.rs`), so it never fires in them and their records
+/// do not move, yet a stalled round releases its stakes within one run.
+pub const DEFAULT_ROUND_TIMEOUT_S: f64 = 1800.0;
+
 /// The federated-learning contract.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -224,9 +230,22 @@ pub struct ContractConfig {
     pub assumed_f: u32,
     /// A round that has not reached its quorum this many seconds (block time) after it opened
     /// closes without aggregation and refunds the stakes of its accepted submissions; 0 = never.
-    /// Beyond the paper, whose contract has no deadline: off in every preset.
+    /// Beyond the paper, whose contract has no deadline. Every preset sets
+    /// [`DEFAULT_ROUND_TIMEOUT_S`], a value no round of the paper's experiments reaches (see
+    /// `contract/deadline.rs`), so a stalled round cannot lock its stakes for good; a recorded
+    /// configuration without the key (older logs) reads as 0, as those runs had no deadline.
     #[serde(default)]
     pub round_timeout_s: f64,
+    /// The most samples one submission may claim; a larger claim is refused by the contract
+    /// (malformed, no stake taken, the reason recorded). 0 (the default, in every preset and
+    /// for a recorded configuration without the key) derives the bound from what a robot can
+    /// physically collect in its data window: `(world.robots - 1)` neighbours, each giving at
+    /// most one sample per `data.trajectory_ticks` ticks, kept `data.expiration_s`, of which
+    /// the learner trains on the `learn.train_fraction` split (see `contract/claims.rs`; 851
+    /// for `paper`). A number sets the bound explicitly (1..=4294967295; 4294967295 is the
+    /// contract's hard limit, i.e. no bound). Beyond the paper: the authors' contract has none.
+    #[serde(default)]
+    pub max_claimed_samples: u64,
     /// Explicit reward weight per rank, best first (one per quorum rank, at least one
     /// positive, each in -1000..=1000); empty (the default) derives them from
     /// `penalised_ranks`. The authors' contract comments [5, 4, 3, 2, 1, -1, -2].

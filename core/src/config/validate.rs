@@ -9,7 +9,7 @@ use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
-use super::tree::{Aggregation, Config};
+use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
 
 /// A check that relates several keys: the first violation, if any.
@@ -112,6 +112,7 @@ fn table(c: &Config) -> Vec<Step> {
         // At least a plain transaction's intrinsic gas; at most what revm's gas counter holds
         // with room to spare.
         Integer("contract.block_gas_limit", k.block_gas_limit, 21_000, 1 << 62),
+        Integer("contract.max_claimed_samples", k.max_claimed_samples, 0, u32::MAX.into()),
         Across(faults_fit_the_run),
         Across(baseline_supports),
         // After the baseline: a baseline refuses the engine naming learn.aggregation, in
@@ -371,7 +372,8 @@ fn faults_fit_the_run(c: &Config) -> Result<(), ConfigError> {
 /// - `contract.rule`: `gossip` and `central` average by FedAvg; `paper` (the default, whose
 ///   threshold and rewards then do not apply) and `fedavg` are accepted, the robust rules are
 ///   not (a robust server or merge would be a new baseline);
-/// - `contract.engine = "evm"`, `contract.round_timeout_s`: contract machinery;
+/// - `contract.engine = "evm"`, `contract.round_timeout_s` (but for 0 and the presets'
+///   default) and `contract.max_claimed_samples` (but for 0, derived): contract machinery;
 /// - `byzantine.ledger`: misbehaviour on a chain (Byzantine robots' model attacks,
 ///   `byzantine.kind`, all work: see `AggregationState::attacker_view` in `aggregation`);
 /// - `faults.crashes` (a node's restart and resync), `faults.clock_skews` (block timestamps),
@@ -407,11 +409,21 @@ fn baseline_supports(config: &Config) -> Result<(), ConfigError> {
     if config.contract.engine == ContractEngine::Evm {
         return refuse("contract.engine", "evm".to_string(), "native".to_string());
     }
-    if config.contract.round_timeout_s != 0.0 {
+    // The presets' deadline and derived claim bound are accepted, as the paper's rule is:
+    // they are the contract's defaults, and without a contract they have nothing to act on.
+    let timeout = config.contract.round_timeout_s;
+    if timeout != 0.0 && timeout != DEFAULT_ROUND_TIMEOUT_S {
         return refuse(
             "contract.round_timeout_s",
-            config.contract.round_timeout_s.to_string(),
-            "0 (no round deadline)".to_string(),
+            timeout.to_string(),
+            format!("0 or the presets' {DEFAULT_ROUND_TIMEOUT_S} (no round deadline applies)"),
+        );
+    }
+    if config.contract.max_claimed_samples != 0 {
+        return refuse(
+            "contract.max_claimed_samples",
+            config.contract.max_claimed_samples.to_string(),
+            "0 (derived; no contract refuses claims)".to_string(),
         );
     }
     if config.byzantine.ledger != LedgerBehaviour::Honest {
@@ -461,8 +473,8 @@ fn engine_supports(config: &Config) -> Result<(), ConfigError> {
 
 /// Checks that the EVM contract implements the configured rules. `contracts/SwarmFL.sol` is
 /// the paper's contract, with security on (`contract.rule = paper`) or off (`fedavg`), every
-/// variant option included. It has no robust aggregation rule, no defence and no round
-/// deadline: such a configuration is refused, naming the key, rather than run on a contract
+/// variant option included, with the round deadline and the claim bound. It has no robust
+/// aggregation rule and no defence: such a configuration is refused, naming the key, rather than run on a contract
 /// that would not do what it says.
 #[cfg(feature = "evm")]
 fn evm_supports(config: &Config) -> Result<(), ConfigError> {
@@ -486,16 +498,6 @@ fn evm_supports(config: &Config) -> Result<(), ConfigError> {
             value: c.defence.name().to_string(),
             allowed: "none with contract.engine = evm: contracts/SwarmFL.sol pays by the \
                       paper's ranking only; set contract.engine = native to run a defence"
-                .to_string(),
-        });
-    }
-    if c.round_timeout_s != 0.0 {
-        return Err(ConfigError::OutOfRange {
-            key: "contract.round_timeout_s".to_string(),
-            value: c.round_timeout_s.to_string(),
-            allowed: "0 (no deadline) with contract.engine = evm: contracts/SwarmFL.sol has \
-                      no round deadline; set contract.round_timeout_s = 0, or \
-                      contract.engine = native"
                 .to_string(),
         });
     }

@@ -41,3 +41,11 @@ pub fn restart_round(state: &mut ContractState) {
         state.evm.is_some()
     )
 }
+
+/// Never called: no state holds an EVM in this build.
+pub fn enter_block(state: &mut ContractState, _params: &ContractParams, _timestamp_ms: u64) {
+    unreachable!(
+        "an EVM block entered in a build without the evm feature (state holds an EVM: {})",
+        state.evm.is_some()
+    )
+}

@@ -13,9 +13,11 @@
 //! 1. `sender` is not an account: [`Outcome::Malformed`].
 //! 2. `sender` already has a counted submission (accepted or outlier) in this round:
 //!    [`Outcome::Duplicate`].
-//! 3. `n == 0`, `n > MAX_SAMPLES` (2^32 - 1, so that FedAvg sums fit in `i128`),
-//!    `len(w) != N` (the genesis model's length) or some `|w_i| >= 2^47` (the reference's int48):
-//!    [`Outcome::Malformed`] with the reason.
+//! 3. `n == 0`, `n` above the claim bound (`contract.max_claimed_samples`, at most
+//!    `MAX_SAMPLES` = 2^32 - 1, so that FedAvg sums fit in `i128`; by default the most a robot
+//!    can collect in its data window, see [`claims`]), `len(w) != N` (the genesis model's
+//!    length) or some `|w_i| >= 2^47` (the reference's int48): [`Outcome::Malformed`] with the
+//!    reason.
 //! 4. Security on only: `value < stake` or `balance < stake`: [`Outcome::InsufficientStake`];
 //!    `value > stake`: [`Outcome::Malformed`] (the stake is exact, nothing is silently kept).
 //!
@@ -42,7 +44,8 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
-mod deadline;
+pub mod claims;
+pub mod deadline;
 pub mod defences;
 #[cfg(feature = "evm")]
 pub mod evm;
@@ -95,8 +98,11 @@ pub struct ContractParams {
     pub reward_weights: Vec<i64>,
     /// The genesis model, fixed point.
     pub genesis_weights: Arc<[i64]>,
-    /// Round deadline in ms of block time (0 = none; see `deadline.rs`).
-    #[serde(default)]
+    /// Round deadline in ms of block time (0 = none; see `deadline.rs`). The genesis block
+    /// commits to it as before deadlines were on by default: the presets' deadline
+    /// ([`deadline::DEFAULT_ROUND_TIMEOUT_MS`]) is encoded as 0, so the records of runs whose
+    /// deadline never fires do not move (see [`deadline::committed_timeout`]).
+    #[serde(default, serialize_with = "deadline::committed_timeout")]
     pub round_timeout_ms: u64,
     /// A robust aggregation rule and its assumed Byzantine count; `None` for the paper's two
     /// rules (`fedavg` when `security` is off, `paper` when on). Left out of the encoding when
@@ -120,6 +126,12 @@ pub struct ContractParams {
     /// parameters' digest of runs without pre-aggregators is the one they had before.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub preagg: Option<preagg::PreaggParams>,
+    /// The most samples a submission may claim (see [`claims`]). Committed to by the genesis
+    /// block only when set explicitly: the derived bound follows from the configuration the
+    /// log header records, so the parameters' digest of runs with it is the one they had
+    /// before the bound existed.
+    #[serde(default, skip_serializing_if = "ClaimBound::is_derived")]
+    pub claim_bound: ClaimBound,
     /// Which machine executes the contract. Not part of the genesis commitment: both engines
     /// execute the same contract, so a run's chain is the same under either.
     #[serde(skip)]
@@ -129,6 +141,40 @@ pub struct ContractParams {
     /// genesis commitment (the log's header records the configuration).
     #[serde(skip, default = "crate::config::default_block_gas_limit")]
     pub block_gas_limit: u64,
+}
+
+/// The claim bound of [`ContractParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClaimBound {
+    /// The largest sample count a submission may claim, at most [`MAX_SAMPLES`].
+    pub max_samples: u64,
+    /// Set by `contract.max_claimed_samples` rather than derived from the data window.
+    pub explicit: bool,
+}
+
+impl Default for ClaimBound {
+    /// The contract's hard limit only (what hand-made parameters in tests get).
+    fn default() -> ClaimBound {
+        ClaimBound {
+            max_samples: MAX_SAMPLES,
+            explicit: false,
+        }
+    }
+}
+
+impl ClaimBound {
+    /// The bound of a run's configuration: explicit, or derived when the key is 0.
+    pub fn from_config(config: &Config) -> ClaimBound {
+        ClaimBound {
+            max_samples: claims::max_samples(config),
+            explicit: config.contract.max_claimed_samples != 0,
+        }
+    }
+
+    /// Not set explicitly (left out of the parameters' encoding).
+    pub fn is_derived(&self) -> bool {
+        !self.explicit
+    }
 }
 
 /// A robust rule of [`ContractParams`].
@@ -162,6 +208,7 @@ impl ContractParams {
                 }),
             },
             round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
+            claim_bound: ClaimBound::from_config(config),
             options: c.options(),
             defence: match c.defence {
                 Defence::None => None,
@@ -301,6 +348,12 @@ impl ContractParams {
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
+        }
+        if !(1..=MAX_SAMPLES).contains(&self.claim_bound.max_samples) {
+            return Err(format!(
+                "claim bound {} outside 1..={MAX_SAMPLES}",
+                self.claim_bound.max_samples
+            ));
         }
         if self.total_units() > u128::from(u64::MAX / 4) {
             return Err("token supply must fit in 2^62".into());
@@ -691,7 +744,7 @@ impl ContractState {
         if self.has_submitted(sender) {
             return Outcome::Duplicate;
         }
-        if let Err(reason) = check_model(params.model_len(), weights, samples) {
+        if let Err(reason) = check_model(params, weights, samples) {
             return Outcome::Malformed(reason);
         }
         let stake_units = if params.security {
@@ -902,12 +955,13 @@ impl ContractState {
 }
 
 /// Why a model is malformed, if it is (check 3 of the module doc).
-fn check_model(model_len: usize, weights: &[i64], samples: u64) -> Result<(), String> {
+fn check_model(params: &ContractParams, weights: &[i64], samples: u64) -> Result<(), String> {
+    let model_len = params.model_len();
     if samples == 0 {
         return Err("samples must be at least 1, got 0".to_string());
     }
-    if samples > MAX_SAMPLES {
-        return Err(format!("samples {samples} exceed the limit {MAX_SAMPLES}"));
+    if samples > params.claim_bound.max_samples {
+        return Err(over_claim(samples, params.claim_bound.max_samples));
     }
     if weights.len() != model_len {
         return Err(format!(
@@ -923,6 +977,16 @@ fn check_model(model_len: usize, weights: &[i64], samples: u64) -> Result<(), St
         return Err(format!("weight {i} = {w} is outside int48 (|w| < 2^47)"));
     }
     Ok(())
+}
+
+/// The reason text of a claim above the bound `bound` (both engines word it so).
+pub fn over_claim(samples: u64, bound: u64) -> String {
+    if bound == MAX_SAMPLES {
+        // The hard limit's text, as records made before the claim bound have it.
+        format!("samples {samples} exceed the limit {MAX_SAMPLES}")
+    } else {
+        format!("samples {samples} exceed the claim bound {bound} (contract.max_claimed_samples)")
+    }
 }
 
 /// blake3 of a model's little-endian weights.

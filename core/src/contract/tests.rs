@@ -25,6 +25,7 @@ fn params(security: bool) -> ContractParams {
         genesis_weights: vec![0i64; 4].into(),
         robust: None,
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         options: Default::default(),
         engine: Default::default(),
         defence: None,

@@ -15,7 +15,9 @@
 //!
 //! Rules changes (forks) are owner calls: `restartRound` when a chain enters a new epoch and
 //! `configure` before the first call under different parameters. The owner is the chain itself
-//! ([`OWNER`]), as a system call would be on a real chain.
+//! ([`OWNER`]), as a system call would be on a real chain. So is `enterBlock(timestamp)`, made
+//! before every block's transactions: the contract keeps the round deadline's clock itself
+//! and closes a round that is `round_timeout_ms` old ([`enter_block`]).
 
 mod abi;
 #[cfg(test)]
@@ -34,7 +36,7 @@ use serde::{Deserialize, Serialize};
 
 use super::{
     model_digest, Call, ContractParams, ContractState, Outcome, Payout, RoundSummary, Submission,
-    Verdict, MAX_SAMPLES,
+    Verdict,
 };
 use crate::config::ContractEngine;
 use crate::types::RobotId;
@@ -103,13 +105,15 @@ struct Rules {
     max_distance_units: u128,
     reward_weights: Vec<i64>,
     flags: u64,
+    max_samples: u64,
+    round_timeout_ms: u64,
 }
 
 impl Rules {
     fn of(params: &ContractParams) -> Rules {
         assert!(
-            params.robust.is_none() && params.round_timeout_ms == 0,
-            "SwarmFL.sol has no robust rule and no deadline (validation refuses them with evm)"
+            params.robust.is_none(),
+            "SwarmFL.sol has no robust rule (validation refuses them with evm)"
         );
         Rules {
             stake_units: params.stake_units,
@@ -118,6 +122,8 @@ impl Rules {
             max_distance_units: params.max_distance_units(),
             reward_weights: params.reward_weights.clone(),
             flags: params.options.flags(),
+            max_samples: params.claim_bound.max_samples,
+            round_timeout_ms: params.round_timeout_ms,
         }
     }
 }
@@ -282,7 +288,8 @@ impl EvmState {
 
     fn configure(&mut self, params: &ContractParams) {
         let rules = Rules::of(params);
-        let mut data = abi::selector("configure(uint64,bool,uint32,uint256,int64[],uint256)");
+        let mut data =
+            abi::selector("configure(uint64,bool,uint32,uint256,int64[],uint256,uint64,uint64)");
         let mut args = Encoder::default();
         push_rules(&mut args, &rules);
         data.extend_from_slice(&args.finish());
@@ -307,6 +314,13 @@ impl EvmState {
         (weights, to_u64(d.word(1)))
     }
 
+    /// `deadline()`: block time, round opened, rounds timed out, units they refunded.
+    fn read_deadline(&mut self) -> [u64; 4] {
+        let r = self.call(OWNER, abi::selector("deadline()"));
+        let d = Decoder::new(&r.output);
+        [0, 1, 2, 3].map(|i| to_u64(d.word(i)))
+    }
+
     /// `getSubmissions()`: (sender, samples, distance, stake, outlier) of the open round.
     fn read_submissions(&mut self) -> Vec<[u128; 5]> {
         let r = self.call(OWNER, abi::selector("getSubmissions()"));
@@ -328,6 +342,8 @@ fn push_rules(args: &mut Encoder, rules: &Rules) {
     args.uint(rules.max_distance_units);
     args.int_array(&rules.reward_weights);
     args.uint(u128::from(rules.flags));
+    args.uint(u128::from(rules.max_samples));
+    args.uint(u128::from(rules.round_timeout_ms));
 }
 
 fn to_u64(word: U256) -> u64 {
@@ -478,9 +494,8 @@ pub fn execute(
             state.previous_weights = Some(std::mem::replace(&mut state.weights, model));
             state.previous_digest = state.weights_digest;
             state.weights_digest = model_digest(&state.weights);
-            // The round opened by this aggregation counts from this block (what the native
-            // contract records for its deadline; the EVM contract has none, validation keeps
-            // it off, but the state digest covers the field).
+            // The round opened by this aggregation counts from this block, as the contract's
+            // `_aggregate` records for its deadline.
             state.round_opened_ms = state.block_time_ms;
             state.last_round = Some(Arc::new(RoundSummary {
                 round: *closed,
@@ -510,6 +525,39 @@ fn submission_from_storage(s: &[u128; 5], weights: &Arc<[i64]>) -> Submission {
         },
         weights: weights.clone(),
         weights_digest: model_digest(weights),
+    }
+}
+
+/// `enterBlock(timestamp_ms)` on the EVM of `state` (before a block's transactions, under the
+/// block's `params`), then the deadline's clock read back, and, when the deadline closed the
+/// round, the balances too (the dispatch of [`ContractState::enter_block`] for the evm
+/// engine).
+pub fn enter_block(state: &mut ContractState, params: &ContractParams, timestamp_ms: u64) {
+    let evm = Arc::make_mut(state.evm.as_mut().expect("an evm state"));
+    if evm.rules != Rules::of(params) {
+        evm.configure(params);
+    }
+    let mut data = abi::selector("enterBlock(uint64)");
+    let mut args = Encoder::default();
+    args.uint(u128::from(timestamp_ms));
+    data.extend_from_slice(&args.finish());
+    let r = evm.call(OWNER, data);
+    evm.gas.entry("enter_block".into()).or_default().add(r.gas);
+    let [block_time, opened, timed_out, refunded] = evm.read_deadline();
+    state.block_time_ms = block_time;
+    state.round_opened_ms = opened;
+    if timed_out != state.rounds_timed_out {
+        let (balances, holdings, round) = evm.read_state();
+        assert!(
+            evm.read_submissions().is_empty(),
+            "a deadline empties the round"
+        );
+        state.balances = balances;
+        state.holdings_units = holdings;
+        state.round = round;
+        state.submissions.clear();
+        state.rounds_timed_out = timed_out;
+        state.timeout_refunded_units = refunded;
     }
 }
 
@@ -572,7 +620,7 @@ fn malformed(
     match (code, call) {
         (10, _) => format!("submission from {sender}: accounts are 0..{accounts}"),
         (11, _) => "samples must be at least 1, got 0".to_string(),
-        (12, _) => format!("samples {} exceed the limit {MAX_SAMPLES}", to_u64(a)),
+        (12, _) => super::over_claim(to_u64(a), to_u64(b)),
         (13, _) => format!(
             "model has {} weights, the shared model has {}",
             a,

@@ -84,6 +84,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         reward_weights,
         genesis_weights: genesis.into(),
         round_timeout_ms: 0,
+        claim_bound: Default::default(),
         robust: None,
         options,
         engine: ContractEngine::Native,
