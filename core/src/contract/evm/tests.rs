@@ -6,7 +6,7 @@ use std::sync::Arc;
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
 
-use super::super::{Call, ContractParams, ContractState, Outcome};
+use super::super::{Call, ClaimBound, ContractParams, ContractState, Outcome};
 use super::*;
 use crate::config::*;
 
@@ -74,6 +74,21 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
     let genesis: Vec<i64> = (0..len)
         .map(|_| below(rng, 2_000_000_001) as i64 - 1_000_000_000)
         .collect();
+    // A deadline of up to a minute (blocks come up to 20 s apart), or none; a claim bound of
+    // a few hundred samples, explicit or derived, or only the hard limit.
+    let round_timeout_ms = if chance(rng, 30) {
+        0
+    } else {
+        1 + below(rng, 60_000)
+    };
+    let claim_bound = if chance(rng, 40) {
+        ClaimBound::default()
+    } else {
+        ClaimBound {
+            max_samples: 1 + below(rng, 500),
+            explicit: chance(rng, 50),
+        }
+    };
     ContractParams {
         robots,
         initial_units: (5 + below(rng, 30)) * TOKEN + below(rng, 7),
@@ -83,8 +98,8 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         outlier_threshold_units: [0, 1, 1_000, 50_000_000][below(rng, 4) as usize],
         reward_weights,
         genesis_weights: genesis.into(),
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
+        round_timeout_ms,
+        claim_bound,
         robust: None,
         options,
         engine: ContractEngine::Native,
@@ -175,10 +190,13 @@ fn random_call(rng: &mut Pcg64, p: &ContractParams, s: &ContractState) -> (Robot
             }
         }
     }
-    let samples = match below(rng, 12) {
+    let bound = p.claim_bound.max_samples;
+    let samples = match below(rng, 14) {
         0 => 0,
         1 => u64::from(u32::MAX) + below(rng, 3),
         2 => 1 + below(rng, 1 << 24),
+        // At the claim bound, or one past it.
+        3 => bound + below(rng, 2),
         _ => 1 + below(rng, 400),
     };
     (
@@ -204,14 +222,24 @@ fn assert_same(native: &ContractState, evm: &ContractState, context: &str) {
         "submissions: {context}"
     );
     assert_eq!(native.last_round, evm.last_round, "last round: {context}");
+    assert_eq!(
+        (native.block_time_ms, native.round_opened_ms),
+        (evm.block_time_ms, evm.round_opened_ms),
+        "deadline clock: {context}"
+    );
+    assert_eq!(
+        (native.rounds_timed_out, native.timeout_refunded_units),
+        (evm.rounds_timed_out, evm.timeout_refunded_units),
+        "deadlines: {context}"
+    );
     assert_eq!(native.digest(), evm.digest(), "digest: {context}");
 }
 
 /// Runs random calls through both engines until `rounds` aggregations happened; returns the
-/// calls made.
-fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
+/// rounds, the calls made and the rounds closed by a deadline.
+fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64, u64) {
     let mut rng = Pcg64::seed_from_u64(seed);
-    let (mut done, mut calls) = (0u64, 0u64);
+    let (mut done, mut calls, mut timed_out) = (0u64, 0u64, 0u64);
     while done < rounds {
         let p = random_params(&mut rng, len);
         let pe = ContractParams {
@@ -229,8 +257,11 @@ fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
             // aggregation, are part of the state (and its digest) in both engines.
             if chance(&mut rng, 30) {
                 let now_ms = native.block_time_ms + 1 + below(&mut rng, 20_000);
+                let before = native.rounds_timed_out;
                 native.enter_block(&p, now_ms);
                 evm.enter_block(&pe, now_ms);
+                timed_out += native.rounds_timed_out - before;
+                assert_same(&native, &evm, &format!("seed {seed}, block at {now_ms} ms"));
             }
             let (sender, value, call) = random_call(&mut rng, &p, &native);
             let a = native.execute(&p, sender, value, &call);
@@ -256,14 +287,115 @@ fn differential(seed: u64, rounds: u64, len: usize) -> (u64, u64) {
             continue;
         }
     }
-    (done, calls)
+    (done, calls, timed_out)
 }
 
 #[test]
 fn a_thousand_random_rounds_agree_on_every_call() {
-    let (rounds, calls) = differential(19, 1000, 6);
+    let (rounds, calls, timed_out) = differential(19, 1000, 6);
     assert!(rounds >= 1000);
     assert!(calls >= rounds);
+    assert!(timed_out >= 10, "deadlines fired {timed_out} times");
+}
+
+/// Issue 37, finding 2, on the EVM: nine outliers and six accepted models stall a round of
+/// quorum 7 in a swarm of 15; the Solidity contract closes it at its deadline and refunds the
+/// accepted stakes exactly as the native one, and everyone may submit again.
+#[test]
+fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
+    let p = ContractParams {
+        robots: 15,
+        initial_units: 21 * TOKEN,
+        stake_units: 5 * TOKEN,
+        security: true,
+        quorum: 7,
+        outlier_threshold_units: 50_000_000,
+        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
+        genesis_weights: vec![0i64; 4].into(),
+        round_timeout_ms: 300_000,
+        claim_bound: ClaimBound::default(),
+        robust: None,
+        options: Default::default(),
+        engine: ContractEngine::Native,
+        defence: None,
+    };
+    let pe = ContractParams {
+        engine: ContractEngine::Evm,
+        ..p.clone()
+    };
+    let mut native = ContractState::genesis(&p);
+    let mut evm = ContractState::genesis(&pe);
+    let submit = |w: i64| Call::SubmitModel {
+        weights: Arc::from(vec![w; 4]),
+        samples: 10,
+    };
+    for (params, s) in [(&p, &mut native), (&pe, &mut evm)] {
+        s.enter_block(params, 10_000);
+        for r in 0..15 {
+            let w = if r < 9 { 400_000_000 } else { 1_000 };
+            s.execute(params, r, 5 * TOKEN, &submit(w));
+        }
+        assert_eq!(
+            s.holdings_units,
+            75 * TOKEN,
+            "{:?}: 15 stakes locked",
+            params.engine
+        );
+        s.enter_block(params, 299_999);
+        assert_eq!(s.submissions.len(), 15, "not yet");
+        s.enter_block(params, 300_000);
+        assert_eq!(s.rounds_timed_out, 1, "{:?}", params.engine);
+        assert_eq!(s.holdings_units, 45 * TOKEN, "the outliers' stakes stay");
+        let again = s.execute(params, 9, 5 * TOKEN, &submit(1_000));
+        assert!(matches!(again, Outcome::Accepted { .. }), "{again:?}");
+    }
+    assert_same(&native, &evm, "after the deadline");
+    let gas = &evm.evm.as_ref().expect("evm state").gas;
+    assert_eq!(gas["enter_block"].calls, 3, "{gas:?}");
+}
+
+/// Issue 37, finding 1, on the EVM: a claim above the bound is refused with the same reason by
+/// both engines and changes nothing; a claim at the bound is accepted.
+#[test]
+fn the_evm_contract_refuses_a_claim_above_the_bound() {
+    let mut rng = Pcg64::seed_from_u64(5);
+    let p = ContractParams {
+        security: true,
+        initial_units: 21 * TOKEN,
+        stake_units: 5 * TOKEN,
+        options: ContractOptions::default(),
+        claim_bound: ClaimBound {
+            max_samples: 851,
+            explicit: false,
+        },
+        ..random_params(&mut rng, 4)
+    };
+    let pe = ContractParams {
+        engine: ContractEngine::Evm,
+        ..p.clone()
+    };
+    let mut native = ContractState::genesis(&p);
+    let mut evm = ContractState::genesis(&pe);
+    let call = |samples: u64| Call::SubmitModel {
+        weights: p.genesis_weights.clone(),
+        samples,
+    };
+    let a = native.execute(&p, 0, p.stake_units, &call(1_000_000_000));
+    let b = evm.execute(&pe, 0, p.stake_units, &call(1_000_000_000));
+    assert_eq!(
+        a,
+        Outcome::Malformed(
+            "samples 1000000000 exceed the claim bound 851 (contract.max_claimed_samples)".into()
+        )
+    );
+    assert_eq!(a, b);
+    assert_same(&native, &evm, "refused");
+    assert_eq!(native.balances[0], p.initial_units, "no stake taken");
+    let a = native.execute(&p, 0, p.stake_units, &call(851));
+    let b = evm.execute(&pe, 0, p.stake_units, &call(851));
+    assert!(a.is_accepted(), "{a:?}");
+    assert_eq!(a, b);
+    assert_same(&native, &evm, "at the bound");
 }
 
 #[test]
@@ -330,13 +462,15 @@ fn the_binding_matches_the_committed_abi() {
         "submitModel(int64[],uint64,uint64)",
         "transfer(address,uint64,uint64)",
         "restartRound()",
-        "configure(uint64,bool,uint32,uint256,int64[],uint256)",
+        "configure(uint64,bool,uint32,uint256,int64[],uint256,uint64,uint64)",
+        "enterBlock(uint64)",
+        "deadline()",
         "state()",
         "getModel()",
         "getSubmissions()",
         "Paid(uint32,uint32,int64,uint64)",
         "Aggregated(uint64,uint64,uint64)",
-        "(address[],uint64,int64[],uint64,bool,uint32,uint256,int64[],uint256)",
+        "(address[],uint64,int64[],uint64,bool,uint32,uint256,int64[],uint256,uint64,uint64)",
     ] {
         assert!(names.iter().any(|n| n == used), "{used} not in {names:?}");
     }
