@@ -56,6 +56,7 @@ fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
         engine: Default::default(),
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
+        claim_bound: Default::default(),
         preagg: Some(PreaggParams {
             stages: stages.to_vec(),
             assumed_f: 1,

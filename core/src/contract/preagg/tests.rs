@@ -167,6 +167,7 @@ fn a_contract_round_with_nnm_conserves_tokens_and_pays_the_nearest() {
         engine: Default::default(),
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        claim_bound: Default::default(),
         preagg: Some(chain(&[Preaggregator::Nnm], 2)),
     };
     p.check().unwrap();
@@ -219,9 +220,11 @@ fn parameters_without_a_chain_encode_as_before() {
         defence: None,
         preagg: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        claim_bound: Default::default(),
     };
     let q = ContractParams {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        claim_bound: Default::default(),
         preagg: Some(chain(&[Preaggregator::Bucketing], 0)),
         ..p.clone()
     };
