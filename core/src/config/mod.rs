@@ -15,6 +15,7 @@ mod error;
 mod ledger;
 mod overrides;
 mod preagg;
+mod preagg_fit;
 mod preset;
 mod tree;
 mod validate;

@@ -250,6 +250,14 @@ pub fn is_reconfigurable(key: &str) -> bool {
         })
 }
 
+impl Config {
+    /// The TOML text with every key, also those [`Config::to_toml`] leaves out at their
+    /// default: what `swarmfl config` prints, so every key can be read and set.
+    pub fn to_toml_full(&self) -> String {
+        toml::to_string(&full_tree(self)).expect("a TOML tree serialises")
+    }
+}
+
 /// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
 /// The configuration as a TOML tree with every key, including those [`Config::to_toml`]
 /// leaves out at their default (`contract.preaggregators`, `contract.bucket_size`,

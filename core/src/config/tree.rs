@@ -515,12 +515,6 @@ impl Config {
         toml::to_string(self).expect("a Config always serialises to TOML")
     }
 
-    /// The TOML text with every key, also those [`Config::to_toml`] leaves out at their
-    /// default: what `swarmfl config` prints, so every key can be read and set.
-    pub fn to_toml_full(&self) -> String {
-        toml::to_string(&super::overrides::full_tree(self)).expect("a TOML tree serialises")
-    }
-
     /// The blake3 hash of the canonical TOML text: names a configuration in results.
     pub fn hash(&self) -> blake3::Hash {
         blake3::hash(self.to_toml().as_bytes())

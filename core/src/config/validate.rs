@@ -130,7 +130,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("byzantine.search_evals", b.search_evals.into(), 1, 1000),
         Integer("contract.defence_refund_percent", k.defence_refund_percent.into(), 0, 100),
         Across(defences_need_stakes),
-        Across(super::preagg::chain_fits),
+        Across(super::preagg_fit::chain_fits),
     ]
 }
 

@@ -8,7 +8,6 @@
 
 use serde::{Deserialize, Serialize};
 
-use super::evidence::{evidence_root, Evidence};
 use super::keys::Sig;
 use super::tx::{Tx, TxHash};
 use crate::types::{Digest, RobotId};
@@ -136,6 +135,49 @@ impl WireItem {
     pub fn encode(&self) -> Vec<u8> {
         rmp_serde::to_vec(self).expect("a wire item always encodes")
     }
+}
+
+// The data of an equivocation proof, which headers carry; what it proves and how it is
+// checked is in `evidence.rs`.
+
+/// What distinguishes one of the two headers of an equivocation: everything the signer signed
+/// but the parent, height and signer, which the two share, and the signature.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct SignedHalf {
+    /// The header's timestamp, ms.
+    pub timestamp_ms: u64,
+    /// Its difficulty.
+    pub difficulty: u64,
+    /// Its transaction root.
+    pub tx_root: Digest,
+    /// The digest of the evidence it carried, if any (see [`evidence_root`]).
+    pub evidence_root: Option<Digest>,
+    /// The signer's signature of the header.
+    pub signature: Sig,
+}
+
+/// Proof that `signer` signed two different headers on `parent`: enough to recompute both
+/// signing hashes and check both signatures.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Evidence {
+    /// The equivocating sealer.
+    pub signer: RobotId,
+    /// The block both headers name as parent.
+    pub parent: BlockHash,
+    /// Their height.
+    pub height: u64,
+    /// The header with the lower signing hash.
+    pub first: SignedHalf,
+    /// The other.
+    pub second: SignedHalf,
+}
+
+/// The digest a header's signature commits to for the evidence it carries: blake3 of the
+/// encoded list, or None for none (then the signing hash is the one of a header without
+/// evidence, byte for byte).
+pub fn evidence_root(evidence: &[Evidence]) -> Option<Digest> {
+    (!evidence.is_empty())
+        .then(|| Digest::of(&rmp_serde::to_vec(evidence).expect("evidence always encodes")))
 }
 
 #[cfg(test)]

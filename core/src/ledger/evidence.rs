@@ -23,11 +23,10 @@
 //! A sealer never carries evidence against itself, so a block always leaves at least its own
 //! signer in the set: the set never empties.
 
-use serde::{Deserialize, Serialize};
-
-use super::block::{BlockHash, BlockHeader, UnsignedHeader};
-use super::keys::{Keys, Sig};
-use crate::types::{Digest, RobotId};
+pub use super::block::{evidence_root, Evidence, SignedHalf};
+use super::block::{BlockHeader, UnsignedHeader};
+use super::keys::Keys;
+use crate::types::Digest;
 
 /// Most evidence entries one block may carry (more is malformed); a node carries the oldest
 /// ones first.
@@ -37,46 +36,6 @@ pub const MAX_BLOCK_EVIDENCE: usize = 8;
 /// its evidence; older evidence is refused (it bounds the walk that binds the proof to the
 /// chain). 1024 blocks are almost three hours at the paper's 10 s period.
 pub const MAX_EVIDENCE_AGE_BLOCKS: u64 = 1024;
-
-/// What distinguishes one of the two headers of an equivocation: everything the signer signed
-/// but the parent, height and signer, which the two share, and the signature.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct SignedHalf {
-    /// The header's timestamp, ms.
-    pub timestamp_ms: u64,
-    /// Its difficulty.
-    pub difficulty: u64,
-    /// Its transaction root.
-    pub tx_root: Digest,
-    /// The digest of the evidence it carried, if any (see [`evidence_root`]).
-    pub evidence_root: Option<Digest>,
-    /// The signer's signature of the header.
-    pub signature: Sig,
-}
-
-/// Proof that `signer` signed two different headers on `parent`: enough to recompute both
-/// signing hashes and check both signatures.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Evidence {
-    /// The equivocating sealer.
-    pub signer: RobotId,
-    /// The block both headers name as parent.
-    pub parent: BlockHash,
-    /// Their height.
-    pub height: u64,
-    /// The header with the lower signing hash.
-    pub first: SignedHalf,
-    /// The other.
-    pub second: SignedHalf,
-}
-
-/// The digest a header's signature commits to for the evidence it carries: blake3 of the
-/// encoded list, or None for none (then the signing hash is the one of a header without
-/// evidence, byte for byte).
-pub fn evidence_root(evidence: &[Evidence]) -> Option<Digest> {
-    (!evidence.is_empty())
-        .then(|| Digest::of(&rmp_serde::to_vec(evidence).expect("evidence always encodes")))
-}
 
 impl SignedHalf {
     fn of(header: &BlockHeader) -> SignedHalf {
@@ -225,7 +184,7 @@ mod tests {
     /// A header on `parent` signed by `signer`, stamped `timestamp_ms`, carrying `evidence`.
     fn signed(
         ledger: &Ledger,
-        parent: super::BlockHash,
+        parent: crate::ledger::BlockHash,
         signer: RobotId,
         timestamp_ms: u64,
         evidence: Vec<Evidence>,
