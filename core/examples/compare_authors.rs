@@ -203,6 +203,7 @@ fn params(
         engine,
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     }
 }
 

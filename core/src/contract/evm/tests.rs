@@ -318,6 +318,8 @@ fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
         options: Default::default(),
         engine: ContractEngine::Native,
         defence: None,
+        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
+        preagg: None,
     };
     let pe = ContractParams {
         engine: ContractEngine::Evm,

@@ -84,11 +84,9 @@ fn step_from(models: &[&[i64]], z: &[i64]) -> Vec<i64> {
     let b: Vec<i128> = d
         .iter()
         .map(|&dk| {
-            if dk == 0 {
-                0
-            } else {
-                i128::try_from((d_min << 64) / dk).expect("at most 2^64")
-            }
+            (d_min << 64)
+                .checked_div(dk)
+                .map_or(0, |w| i128::try_from(w).expect("at most 2^64"))
         })
         .collect();
     let total: i128 = b.iter().sum();
@@ -296,7 +294,7 @@ mod tests {
                 cost(&zf),
                 cost(&exact)
             );
-            if len == 1 && q % 2 == 0 {
+            if len == 1 && q.is_multiple_of(2) {
                 continue; // on a line with an even count the minimisers form an interval
             }
             for (i, (&zi, &ei)) in z.iter().zip(&exact).enumerate() {

@@ -155,8 +155,8 @@ pub fn majority_cluster(features: &[[i64; 3]]) -> Vec<bool> {
         label = next;
         centers = [([0; 3], 0), ([0; 3], 0)];
         for (f, &l) in features.iter().zip(&label) {
-            for i in 0..3 {
-                centers[l].0[i] += f[i];
+            for (c, &x) in centers[l].0.iter_mut().zip(f.iter()) {
+                *c += x;
             }
             centers[l].1 += 1;
         }
