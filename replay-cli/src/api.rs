@@ -5,7 +5,9 @@ use std::path::Path;
 
 use swarmfl_core::config::Config;
 
+pub use crate::commands::report::{results_frame, Frame};
 pub use crate::commands::run::RunOutcome;
+pub use crate::commands::sweep::{Shard, SweepOptions, SweepOutcome, TaskDone};
 
 /// Runs `config` with `seed` into `out` (`out/run.swlog`, `out/summary.json`), as `swarmfl
 /// run` does; `quiet` hides the progress bar.
@@ -16,4 +18,19 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
 /// Writes the CSV tables of the log at `log` into `out`, as `swarmfl export` does.
 pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
     crate::commands::export::export(log, out)
+}
+
+/// Runs a sweep (a built-in experiment or a grid), as `swarmfl sweep` does; `hook` gets every
+/// finished task (and stops the sweep by returning false) instead of the progress bar.
+pub fn sweep(
+    opts: &SweepOptions,
+    hook: Option<&(dyn Fn(&TaskDone) -> bool + Sync)>,
+) -> anyhow::Result<SweepOutcome> {
+    crate::commands::sweep::sweep(opts, hook)
+}
+
+/// Writes the report of a results directory (`swarmfl report DIR --out OUT`); returns the path
+/// of its report.md.
+pub fn report(dir: &Path, out: &Path) -> anyhow::Result<std::path::PathBuf> {
+    crate::commands::report::report(dir, out)
 }

@@ -265,13 +265,21 @@ pub struct ExportArgs {
 #[derive(Args, Debug)]
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
-    /// e3-smart, e4-robustness or e5-smart-defence.
-    pub experiment: String,
+    /// e3-smart, e4-robustness or e5-smart-defence. Omit it to sweep a --grid.
+    pub experiment: Option<String>,
+    /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
+    /// combination is a point, e.g. `--grid contract.rule=median,krum --grid
+    /// byzantine.count=1,3`). Results go to DIR/grid-<preset>/<key=value+...>/seed<N>.json.
+    #[arg(long, value_name = "KEY=V1,V2")]
+    pub grid: Vec<String>,
+    /// The preset a --grid starts from (default paper); an experiment has its own.
+    #[arg(long)]
+    pub preset: Option<String>,
     /// Results directory: one DIR/<experiment>/<point>/seed<N>.json per task.
     #[arg(long)]
     pub out: PathBuf,
-    /// Runs (seeds 1..=N) per point; default the paper's (5, 10, 20, 20, 18).
-    #[arg(long)]
+    /// Runs (seeds 1..=N) per point; default the paper's (5, 10, 20, 20, 18), 1 for a grid.
+    #[arg(long, visible_alias = "seeds")]
     pub runs: Option<u32>,
     /// Runs in parallel; default the number of cores.
     #[arg(long)]

@@ -69,10 +69,13 @@ pub struct Point {
 /// One experiment: a preset, its grid of points and the paper's number of runs per point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Experiment {
-    /// The experiment's id, also its preset's name.
-    pub name: &'static str,
+    /// The experiment's id: the results' directory name (a built-in experiment's is also its
+    /// preset's name; a grid's is `grid-<preset>`).
+    pub name: String,
+    /// The preset every point starts from.
+    pub preset: String,
     /// What the grid varies, for axis labels (`data expiration (s)`, `Byzantine robots`).
-    pub axis: &'static str,
+    pub axis: String,
     /// The grid, in task order.
     pub points: Vec<Point>,
     /// The paper's runs per point.
@@ -83,14 +86,16 @@ pub struct Experiment {
 pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
     Ok(match name {
         "e0-baselines" => Experiment {
-            name: "e0-baselines",
-            axis: "Byzantine robots",
+            name: "e0-baselines".into(),
+            preset: "e0-baselines".into(),
+            axis: "Byzantine robots".into(),
             points: baselines_grid(),
             runs: 5,
         },
         "e1-expiration" => Experiment {
-            name: "e1-expiration",
-            axis: "data expiration (s)",
+            name: "e1-expiration".into(),
+            preset: "e1-expiration".into(),
+            axis: "data expiration (s)".into(),
             points: [250u32, 500, 750, 1000, 1250]
                 .iter()
                 .map(|&s| Point {
@@ -103,8 +108,9 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             runs: 5,
         },
         "e1-faulty" => Experiment {
-            name: "e1-faulty",
-            axis: "faulty robots",
+            name: "e1-faulty".into(),
+            preset: "e1-faulty".into(),
+            axis: "faulty robots".into(),
             points: vec![Point {
                 name: "faulty-1".into(),
                 x: 1.0,
@@ -114,32 +120,37 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             runs: 10,
         },
         "e2-faulty" => Experiment {
-            name: "e2-faulty",
-            axis: "faulty robots",
+            name: "e2-faulty".into(),
+            preset: "e2-faulty".into(),
+            axis: "faulty robots".into(),
             points: byzantine_grid(),
             runs: 20,
         },
         "e2-malicious" => Experiment {
-            name: "e2-malicious",
-            axis: "malicious robots",
+            name: "e2-malicious".into(),
+            preset: "e2-malicious".into(),
+            axis: "malicious robots".into(),
             points: byzantine_grid(),
             runs: 20,
         },
         "e3-smart" => Experiment {
-            name: "e3-smart",
-            axis: "smart robots",
+            name: "e3-smart".into(),
+            preset: "e3-smart".into(),
+            axis: "smart robots".into(),
             points: byzantine_grid(),
             runs: 18,
         },
         "e4-robustness" => Experiment {
-            name: "e4-robustness",
-            axis: "Byzantine robots",
+            name: "e4-robustness".into(),
+            preset: "e4-robustness".into(),
+            axis: "Byzantine robots".into(),
             points: e4_points(),
             runs: 3,
         },
         "e5-smart-defence" => Experiment {
-            name: "e5-smart-defence",
-            axis: "Byzantine robots",
+            name: "e5-smart-defence".into(),
+            preset: "e5-smart-defence".into(),
+            axis: "Byzantine robots".into(),
             points: e5_points(),
             runs: 3,
         },
@@ -295,8 +306,8 @@ fn e5_points() -> Vec<Point> {
 pub struct Task {
     /// Position in the experiment's task list: `point_index * runs + (seed - 1)`.
     pub index: usize,
-    /// The experiment's id (and preset).
-    pub experiment: &'static str,
+    /// The experiment's id (its results' directory name).
+    pub experiment: String,
     /// Index of the point in the experiment's grid.
     pub point_index: usize,
     /// The point's name.
@@ -317,7 +328,7 @@ pub fn tasks(exp: &Experiment, runs: u32, extra: &[String]) -> Vec<Task> {
             overrides.extend(extra.iter().cloned());
             out.push(Task {
                 index: out.len(),
-                experiment: exp.name,
+                experiment: exp.name.clone(),
                 point_index: p,
                 point: point.name.clone(),
                 seed,

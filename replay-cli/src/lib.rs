@@ -6,6 +6,7 @@ mod cli;
 mod commands;
 mod exit;
 mod experiments;
+mod grid;
 mod png;
 mod progress;
 mod results;

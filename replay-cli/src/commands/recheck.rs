@@ -55,8 +55,11 @@ struct Committed {
     path: PathBuf,
     /// Its parsed contents.
     summary: serde_json::Value,
-    /// The experiment (a preset name).
+    /// The experiment (its results' directory name).
     experiment: String,
+    /// The preset its configuration starts from (a grid's `sweep.preset`, else the
+    /// experiment's name).
+    preset: String,
     /// The task's overrides (the point's and the sweep's).
     overrides: Vec<String>,
     /// The seed.
@@ -225,9 +228,12 @@ fn parse(path: &Path) -> anyhow::Result<Committed> {
                 .with_context(|| format!("{}: sweep.overrides holds a non-string", path.display()))
         })
         .collect::<anyhow::Result<Vec<_>>>()?;
+    // A grid's results name their preset; a built-in experiment's preset is its name.
+    let preset = sweep["preset"].as_str().unwrap_or(experiment);
     Ok(Committed {
         path: path.to_path_buf(),
         experiment: experiment.to_string(),
+        preset: preset.to_string(),
         overrides,
         seed,
         wall_s: summary["wall_s"].as_f64().unwrap_or(f64::INFINITY),
@@ -264,7 +270,7 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
 
 /// The configuration of a committed task under today's presets.
 fn resolve(c: &Committed) -> anyhow::Result<Config> {
-    Ok(Config::resolve(Some(&c.experiment), None, &c.overrides)?)
+    Ok(Config::resolve(Some(&c.preset), None, &c.overrides)?)
 }
 
 /// Check 2: the report of the committed results equals the committed report files.
@@ -522,6 +528,7 @@ mod tests {
             path: PathBuf::from(path),
             summary: json!({}),
             experiment: experiment.into(),
+            preset: experiment.into(),
             overrides: vec![],
             seed: 1,
             wall_s,
@@ -549,15 +556,20 @@ mod tests {
         use crate::commands::sweep::{sweep, Shard, SweepOptions};
         let dir = scratch_dir("test-study").unwrap();
         let results = dir.join("results");
-        let outcome = sweep(&SweepOptions {
-            experiment: "e1-faulty".into(),
-            out: results.clone(),
-            runs: Some(1),
-            jobs: Some(1),
-            shard: Shard::ALL,
-            overrides: vec!["run.duration_s=40".into(), "world.robots=6".into()],
-            keep_logs: false,
-        })
+        let outcome = sweep(
+            &SweepOptions {
+                experiment: Some("e1-faulty".into()),
+                preset: None,
+                grid: Vec::new(),
+                out: results.clone(),
+                runs: Some(1),
+                jobs: Some(1),
+                shard: Shard::ALL,
+                overrides: vec!["run.duration_s=40".into(), "world.robots=6".into()],
+                keep_logs: false,
+            },
+            None,
+        )
         .unwrap();
         assert_eq!((outcome.ran, outcome.failed.len()), (1, 0));
         report::report(&results, &dir).unwrap();

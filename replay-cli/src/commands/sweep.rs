@@ -10,7 +10,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::Mutex;
 use std::time::Instant;
 
@@ -20,6 +20,7 @@ use swarmfl_core::config::Config;
 use crate::cli::SweepArgs;
 use crate::commands::run;
 use crate::experiments::{self, Experiment, Task};
+use crate::grid;
 use crate::progress::Progress;
 use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
 
@@ -186,6 +187,8 @@ fn check_settings(
 pub fn command(args: SweepArgs) -> anyhow::Result<ExitCode> {
     let SweepArgs {
         experiment,
+        preset,
+        grid,
         out,
         runs,
         jobs,
@@ -195,15 +198,20 @@ pub fn command(args: SweepArgs) -> anyhow::Result<ExitCode> {
         keep_logs,
     } = args;
     let shard = Shard::resolve(shard.as_deref(), shards, |k| std::env::var(k).ok())?;
-    let outcome = sweep(&SweepOptions {
-        experiment,
-        out,
-        runs,
-        jobs,
-        shard,
-        overrides,
-        keep_logs,
-    })?;
+    let outcome = sweep(
+        &SweepOptions {
+            experiment,
+            preset,
+            grid,
+            out,
+            runs,
+            jobs,
+            shard,
+            overrides,
+            keep_logs,
+        },
+        None,
+    )?;
     println!(
         "sweep: {} tasks in shard, {} ran, {} already done, {} failed, {:.1} s",
         outcome.selected,
@@ -230,8 +238,12 @@ pub fn command(args: SweepArgs) -> anyhow::Result<ExitCode> {
 /// What `swarmfl sweep` was asked to do.
 #[derive(Clone, Debug)]
 pub struct SweepOptions {
-    /// The experiment's id.
-    pub experiment: String,
+    /// A built-in experiment's id (or None with `grid`).
+    pub experiment: Option<String>,
+    /// The preset of a grid (default `paper`); a built-in experiment has its own.
+    pub preset: Option<String>,
+    /// The grid's axes, each `KEY=V1,V2,...` (see [`crate::grid`]); empty for an experiment.
+    pub grid: Vec<String>,
     /// The results directory.
     pub out: PathBuf,
     /// Runs per point (default: the paper's).
@@ -259,26 +271,82 @@ pub struct SweepOutcome {
     pub failed: Vec<(Task, String)>,
     /// Wall-clock seconds of the whole sweep.
     pub wall_s: f64,
+    /// Whether the progress hook stopped the sweep before every task ran.
+    pub stopped: bool,
 }
 
-/// Runs a sweep (or one shard of it).
-pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
-    let exp = experiments::experiment(&opts.experiment)?;
+/// The experiment a sweep runs: the built-in one named, or the grid of `--grid` on its preset.
+pub fn plan(opts: &SweepOptions) -> anyhow::Result<Experiment> {
+    match (&opts.experiment, opts.grid.is_empty()) {
+        (Some(name), true) => {
+            if let Some(p) = &opts.preset {
+                anyhow::bail!(
+                    "--preset {p}: the experiment {name} has its own preset ({name}); --preset \
+                     is for a --grid sweep"
+                );
+            }
+            experiments::experiment(name)
+        }
+        (Some(name), false) => anyhow::bail!(
+            "give either an experiment ({name}) or --grid axes, not both: a grid runs on \
+             --preset P (default paper)"
+        ),
+        (None, true) => anyhow::bail!(
+            "nothing to sweep: name an experiment ({}) or give --grid KEY=V1,V2 (e.g. \
+             --grid contract.rule=median,krum)",
+            experiments::EXPERIMENTS.join(", ")
+        ),
+        (None, false) => {
+            let axes = opts
+                .grid
+                .iter()
+                .map(|g| grid::parse_axis(g))
+                .collect::<anyhow::Result<Vec<_>>>()?;
+            grid::experiment(
+                opts.preset.as_deref().unwrap_or("paper"),
+                &axes,
+                &opts.overrides,
+            )
+        }
+    }
+}
+
+/// One finished task, as a sweep's progress hook sees it.
+#[derive(Clone, Debug)]
+pub struct TaskDone {
+    /// Tasks finished so far in this sweep (this one included).
+    pub done: usize,
+    /// Tasks this sweep runs (its shard's, minus those already done).
+    pub total: usize,
+    /// The progress line (`[3/8] grid-smoke <point> seed 2 done in 4.1 s`).
+    pub line: String,
+    /// The task's error, if it failed.
+    pub error: Option<String>,
+}
+
+/// A sweep's progress hook: called after each task from the worker that ran it; returning
+/// false stops the sweep (tasks under way finish, no new one starts; a re-run resumes).
+pub type Hook<'a> = &'a (dyn Fn(&TaskDone) -> bool + Sync);
+
+/// Runs a sweep (or one shard of it). With a `hook`, progress goes to it instead of stderr.
+pub fn sweep(opts: &SweepOptions, hook: Option<Hook<'_>>) -> anyhow::Result<SweepOutcome> {
+    let exp = plan(opts)?;
     let runs = opts.runs.unwrap_or(exp.runs);
     anyhow::ensure!(runs >= 1, "--runs must be at least 1");
     let all = experiments::tasks(&exp, runs, &opts.overrides);
-    // Resolve every point's configuration up front: a bad --set fails before any run.
+    // Resolve every point's configuration up front: a bad --set or grid value fails before
+    // any run.
     let mut configs = Vec::with_capacity(exp.points.len());
     for point in &exp.points {
         let mut overrides = point.overrides.clone();
         overrides.extend(opts.overrides.iter().cloned());
-        let config = Config::resolve(Some(exp.name), None, &overrides)
+        let config = Config::resolve(Some(&exp.preset), None, &overrides)
             .with_context(|| format!("{} point {}", exp.name, point.name))?;
         configs.push(config);
     }
     for (point, config) in exp.points.iter().zip(&configs) {
         check_settings(
-            &opts.out.join(exp.name).join(&point.name),
+            &opts.out.join(&exp.name).join(&point.name),
             &config.hash().to_hex(),
             &opts.overrides,
             &point.overrides,
@@ -295,7 +363,7 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
     };
     let todo: Vec<Task> = selected
         .into_iter()
-        .filter(|t| !is_done(&result_path(&opts.out, t.experiment, &t.point, t.seed)))
+        .filter(|t| !is_done(&result_path(&opts.out, &t.experiment, &t.point, t.seed)))
         .collect();
     outcome.skipped = outcome.selected - todo.len();
     let jobs = opts
@@ -305,43 +373,58 @@ pub fn sweep(opts: &SweepOptions) -> anyhow::Result<SweepOutcome> {
     // Runs side by side already fill the cores; a training's helper thread would only compete
     // with the other runs' world and ledger work (speed only: the bits are the same).
     swarmfl_core::learn::allow_two_thread_training(jobs == 1);
-    eprintln!(
-        "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
-        exp.name, outcome.selected, opts.shard.index, opts.shard.count, outcome.skipped, runs, jobs
-    );
-    let mut failed = run_parallel(opts, &exp, &todo, &configs, jobs);
+    if hook.is_none() {
+        eprintln!(
+            "sweep {}: {} tasks in shard {}/{} ({} already done), {} runs per point, {} parallel",
+            exp.name,
+            outcome.selected,
+            opts.shard.index,
+            opts.shard.count,
+            outcome.skipped,
+            runs,
+            jobs
+        );
+    }
+    let (mut failed, finished) = run_parallel(opts, &exp, &todo, &configs, jobs, hook);
     failed.sort_by_key(|(t, _)| t.index);
-    outcome.ran = todo.len() - failed.len();
+    outcome.ran = finished - failed.len();
+    outcome.stopped = finished < todo.len();
     outcome.failed = failed;
     outcome.wall_s = started.elapsed().as_secs_f64();
     Ok(outcome)
 }
 
-/// Runs `todo` on `jobs` threads (each takes the next task), with a progress line; returns
-/// the failed tasks with their error, in completion order.
+/// Runs `todo` on `jobs` threads (each takes the next task), with a progress line (or the
+/// hook's); returns the failed tasks with their error, in completion order, and how many
+/// tasks finished.
 fn run_parallel(
     opts: &SweepOptions,
     exp: &Experiment,
     todo: &[Task],
     configs: &[Config],
     jobs: usize,
-) -> Vec<(Task, String)> {
+    hook: Option<Hook<'_>>,
+) -> (Vec<(Task, String)>, usize) {
     let progress = Mutex::new(Progress::new(
         &format!("sweep {}", exp.name),
         "tasks",
         todo.len() as u64,
-        false,
+        hook.is_some(),
     ));
     let next = AtomicUsize::new(0);
     let done = AtomicUsize::new(0);
+    let stop = AtomicBool::new(false);
     let failed = Mutex::new(Vec::new());
     std::thread::scope(|scope| {
         for _ in 0..jobs {
             scope.spawn(|| loop {
+                if stop.load(Ordering::SeqCst) {
+                    break;
+                }
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(task) = todo.get(k) else { break };
                 let task_started = Instant::now();
-                let result = run_task(opts, task, configs[task.point_index].clone());
+                let result = run_task(opts, exp, task, configs[task.point_index].clone());
                 let finished = done.fetch_add(1, Ordering::SeqCst) + 1;
                 let line = match &result {
                     Ok(()) => format!(
@@ -360,6 +443,17 @@ fn run_parallel(
                         task.seed
                     ),
                 };
+                if let Some(hook) = hook {
+                    let report = TaskDone {
+                        done: finished,
+                        total: todo.len(),
+                        line: line.clone(),
+                        error: result.as_ref().err().map(|e| format!("{e:#}")),
+                    };
+                    if !hook(&report) {
+                        stop.store(true, Ordering::SeqCst);
+                    }
+                }
                 let mut progress = progress.lock().expect("no worker panics holding it");
                 if result.is_err() {
                     progress.println(&line);
@@ -374,16 +468,22 @@ fn run_parallel(
             });
         }
     });
+    let finished = done.into_inner();
     progress
         .into_inner()
         .expect("workers finished")
-        .finish(todo.len() as u64);
-    failed.into_inner().expect("workers finished")
+        .finish(finished as u64);
+    (failed.into_inner().expect("workers finished"), finished)
 }
 
 /// Runs one task and writes its result file.
-fn run_task(opts: &SweepOptions, task: &Task, config: Config) -> anyhow::Result<()> {
-    let result = result_path(&opts.out, task.experiment, &task.point, task.seed);
+fn run_task(
+    opts: &SweepOptions,
+    exp: &Experiment,
+    task: &Task,
+    config: Config,
+) -> anyhow::Result<()> {
+    let result = result_path(&opts.out, &task.experiment, &task.point, task.seed);
     let run_dir = if opts.keep_logs {
         result.with_extension("")
     } else {
@@ -395,6 +495,7 @@ fn run_task(opts: &SweepOptions, task: &Task, config: Config) -> anyhow::Result<
             std::process::id()
         ))
     };
+    let point = &exp.points[task.point_index];
     let outcome = run::run(config, task.seed, &run_dir, true);
     if !opts.keep_logs {
         // Best effort: a leftover temporary directory does not change any result.
@@ -412,6 +513,9 @@ fn run_task(opts: &SweepOptions, task: &Task, config: Config) -> anyhow::Result<
             "seed": task.seed,
             "task": task.index,
             "overrides": task.overrides,
+            "preset": exp.preset,
+            "point_index": task.point_index,
+            "x": point.x,
         }),
     );
     write_atomic(&result, &summary)
@@ -421,6 +525,7 @@ fn run_task(opts: &SweepOptions, task: &Task, config: Config) -> anyhow::Result<
 mod tests {
     use super::*;
     use crate::experiments::{experiment, tasks, EXPERIMENTS};
+    use swarmfl_core::inspect::Column;
 
     fn env(vars: &[(&str, &str)]) -> impl Fn(&str) -> Option<String> {
         let vars: Vec<(String, String)> = vars
@@ -432,8 +537,14 @@ mod tests {
 
     #[test]
     fn shards_cover_every_task_exactly_once() {
-        for name in EXPERIMENTS {
-            let exp = experiment(name).unwrap();
+        let axes = [
+            grid::parse_axis("contract.rule=median,krum,geomed").unwrap(),
+            grid::parse_axis("byzantine.count=1,3").unwrap(),
+        ];
+        let grid = grid::experiment("smoke", &axes, &[]).unwrap();
+        let experiments = EXPERIMENTS.map(|name| experiment(name).unwrap());
+        for exp in experiments.iter().chain([&grid]) {
+            let name = &exp.name;
             for runs in [1u32, 3, exp.runs] {
                 let list = tasks(&exp, runs, &["run.duration_s=600".to_string()]);
                 for count in 1..=7u32 {
@@ -511,6 +622,117 @@ mod tests {
             Some((1, 2)),
         );
         check(None, Some(2), &[], None);
+    }
+
+    fn grid_options(out: &Path, grid: &[&str]) -> SweepOptions {
+        SweepOptions {
+            experiment: None,
+            preset: Some("smoke".into()),
+            grid: grid.iter().map(|g| g.to_string()).collect(),
+            out: out.to_path_buf(),
+            runs: Some(1),
+            jobs: Some(1),
+            shard: Shard::ALL,
+            overrides: vec!["run.duration_s=40".into(), "world.robots=6".into()],
+            keep_logs: false,
+        }
+    }
+
+    /// A grid over two keys: every combination runs once, a re-run skips them all, a hook can
+    /// stop it, and the report and the results table carry every override and the
+    /// duration.
+    #[test]
+    fn a_grid_sweep_runs_every_combination_resumes_and_reports_its_settings() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-grid-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let opts = grid_options(
+            &dir,
+            &["contract.rule=median,krum", "byzantine.count=0,1"],
+        );
+        let mut opts = opts;
+        // count 0 needs kind none and count 1 a kind: the grid's kind follows the preset's.
+        opts.overrides.push("byzantine.kind=faulty".into());
+        let err = sweep(&opts, None).unwrap_err();
+        let text = format!("{err:#}");
+        assert!(text.contains("grid-smoke point contract.rule=median+byzantine.count=0"), "{text}");
+        assert!(!dir.exists(), "nothing ran before the refusal");
+        opts.overrides.pop();
+        opts.grid[1] = "byzantine.count=1,2".into();
+        // Six robots make quorum 3, where krum tolerates no assumed Byzantine robot.
+        opts.overrides.push("byzantine.kind=faulty".into());
+        opts.overrides.push("contract.assumed_f=0".into());
+        let seen = Mutex::new(Vec::new());
+        let hook = |t: &TaskDone| {
+            seen.lock().unwrap().push((t.done, t.total));
+            true
+        };
+        let first = sweep(&opts, Some(&hook)).unwrap();
+        assert_eq!((first.ran, first.skipped, first.failed.len()), (4, 0, 0));
+        assert_eq!(*seen.lock().unwrap(), [(1, 4), (2, 4), (3, 4), (4, 4)]);
+        for point in [
+            "contract.rule=median+byzantine.count=1",
+            "contract.rule=krum+byzantine.count=2",
+        ] {
+            let file = result_path(&dir, "grid-smoke", point, 1);
+            let s: serde_json::Value =
+                serde_json::from_slice(&std::fs::read(&file).unwrap()).unwrap();
+            assert_eq!(s["sweep"]["preset"], "smoke", "{point}");
+        }
+        let again = sweep(&opts, None).unwrap();
+        assert_eq!((again.ran, again.skipped), (0, 4));
+        // A hook that says stop: the running task finishes, no other starts.
+        let more = SweepOptions {
+            runs: Some(2),
+            ..opts.clone()
+        };
+        let stopped = sweep(&more, Some(&|_: &TaskDone| false)).unwrap();
+        assert!(stopped.stopped && stopped.ran == 1, "{stopped:?}");
+
+        let report = dir.join("report");
+        crate::commands::report::report(&dir, &report).unwrap();
+        let numbers = std::fs::read_to_string(report.join("numbers.csv")).unwrap();
+        assert!(numbers.starts_with("experiment,point,x,n,metric,mean,ci95,duration_s,overrides\n"));
+        assert!(
+            numbers.lines().any(|l| l.starts_with(
+                "grid-smoke,contract.rule=krum+byzantine.count=2,1,1,rounds,"
+            ) && l.ends_with(
+                ",40,contract.rule=krum byzantine.count=2 run.duration_s=40 world.robots=6 byzantine.kind=faulty contract.assumed_f=0"
+            )),
+            "{numbers}"
+        );
+        let md = std::fs::read_to_string(report.join("report.md")).unwrap();
+        assert!(md.contains("Settings: preset `smoke`"), "{md}");
+        assert!(
+            md.contains("| contract.rule=median+byzantine.count=1 | 40 | `contract.rule=median byzantine.count=1 run.duration_s=40"),
+            "{md}"
+        );
+        let frame = crate::commands::report::results_frame(&dir).unwrap();
+        let column = |name: &str| &frame.iter().find(|(n, _)| n == name).unwrap().1;
+        assert_eq!(
+            column("contract.rule"),
+            &Column::Str(["median", "median", "median", "krum", "krum"].map(String::from).to_vec())
+        );
+        assert_eq!(column("byzantine.count"), &Column::I64(vec![1, 1, 2, 1, 2]));
+        assert_eq!(column("seed"), &Column::U64(vec![1, 2, 1, 1, 1]));
+        assert_eq!(column("duration_s"), &Column::F64(vec![40.0; 5]));
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn bad_grids_are_refused_before_anything_runs_naming_the_key() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-badgrid-{}", std::process::id()));
+        let e = |grid: &[&str]| format!("{:#}", sweep(&grid_options(&dir, grid), None).unwrap_err());
+        let text = e(&["contract.rulez=median,krum"]);
+        assert!(text.contains("contract.rulez"), "{text}");
+        let text = e(&["contract.rule=median,nosuchrule"]);
+        assert!(text.contains("contract.rule") && text.contains("nosuchrule"), "{text}");
+        let text = e(&["world.robots=3,4"]);
+        assert!(text.contains("world.robots is both a grid axis"), "{text}");
+        let mut both = grid_options(&dir, &["contract.rule=median"]);
+        both.experiment = Some("e1-faulty".into());
+        let text = format!("{:#}", sweep(&both, None).unwrap_err());
+        assert!(text.contains("not both"), "{text}");
+        assert!(!dir.exists());
     }
 
     #[test]

@@ -137,16 +137,22 @@ fn file_name(p: &Path) -> String {
 }
 
 /// Sorts results by experiment (the sweep's order, unknown ones after by name), point (grid
-/// order, unknown ones after by name) and seed.
+/// order, a `--grid` sweep's recorded position, else after by name) and seed.
 pub fn sort(results: &mut [RunResult]) {
     let key = |r: &RunResult| {
         let exp_rank = EXPERIMENTS
             .iter()
             .position(|e| *e == r.experiment)
             .unwrap_or(usize::MAX);
+        // A --grid sweep's points are not built in: their files record their grid position.
         let point_rank = experiments::experiment(&r.experiment)
             .ok()
             .and_then(|e| e.points.iter().position(|p| p.name == r.point))
+            .or_else(|| {
+                r.summary["sweep"]["point_index"]
+                    .as_u64()
+                    .map(|i| i as usize)
+            })
             .unwrap_or(usize::MAX);
         (
             exp_rank,

@@ -14,6 +14,7 @@
 
 mod defence;
 mod figures;
+mod frame;
 mod load;
 mod plots;
 mod robustness;
@@ -26,6 +27,8 @@ use std::process::ExitCode;
 use anyhow::Context;
 
 use crate::cli::ReportArgs;
+
+pub use frame::{results_frame, Frame};
 
 /// Runs `swarmfl report`.
 pub fn command(args: ReportArgs) -> anyhow::Result<ExitCode> {

@@ -93,6 +93,11 @@ pub struct PointStats {
     pub x: f64,
     /// The seeds present, ascending.
     pub seeds: Vec<u64>,
+    /// Every override of the point's first run (`sweep.overrides`: the point's, then the
+    /// sweep's `--set`); one point holds one configuration (`load` checks it).
+    pub overrides: Vec<String>,
+    /// The simulated duration of its runs in seconds (`sim_time_s`, the longest).
+    pub duration_s: Option<f64>,
     /// Loss over time (empty without `contract` sections).
     pub loss: Curve,
     /// Held-out loss of the aggregated model over time (the last aggregation at or before each
@@ -115,6 +120,8 @@ pub struct ExperimentStats {
     pub name: String,
     /// The grid's axis label.
     pub axis: String,
+    /// The preset its points start from (`sweep.preset`, else the experiment's name).
+    pub preset: String,
     /// Per point, in grid order.
     pub points: Vec<PointStats>,
 }
@@ -155,9 +162,20 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
     for r in results {
         if out.last().is_none_or(|e| e.name != r.experiment) {
             let exp = experiments::experiment(&r.experiment).ok();
+            let grid_axis = r.summary["sweep"]["preset"]
+                .as_str()
+                .and_then(|_| r.summary["sweep"]["overrides"][0].as_str())
+                .map(|o| o.split_once('=').map_or(o, |(k, _)| k).to_string());
             out.push(ExperimentStats {
                 name: r.experiment.clone(),
-                axis: exp.map_or_else(|| "point".to_string(), |e| e.axis.to_string()),
+                preset: r.summary["sweep"]["preset"]
+                    .as_str()
+                    .unwrap_or(&r.experiment)
+                    .to_string(),
+                axis: exp.map_or_else(
+                    || grid_axis.unwrap_or_else(|| "point".to_string()),
+                    |e| e.axis.to_string(),
+                ),
                 points: Vec::new(),
             });
         }
@@ -176,14 +194,38 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
         let grid = experiments::experiment(&exp.name).ok();
         for name in names {
             let runs: Vec<&RunResult> = mine.iter().copied().filter(|r| r.point == name).collect();
+            // A built-in experiment's x is its grid's; a --grid point's is in its files.
             let x = grid
                 .as_ref()
                 .and_then(|g| g.points.iter().find(|p| p.name == name))
-                .map_or(f64::NAN, |p| p.x);
+                .map(|p| p.x)
+                .or_else(|| runs_x(&mine, name))
+                .unwrap_or(f64::NAN);
             exp.points.push(point_stats(name, x, &runs));
         }
     }
     out
+}
+
+/// The x a `--grid` sweep recorded for a point (`sweep.x` of its first file).
+fn runs_x(results: &[&RunResult], point: &str) -> Option<f64> {
+    results
+        .iter()
+        .find(|r| r.point == point)
+        .and_then(|r| r.summary["sweep"]["x"].as_f64())
+}
+
+/// The scalar metrics of one run's summary by name (what `numbers.csv` averages), and its
+/// wall-clock seconds.
+pub fn run_metrics(summary: &Value) -> (BTreeMap<&'static str, f64>, Option<f64>) {
+    let mut g = Gathered::default();
+    g.run(summary);
+    let metrics = g
+        .metric_values
+        .into_iter()
+        .filter_map(|(k, v)| v.first().map(|&x| (k, x)))
+        .collect();
+    (metrics, g.walls.first().copied())
 }
 
 /// The statistics of one point from its runs (in seed order).
@@ -218,6 +260,17 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
         point: name.to_string(),
         x,
         seeds: runs.iter().map(|r| r.seed).collect(),
+        overrides: runs.first().map_or_else(Vec::new, |r| {
+            r.summary["sweep"]["overrides"]
+                .as_array()
+                .map(|a| {
+                    a.iter()
+                        .filter_map(|o| o.as_str().map(str::to_string))
+                        .collect()
+                })
+                .unwrap_or_default()
+        }),
+        duration_s: (sim_time_s > 0.0).then_some(sim_time_s),
         loss: curve(sim_time_s, &loss_fns),
         heldout: curve(sim_time_s, &heldout_fns),
         chain_mb: curve(sim_time_s, &chain_fns),

@@ -8,20 +8,37 @@ use super::plots::Figure;
 use super::stats::{ExperimentStats, PointStats, Stat, BIN_S};
 use super::{defence, robustness};
 
-/// Writes `numbers.csv` (scalar metrics) and `series.csv` (curves) as text: every deterministic
+/// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a line break.
+fn csv_field(text: &str) -> String {
+    if text.contains([',', '"', '\n', '\r']) {
+        format!("\"{}\"", text.replace('"', "\"\""))
+    } else {
+        text.to_string()
+    }
+}
+
+/// A point's overrides as one text: `key=value` separated by spaces, as `--set` takes them.
+pub fn overrides_text(p: &PointStats) -> String {
+    p.overrides.join(" ")
+}
+
+/// Writes `numbers.csv` (scalar metrics, each row with its point's simulated duration and
+/// every override it was run with) and `series.csv` (curves) as text: every deterministic
 /// number of the report, with full precision.
 pub fn numbers_csv(stats: &[ExperimentStats]) -> (String, String) {
     let ci = |s: &Stat| s.ci.map_or_else(String::new, |c| format!("{c:e}"));
-    let mut numbers = String::from("experiment,point,x,n,metric,mean,ci95\n");
+    let mut numbers = String::from("experiment,point,x,n,metric,mean,ci95,duration_s,overrides\n");
     let mut series = String::from("experiment,point,metric,time_s,n,mean,ci95\n");
     for e in stats {
         for p in &e.points {
+            let duration = p.duration_s.map_or_else(String::new, |d| d.to_string());
+            let overrides = csv_field(&overrides_text(p));
             for (k, s) in &p.metrics {
                 let _ = writeln!(
                     numbers,
-                    "{},{},{},{},{},{:e},{}",
+                    "{},{},{},{},{},{:e},{},{duration},{overrides}",
                     e.name,
-                    p.point,
+                    csv_field(&p.point),
                     p.x,
                     s.n,
                     k,
@@ -144,6 +161,26 @@ pub fn markdown(
                 get(p, "byzantine_gain", 2),
                 get(p, "chain_mb", 2),
                 p.wall_s.map_or_else(|| "n/a".to_string(), |s| s.text(1)),
+            );
+        }
+        let _ = writeln!(
+            md,
+            "\nSettings: preset `{}`; per point the simulated duration and every override \
+             (the point's, then the sweep's `--set`).\n\n| point | duration s | overrides |\n|---|---|---|",
+            e.preset
+        );
+        for p in &e.points {
+            let overrides = overrides_text(p);
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} |",
+                p.point,
+                p.duration_s.map_or_else(|| "n/a".to_string(), |d| d.to_string()),
+                if overrides.is_empty() {
+                    "(none)".to_string()
+                } else {
+                    format!("`{}`", overrides.replace('|', "\\|"))
+                }
             );
         }
         let mut missing: BTreeMap<&str, usize> = BTreeMap::new();
