@@ -6,10 +6,14 @@
 //! runs with the interpreter released (other Python threads go on).
 
 use std::path::PathBuf;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{mpsc, Mutex};
+use std::time::Duration;
 
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyList};
+use swarmfl_cli::api::{Shard, SweepOptions, TaskDone};
 use swarmfl_core::config::{Aggregation, Config};
 use swarmfl_core::inspect::{self, timeline, Column, Expr, RunIndex, Table};
 use swarmfl_core::types::SimTime;
@@ -31,8 +35,16 @@ fn err(e: impl Into<anyhow::Error>) -> PyErr {
 /// numeric dtypes (`u8`, `i8`, `f8`, `f4`, `?`: numpy's codes, read with `numpy.frombuffer`),
 /// a list of `str` for `str`.
 fn table<'py>(py: Python<'py>, t: &Table) -> PyResult<Bound<'py, PyList>> {
+    columns(py, t.columns.iter().map(|(n, c)| (*n, c)))
+}
+
+/// Columns as [`table`] hands them over.
+fn columns<'py, 'c>(
+    py: Python<'py>,
+    it: impl Iterator<Item = (&'c str, &'c Column)>,
+) -> PyResult<Bound<'py, PyList>> {
     let out = PyList::empty(py);
-    for (name, column) in &t.columns {
+    for (name, column) in it {
         let (dtype, data): (&str, Bound<'py, PyAny>) = match column {
             Column::U64(v) => ("<u8", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
             Column::I64(v) => ("<i8", bytes(py, v.iter().flat_map(|x| x.to_le_bytes()))),
@@ -41,7 +53,7 @@ fn table<'py>(py: Python<'py>, t: &Table) -> PyResult<Bound<'py, PyList>> {
             Column::Bool(v) => ("?", bytes(py, v.iter().map(|&b| u8::from(b)))),
             Column::Str(v) => ("str", PyList::new(py, v)?.into_any()),
         };
-        out.append((*name, dtype, data))?;
+        out.append((name, dtype, data))?;
     }
     Ok(out)
 }
@@ -61,7 +73,8 @@ fn resolve(
 }
 
 /// Runs a simulation into `out` (`run.swlog`, `summary.json`) as `swarmfl run` does, and
-/// returns the summary's JSON text.
+/// returns the summary's JSON text. Ctrl-C stops it at its next record and raises
+/// `KeyboardInterrupt` (the log left in `out` is truncated).
 #[pyfunction]
 #[pyo3(signature = (preset, config, overrides, seed, out, quiet))]
 fn run(
@@ -74,10 +87,155 @@ fn run(
     quiet: bool,
 ) -> PyResult<String> {
     let config = resolve(preset.as_deref(), config, &overrides)?;
-    let outcome = py
-        .detach(|| swarmfl_cli::api::run(config, seed, &out, quiet))
+    let stop = AtomicBool::new(false);
+    let mut interrupted: Option<PyErr> = None;
+    // The run on its own thread; this one checks for Ctrl-C ten times a second (Python
+    // handles signals on the main thread only) and stops the run at its next record.
+    let outcome = std::thread::scope(|scope| {
+        let (stop, out) = (&stop, &out);
+        let worker =
+            scope.spawn(move || swarmfl_cli::api::run_until(config, seed, out, quiet, stop));
+        while !worker.is_finished() {
+            py.detach(|| std::thread::sleep(Duration::from_millis(100)));
+            if interrupted.is_none() {
+                if let Err(e) = py.check_signals() {
+                    interrupted = Some(e);
+                    stop.store(true, Ordering::SeqCst);
+                }
+            }
+        }
+        worker.join()
+    });
+    if let Some(e) = interrupted {
+        return Err(e);
+    }
+    let outcome = outcome
+        .map_err(|_| SwarmflError::new_err("the run's thread panicked"))?
         .map_err(err)?;
     serde_json::to_string(&outcome.summary).map_err(err)
+}
+
+/// Runs a sweep (`swarmfl sweep`: a built-in experiment, or the grid of `grid`'s
+/// `KEY=V1,V2` axes on `preset`) into `out`. The sweep runs on its own threads; this thread
+/// waits, calls `progress(done, total, line, error)` after each task and checks for Ctrl-C
+/// (`KeyboardInterrupt`) ten times a second. An exception (from `progress` or Ctrl-C) stops the
+/// sweep: no new task starts and the runs under way stop at their next record without a
+/// result file (a re-run redoes them), then it is raised. Returns `(selected, ran, skipped, failed: [(point, seed, error)], wall_s)`.
+#[pyfunction]
+#[pyo3(signature = (experiment, preset, grid, overrides, runs, jobs, shard, out, keep_logs, progress))]
+#[allow(clippy::too_many_arguments)]
+fn sweep(
+    py: Python<'_>,
+    experiment: Option<String>,
+    preset: Option<String>,
+    grid: Vec<String>,
+    overrides: Vec<String>,
+    runs: Option<u32>,
+    jobs: Option<usize>,
+    shard: Option<String>,
+    out: PathBuf,
+    keep_logs: bool,
+    progress: Option<Py<PyAny>>,
+) -> PyResult<SweepResult> {
+    let shard = match shard {
+        Some(text) => Shard::parse(&text).map_err(err)?,
+        None => Shard::ALL,
+    };
+    let opts = SweepOptions {
+        experiment,
+        preset,
+        grid,
+        out,
+        runs,
+        jobs,
+        shard,
+        overrides,
+        keep_logs,
+    };
+    let stop = AtomicBool::new(false);
+    let mut raised: Option<PyErr> = None;
+    let (tx, rx) = mpsc::channel::<TaskDone>();
+    // In a mutex so that the wait can run with the interpreter released (a receiver is not
+    // Sync); only this thread locks it.
+    let rx = Mutex::new(rx);
+    let outcome = std::thread::scope(|scope| {
+        let stop = &stop;
+        let opts = &opts;
+        let worker = scope.spawn(move || {
+            let hook = move |t: &TaskDone| {
+                // The receiver lives until this thread ends: a failed send cannot happen.
+                let _ = tx.send(t.clone());
+                !stop.load(Ordering::SeqCst)
+            };
+            swarmfl_cli::api::sweep(opts, Some(&hook))
+        });
+        loop {
+            let next = py.detach(|| {
+                rx.lock()
+                    .expect("only this thread locks it")
+                    .recv_timeout(Duration::from_millis(100))
+            });
+            match next {
+                Ok(t) => {
+                    if let (Some(cb), None) = (&progress, &raised) {
+                        if let Err(e) = cb.call1(py, (t.done, t.total, t.line, t.error)) {
+                            raised = Some(e);
+                            stop.store(true, Ordering::SeqCst);
+                        }
+                    }
+                }
+                Err(mpsc::RecvTimeoutError::Timeout) => {}
+                Err(mpsc::RecvTimeoutError::Disconnected) => break,
+            }
+            if raised.is_none() {
+                if let Err(e) = py.check_signals() {
+                    raised = Some(e);
+                    stop.store(true, Ordering::SeqCst);
+                }
+            }
+        }
+        py.detach(|| worker.join())
+    });
+    let outcome = match outcome {
+        Ok(result) => result.map_err(err)?,
+        Err(_) => return Err(SwarmflError::new_err("the sweep's thread panicked")),
+    };
+    if let Some(e) = raised {
+        return Err(e);
+    }
+    let failed = outcome
+        .failed
+        .iter()
+        .map(|(t, e)| (t.point.clone(), t.seed, e.clone()))
+        .collect();
+    Ok((
+        outcome.selected,
+        outcome.ran,
+        outcome.skipped,
+        failed,
+        outcome.wall_s,
+    ))
+}
+
+/// What [`sweep`] returns: tasks selected, ran, skipped, the failures and the wall time.
+type SweepResult = (usize, usize, usize, Vec<(String, u64, String)>, f64);
+
+/// The results under a sweep's directory as one table (`report::results_frame`): a row per
+/// result file, every override a column.
+#[pyfunction]
+fn results<'py>(py: Python<'py>, dir: PathBuf) -> PyResult<Bound<'py, PyList>> {
+    let frame = py
+        .detach(|| swarmfl_cli::api::results_frame(&dir))
+        .map_err(err)?;
+    columns(py, frame.iter().map(|(n, c)| (n.as_str(), c)))
+}
+
+/// Writes the report of a results directory (`swarmfl report DIR --out OUT`); returns the
+/// path of its report.md.
+#[pyfunction]
+fn report(py: Python<'_>, dir: PathBuf, out: PathBuf) -> PyResult<PathBuf> {
+    py.detach(|| swarmfl_cli::api::report(&dir, &out))
+        .map_err(err)
 }
 
 /// The resolved configuration's TOML text (what a run's header records).
@@ -260,6 +418,9 @@ fn _swarmfl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(run, m)?)?;
     m.add_function(wrap_pyfunction!(config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
+    m.add_function(wrap_pyfunction!(sweep, m)?)?;
+    m.add_function(wrap_pyfunction!(results, m)?)?;
+    m.add_function(wrap_pyfunction!(report, m)?)?;
     m.add_function(wrap_pyfunction!(poses, m)?)?;
     m.add_function(wrap_pyfunction!(at_block, m)?)?;
     m.add_function(wrap_pyfunction!(at_time, m)?)?;

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import json
 import os
+import re
+import sys
 import tempfile
 from pathlib import Path
 from types import SimpleNamespace
@@ -27,7 +29,7 @@ import pandas as pd
 from . import _swarmfl
 from ._swarmfl import SwarmflError
 
-__all__ = ["run", "open", "Run", "SwarmflError", "config"]
+__all__ = ["run", "open", "Run", "SwarmflError", "config", "sweep", "results", "report"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -84,7 +86,9 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
     ``set`` maps configuration keys to values (``{"byzantine.count": 3, "contract.rule":
     "median"}``); ``config`` names a TOML file overlaid on the preset. Without ``out`` the run
     goes into a new temporary directory (kept: its path is ``Run.path``). ``quiet=False`` shows
-    the command's progress bar on the terminal. Returns the :class:`Run`.
+    the command's progress bar on the terminal. Ctrl-C stops the simulation at its next record
+    and raises ``KeyboardInterrupt`` (``out`` then holds a truncated log and no summary).
+    Returns the :class:`Run`.
     """
     if preset is None and config is None:
         preset = "paper"
@@ -98,6 +102,126 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
     r = Run(Path(out) / "run.swlog")
     r._summary = json.loads(summary)
     return r
+
+
+def _grid_value(value: Any) -> str:
+    """A grid value as ``--grid`` text: a plain word stays bare (``median``, so that the
+    point's directory reads ``contract.rule=median``), anything else is TOML."""
+    if isinstance(value, str) and re.fullmatch(r"[A-Za-z0-9_.+-]+", value):
+        return value
+    return _toml_value(value)
+
+
+def _grid(grid: Optional[Mapping[str, Any]]) -> list:
+    if grid is None:
+        return []
+    if not isinstance(grid, Mapping):
+        raise SwarmflError(
+            "grid= takes a mapping of key to a list of values, e.g. "
+            f"grid={{'contract.rule': ['median', 'krum']}}, got {type(grid).__name__}"
+        )
+    axes = []
+    for key, values in grid.items():
+        if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
+            values = [values]
+        axes.append(f"{key}=" + ",".join(_grid_value(v) for v in values))
+    return axes
+
+
+class _Progress:
+    """The sweep's progress: a tqdm bar (``tqdm.auto``: a widget in a notebook, a bar on a
+    terminal) if tqdm is installed, else one line rewritten on a terminal and one line per
+    task elsewhere (a notebook's output cell)."""
+
+    def __init__(self, enabled: bool, label: str):
+        self.enabled = enabled
+        self.label = label
+        self.bar = None
+        self.tty = hasattr(sys.stderr, "isatty") and sys.stderr.isatty()
+
+    def __call__(self, done: int, total: int, line: str, error: Optional[str]) -> None:
+        if not self.enabled:
+            return
+        if self.bar is None:
+            try:
+                from tqdm.auto import tqdm
+                self.bar = tqdm(total=total, desc=self.label, unit="task")
+            except ImportError:
+                self.bar = False
+        if self.bar:
+            self.bar.update(done - self.bar.n)
+            self.bar.set_postfix_str(line.split("] ", 1)[-1], refresh=True)
+            if error is not None:
+                self.bar.write(line)
+        elif self.tty:
+            end = "\n" if done == total or error is not None else ""
+            print(f"\r{self.label}: {line}\x1b[K", end=end, file=sys.stderr, flush=True)
+        else:
+            print(f"{self.label}: {line}", file=sys.stderr, flush=True)
+
+    def close(self) -> None:
+        if self.bar:
+            self.bar.close()
+
+
+def sweep(experiment: Optional[str] = None, *, grid: Optional[Mapping[str, Any]] = None,
+          preset: Optional[str] = None, seeds: Optional[int] = None,
+          set: Optional[Mapping[str, Any]] = None, out: Optional[PathLike] = None,
+          jobs: Optional[int] = None, shard: Optional[str] = None, keep_logs: bool = False,
+          progress: bool = True) -> pd.DataFrame:
+    """Runs a sweep, as ``swarmfl sweep``, and returns its results as one tidy frame
+    (:func:`results`).
+
+    Either a built-in ``experiment`` (``"e2-faulty"``; its preset and grid) or a ``grid``: a
+    mapping of configuration keys to lists of values (``{"contract.rule": ["median", "krum"],
+    "byzantine.count": [1, 3]}``), every combination a point, on ``preset`` (default
+    ``paper``). ``seeds`` runs seeds 1..N per point (default: the experiment's, 1 for a grid);
+    ``set`` fixes other keys for every task; ``shard="I/N"`` runs a share. Results go to
+    ``out`` (default a new temporary directory); tasks already there are skipped, so the same
+    call resumes an interrupted sweep. Every configuration is resolved before any run: a bad
+    key or value raises :class:`SwarmflError` naming it. ``progress`` shows a bar (tqdm if
+    installed, else plain lines). Ctrl-C stops the sweep (the runs under way stop without a
+    result file; calling again redoes them) and raises ``KeyboardInterrupt``; a failed task raises :class:`SwarmflError` after the others
+    ran. The frame's ``attrs["sweep"]`` holds the counts and the wall time.
+    """
+    if seeds is not None and (not isinstance(seeds, int) or isinstance(seeds, bool) or seeds < 1):
+        raise SwarmflError(f"seeds must be a positive integer, got {seeds!r}")
+    if out is None:
+        out = tempfile.mkdtemp(prefix="swarmfl-sweep-")
+    axes = _grid(grid)
+    label = experiment or f"grid-{preset or 'paper'}"
+    bar = _Progress(progress, f"sweep {label}")
+    try:
+        selected, ran, skipped, failed, wall_s = _swarmfl.sweep(
+            experiment, preset, axes, _overrides(set), seeds, jobs, shard, os.fspath(out),
+            keep_logs, bar)
+    finally:
+        bar.close()
+    if failed:
+        lines = "\n".join(f"  {point} seed {seed}: {error}" for point, seed, error in failed)
+        raise SwarmflError(
+            f"{len(failed)} tasks failed; call again to retry them (the others are in {out}):\n{lines}")
+    frame = results(out)
+    frame.attrs["sweep"] = {"out": os.fspath(out), "selected": selected, "ran": ran,
+                            "skipped": skipped, "wall_s": wall_s}
+    return frame
+
+
+def results(dir: PathLike) -> pd.DataFrame:
+    """A sweep's results directory as one tidy frame, one row per run: ``experiment, point,
+    seed, x``, every override as a column of its own (``contract.rule``, ``byzantine.count``,
+    ... typed: integers, floats, booleans or text), ``duration_s`` (simulated), the metrics
+    ``swarmfl report`` averages (``rounds``, ``final_loss``, ``final_heldout_loss``,
+    ``honest_gain``, ``byzantine_gain``, ``chain_mb``, ...; NaN where a run has none), ``wall_s``,
+    ``final_hash`` and ``config_hash``. Built by the core's report loader: it refuses what
+    ``swarmfl report`` refuses (damaged files, a point mixing configurations)."""
+    return _frame(_swarmfl.results(os.fspath(dir)))
+
+
+def report(dir: PathLike, out: PathLike) -> Path:
+    """Writes the report of a results directory (``swarmfl report DIR --out OUT``): figures,
+    report.md, numbers.csv. Returns the path of report.md."""
+    return Path(_swarmfl.report(os.fspath(dir), os.fspath(out)))
 
 
 def open(path: PathLike) -> "Run":

@@ -15,6 +15,18 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     crate::commands::run::run(config, seed, out, quiet)
 }
 
+/// [`run`], interrupted at the next record once `stop` is set (an error saying so; the log
+/// left in `out` is truncated).
+pub fn run_until(
+    config: Config,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+    stop: &std::sync::atomic::AtomicBool,
+) -> anyhow::Result<RunOutcome> {
+    crate::commands::run::run_until(config, seed, out, quiet, stop)
+}
+
 /// Writes the CSV tables of the log at `log` into `out`, as `swarmfl export` does.
 pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
     crate::commands::export::export(log, out)

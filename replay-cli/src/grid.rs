@@ -98,7 +98,10 @@ fn safe(text: &str) -> String {
 /// Refuses (naming the key) a key given twice or also in `--set` (`set`): one of the two values
 /// would be silently lost.
 pub fn experiment(preset: &str, axes: &[Axis], set: &[String]) -> anyhow::Result<Experiment> {
-    anyhow::ensure!(!axes.is_empty(), "a grid needs at least one --grid KEY=V1,V2");
+    anyhow::ensure!(
+        !axes.is_empty(),
+        "a grid needs at least one --grid KEY=V1,V2"
+    );
     for (i, a) in axes.iter().enumerate() {
         anyhow::ensure!(
             !axes[..i].iter().any(|b| b.key == a.key),
@@ -224,7 +227,8 @@ mod tests {
             .unwrap_err()
             .to_string();
         assert!(
-            e.contains("byzantine.count is both a grid axis") && e.contains("--set byzantine.count=2"),
+            e.contains("byzantine.count is both a grid axis")
+                && e.contains("--set byzantine.count=2"),
             "{e}"
         );
         assert!(experiment("smoke", &[], &[]).is_err());

@@ -130,6 +130,28 @@ pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result
     write_run(&header, sim, out, quiet, |_| Ok(()))
 }
 
+/// [`run`], interrupted at the next record once `stop` is set: the error says so, and the log
+/// left in `out` is truncated (no footer, no summary). Python's Ctrl-C and a stopped sweep use it.
+pub fn run_until(
+    config: Config,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+    stop: &std::sync::atomic::AtomicBool,
+) -> anyhow::Result<RunOutcome> {
+    let header = Header::new(seed, config.to_toml());
+    let sim = Sim::new(config, seed)?;
+    write_run(&header, sim, out, quiet, |_| {
+        if stop.load(std::sync::atomic::Ordering::Relaxed) {
+            anyhow::bail!(
+                "interrupted: {} is truncated (no summary); run again to redo it",
+                out.join("run.swlog").display()
+            );
+        }
+        Ok(())
+    })
+}
+
 /// Drives `sim` to its end, writing `out/run.swlog` (with `header`) and `out/summary.json`;
 /// `check` sees every record before it is written (a fork compares them with its parent's).
 pub fn write_run(

@@ -325,7 +325,8 @@ pub struct TaskDone {
 }
 
 /// A sweep's progress hook: called after each task from the worker that ran it; returning
-/// false stops the sweep (tasks under way finish, no new one starts; a re-run resumes).
+/// false stops the sweep: no new task starts and the runs under way are interrupted at their
+/// next record, leaving no result file (a re-run redoes them).
 pub type Hook<'a> = &'a (dyn Fn(&TaskDone) -> bool + Sync);
 
 /// Runs a sweep (or one shard of it). With a `hook`, progress goes to it instead of stderr.
@@ -424,7 +425,11 @@ fn run_parallel(
                 let k = next.fetch_add(1, Ordering::SeqCst);
                 let Some(task) = todo.get(k) else { break };
                 let task_started = Instant::now();
-                let result = run_task(opts, exp, task, configs[task.point_index].clone());
+                let result = run_task(opts, exp, task, configs[task.point_index].clone(), &stop);
+                if result.is_err() && stop.load(Ordering::SeqCst) {
+                    // Interrupted by a stop: not a failure, and not done (a re-run redoes it).
+                    break;
+                }
                 let finished = done.fetch_add(1, Ordering::SeqCst) + 1;
                 let line = match &result {
                     Ok(()) => format!(
@@ -482,6 +487,7 @@ fn run_task(
     exp: &Experiment,
     task: &Task,
     config: Config,
+    stop: &AtomicBool,
 ) -> anyhow::Result<()> {
     let result = result_path(&opts.out, &task.experiment, &task.point, task.seed);
     let run_dir = if opts.keep_logs {
@@ -496,7 +502,7 @@ fn run_task(
         ))
     };
     let point = &exp.points[task.point_index];
-    let outcome = run::run(config, task.seed, &run_dir, true);
+    let outcome = run::run_until(config, task.seed, &run_dir, true, stop);
     if !opts.keep_logs {
         // Best effort: a leftover temporary directory does not change any result.
         let _ = std::fs::remove_dir_all(&run_dir);
@@ -645,16 +651,16 @@ mod tests {
     fn a_grid_sweep_runs_every_combination_resumes_and_reports_its_settings() {
         let dir = std::env::temp_dir().join(format!("swarmfl-grid-{}", std::process::id()));
         let _ = std::fs::remove_dir_all(&dir);
-        let opts = grid_options(
-            &dir,
-            &["contract.rule=median,krum", "byzantine.count=0,1"],
-        );
+        let opts = grid_options(&dir, &["contract.rule=median,krum", "byzantine.count=0,1"]);
         let mut opts = opts;
         // count 0 needs kind none and count 1 a kind: the grid's kind follows the preset's.
         opts.overrides.push("byzantine.kind=faulty".into());
         let err = sweep(&opts, None).unwrap_err();
         let text = format!("{err:#}");
-        assert!(text.contains("grid-smoke point contract.rule=median+byzantine.count=0"), "{text}");
+        assert!(
+            text.contains("grid-smoke point contract.rule=median+byzantine.count=0"),
+            "{text}"
+        );
         assert!(!dir.exists(), "nothing ran before the refusal");
         opts.overrides.pop();
         opts.grid[1] = "byzantine.count=1,2".into();
@@ -710,7 +716,11 @@ mod tests {
         let column = |name: &str| &frame.iter().find(|(n, _)| n == name).unwrap().1;
         assert_eq!(
             column("contract.rule"),
-            &Column::Str(["median", "median", "median", "krum", "krum"].map(String::from).to_vec())
+            &Column::Str(
+                ["median", "median", "median", "krum", "krum"]
+                    .map(String::from)
+                    .to_vec()
+            )
         );
         assert_eq!(column("byzantine.count"), &Column::I64(vec![1, 1, 2, 1, 2]));
         assert_eq!(column("seed"), &Column::U64(vec![1, 2, 1, 1, 1]));
@@ -721,11 +731,15 @@ mod tests {
     #[test]
     fn bad_grids_are_refused_before_anything_runs_naming_the_key() {
         let dir = std::env::temp_dir().join(format!("swarmfl-badgrid-{}", std::process::id()));
-        let e = |grid: &[&str]| format!("{:#}", sweep(&grid_options(&dir, grid), None).unwrap_err());
+        let e =
+            |grid: &[&str]| format!("{:#}", sweep(&grid_options(&dir, grid), None).unwrap_err());
         let text = e(&["contract.rulez=median,krum"]);
         assert!(text.contains("contract.rulez"), "{text}");
         let text = e(&["contract.rule=median,nosuchrule"]);
-        assert!(text.contains("contract.rule") && text.contains("nosuchrule"), "{text}");
+        assert!(
+            text.contains("contract.rule") && text.contains("nosuchrule"),
+            "{text}"
+        );
         let text = e(&["world.robots=3,4"]);
         assert!(text.contains("world.robots is both a grid axis"), "{text}");
         let mut both = grid_options(&dir, &["contract.rule=median"]);

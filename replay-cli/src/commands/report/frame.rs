@@ -48,8 +48,10 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
         }
     }
     let per_run: Vec<_> = results.iter().map(|r| run_metrics(&r.summary)).collect();
-    let metric_names: BTreeSet<&'static str> =
-        per_run.iter().flat_map(|(m, _)| m.keys().copied()).collect();
+    let metric_names: BTreeSet<&'static str> = per_run
+        .iter()
+        .flat_map(|(m, _)| m.keys().copied())
+        .collect();
 
     let text = |f: &dyn Fn(&load::RunResult) -> String| -> Column {
         Column::Str(results.iter().map(f).collect())
@@ -73,7 +75,10 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
             .collect();
         frame.push((key.clone(), typed(&values)));
     }
-    frame.push(("duration_s".into(), number(&|r| r.summary["sim_time_s"].as_f64())));
+    frame.push((
+        "duration_s".into(),
+        number(&|r| r.summary["sim_time_s"].as_f64()),
+    ));
     for name in &metric_names {
         frame.push((
             (*name).to_string(),
@@ -87,12 +92,7 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
     }
     frame.push((
         "wall_s".into(),
-        Column::F64(
-            per_run
-                .iter()
-                .map(|(_, w)| w.unwrap_or(f64::NAN))
-                .collect(),
-        ),
+        Column::F64(per_run.iter().map(|(_, w)| w.unwrap_or(f64::NAN)).collect()),
     ));
     for hash in ["final_hash", "config_hash"] {
         frame.push((

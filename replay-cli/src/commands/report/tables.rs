@@ -175,7 +175,8 @@ pub fn markdown(
                 md,
                 "| {} | {} | {} |",
                 p.point,
-                p.duration_s.map_or_else(|| "n/a".to_string(), |d| d.to_string()),
+                p.duration_s
+                    .map_or_else(|| "n/a".to_string(), |d| d.to_string()),
                 if overrides.is_empty() {
                     "(none)".to_string()
                 } else {
