@@ -552,7 +552,7 @@ mod tests {
         for exp in experiments.iter().chain([&grid]) {
             let name = &exp.name;
             for runs in [1u32, 3, exp.runs] {
-                let list = tasks(&exp, runs, &["run.duration_s=600".to_string()]);
+                let list = tasks(exp, runs, &["run.duration_s=600".to_string()]);
                 for count in 1..=7u32 {
                     let mut seen = vec![0u32; list.len()];
                     for index in 0..count {
