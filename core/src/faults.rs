@@ -147,7 +147,11 @@ impl FaultsConfig {
             if r < robots {
                 Ok(())
             } else {
-                Err((key, r.to_string(), format!("a robot id in 0..{robots}")))
+                Err((
+                    key,
+                    r.to_string(),
+                    format!("a robot id from 0 to {}", robots.saturating_sub(1)),
+                ))
             }
         };
         let _ = duration_s;

@@ -333,8 +333,6 @@ pub fn summarise(
             .map(|(k, v)| (k.name().to_string(), *v))
             .collect(),
     };
-    // A distance in fixed-point units summed over N weights, as a mean per weight.
-    let per_weight = (ledger.params().model_len() as f64) * scale as f64;
     let (mut honest_distance_sum, mut honest_accepted) = (0.0f64, 0u64);
     let (mut round_distance_sum, mut round_honest) = (0.0f64, 0u64);
     let mut round_txs: Vec<TxHash> = Vec::new();
@@ -371,7 +369,7 @@ pub fn summarise(
             if let (true, Outcome::Accepted { distance_units, .. })
             | (true, Outcome::Aggregated { distance_units, .. }) = (honest, outcome)
             {
-                let d = *distance_units as f64 / per_weight;
+                let d = ledger.params().distance_per_weight(*distance_units, scale);
                 honest_distance_sum += d;
                 honest_accepted += 1;
                 round_distance_sum += d;

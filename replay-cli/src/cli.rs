@@ -59,7 +59,7 @@ pub enum Command {
     /// at that moment.
     View(ViewArgs),
     /// Compare two logs: header differences and the first diverging record (exit 1 if they
-    /// differ). With --resimulate, compare one log with a re-simulation under this build: exit
+    /// differ, 2 if one cannot be read). With --resimulate, compare one log with a re-simulation under this build: exit
     /// 0 identical, 1 diverged, 125 when the log cannot be read (`git bisect run` skips).
     Diff(DiffArgs),
     /// Regression fixtures: `regenerate` re-makes fixtures/logs and fixtures/expected.toml
@@ -331,8 +331,8 @@ pub struct ChaosArgs {
     /// The first seed.
     #[arg(long, default_value_t = 0)]
     pub first_seed: u64,
-    /// Simulated seconds per run.
-    #[arg(long, default_value_t = 600.0)]
+    /// Simulated seconds per run (`run.duration_s` of each run).
+    #[arg(long, default_value_t = 600.0, allow_negative_numbers = true, value_parser = duration_s)]
     pub duration: f64,
     /// Print the report as JSON.
     #[arg(long)]
@@ -350,8 +350,8 @@ pub struct BenchArgs {
     /// `scale` only: the swarm sizes, comma-separated.
     #[arg(long, value_name = "N,N,..")]
     pub robots: Option<String>,
-    /// `scale` only: simulated seconds per size (default 300).
-    #[arg(long)]
+    /// `scale` only: simulated seconds per size (default 300; `run.duration_s` of each run).
+    #[arg(long = "duration", visible_alias = "duration-s", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: Option<f64>,
 }
 
@@ -362,8 +362,24 @@ pub struct BenchScaleOneArgs {
     #[arg(long)]
     pub robots: u32,
     /// Simulated seconds.
-    #[arg(long)]
+    #[arg(long = "duration", visible_alias = "duration-s", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: f64,
+}
+
+/// A `--duration` in simulated seconds: the range and message of `run.duration_s`, which it
+/// sets (so `-5` is a duration out of range, not an unknown flag).
+fn duration_s(text: &str) -> Result<f64, String> {
+    let value: f64 = text
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of seconds"))?;
+    let mut config = swarmfl_core::config::Preset::Smoke.config();
+    config.run.duration_s = value;
+    match config.validate() {
+        Err(swarmfl_core::config::ConfigError::OutOfRange { allowed, .. }) => Err(format!(
+            "{value} seconds is out of range; allowed: {allowed} (as `run.duration_s`)"
+        )),
+        _ => Ok(value),
+    }
 }
 
 /// The long help of `swarmfl bisect`, after the options: the predicate language.

@@ -45,6 +45,20 @@ pub enum ConfigError {
         /// The expected type.
         expected: String,
     },
+    /// A value that is not one of a key's choices (a typo of a rule or a kind).
+    #[error(
+        "configuration key `{key}`: unknown value `{value}`{nearest}; the choices are: {choices}"
+    )]
+    UnknownValue {
+        /// The key.
+        key: String,
+        /// The value as given.
+        value: String,
+        /// The choices, comma-separated.
+        choices: String,
+        /// `; did you mean `x`?` when one choice is close, else empty.
+        nearest: String,
+    },
     /// A value outside its allowed range.
     #[error("configuration key `{key}`: value {value} is out of range; allowed: {allowed}")]
     OutOfRange {
@@ -65,7 +79,7 @@ pub enum ConfigError {
     },
     /// A value the user did not set (it comes from the preset) that conflicts with the values
     /// they did set.
-    #[error("{source}; you did not set `{key}` (preset `{preset}` gives it), but it no longer fits what you set ({set}): set `{key}` too, or change those values")]
+    #[error("{cause}; you did not set `{key}` (preset `{preset}` gives it), but it no longer fits what you set ({set}): set `{key}` too, or change those values")]
     NotSetByYou {
         /// The preset's key that is out of range.
         key: String,
@@ -73,8 +87,9 @@ pub enum ConfigError {
         preset: String,
         /// The keys the user set, comma-separated.
         set: String,
-        /// The range error.
-        source: Box<ConfigError>,
+        /// The range error. (Not `source`: the message already holds it, and an error chain
+        /// printer such as anyhow's would print it a second time.)
+        cause: Box<ConfigError>,
     },
     /// A `--set` argument that is not `key=value`.
     #[error("invalid override `{assignment}`: {message}")]

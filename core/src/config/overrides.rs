@@ -84,13 +84,13 @@ impl Config {
         config.derive(&explicit);
         config.validate().map_err(|e| match e {
             ConfigError::OutOfRange { ref key, .. }
-                if !explicit.is_empty() && !explicit.contains(key) =>
+                if !explicit.is_empty() && !explicit.iter().any(|set| covers(set, key)) =>
             {
                 ConfigError::NotSetByYou {
                     key: key.clone(),
                     preset: config.preset.clone(),
                     set: explicit.iter().cloned().collect::<Vec<_>>().join(", "),
-                    source: Box::new(e),
+                    cause: Box::new(e),
                 }
             }
             e => e,
@@ -169,13 +169,13 @@ impl Config {
             expected,
         })?;
         *slot = value;
-        let updated: Config =
-            root.try_into()
-                .map_err(|e: toml::de::Error| ConfigError::WrongType {
-                    key: key.to_string(),
-                    value: raw.to_string(),
-                    expected: e.message().to_string(),
-                })?;
+        let updated: Config = root.try_into().map_err(|e: toml::de::Error| {
+            unknown_choice(key, raw, e.message()).unwrap_or_else(|| ConfigError::WrongType {
+                key: key.to_string(),
+                value: raw.to_string(),
+                expected: e.message().to_string(),
+            })
+        })?;
         *self = updated;
         Ok(())
     }
@@ -379,4 +379,47 @@ fn collect_keys(prefix: &str, table: &toml::Table, out: &mut std::collections::B
             }
         }
     }
+}
+
+/// Whether setting `set` (a dotted key, maybe a whole table or list such as `faults.crashes`)
+/// sets `key` too (`faults.crashes[0].robot`).
+fn covers(set: &str, key: &str) -> bool {
+    key == set
+        || key
+            .strip_prefix(set)
+            .is_some_and(|rest| rest.starts_with('.') || rest.starts_with('['))
+}
+
+/// serde's "unknown variant `krumm`, expected one of `a`, `b`" as an [`ConfigError::UnknownValue`]
+/// that lists the choices and names the nearest one (edit distance at most a third of its
+/// length, at least 1); `None` for any other message.
+fn unknown_choice(key: &str, raw: &str, message: &str) -> Option<ConfigError> {
+    let rest = message.strip_prefix("unknown variant `")?;
+    let (value, rest) = rest.split_once('`')?;
+    let list = rest
+        .strip_prefix(", expected one of ")
+        .or_else(|| rest.strip_prefix(", expected "))?;
+    let choices: Vec<&str> = list
+        .split(", ")
+        .map(|c| c.trim().trim_start_matches("or ").trim_matches('`'))
+        .filter(|c| !c.is_empty())
+        .collect();
+    let lowered = value.to_ascii_lowercase();
+    let nearest = choices
+        .iter()
+        .map(|c| (strsim::levenshtein(&lowered, c), *c))
+        .min()
+        .filter(|(d, c)| *d <= (c.len() / 3).max(1))
+        .map(|(_, c)| format!("; did you mean `{c}`?"))
+        .unwrap_or_default();
+    Some(ConfigError::UnknownValue {
+        key: key.to_string(),
+        value: if value.is_empty() { raw } else { value }.to_string(),
+        choices: choices
+            .iter()
+            .map(|c| format!("`{c}`"))
+            .collect::<Vec<_>>()
+            .join(", "),
+        nearest,
+    })
 }

@@ -362,3 +362,51 @@ fn every_preset_has_a_deadline_and_the_derived_claim_bound() {
         "`contract.max_claimed_samples`: value 500 is out of range; allowed: 0 (derived",
     );
 }
+
+#[test]
+fn a_typo_in_a_choice_says_the_value_is_unknown_lists_the_choices_and_suggests_the_nearest() {
+    let err = Config::resolve(Some("smoke"), None, &["contract.rule=krumm".into()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.starts_with("configuration key `contract.rule`: unknown value `krumm`; did you mean `krum`?; the choices are: `fedavg`, `paper`, `krum`,"),
+        "{err}"
+    );
+    assert!(!err.contains("wrong type"), "{err}");
+    // Nothing close: the choices without a guess.
+    let err = Config::resolve(Some("smoke"), None, &["byzantine.kind=zzzzzzzz".into()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("unknown value `zzzzzzzz`; the choices are: `none`, `faulty`"),
+        "{err}"
+    );
+}
+
+#[test]
+fn a_value_under_a_table_the_user_set_is_theirs_and_the_message_is_said_once() {
+    // The whole list was set, so the robot inside it was set too: the plain range error.
+    let err = Config::resolve(
+        Some("smoke"),
+        None,
+        &["faults.crashes=[{robot=30,start_s=50,end_s=120}]".into()],
+    )
+    .unwrap_err();
+    let text = err.to_string();
+    assert!(
+        text.starts_with("configuration key `faults.crashes[0].robot`: value 30 is out of range"),
+        "{text}"
+    );
+    assert!(!text.contains("you did not set"), "{text}");
+    // A value from the preset that conflicts: named, with the range error once, and no
+    // `source()` for an error-chain printer to repeat.
+    let err = Config::resolve(Some("smoke"), None, &["byzantine.kind=faulty".into()]).unwrap_err();
+    let text = err.to_string();
+    assert_eq!(text.matches("is out of range").count(), 1, "{text}");
+    assert!(std::error::Error::source(&err).is_none());
+    // Configuration names, not Rust's.
+    assert!(
+        text.contains("byzantine.kind is \"faulty\", byzantine.ledger is \"honest\""),
+        "{text}"
+    );
+}

@@ -19,8 +19,9 @@ type Check = fn(&Config) -> Result<(), ConfigError>;
 enum Step {
     /// `key`'s value is a finite number in `[lo, hi]`: (key, value, lo, hi).
     Number(&'static str, f64, f64, f64),
-    /// `key`'s value is a finite number > 0: (key, value).
-    Positive(&'static str, f64),
+    /// `key`'s value is a finite number in `(0, hi]`: (key, value, hi). One message for both
+    /// ends, so -100 and 1e12 are told the same range.
+    Positive(&'static str, f64, f64),
     /// `key`'s value is an integer in `[lo, hi]`: (key, value, lo, hi).
     Integer(&'static str, u64, u64, u64),
     /// A check across keys.
@@ -34,7 +35,7 @@ impl Config {
         for step in table(self) {
             match step {
                 Step::Number(key, value, lo, hi) => number(key, value, lo, hi)?,
-                Step::Positive(key, value) => positive(key, value)?,
+                Step::Positive(key, value, hi) => positive(key, value, hi)?,
                 Step::Integer(key, value, lo, hi) => integer(key, value, lo, hi)?,
                 Step::Across(check) => check(self)?,
             }
@@ -55,8 +56,7 @@ fn table(c: &Config) -> Vec<Step> {
     let max_stake = k.initial_tokens.max(1).saturating_mul(1000);
     vec![
         Across(preset_is_known),
-        Positive("run.duration_s", run.duration_s),
-        Number("run.duration_s", run.duration_s, 0.0, 1.0e7),
+        Positive("run.duration_s", run.duration_s, 1.0e7),
         Number("run.tick_s", run.tick_s, 0.001, 10.0),
         Integer("world.robots", w.robots.into(), 1, 10_000),
         Number("world.arena_side_m", w.arena_side_m, 0.1, 10_000.0),
@@ -89,9 +89,9 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("learn.batch_size", l.batch_size.into(), 1, 100_000),
         Integer("learn.epochs", l.epochs.into(), 0, 100_000),
         Number("learn.train_fraction", l.train_fraction, 0.01, 1.0),
-        Positive("learn.training_period_s", l.training_period_s),
+        Positive("learn.training_period_s", l.training_period_s, 1.0e6),
         Number("learn.training_duration_s", l.training_duration_s, 0.0, 1.0e6),
-        Positive("ledger.block_period_s", g.block_period_s),
+        Positive("ledger.block_period_s", g.block_period_s, 1.0e6),
         Number("ledger.wiggle_unit_s", g.wiggle_unit_s, 0.0, 1.0e6),
         Number("ledger.packet_loss", g.packet_loss, 0.0, 1.0),
         Integer("contract.stake_tokens", k.stake_tokens, 0, max_stake),
@@ -150,11 +150,11 @@ fn number(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
     }
 }
 
-fn positive(key: &str, value: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value > 0.0 {
+fn positive(key: &str, value: f64, hi: f64) -> Result<(), ConfigError> {
+    if value.is_finite() && value > 0.0 && value <= hi {
         Ok(())
     } else {
-        out_of_range(key, value.to_string(), "a finite number > 0".to_string())
+        out_of_range(key, value.to_string(), format!("a number in (0, {hi}]"))
     }
 }
 
@@ -353,9 +353,10 @@ fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
         b.count.to_string(),
         format!(
             "0 when byzantine.kind = \"none\" and byzantine.ledger = \"honest\", at least 1 \
-             otherwise (kind is {:?}, ledger is {:?}); set both, e.g. --set \
-             byzantine.kind=faulty --set byzantine.count=3",
-            b.kind, b.ledger
+             otherwise (byzantine.kind is \"{}\", byzantine.ledger is \"{}\"); set both, e.g. \
+             --set byzantine.kind=faulty --set byzantine.count=3",
+            b.kind.name(),
+            b.ledger.name()
         ),
     )
 }

@@ -275,6 +275,13 @@ impl ContractParams {
         self.genesis_weights.len()
     }
 
+    /// A distance in fixed-point units summed over the model's N weights, as the mean per
+    /// weight in model units: the number `contract.outlier_threshold` is compared with, and
+    /// the one `run`, `inspect` and `export` print.
+    pub fn distance_per_weight(&self, distance_units: u64, weight_scale: u64) -> f64 {
+        distance_units as f64 / (self.model_len() as f64 * weight_scale as f64)
+    }
+
     /// The largest accepted distance `sum_i |w_i - w_a,i|`: `threshold_units * N`.
     pub fn max_distance_units(&self) -> u128 {
         // The product fits u128: threshold below 2^63, at most 2^16 weights.

@@ -118,8 +118,11 @@ pub struct SubmissionInfo {
     pub byzantine: bool,
     /// Samples claimed.
     pub samples: u64,
-    /// Distance to the shared model, fixed-point units.
+    /// Distance to the shared model, fixed-point units summed over the weights.
     pub distance_units: u64,
+    /// The same distance as the mean per weight in model units (what
+    /// `contract.outlier_threshold` is compared with).
+    pub distance_per_weight: f64,
     /// Stake, tokens.
     pub stake_tokens: f64,
     /// `accepted` or `outlier`.
@@ -283,6 +286,17 @@ impl ReportInput<'_> {
     }
 
     /// Tokens of `units`.
+    /// A submission's distance as `run` prints it: the mean per weight in model units, beside
+    /// the threshold it was compared with and the raw units the receipt holds.
+    fn distance(&self, units: u64) -> String {
+        let params = self.state.ledger.params();
+        let per_weight = params.distance_per_weight(units, self.config.contract.weight_scale);
+        format!(
+            "{per_weight:.4} per weight (threshold {}; {units} units)",
+            self.config.contract.outlier_threshold
+        )
+    }
+
     fn tokens(&self, units: u64) -> f64 {
         units as f64 / self.config.contract.token_units as f64
     }
@@ -321,7 +335,7 @@ impl ReportInput<'_> {
                     call,
                     value_tokens: self.tokens(value),
                     outcome: outcome.name().to_string(),
-                    detail: outcome_detail(outcome),
+                    detail: outcome_detail(outcome, |units| self.distance(units)),
                 }
             })
             .collect()
@@ -334,6 +348,11 @@ impl ReportInput<'_> {
             byzantine: self.byz(s.sender),
             samples: s.samples,
             distance_units: s.distance_units,
+            distance_per_weight: self
+                .state
+                .ledger
+                .params()
+                .distance_per_weight(s.distance_units, self.config.contract.weight_scale),
             stake_tokens: self.tokens(s.stake_units),
             verdict: match s.verdict {
                 Verdict::Accepted => "accepted",
@@ -418,25 +437,34 @@ impl ReportInput<'_> {
     }
 }
 
-fn outcome_detail(outcome: &Outcome) -> String {
+fn outcome_detail(outcome: &Outcome, distance: impl Fn(u64) -> String) -> String {
     match outcome {
         Outcome::Accepted {
             round,
             distance_units,
-        } => format!("round {}, distance {distance_units}", round + 1),
+        } => format!(
+            "round {}, distance {}",
+            round + 1,
+            distance(*distance_units)
+        ),
         Outcome::Aggregated {
             round,
             distance_units,
             payouts,
         } => format!(
-            "closed round {}, distance {distance_units}, {} payouts",
+            "closed round {}, distance {}, {} payouts",
             round + 1,
+            distance(*distance_units),
             payouts.len()
         ),
         Outcome::Outlier {
             round,
             distance_units,
-        } => format!("round {}, distance {distance_units}", round + 1),
+        } => format!(
+            "round {}, distance {}",
+            round + 1,
+            distance(*distance_units)
+        ),
         Outcome::Malformed(reason) => reason.clone(),
         Outcome::OverGasLimit { gas_limit } => {
             format!("needs more gas than a block holds (contract.block_gas_limit {gas_limit})")

@@ -21,7 +21,7 @@ pub enum InspectError {
         last: u64,
     },
     /// The robot asked for is not in the swarm.
-    #[error("there is no robot {robot}: the swarm has robots 0..{robots}")]
+    #[error("there is no robot {robot}: the swarm has robots 0 to {}", robots.saturating_sub(1))]
     NoRobot {
         /// The id asked for.
         robot: RobotId,

@@ -91,8 +91,8 @@ impl RunIndex {
 
     /// [`RoundRow::mean_honest_distance`] of a closed round.
     fn mean_honest_distance(&self, summary: Option<&RoundSummary>) -> f64 {
-        let per_weight = self.final_state.ledger.params().model_len() as f64
-            * self.config.contract.weight_scale as f64;
+        let params = self.final_state.ledger.params();
+        let scale = self.config.contract.weight_scale;
         let honest: Vec<f64> = summary
             .map(|s| {
                 s.submissions
@@ -105,7 +105,7 @@ impl RunIndex {
                                 .copied()
                                 .unwrap_or(false)
                     })
-                    .map(|x| x.distance_units as f64 / per_weight)
+                    .map(|x| params.distance_per_weight(x.distance_units, scale))
                     .collect()
             })
             .unwrap_or_default();

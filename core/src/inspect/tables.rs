@@ -222,8 +222,8 @@ impl RunIndex {
     /// rule did not use, or any model with security off).
     pub fn submissions_table(&self) -> Result<Table, InspectError> {
         chain_only(self, "submissions table")?;
-        let per_weight = self.final_state.ledger.params().model_len() as f64
-            * self.config.contract.weight_scale as f64;
+        let params = self.final_state.ledger.params();
+        let scale = self.config.contract.weight_scale;
         let (mut round, mut block, mut robot, mut byz, mut outcome) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut distance, mut samples, mut stake, mut reward) =
@@ -252,7 +252,7 @@ impl RunIndex {
                     }
                     .to_string(),
                 );
-                distance.push(s.distance_units as f64 / per_weight);
+                distance.push(params.distance_per_weight(s.distance_units, scale));
                 samples.push(s.samples);
                 stake.push(self.tokens(s.stake_units));
                 reward.push(paid.map_or(0.0, |p| self.tokens(p.units)));

@@ -171,6 +171,7 @@ impl expr::Env for BlockValues<'_> {
 
 fn no_robot(name: &str, i: u32, robots: u32) -> EvalError {
     EvalError(format!(
-        "{name}[{i}]: there is no robot {i}, the swarm has robots 0..{robots}"
+        "{name}[{i}]: there is no robot {i}, the swarm has robots 0 to {}",
+        robots.saturating_sub(1)
     ))
 }

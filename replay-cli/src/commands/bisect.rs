@@ -72,7 +72,7 @@ fn bisect(log: &Path, expr: &str, monotone: bool, json: bool) -> anyhow::Result<
                     h.time_s
                 );
                 for (name, value) in &h.values {
-                    println!("  {name} = {value}");
+                    println!("  {name} = {}", readable(*value));
                 }
                 println!(
                     "{} evaluations; fold {fold_ms:.0} ms, search {search_ms:.1} ms",
@@ -208,7 +208,7 @@ fn bisect_by_time(
                     "first checkpoint where `{expr}` holds: t = {t:.1} s (a baseline run: by time)"
                 );
                 for (name, value) in values {
-                    println!("  {name} = {value}");
+                    println!("  {name} = {}", readable(*value));
                 }
                 println!("{evaluations} evaluations; {took_ms:.0} ms");
             }
@@ -216,4 +216,29 @@ fn bisect_by_time(
         }
     }
     Ok(hit.is_some())
+}
+
+/// A predicate value as a person reads it: integers as integers, other values to nine
+/// decimals (a token's smallest unit) without trailing zeros, so a wealth prints as
+/// `21.124822031`, not `21.124822030799997`.
+fn readable(value: f64) -> String {
+    if !value.is_finite() || value == value.trunc() && value.abs() < 1e15 {
+        return format!("{value}");
+    }
+    let text = format!("{value:.9}");
+    text.trim_end_matches('0').trim_end_matches('.').to_string()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::readable;
+
+    #[test]
+    fn values_print_to_a_tokens_smallest_unit_without_float_noise() {
+        assert_eq!(readable(21.124822030799997), "21.124822031");
+        assert_eq!(readable(5.0), "5");
+        assert_eq!(readable(0.25), "0.25");
+        assert_eq!(readable(-0.6666666671333336), "-0.666666667");
+        assert_eq!(readable(f64::NAN), "NaN");
+    }
 }

@@ -7,7 +7,7 @@ use std::process::ExitCode;
 use swarmfl_core::replay::{self, ReplayError};
 
 use crate::cli::DiffArgs;
-use crate::exit::{EXIT_CANNOT_TEST, EXIT_DIVERGED};
+use crate::exit::{EXIT_CANNOT_TEST, EXIT_DIVERGED, EXIT_ERROR};
 
 /// Runs `swarmfl diff`.
 pub fn command(args: DiffArgs) -> anyhow::Result<ExitCode> {
@@ -53,7 +53,19 @@ fn diff(a: &Path, b: Option<&Path>, resimulate: bool) -> anyhow::Result<u8> {
             }
         },
         (Some(b), false) => {
-            let report = swarmfl_core::diff::diff_logs(a, b)?;
+            let report = match swarmfl_core::diff::diff_logs(a, b) {
+                Ok(report) => report,
+                Err(e) => {
+                    // A damaged or unreadable log was not compared: that is an error (2), not
+                    // "the logs differ" (1), so a script can tell the two apart.
+                    eprintln!("error: {e:#}");
+                    eprintln!(
+                        "(exit {EXIT_ERROR}: a log could not be compared; exit {EXIT_DIVERGED} \
+                         means the logs were read and differ)"
+                    );
+                    return Ok(EXIT_ERROR);
+                }
+            };
             if report.header_differences.is_empty() {
                 println!("headers: same seed and configuration");
             } else {

@@ -111,11 +111,11 @@ fn mark(byzantine: bool) -> &'static str {
 fn print_submissions(subs: &[SubmissionInfo]) {
     for s in subs {
         println!(
-            "    robot {:>3} ({:<9}) n={:<5} distance {:>12}  stake {:.3}  {}",
+            "    robot {:>3} ({:<9}) n={:<5} distance {:>10.6} per weight  stake {:.3}  {}",
             s.sender,
             mark(s.byzantine),
             s.samples,
-            s.distance_units,
+            s.distance_per_weight,
             s.stake_tokens,
             s.verdict
         );

@@ -15,7 +15,7 @@ pub fn command(args: ReplayArgs) -> anyhow::Result<ExitCode> {
         replay::replay(&log)?
     };
     println!(
-        "bit-exact: {} records, {} blocks ({} checkpoints verified{}); final hash {}",
+        "bit-exact: {} records, {} sealings on all forks ({} checkpoints verified{}); final hash {}",
         report.records,
         report.blocks,
         report.checkpoints,

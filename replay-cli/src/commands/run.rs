@@ -107,12 +107,93 @@ pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
     } = args;
     let config = config.resolve()?;
     let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
+    if let Some(warning) = density_warning(&config) {
+        eprintln!("{warning}");
+    }
+    if let Some(replaced) = clear_previous_run(&out)? {
+        eprintln!(
+            "replacing the previous run in {} ({replaced})",
+            out.display()
+        );
+    }
     let outcome = run(config, seed, &out, quiet)?;
     if !quiet {
         print_summary(&outcome);
         print_next(&outcome);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// Neighbours within radio range above which `run` says the swarm is crowded (the paper's
+/// robots have about 5 by `world.mean_neighbours`; the formula gives 7 before obstacles).
+const CROWDED_NEIGHBOURS: f64 = 100.0;
+
+/// A word when the swarm is so dense that every robot hears a crowd: the expected neighbours
+/// in range, what every message and range reading scales with, is `(robots - 1) * P` with `P`
+/// the chance that two points placed uniformly in the square arena lie within the range `r`:
+/// `pi t^2 - 8/3 t^3 + t^4 / 2` for `t = r / side <= 1` (edges included; `t` is capped at 1,
+/// where the formula is still within 3 % of the exact 1). `None` below [`CROWDED_NEIGHBOURS`].
+fn density_warning(config: &Config) -> Option<String> {
+    let w = &config.world;
+    let t = (w.rab_range_m / w.arena_side_m).min(1.0);
+    let share = std::f64::consts::PI * t * t - 8.0 / 3.0 * t * t * t + t * t * t * t / 2.0;
+    let neighbours = f64::from(w.robots.saturating_sub(1)) * share;
+    (neighbours > CROWDED_NEIGHBOURS).then(|| {
+        format!(
+            "note: {} robots in a {} x {} m arena with {} m radio range: about {neighbours:.0} \
+             neighbours each (the `paper` preset's robots have about 5), so every tick, message and reading \
+             costs that much more; to keep the paper's density, scale `world.arena_side_m` by \
+             sqrt(robots / 15) (as `bench scale` does)",
+            w.robots, w.arena_side_m, w.arena_side_m, w.rab_range_m
+        )
+    })
+}
+
+/// The files a run leaves in its folder: the log, its sidecar index, the summary and the
+/// viewer page that `run` writes beside them.
+const RUN_FILES: [&str; 4] = ["run.swlog", "run.swlog.idx", "summary.json", "run.html"];
+
+/// Makes `out` ready for a new run. A folder that holds a previous run (a `run.swlog`) loses
+/// that run's files, so nothing of it (an old `run.html` above all) is left beside the new log;
+/// what it returns names the run replaced. A folder that holds other files but no run is
+/// refused, so a mistyped `--out` never mixes a run into someone's files.
+fn clear_previous_run(out: &Path) -> anyhow::Result<Option<String>> {
+    let Ok(entries) = std::fs::read_dir(out) else {
+        return Ok(None);
+    };
+    let names: Vec<String> = entries
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    if names.is_empty() {
+        return Ok(None);
+    }
+    if !names.iter().any(|n| n == "run.swlog") {
+        anyhow::bail!(
+            "--out {} is a folder that holds other files ({}) but no run: choose a new or empty \
+             folder, or a previous run's folder to replace that run",
+            out.display(),
+            names.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
+                + if names.len() > 3 { ", ..." } else { "" }
+        );
+    }
+    let what = std::fs::read_to_string(out.join("summary.json"))
+        .ok()
+        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|s| {
+            let hash = s.get("final_hash")?.as_str()?.get(..12)?.to_string();
+            Some(format!("seed {}, final hash {hash}...", s.get("seed")?))
+        })
+        .unwrap_or_else(|| "its summary is unreadable".to_string());
+    for name in RUN_FILES {
+        let path = out.join(name);
+        match std::fs::remove_file(&path) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
+            Err(e) => return Err(e).with_context(|| format!("cannot remove {}", path.display())),
+        }
+    }
+    Ok(Some(what))
 }
 
 /// What a finished run reports.
@@ -288,6 +369,13 @@ pub fn print_summary(outcome: &RunOutcome) {
         t["total_units_start"],
         t["total_units_end"]
     );
+    if let Some(held) = t["contract_holdings"].as_f64().filter(|h| *h > 0.0) {
+        // Without this a clean run's negative gain reads as a loss: it is stake still locked.
+        println!(
+            "            (gains count {held:.3} tokens as spent: the stakes the contract still \
+             holds for the round open at the end)"
+        );
+    }
     let a = &s["aggregation"];
     if a.is_object() {
         let mb = |v: &serde_json::Value| {
@@ -304,7 +392,9 @@ pub fn print_summary(outcome: &RunOutcome) {
     }
     let l = &s["ledger"];
     println!(
-        "ledger:     height {}, forks {}, reorgs {} (deepest {}), tx delay median {} s p95 {} s, {:.0} B/submission",
+        "ledger:     canonical height {} (blocks on the best chain; `replay` and `export` also \
+         count the sealings of forks), forks {}, reorgs {} (deepest {}), tx delay median {} s \
+         p95 {} s, {:.0} B/submission",
         l["canonical_height"],
         l["forks"],
         l["reorgs"],
@@ -328,12 +418,39 @@ pub fn print_summary(outcome: &RunOutcome) {
             mean("deploy")
         );
     }
-    println!("timing:     {}", s["timing"]);
+    println!("timing:     {}", timing_line(&s["timing"]));
     println!("final hash: {}", s["final_hash"].as_str().unwrap_or("?"));
     println!("wall time:  {:.2} s", s["wall_s"].as_f64().unwrap_or(0.0));
 }
 
-/// Prints what to do next with a finished run's log.
+/// The `timing` object of a summary as one line of seconds, wall (CPU): the parts in the
+/// order they run, each `name W s (C s CPU)`; `summary.json` keeps the full numbers.
+fn timing_line(timing: &serde_json::Value) -> String {
+    let Some(map) = timing.as_object() else {
+        return "-".to_string();
+    };
+    let mut parts = Vec::new();
+    for (name, label) in [
+        ("world", "world"),
+        ("ledger", "ledger"),
+        ("learning", "learning"),
+        ("checkpoint", "checkpoints"),
+        ("log_and_summary", "log"),
+    ] {
+        let wall = map.get(&format!("{name}_s")).and_then(|v| v.as_f64());
+        let cpu = map.get(&format!("{name}_cpu_s")).and_then(|v| v.as_f64());
+        if let Some(wall) = wall {
+            parts.push(match cpu {
+                Some(cpu) => format!("{label} {wall:.2} s ({cpu:.2} s CPU)"),
+                None => format!("{label} {wall:.2} s"),
+            });
+        }
+    }
+    parts.join(", ")
+}
+
+/// Prints what to do next with a finished run's log, with the command spelled the way this
+/// shell can run it (see [`program_name`]).
 pub fn print_next(outcome: &RunOutcome) {
     let log = outcome.log_path.display();
     let html = outcome.log_path.with_file_name("run.html");
@@ -341,14 +458,64 @@ pub fn print_next(outcome: &RunOutcome) {
         .as_u64()
         .unwrap_or(0)
         / 2;
+    let me = program_name();
     println!();
     println!("next:");
     println!(
-        "  swarmfl view {log} --out {}   # watch it in a browser",
+        "  {me} view {log} --out {}   # watch it in a browser",
         html.display()
     );
-    println!("  swarmfl replay {log}            # check that it replays bit-exactly");
-    println!(
-        "  swarmfl inspect {log} --block {height}   # the chain, contract and robots at a block"
-    );
+    println!("  {me} replay {log}            # check that it replays bit-exactly");
+    println!("  {me} inspect {log} --block {height}   # the chain, contract and robots at a block");
+    if me != "swarmfl" {
+        println!("  (`cargo install --path replay-cli --locked` puts `swarmfl` on your PATH)");
+    }
+}
+
+/// `swarmfl` when that name on the PATH is this very program, else the path this process was
+/// started by (`target/release/swarmfl` under `cargo run`), so every hint can be pasted as is.
+fn program_name() -> String {
+    let me = std::env::current_exe()
+        .ok()
+        .and_then(|p| p.canonicalize().ok());
+    let on_path = std::env::var_os("PATH").is_some_and(|paths| {
+        std::env::split_paths(&paths).any(|dir| {
+            let candidate = dir.join("swarmfl").canonicalize().ok();
+            candidate.is_some() && candidate == me
+        })
+    });
+    if on_path {
+        return "swarmfl".to_string();
+    }
+    std::env::args()
+        .next()
+        .filter(|a| a.contains('/'))
+        .or_else(|| me.map(|p| p.display().to_string()))
+        .unwrap_or_else(|| "swarmfl".to_string())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_crowded_swarm_is_named_and_the_papers_is_not() {
+        let mut config = swarmfl_core::config::Preset::Paper.config();
+        assert_eq!(density_warning(&config), None);
+        config.world.robots = 2000;
+        let warning = density_warning(&config).expect("2000 robots in 5 x 5 m is crowded");
+        assert!(warning.contains("about 966 neighbours each"), "{warning}");
+    }
+
+    #[test]
+    fn timing_reads_as_seconds_in_the_order_the_parts_run() {
+        let timing = serde_json::json!({
+            "world_s": 1.5130919520000006, "world_cpu_s": 1.4992536579999949,
+            "learning_s": 16.93136347900006, "learning_cpu_s": 30.87294149599976,
+        });
+        assert_eq!(
+            timing_line(&timing),
+            "world 1.51 s (1.50 s CPU), learning 16.93 s (30.87 s CPU)"
+        );
+    }
 }

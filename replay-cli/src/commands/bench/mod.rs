@@ -24,7 +24,7 @@ pub fn command(args: BenchArgs) -> anyhow::Result<ExitCode> {
             json,
         )?,
         _ if robots.is_some() || duration_s.is_some() => {
-            anyhow::bail!("--robots and --duration-s belong to `bench scale` only")
+            anyhow::bail!("--robots and --duration belong to `bench scale` only")
         }
         BenchTarget::World => world::run(json)?,
         BenchTarget::Train => train::run(json)?,

@@ -135,7 +135,7 @@ fn child(robots: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
             "bench-scale-one",
             "--robots",
             &robots.to_string(),
-            "--duration-s",
+            "--duration",
             &duration_s.to_string(),
         ])
         .stderr(std::process::Stdio::inherit())
@@ -162,7 +162,7 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
     anyhow::ensure!(!robots.is_empty(), "--robots: give at least one swarm size");
     anyhow::ensure!(
         duration_s.is_finite() && duration_s > 0.0,
-        "--duration-s: {duration_s} is not a positive number of simulated seconds"
+        "--duration: {duration_s} is not a positive number of simulated seconds"
     );
     // Every size's configuration is checked before the first (long) run starts.
     for &n in robots {

@@ -43,7 +43,12 @@ fn case(name: &str, config: &Config, ticks: u64) -> anyhow::Result<Case> {
     let mut builds = Vec::new();
     let mut last = None;
     let mut event_bytes = 0;
-    for _ in 0..RUNS {
+    for run in 1..=RUNS {
+        // On stderr, so `--json` stays clean: without it the command sat silent for 16-19 s.
+        eprintln!(
+            "bench world: {name}, {} robots x {ticks} ticks, run {run} of {RUNS}",
+            config.world.robots
+        );
         let t0 = Instant::now();
         let mut world =
             World::new(config, SEED).with_context(|| format!("building the {name} world"))?;
