@@ -15,10 +15,12 @@
 mod defence;
 mod figures;
 mod frame;
+mod heatmap;
 mod load;
 mod plots;
 mod robustness;
 mod stats;
+mod style;
 mod tables;
 
 use std::path::{Path, PathBuf};

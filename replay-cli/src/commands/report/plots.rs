@@ -10,6 +10,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use super::stats::Stat;
+use super::style::{self, Style};
 
 /// One drawn figure: its file stem (`.svg` and `.png` exist) and caption, under an experiment.
 #[derive(Clone, Debug)]
@@ -59,6 +60,9 @@ pub(super) struct Plot<'a> {
     pub(super) nonnegative: bool,
 }
 
+/// The logical canvas (see [`super::style`]): the SVG is this size, the PNG twice it.
+const CANVAS: (u32, u32) = (900, 560);
+
 /// Draws `plot` as `stem.svg` and `stem.png`; returns whether the text could be drawn.
 pub(super) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
     let svg = out.join(format!("{stem}.svg"));
@@ -67,11 +71,11 @@ pub(super) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> 
     for pass in 0..2 {
         let text = pass == 0;
         let result = (|| -> Result<(), String> {
-            let root = SVGBackend::new(&svg, (900, 560)).into_drawing_area();
-            draw_on(&root, plot, text).map_err(|e| e.to_string())?;
+            let root = SVGBackend::new(&svg, Style::SVG.size(CANVAS)).into_drawing_area();
+            draw_on(&root, plot, text, Style::SVG).map_err(|e| e.to_string())?;
             root.present().map_err(|e| e.to_string())?;
-            crate::png::draw_png(&png, (900, 560), |root| {
-                draw_on(root, plot, text).map_err(|e| e.to_string())
+            crate::png::draw_png(&png, Style::PNG.size(CANVAS), |root| {
+                draw_on(root, plot, text, Style::PNG).map_err(|e| e.to_string())
             })
         })();
         match result {
@@ -212,15 +216,20 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
     out
 }
 
-/// Configures and draws the mesh: axis descriptions with text, no tick labels without.
+/// Configures and draws the mesh: axis titles and tick labels in the paper style with text,
+/// no tick labels without.
 macro_rules! draw_mesh {
-    ($chart:expr, $plot:expr, $text:expr) => {{
+    ($chart:expr, $plot:expr, $text:expr, $st:expr) => {{
         let mut mesh = $chart.configure_mesh();
-        mesh.light_line_style(WHITE.mix(0.0));
+        mesh.light_line_style(WHITE.mix(0.0))
+            .bold_line_style(BLACK.mix(0.08).stroke_width($st.upx(1.0)))
+            .axis_style(BLACK.mix(0.6).stroke_width($st.upx(1.0)));
         if $text {
             // Times in whole seconds, robot counts as integers.
             mesh.x_desc($plot.x_label)
                 .y_desc($plot.y_label)
+                .axis_desc_style($st.font(style::AXIS))
+                .label_style($st.font(style::TICK))
                 .x_label_formatter(&|x: &f64| format!("{x:.0}"))
                 .y_label_formatter(&|y: &f64| tick(*y));
         } else {
@@ -234,18 +243,21 @@ fn draw_on<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     plot: &Plot,
     text: bool,
+    st: Style,
 ) -> DrawResult<DB> {
     root.fill(&WHITE)?;
     let (x0, x1, y0, y1) = bounds(plot);
     let mut builder = ChartBuilder::on(root);
-    builder.margin(16);
+    builder.margin(st.upx(14.0));
     if text {
         builder
-            .caption(&plot.title, ("sans-serif", 22))
-            .x_label_area_size(40)
-            .y_label_area_size(70);
+            .caption(&plot.title, st.font(style::TITLE))
+            .x_label_area_size(st.upx(48.0))
+            .y_label_area_size(st.upx(78.0));
     } else {
-        builder.x_label_area_size(10).y_label_area_size(10);
+        builder
+            .x_label_area_size(st.upx(10.0))
+            .y_label_area_size(st.upx(10.0));
     }
     match plot.kind {
         Kind::Time { log_y: true } => {
@@ -253,8 +265,8 @@ fn draw_on<DB: DrawingBackend>(
                 x0..x1,
                 (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
             )?;
-            draw_mesh!(chart, plot, text);
-            draw_series(&mut chart, plot, text, y0)?;
+            draw_mesh!(chart, plot, text, st);
+            draw_series(&mut chart, plot, text, y0, st)?;
         }
         Kind::Time { log_y: false } | Kind::Versus => {
             let (x0, x1) = match plot.kind {
@@ -262,11 +274,21 @@ fn draw_on<DB: DrawingBackend>(
                 _ => (x0, x1),
             };
             let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1)?;
-            draw_mesh!(chart, plot, text);
-            draw_series(&mut chart, plot, text, y0)?;
+            draw_mesh!(chart, plot, text, st);
+            draw_series(&mut chart, plot, text, y0, st)?;
         }
     }
     Ok(())
+}
+
+/// The filled band's opacity: one band reads at 0.2; with many series they overlap, so each
+/// is fainter and the overlap stays readable.
+fn band_alpha(series: usize) -> f64 {
+    if series > 4 {
+        0.10
+    } else {
+        0.20
+    }
 }
 
 fn draw_series<'a, DB, X, Y>(
@@ -274,6 +296,7 @@ fn draw_series<'a, DB, X, Y>(
     plot: &Plot,
     text: bool,
     y_floor: f64,
+    st: Style,
 ) -> DrawResult<DB>
 where
     DB: DrawingBackend + 'a,
@@ -281,6 +304,8 @@ where
     Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
 {
     let log_y = matches!(plot.kind, Kind::Time { log_y: true });
+    let line_w = st.upx(2.0);
+    let dot = st.px(4.0);
     for (i, s) in plot.series.iter().enumerate() {
         let colour = COLOURS[i % COLOURS.len()];
         if s.points.is_empty() {
@@ -297,32 +322,44 @@ where
                     }
                 };
                 let hi = |st: &Stat| st.mean + st.ci.unwrap_or(0.0);
-                if plot.series.len() > 4 {
-                    // Eight filled bands overlap into one grey wash: with many series each
-                    // interval is drawn as two thin lines of its colour instead.
-                    for bound in [&hi as &dyn Fn(&Stat) -> f64, &lo] {
-                        chart.draw_series(LineSeries::new(
-                            s.points.iter().map(|(t, st)| (*t, bound(st))),
-                            colour.mix(0.45).stroke_width(1),
-                        ))?;
-                    }
-                } else {
-                    let band: Vec<(f64, f64)> = s
-                        .points
-                        .iter()
-                        .map(|(t, st)| (*t, hi(st)))
-                        .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
-                        .collect();
-                    chart.draw_series(std::iter::once(Polygon::new(band, colour.mix(0.18))))?;
-                }
+                let band: Vec<(f64, f64)> = s
+                    .points
+                    .iter()
+                    .map(|(t, st)| (*t, hi(st)))
+                    .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
+                    .collect();
+                chart.draw_series(std::iter::once(Polygon::new(
+                    band,
+                    colour.mix(band_alpha(plot.series.len())),
+                )))?;
                 let line = chart.draw_series(LineSeries::new(
                     s.points.iter().map(|(t, st)| (*t, st.mean)),
-                    colour.stroke_width(2),
+                    colour.stroke_width(line_w),
                 ))?;
                 if text {
                     line.label(s.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
+                        PathElement::new(
+                            vec![(x, y), (x + 2 * dot * 3, y)],
+                            colour.stroke_width(line_w),
+                        )
                     });
+                }
+                // A line of one point draws nothing and a band of one point is a sliver:
+                // such a point gets a marker and an error bar, so a series the legend lists
+                // is always in the plot.
+                if let [(t, one)] = s.points.as_slice() {
+                    if !one.mean.is_finite() {
+                        continue;
+                    }
+                    chart.draw_series(std::iter::once(PathElement::new(
+                        vec![(*t, lo(one)), (*t, hi(one))],
+                        colour.stroke_width(line_w),
+                    )))?;
+                    chart.draw_series(std::iter::once(Circle::new(
+                        (*t, one.mean),
+                        dot,
+                        colour.filled(),
+                    )))?;
                 }
             }
             Kind::Versus => {
@@ -331,22 +368,22 @@ where
                     if let Some(ci) = st.ci {
                         chart.draw_series(std::iter::once(PathElement::new(
                             vec![(x + offset, st.mean - ci), (x + offset, st.mean + ci)],
-                            colour.stroke_width(2),
+                            colour.stroke_width(line_w),
                         )))?;
                     }
                 }
                 chart.draw_series(LineSeries::new(
                     s.points.iter().map(|(x, st)| (x + offset, st.mean)),
-                    colour.mix(0.5).stroke_width(1),
+                    colour.mix(0.5).stroke_width(st.upx(1.0)),
                 ))?;
                 let dots = chart.draw_series(
                     s.points
                         .iter()
-                        .map(|(x, st)| Circle::new((x + offset, st.mean), 4, colour.filled())),
+                        .map(|(x, st)| Circle::new((x + offset, st.mean), dot, colour.filled())),
                 )?;
                 if text {
                     dots.label(s.label.clone())
-                        .legend(move |(x, y)| Circle::new((x + 10, y), 4, colour.filled()));
+                        .legend(move |(x, y)| Circle::new((x + 2 * dot, y), dot, colour.filled()));
                 }
             }
         }
@@ -354,6 +391,9 @@ where
     if text {
         chart
             .configure_series_labels()
+            .label_font(st.font(style::TICK))
+            .margin(st.upx(8.0))
+            .legend_area_size(st.upx(30.0))
             .background_style(WHITE.mix(0.85))
             .border_style(BLACK.mix(0.4))
             .position(legend_corner(plot, log_y))
@@ -390,6 +430,56 @@ mod tests {
             "{:?}",
             log_ticks(0.11, 0.35)
         );
+    }
+
+    /// The pixels of `png` (RGB, 8 bit) within 40 of `colour` in every channel.
+    fn pixels_near(png: &Path, colour: RGBColor) -> usize {
+        let decoder = png::Decoder::new(std::io::BufReader::new(std::fs::File::open(png).unwrap()));
+        let mut reader = decoder.read_info().unwrap();
+        let mut buf = vec![0; reader.output_buffer_size()];
+        let info = reader.next_frame(&mut buf).unwrap();
+        buf[..info.buffer_size()]
+            .chunks(3)
+            .filter(|p| {
+                p[0].abs_diff(colour.0) < 40
+                    && p[1].abs_diff(colour.1) < 40
+                    && p[2].abs_diff(colour.2) < 40
+            })
+            .count()
+    }
+
+    #[test]
+    fn a_series_of_one_point_is_drawn_with_a_marker() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-one-point-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let plot = |points: Vec<(f64, Stat)>| Plot {
+            title: "one point".into(),
+            x_label: "t",
+            y_label: "loss",
+            kind: Kind::Time { log_y: true },
+            series: vec![
+                Series {
+                    label: "many".into(),
+                    points: vec![(0.0, stat(1.0, 0.1)), (200.0, stat(0.5, 0.1))],
+                },
+                Series {
+                    label: "one".into(),
+                    points,
+                },
+            ],
+            nonnegative: true,
+        };
+        // The same legend in both (a series of one point); only its value differs: a number,
+        // or NaN, which draws nothing. The difference is the marker and its error bar.
+        draw(&plot(vec![(200.0, stat(0.8, 0.05))]), &dir, "with").unwrap();
+        draw(&plot(vec![(200.0, stat(f64::NAN, 0.05))]), &dir, "without").unwrap();
+        let with = pixels_near(&dir.join("with.png"), COLOURS[1]);
+        let without = pixels_near(&dir.join("without.png"), COLOURS[1]);
+        assert!(
+            with > without + 100,
+            "{with} vs {without} pixels of the series' colour"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]

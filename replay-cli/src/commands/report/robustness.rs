@@ -6,10 +6,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use plotters::coord::Shift;
-use plotters::prelude::*;
-use plotters::style::text_anchor::{HPos, Pos, VPos};
-
+use super::heatmap::{draw, Heatmap};
 use super::plots::Figure;
 use super::stats::ExperimentStats;
 use crate::experiments;
@@ -81,17 +78,6 @@ fn axes(cells: &[Cell]) -> (Vec<String>, Vec<String>) {
     (rules, attacks)
 }
 
-/// A heatmap's values: `values[row][col]`.
-struct Heatmap {
-    title: String,
-    rows: Vec<String>,
-    cols: Vec<String>,
-    values: Vec<Vec<Option<f64>>>,
-    /// Diverging colours around 0 (blue positive, red negative); else white (low) to red
-    /// (high).
-    diverging: bool,
-}
-
 /// Draws the heatmaps into `out` and returns them.
 pub fn draw_all(
     stats: &[ExperimentStats],
@@ -121,6 +107,9 @@ pub fn draw_all(
         };
         let loss = Heatmap {
             title: format!("{EXPERIMENT}: final held-out loss, {count} Byzantine of 15"),
+            row_title: "aggregation rule".to_string(),
+            col_title: "attack (none: the rule's clean run)".to_string(),
+            value_title: "final held-out loss, mean over runs (log scale)".to_string(),
             rows: rules.clone(),
             cols: attacks.clone(),
             values: rules
@@ -134,6 +123,10 @@ pub fn draw_all(
             title: format!(
                 "{EXPERIMENT}: honest minus Byzantine token gain, {count} Byzantine of 15"
             ),
+            row_title: "aggregation rule".to_string(),
+            col_title: "attack".to_string(),
+            value_title: "honest minus Byzantine mean gain, tokens (blue: honest robots gain more)"
+                .to_string(),
             rows: rules.clone(),
             cols: gap_cols.clone(),
             values: rules
@@ -241,134 +234,4 @@ pub fn worst_case(e: &ExperimentStats) -> (String, String) {
         let _ = writeln!(md);
     }
     (md, csv)
-}
-
-fn colour(map: &Heatmap, v: f64, lo: f64, hi: f64) -> RGBColor {
-    let mix = |a: (f64, f64, f64), b: (f64, f64, f64), t: f64| {
-        let t = t.clamp(0.0, 1.0);
-        RGBColor(
-            (a.0 + (b.0 - a.0) * t) as u8,
-            (a.1 + (b.1 - a.1) * t) as u8,
-            (a.2 + (b.2 - a.2) * t) as u8,
-        )
-    };
-    let white = (255.0, 255.0, 255.0);
-    if map.diverging {
-        let m = lo.abs().max(hi.abs()).max(1e-12);
-        if v >= 0.0 {
-            mix(white, (33.0, 102.0, 172.0), v / m)
-        } else {
-            mix(white, (178.0, 24.0, 43.0), -v / m)
-        }
-    } else {
-        // Log scale: losses span orders of magnitude under attack.
-        let (l, h) = (lo.max(1e-12).ln(), hi.max(1e-12).ln());
-        let t = if h > l {
-            (v.max(1e-12).ln() - l) / (h - l)
-        } else {
-            0.0
-        };
-        mix(white, (178.0, 24.0, 43.0), t)
-    }
-}
-
-/// Draws `map` as `stem.svg` and `stem.png`; returns whether the text could be drawn.
-fn draw(map: &Heatmap, out: &Path, stem: &str) -> anyhow::Result<bool> {
-    let svg = out.join(format!("{stem}.svg"));
-    let png = out.join(format!("{stem}.png"));
-    let size = (
-        140 + 90 * map.cols.len() as u32,
-        120 + 40 * map.rows.len() as u32,
-    );
-    for text in [true, false] {
-        let result = (|| -> Result<(), String> {
-            let root = SVGBackend::new(&svg, size).into_drawing_area();
-            draw_on(&root, map, text).map_err(|e| e.to_string())?;
-            root.present().map_err(|e| e.to_string())?;
-            crate::png::draw_png(&png, size, |root| {
-                draw_on(root, map, text).map_err(|e| e.to_string())
-            })
-        })();
-        match result {
-            Ok(()) => return Ok(text),
-            Err(_) if text => {}
-            Err(e) => anyhow::bail!("cannot draw {stem}: {e}"),
-        }
-    }
-    Ok(false)
-}
-
-type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
-
-fn draw_on<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    map: &Heatmap,
-    text: bool,
-) -> DrawResult<DB> {
-    root.fill(&WHITE)?;
-    let values: Vec<f64> = map.values.iter().flatten().flatten().copied().collect();
-    let lo = values.iter().copied().fold(f64::INFINITY, f64::min);
-    let hi = values.iter().copied().fold(f64::NEG_INFINITY, f64::max);
-    let (nc, nr) = (map.cols.len() as i32, map.rows.len() as i32);
-    let mut builder = ChartBuilder::on(root);
-    builder.margin(12);
-    if text {
-        builder
-            .caption(&map.title, ("sans-serif", 18))
-            .x_label_area_size(70)
-            .y_label_area_size(130);
-    }
-    let mut chart = builder.build_cartesian_2d(0..nc, 0..nr)?;
-    for (r, row) in map.values.iter().enumerate() {
-        let y = nr - 1 - r as i32;
-        for (c, v) in row.iter().enumerate() {
-            let x = c as i32;
-            let fill = match v {
-                Some(v) => colour(map, *v, lo, hi).filled(),
-                None => RGBColor(220, 220, 220).filled(),
-            };
-            chart.draw_series(std::iter::once(Rectangle::new(
-                [(x, y), (x + 1, y + 1)],
-                fill,
-            )))?;
-            chart.draw_series(std::iter::once(Rectangle::new(
-                [(x, y), (x + 1, y + 1)],
-                BLACK.mix(0.2).stroke_width(1),
-            )))?;
-            if text {
-                let label = v.map_or_else(|| "n/a".to_string(), |v| format!("{v:.3}"));
-                let (px, py) = chart.backend_coord(&(x, y + 1));
-                let (qx, qy) = chart.backend_coord(&(x + 1, y));
-                root.draw(&Text::new(
-                    label,
-                    ((px + qx) / 2 - 18, (py + qy) / 2 - 6),
-                    ("sans-serif", 12).into_font().color(&BLACK),
-                ))?;
-            }
-        }
-    }
-    if text {
-        // Axis labels at the center of each row and column (plotters' mesh labels sit on the
-        // cell boundaries of an integer axis).
-        for (c, name) in map.cols.iter().enumerate() {
-            let (px, py) = chart.backend_coord(&(c as i32, 0));
-            let (qx, _) = chart.backend_coord(&(c as i32 + 1, 0));
-            let style = ("sans-serif", 12)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Center, VPos::Top));
-            root.draw(&Text::new(name.clone(), ((px + qx) / 2, py + 8), style))?;
-        }
-        for (r, name) in map.rows.iter().enumerate() {
-            let y = nr - 1 - r as i32;
-            let (px, py) = chart.backend_coord(&(0, y));
-            let (_, qy) = chart.backend_coord(&(0, y + 1));
-            let style = ("sans-serif", 13)
-                .into_font()
-                .color(&BLACK)
-                .pos(Pos::new(HPos::Right, VPos::Center));
-            root.draw(&Text::new(name.clone(), (px - 8, (py + qy) / 2), style))?;
-        }
-    }
-    Ok(())
 }

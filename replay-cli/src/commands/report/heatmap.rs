@@ -1,0 +1,439 @@
+//! Heatmaps (rule x attack) in the paper style: row and column names, axis titles, a number in
+//! every cell, and a colour bar whose scale is clipped at a stated percentile, so one outlier
+//! (a loss of 8.8 beside a field of 2.2) does not wash every other cell out to white.
+//!
+//! The layout is computed here in logical pixels (see [`super::style`]) rather than by a
+//! plotters chart: the canvas is exactly as large as the grid, its names and the colour bar.
+
+use std::path::Path;
+
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use plotters::style::text_anchor::{HPos, Pos, VPos};
+
+use super::style::{self, Style};
+
+/// The percentile at which the colour scale stops: cells above it are drawn in the top colour
+/// (their numbers still say their value).
+pub(super) const CLIP_PERCENTILE: f64 = 95.0;
+
+/// A heatmap's values: `values[row][col]`.
+pub(super) struct Heatmap {
+    pub(super) title: String,
+    /// What the rows are (the y axis title).
+    pub(super) row_title: String,
+    /// What the columns are (the x axis title).
+    pub(super) col_title: String,
+    /// What the colour measures (the colour bar's title).
+    pub(super) value_title: String,
+    pub(super) rows: Vec<String>,
+    pub(super) cols: Vec<String>,
+    pub(super) values: Vec<Vec<Option<f64>>>,
+    /// Diverging colours around 0 (blue positive, red negative); else white (low) to red
+    /// (high) on a log scale.
+    pub(super) diverging: bool,
+}
+
+/// Logical sizes of the layout.
+const CELL_W: f64 = 78.0;
+const CELL_H: f64 = 30.0;
+const MARGIN: f64 = 14.0;
+const ROW_NAMES: f64 = 140.0;
+const TITLE_H: f64 = 68.0;
+const COL_NAMES: f64 = 44.0;
+const AXIS_TITLE_H: f64 = 26.0;
+const BAR_GAP: f64 = 22.0;
+const BAR_W: f64 = 18.0;
+const BAR_LABELS: f64 = 62.0;
+
+/// The colour scale: the values' range with its top (or, diverging, its magnitude) clipped at
+/// [`CLIP_PERCENTILE`].
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct Scale {
+    pub(super) lo: f64,
+    pub(super) hi: f64,
+    /// Whether any value lies beyond the clip.
+    pub(super) clipped: bool,
+}
+
+/// The `p`-th percentile of `sorted` (nearest rank), `None` when empty.
+fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
+    if sorted.is_empty() {
+        return None;
+    }
+    let rank = ((p / 100.0) * sorted.len() as f64).ceil() as usize;
+    Some(sorted[rank.clamp(1, sorted.len()) - 1])
+}
+
+impl Heatmap {
+    /// The colour scale of this map's values.
+    pub(super) fn scale(&self) -> Scale {
+        let mut values: Vec<f64> = self
+            .values
+            .iter()
+            .flatten()
+            .flatten()
+            .copied()
+            .filter(|v| v.is_finite())
+            .collect();
+        if values.is_empty() {
+            return Scale {
+                lo: 0.0,
+                hi: 1.0,
+                clipped: false,
+            };
+        }
+        if self.diverging {
+            let mut magnitudes: Vec<f64> = values.iter().map(|v| v.abs()).collect();
+            magnitudes.sort_by(f64::total_cmp);
+            let max = *magnitudes.last().expect("not empty");
+            let m = percentile(&magnitudes, CLIP_PERCENTILE)
+                .unwrap_or(max)
+                .max(1e-12);
+            Scale {
+                lo: -m,
+                hi: m,
+                clipped: max > m,
+            }
+        } else {
+            values.sort_by(f64::total_cmp);
+            let max = *values.last().expect("not empty");
+            let hi = percentile(&values, CLIP_PERCENTILE).unwrap_or(max);
+            Scale {
+                lo: values[0],
+                hi,
+                clipped: max > hi,
+            }
+        }
+    }
+
+    /// Where `v` sits on the colour scale, 0 (lowest colour) to 1 (top), clipped; for a
+    /// diverging map -1 to 1.
+    fn position(&self, scale: Scale, v: f64) -> f64 {
+        if self.diverging {
+            (v / scale.hi).clamp(-1.0, 1.0)
+        } else {
+            let (l, h) = (scale.lo.max(1e-12).ln(), scale.hi.max(1e-12).ln());
+            if h > l {
+                ((v.max(1e-12).ln() - l) / (h - l)).clamp(0.0, 1.0)
+            } else {
+                0.0
+            }
+        }
+    }
+
+    /// The value at a position of the scale (the inverse of [`Heatmap::position`]).
+    fn value_at(&self, scale: Scale, t: f64) -> f64 {
+        if self.diverging {
+            t * scale.hi
+        } else {
+            let (l, h) = (scale.lo.max(1e-12).ln(), scale.hi.max(1e-12).ln());
+            (l + (h - l) * t).exp()
+        }
+    }
+
+    /// The colour of a position of the scale.
+    fn colour(&self, t: f64) -> RGBColor {
+        let mix = |a: (f64, f64, f64), b: (f64, f64, f64), t: f64| {
+            let t = t.clamp(0.0, 1.0);
+            RGBColor(
+                (a.0 + (b.0 - a.0) * t).round() as u8,
+                (a.1 + (b.1 - a.1) * t).round() as u8,
+                (a.2 + (b.2 - a.2) * t).round() as u8,
+            )
+        };
+        let white = (255.0, 255.0, 255.0);
+        let (blue, red) = ((33.0, 102.0, 172.0), (178.0, 24.0, 43.0));
+        if self.diverging {
+            if t >= 0.0 {
+                mix(white, blue, t)
+            } else {
+                mix(white, red, -t)
+            }
+        } else {
+            mix(white, red, t)
+        }
+    }
+
+    /// The logical canvas size.
+    fn canvas(&self) -> (u32, u32) {
+        let w = MARGIN
+            + ROW_NAMES
+            + CELL_W * self.cols.len() as f64
+            + BAR_GAP
+            + BAR_W
+            + BAR_LABELS
+            + MARGIN;
+        let h =
+            MARGIN + TITLE_H + CELL_H * self.rows.len() as f64 + COL_NAMES + AXIS_TITLE_H + MARGIN;
+        (w.ceil() as u32, h.ceil() as u32)
+    }
+}
+
+/// Draws `map` as `stem.svg` (logical size) and `stem.png` (twice it); returns whether the
+/// text could be drawn.
+pub(super) fn draw(map: &Heatmap, out: &Path, stem: &str) -> anyhow::Result<bool> {
+    let svg = out.join(format!("{stem}.svg"));
+    let png = out.join(format!("{stem}.png"));
+    let size = map.canvas();
+    for text in [true, false] {
+        let result = (|| -> Result<(), String> {
+            let root = SVGBackend::new(&svg, Style::SVG.size(size)).into_drawing_area();
+            draw_on(&root, map, text, Style::SVG).map_err(|e| e.to_string())?;
+            root.present().map_err(|e| e.to_string())?;
+            crate::png::draw_png(&png, Style::PNG.size(size), |root| {
+                draw_on(root, map, text, Style::PNG).map_err(|e| e.to_string())
+            })
+        })();
+        match result {
+            Ok(()) => return Ok(text),
+            Err(_) if text => {}
+            Err(e) => anyhow::bail!("cannot draw {stem}: {e}"),
+        }
+    }
+    Ok(false)
+}
+
+type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
+
+/// A number for a cell or a bar tick: 3 significant digits.
+fn number(v: f64) -> String {
+    if v == 0.0 {
+        return "0".to_string();
+    }
+    let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
+    format!("{v:.digits$}")
+}
+
+/// A column name in one or two lines: split at the hyphen nearest its middle when it would not
+/// fit the cell.
+fn col_lines(name: &str) -> Vec<String> {
+    // About half an em per character of the sans-serif font.
+    let fits = name.len() as f64 * style::TICK * 0.5 <= CELL_W - 4.0;
+    if fits {
+        return vec![name.to_string()];
+    }
+    let middle = name.len() / 2;
+    match name
+        .match_indices('-')
+        .map(|(i, _)| i)
+        .min_by_key(|i| i.abs_diff(middle))
+    {
+        Some(i) => vec![name[..=i].to_string(), name[i + 1..].to_string()],
+        None => vec![name.to_string()],
+    }
+}
+
+fn draw_on<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    text: bool,
+    st: Style,
+) -> DrawResult<DB> {
+    root.fill(&WHITE)?;
+    let scale = map.scale();
+    let (nc, nr) = (map.cols.len() as f64, map.rows.len() as f64);
+    let left = MARGIN + ROW_NAMES;
+    let top = MARGIN + TITLE_H;
+    let p = |x: f64, y: f64| (st.px(x), st.px(y));
+    let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
+    for (r, row) in map.values.iter().enumerate() {
+        for (c, v) in row.iter().enumerate() {
+            let (x, y) = (left + CELL_W * c as f64, top + CELL_H * r as f64);
+            let fill = match v {
+                Some(v) if v.is_finite() => map.colour(map.position(scale, *v)),
+                _ => RGBColor(225, 225, 225),
+            };
+            root.draw(&Rectangle::new(
+                [p(x, y), p(x + CELL_W, y + CELL_H)],
+                fill.filled(),
+            ))?;
+            root.draw(&Rectangle::new(
+                [p(x, y), p(x + CELL_W, y + CELL_H)],
+                BLACK.mix(0.15).stroke_width(st.upx(1.0)),
+            ))?;
+            if text {
+                let label = v.map_or_else(|| "n/a".to_string(), number);
+                // Dark cells get white numbers.
+                let dark = v.is_some_and(|v| map.position(scale, v).abs() > 0.6);
+                let font = st
+                    .font(style::CELL)
+                    .color(if dark { &WHITE } else { &BLACK })
+                    .pos(Pos::new(HPos::Center, VPos::Center));
+                root.draw(&Text::new(
+                    label,
+                    p(x + CELL_W / 2.0, y + CELL_H / 2.0),
+                    font,
+                ))?;
+            }
+        }
+    }
+    // The colour bar, top colour at the top.
+    let bar_x = left + CELL_W * nc + BAR_GAP;
+    let bar_h = CELL_H * nr;
+    let steps = 64;
+    for i in 0..steps {
+        let t0 = i as f64 / steps as f64;
+        let t1 = (i + 1) as f64 / steps as f64;
+        let t = (t0 + t1) / 2.0;
+        let t = if map.diverging { 2.0 * t - 1.0 } else { t };
+        let (y0, y1) = (top + bar_h * (1.0 - t1), top + bar_h * (1.0 - t0));
+        root.draw(&Rectangle::new(
+            [p(bar_x, y0), p(bar_x + BAR_W, y1)],
+            map.colour(t).filled(),
+        ))?;
+    }
+    root.draw(&Rectangle::new(
+        [p(bar_x, top), p(bar_x + BAR_W, top + bar_h)],
+        BLACK.mix(0.4).stroke_width(st.upx(1.0)),
+    ))?;
+    if !text {
+        return Ok(());
+    }
+    for k in 0..=4 {
+        let t = k as f64 / 4.0;
+        let value = map.value_at(scale, if map.diverging { 2.0 * t - 1.0 } else { t });
+        let y = top + bar_h * (1.0 - t);
+        root.draw(&PathElement::new(
+            vec![p(bar_x + BAR_W, y), p(bar_x + BAR_W + 4.0, y)],
+            BLACK.stroke_width(st.upx(1.0)),
+        ))?;
+        let mut label = number(value);
+        if scale.clipped && k == 4 {
+            label = format!(">= {label}");
+        } else if scale.clipped && k == 0 && map.diverging {
+            label = format!("<= {label}");
+        }
+        root.draw(&Text::new(
+            label,
+            p(bar_x + BAR_W + 7.0, y),
+            anchored(style::CELL, HPos::Left, VPos::Center),
+        ))?;
+    }
+    // Title, then what the colour shows and where it is clipped.
+    root.draw(&Text::new(
+        map.title.clone(),
+        p(MARGIN, MARGIN),
+        anchored(style::TITLE, HPos::Left, VPos::Top),
+    ))?;
+    let subtitle = format!(
+        "colour: {}{}",
+        map.value_title,
+        if scale.clipped {
+            if map.diverging {
+                format!(
+                    "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile of |value| ({}): \
+                     cells beyond +-{} take the end colours",
+                    number(scale.hi),
+                    number(scale.hi)
+                )
+            } else {
+                format!(
+                    "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile ({}): cells above \
+                     it take the top colour",
+                    number(scale.hi)
+                )
+            }
+        } else {
+            String::new()
+        }
+    );
+    root.draw(&Text::new(
+        subtitle,
+        p(MARGIN, MARGIN + 28.0),
+        anchored(style::CELL, HPos::Left, VPos::Top).color(&BLACK.mix(0.7)),
+    ))?;
+    // Row names, right-aligned against the grid; the rows' title above them.
+    for (r, name) in map.rows.iter().enumerate() {
+        root.draw(&Text::new(
+            name.clone(),
+            p(left - 8.0, top + CELL_H * (r as f64 + 0.5)),
+            anchored(style::TICK, HPos::Right, VPos::Center),
+        ))?;
+    }
+    // Column names under the grid (two lines when long), the columns' title under them.
+    for (c, name) in map.cols.iter().enumerate() {
+        let x = left + CELL_W * (c as f64 + 0.5);
+        for (line, part) in col_lines(name).into_iter().enumerate() {
+            root.draw(&Text::new(
+                part,
+                p(x, top + bar_h + 6.0 + line as f64 * (style::TICK + 2.0)),
+                anchored(style::TICK, HPos::Center, VPos::Top),
+            ))?;
+        }
+    }
+    root.draw(&Text::new(
+        map.col_title.clone(),
+        p(left + CELL_W * nc / 2.0, top + bar_h + COL_NAMES),
+        anchored(style::AXIS, HPos::Center, VPos::Top),
+    ))?;
+    root.draw(&Text::new(
+        map.row_title.clone(),
+        p(left - 8.0, top - 6.0),
+        anchored(style::AXIS, HPos::Right, VPos::Bottom),
+    ))?;
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn map(values: Vec<Vec<Option<f64>>>, diverging: bool) -> Heatmap {
+        Heatmap {
+            title: "t".into(),
+            row_title: "rule".into(),
+            col_title: "attack".into(),
+            value_title: "loss".into(),
+            rows: (0..values.len()).map(|r| format!("r{r}")).collect(),
+            cols: (0..values[0].len()).map(|c| format!("c{c}")).collect(),
+            values,
+            diverging,
+        }
+    }
+
+    #[test]
+    fn one_outlier_is_clipped_and_the_rest_keep_the_colour_range() {
+        // 39 losses between 2.1 and 2.5 and one of 8.77, as in the e4 heatmap the issue saw.
+        let mut row: Vec<Option<f64>> = (0..39).map(|i| Some(2.1 + 0.01 * i as f64)).collect();
+        row.push(Some(8.77));
+        let m = map(vec![row], false);
+        let s = m.scale();
+        assert!(s.clipped);
+        assert!((s.hi - 2.47).abs() < 1e-9, "{s:?}");
+        // The lowest and the clipped top span the whole scale; the outlier sits at the top.
+        assert_eq!(m.position(s, 2.1), 0.0);
+        assert_eq!(m.position(s, 2.47), 1.0);
+        assert_eq!(m.position(s, 8.77), 1.0);
+        // A mid value is mid-scale, not washed out near white.
+        assert!(m.position(s, 2.3) > 0.4, "{}", m.position(s, 2.3));
+    }
+
+    #[test]
+    fn a_diverging_scale_is_symmetric_and_nothing_clips_without_outliers() {
+        let m = map(vec![vec![Some(-1.0), Some(0.5), Some(1.0), None]], true);
+        let s = m.scale();
+        assert_eq!((s.lo, s.hi, s.clipped), (-1.0, 1.0, false));
+        assert_eq!(m.position(s, -1.0), -1.0);
+        assert_eq!(m.value_at(s, 0.5), 0.5);
+    }
+
+    #[test]
+    fn long_column_names_break_at_a_hyphen() {
+        assert_eq!(col_lines("none"), vec!["none"]);
+        assert_eq!(col_lines("inflate-samples"), vec!["inflate-", "samples"]);
+        assert_eq!(col_lines("optimal-alie-x"), vec!["optimal-", "alie-x"]);
+    }
+
+    #[test]
+    fn the_canvas_holds_the_grid_and_no_blank_margin() {
+        let m = map(vec![vec![Some(1.0); 13]; 9], false);
+        let (w, h) = m.canvas();
+        let grid_h = CELL_H * 9.0;
+        // Below the grid only the column names, the axis title and the margin.
+        assert!(
+            f64::from(h) - (MARGIN + TITLE_H + grid_h) <= COL_NAMES + AXIS_TITLE_H + MARGIN + 1.0
+        );
+        assert!(f64::from(w) >= ROW_NAMES + CELL_W * 13.0);
+    }
+}
