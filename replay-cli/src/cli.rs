@@ -334,9 +334,14 @@ pub struct ChaosArgs {
     /// Simulated seconds per run (`run.duration_s` of each run).
     #[arg(long, default_value_t = 600.0, allow_negative_numbers = true, value_parser = duration_s)]
     pub duration: f64,
-    /// Print the report as JSON.
+    /// Print the report as JSON (and each seed's outcome on stderr as one JSON line as soon
+    /// as it finishes).
     #[arg(long)]
     pub json: bool,
+    /// Write each seed's drawn configuration to DIR/seed-N.toml: `swarmfl run --config
+    /// DIR/seed-N.toml --seed N` then writes the log of that run (for inspect, bisect, view).
+    #[arg(long, value_name = "DIR")]
+    pub configs: Option<PathBuf>,
 }
 
 /// The arguments of `swarmfl bench`.

@@ -1,7 +1,15 @@
 //! `swarmfl chaos`: a seeded fault campaign (see `swarmfl_core::chaos` for what each seed draws
 //! and the invariants checked at every block). A violation prints its seed and the one command
 //! that replays it; the exit code is then 1.
+//!
+//! Each seed reports on stderr as soon as it finishes (a text line, or with `--json` one JSON
+//! object per line), so a campaign cut short still says what it found; the summary goes to
+//! stdout at the end. `--configs DIR` writes each seed's drawn configuration, so that
+//! `swarmfl run --config DIR/seed-N.toml --seed N` writes the log of that very run for
+//! `inspect`, `bisect` and `view`.
 
+use std::io::Write;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -10,6 +18,14 @@ use serde::Serialize;
 use swarmfl_core::chaos::{self, Outcome, Violation};
 
 use crate::cli::ChaosArgs;
+
+/// One seed's result as the progress line of `--json` on stderr.
+#[derive(Serialize)]
+struct SeedLine<'a> {
+    seed: u64,
+    #[serde(flatten)]
+    outcome: &'a Outcome,
+}
 
 #[derive(Serialize)]
 struct SeedViolation {
@@ -28,6 +44,10 @@ struct Report {
     wall_s: f64,
     blocks_checked: u64,
     liveness_checked: u64,
+    /// Runs whose open round's quorum was, after the last heal, out of reach under a contract
+    /// without a deadline (`swarmfl_core::chaos::quorum_out_of_reach`): liveness was owed only
+    /// while it was within reach.
+    liveness_stalled: u64,
     max_deepest_reorg: u64,
     equivocations_detected: u64,
     /// Sealers removed from the signer set for equivocating, summed over runs (each run's
@@ -41,6 +61,8 @@ struct Bounds {
     prefix_bound_blocks: u64,
     settle_s: u64,
     liveness_s: u64,
+    /// The liveness window with a deadline is at least the deadline plus this.
+    deadline_slack_s: u64,
     punish_s: u64,
 }
 
@@ -65,44 +87,95 @@ fn last_seed(seeds: u64, first: u64) -> anyhow::Result<u64> {
 
 /// Runs `swarmfl chaos`.
 pub fn command(args: ChaosArgs) -> anyhow::Result<ExitCode> {
-    run(args.seeds, args.first_seed, args.duration, args.json)
+    run(
+        args.seeds,
+        args.first_seed,
+        args.duration,
+        args.json,
+        args.configs.as_deref(),
+    )
+}
+
+/// The file `--configs DIR` writes seed `seed`'s configuration to.
+fn config_path(dir: &Path, seed: u64) -> PathBuf {
+    dir.join(format!("seed-{seed}.toml"))
+}
+
+/// Prints one finished seed on stderr at once (a line per seed, whole lines only, so lines
+/// of seeds finishing together never interleave).
+fn progress(seed: u64, outcome: &anyhow::Result<Outcome>, json: bool) {
+    let line = match (outcome, json) {
+        (Ok(o), true) => serde_json::to_string(&SeedLine { seed, outcome: o })
+            .unwrap_or_else(|e| format!("{{\"seed\":{seed},\"error\":\"{e}\"}}")),
+        (Err(e), true) => {
+            serde_json::json!({ "seed": seed, "error": format!("{e:#}") }).to_string()
+        }
+        (Ok(o), false) => match &o.violation {
+            None => format!(
+                "seed {seed}: ok ({} blocks checked, height {}, deepest reorg {}, \
+                 {} equivocations, {} sealers removed, {} rounds{})",
+                o.blocks_checked,
+                o.height,
+                o.deepest_reorg,
+                o.equivocations,
+                o.removed_sealers,
+                o.rounds,
+                if o.liveness_stalled {
+                    ", stalled: quorum out of reach"
+                } else {
+                    ""
+                }
+            ),
+            Some(v) => format!(
+                "seed {seed}: VIOLATION {} at {} ms: {}",
+                v.invariant, v.at_ms, v.detail
+            ),
+        },
+        (Err(e), false) => format!("seed {seed}: error {e:#}"),
+    };
+    let mut err = std::io::stderr().lock();
+    // A closed stderr must not stop the campaign: the summary still goes to stdout.
+    let _ = writeln!(err, "{line}");
 }
 
 /// Runs seeds `first..first + seeds` with runs of `duration_s`.
-fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<ExitCode> {
+fn run(
+    seeds: u64,
+    first: u64,
+    duration_s: f64,
+    json: bool,
+    configs: Option<&Path>,
+) -> anyhow::Result<ExitCode> {
     anyhow::ensure!(seeds > 0, "--seeds must be at least 1");
     anyhow::ensure!(
         duration_s.is_finite() && duration_s >= 1.0,
         "--duration must be at least 1 (seconds), got {duration_s}"
     );
     let last = last_seed(seeds, first)?;
+    if let Some(dir) = configs {
+        std::fs::create_dir_all(dir).map_err(|e| {
+            anyhow::anyhow!(
+                "--configs {}: cannot create the directory: {e}",
+                dir.display()
+            )
+        })?;
+    }
     let start = Instant::now();
     let results: Vec<(u64, anyhow::Result<Outcome>)> = (first..=last)
         .into_par_iter()
         .map(|seed| {
             let config = chaos::draw(seed, duration_s);
-            let outcome = chaos::check(config, seed).map_err(anyhow::Error::from);
-            if !json {
-                match &outcome {
-                    Ok(o) => match &o.violation {
-                        None => eprintln!(
-                            "seed {seed}: ok ({} blocks checked, height {}, deepest reorg {}, \
-                             {} equivocations, {} sealers removed, {} rounds)",
-                            o.blocks_checked,
-                            o.height,
-                            o.deepest_reorg,
-                            o.equivocations,
-                            o.removed_sealers,
-                            o.rounds
-                        ),
-                        Some(v) => eprintln!(
-                            "seed {seed}: VIOLATION {} at {} ms: {}",
-                            v.invariant, v.at_ms, v.detail
-                        ),
-                    },
-                    Err(e) => eprintln!("seed {seed}: error {e:#}"),
+            let outcome = match configs {
+                Some(dir) => {
+                    let path = config_path(dir, seed);
+                    std::fs::write(&path, config.to_toml()).map_err(|e| {
+                        anyhow::anyhow!("--configs: cannot write {}: {e}", path.display())
+                    })
                 }
+                None => Ok(()),
             }
+            .and_then(|()| chaos::check(config, seed).map_err(anyhow::Error::from));
+            progress(seed, &outcome, json);
             (seed, outcome)
         })
         .collect();
@@ -119,6 +192,7 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         wall_s: 0.0,
         blocks_checked: 0,
         liveness_checked: 0,
+        liveness_stalled: 0,
         max_deepest_reorg: 0,
         equivocations_detected: 0,
         removed_sealers: 0,
@@ -126,6 +200,7 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
             prefix_bound_blocks: chaos::PREFIX_BOUND_BLOCKS,
             settle_s: chaos::SETTLE_MS / 1000,
             liveness_s: chaos::LIVENESS_MS / 1000,
+            deadline_slack_s: chaos::DEADLINE_SLACK_MS / 1000,
             punish_s: chaos::PUNISH_MS / 1000,
         },
     };
@@ -139,6 +214,7 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
         );
         report.blocks_checked += outcome.blocks_checked;
         report.liveness_checked += u64::from(outcome.liveness_checked);
+        report.liveness_stalled += u64::from(outcome.liveness_stalled);
         report.max_deepest_reorg = report.max_deepest_reorg.max(outcome.deepest_reorg);
         report.equivocations_detected += outcome.equivocations;
         report.removed_sealers += outcome.removed_sealers;
@@ -156,11 +232,12 @@ fn run(seeds: u64, first: u64, duration_s: f64, json: bool) -> anyhow::Result<Ex
     } else {
         println!(
             "{} runs of {duration_s} s, {} blocks checked, {} equivocations detected, {} sealers \
-             removed, {} violations, {:.1} s wall",
+             removed, {} stalled by stakes, {} violations, {:.1} s wall",
             report.runs,
             report.blocks_checked,
             report.equivocations_detected,
             report.removed_sealers,
+            report.liveness_stalled,
             report.violations.len(),
             report.wall_s
         );
