@@ -55,7 +55,8 @@ pub struct BlockInfo {
     pub total_difficulty: u64,
     /// Size of the chain up to it, bytes.
     pub chain_bytes: u64,
-    /// Index of its sealing checkpoint record.
+    /// Index of its sealing checkpoint record (an equivocator's twin: of the injection that
+    /// stored it; see [`super::index::BlockRow::record`]).
     pub record: Option<u64>,
     /// Its transactions with their outcomes.
     pub txs: Vec<TxInfo>,

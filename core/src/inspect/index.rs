@@ -9,8 +9,8 @@ use super::fold::{fold_record, LastLearning};
 use crate::byzantine;
 use crate::config::Config;
 use crate::contract::ContractState;
-use crate::event::{CheckpointCause, Record};
-use crate::ledger::BlockHash;
+use crate::event::{CheckpointCause, Event, Record};
+use crate::ledger::{BlockHash, LedgerEvent, WireItem};
 use crate::log::LogReader;
 use crate::metrics;
 use crate::replay::{self, header_config, ReplayError};
@@ -26,7 +26,9 @@ pub struct BlockRow {
     pub hash: BlockHash,
     /// Its timestamp.
     pub time: SimTime,
-    /// Index of its sealing checkpoint record (`None` for genesis: before every record).
+    /// Index of its sealing checkpoint record (`None` for genesis: before every record); for a
+    /// block that came from outside the honest gossip with no sealing checkpoint of its own
+    /// (an equivocator's twin), of the [`LedgerEvent::Inject`] record that stored it.
     pub record: Option<u64>,
     /// Every node's head height right after it was sealed.
     pub node_heights: Vec<u64>,
@@ -141,6 +143,42 @@ impl Sealings {
         }
         Ok(())
     }
+
+    /// Notes a block that the injection at record `index` (time `time`) stored, if `bytes`
+    /// encode one that no sealing announced: an equivocator seals one block of a pair (its
+    /// checkpoint names the node's head) and injects the twin to other peers, and either may
+    /// end up canonical. The ledger stores an injected block at once or refuses it (an
+    /// unknown parent is a refusal, not a wait), so the record that stored it is this one.
+    fn note_injected(
+        &mut self,
+        state: &State,
+        learned: &LastLearning,
+        index: u64,
+        time: SimTime,
+        bytes: &[u8],
+    ) {
+        // Undecodable or foreign items are the ledger's to refuse; only stored blocks matter.
+        let Ok(WireItem::Block(wire)) = rmp_serde::from_slice::<WireItem>(bytes) else {
+            return;
+        };
+        let (hash, _) = wire.header.hash_and_size();
+        if self.sealed.contains_key(&hash) || state.ledger.block(&hash).is_none() {
+            return;
+        }
+        let node_heights = (0..self.robots).map(|r| state.ledger.head(r).1).collect();
+        self.sealed.insert(
+            hash,
+            Sealed {
+                record: index,
+                time,
+                node_heights,
+            },
+        );
+        if self.want == Some(wire.header.height) {
+            self.candidates
+                .insert(hash, (state.clone(), learned.clone()));
+        }
+    }
 }
 
 /// Folds the whole log at `path` (checking every checkpoint) and indexes its final canonical
@@ -186,6 +224,13 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
         fold_record(&mut state, &mut learned, &name, index, &record)?;
         if let Some(next) = replay::reconfigured(&record) {
             config = next;
+        }
+        if let Record::Event {
+            time,
+            event: Event::Ledger(LedgerEvent::Inject { bytes, .. }),
+        } = &record
+        {
+            seen.note_injected(&state, &learned, index, *time, bytes);
         }
         if let Record::Checkpoint(expected) = &record {
             if let CheckpointCause::Block { node, height } = expected.cause {

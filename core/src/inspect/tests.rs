@@ -2,7 +2,7 @@ use std::path::PathBuf;
 
 use super::expr::{Env, EvalError, Expr};
 use super::*;
-use crate::config::{ByzantineKind, Preset};
+use crate::config::{ByzantineKind, LedgerBehaviour, Preset};
 use crate::log::{Header, LogWriter};
 use crate::metrics;
 use crate::replay::ReplayError;
@@ -189,6 +189,71 @@ fn short_run(name: &str) -> PathBuf {
     }
     writer.finish().unwrap();
     path
+}
+
+/// Two equivocators in a swarm of 10 (the equivocation test's scenario, 300 s, seed 3): each
+/// twin comes by injection, with no sealing checkpoint, and the twin at height 2 ends up on the
+/// final canonical chain. The old index refused the whole log ("canonical block 80ba6d8b5b622d5b
+/// at height 2 has no sealing checkpoint"), so no block of it could be inspected.
+#[test]
+fn a_log_whose_canonical_chain_holds_an_equivocators_twin_is_inspected() {
+    let mut config = Preset::Smoke.config();
+    config.run.duration_s = 300.0;
+    config.world.robots = 10;
+    config.learn.lstm_units = 4;
+    config.learn.epochs = 1;
+    config.byzantine.count = 2;
+    config.byzantine.kind = ByzantineKind::None;
+    config.byzantine.ledger = LedgerBehaviour::Equivocate;
+    config.validate().unwrap();
+    let seed = 3;
+    let dir = std::env::temp_dir().join(format!("swarmfl-inspect-{}-twin", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let path = dir.join("run.swlog");
+    let mut writer = LogWriter::create(&path, &Header::new(seed, config.to_toml())).unwrap();
+    for record in Sim::new(config, seed).unwrap() {
+        writer.append(&record).unwrap();
+    }
+    writer.finish().unwrap();
+
+    let index = index_run(&path, None).unwrap();
+    // Which canonical blocks were stored by an injection: their record is not a checkpoint.
+    let mut kinds = Vec::new();
+    let mut reader = crate::log::LogReader::open(&path).unwrap();
+    while let Some(record) = reader.next_record().unwrap() {
+        kinds.push(matches!(record, crate::event::Record::Checkpoint(_)));
+    }
+    let twins: Vec<u64> = index
+        .chain
+        .iter()
+        .filter(|row| row.record.is_some_and(|i| !kinds[i as usize]))
+        .map(|row| row.height)
+        .collect();
+    assert!(
+        twins.contains(&2),
+        "the scenario puts a twin on the canonical chain: {twins:?}"
+    );
+    let byzantine = crate::byzantine::byzantine_robots(&index.config, seed);
+    for (h, row) in index.chain.iter().enumerate().skip(2) {
+        assert!(row.record > index.chain[h - 1].record, "records increase");
+    }
+    let sidecar = index.sidecar(&path).unwrap();
+    for &h in &twins {
+        let at = index_run(&path, Some(h)).unwrap();
+        let report = block_report(&at, h, None).unwrap();
+        assert_eq!(report.block.hash, index.chain[h as usize].hash.to_hex());
+        let signer = report.block.signer.unwrap();
+        assert!(byzantine[signer as usize], "a twin is an equivocator's");
+        // The state kept is the one right after the injection stored it, as the sidecar's fold
+        // up to that record gives it.
+        let indexed = block_report_indexed(&path, &sidecar, h, None).unwrap();
+        assert_eq!(
+            serde_json::to_string(&report).unwrap(),
+            serde_json::to_string(&indexed).unwrap(),
+            "block {h}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
 }
 
 #[test]

@@ -146,7 +146,7 @@ fn print_block(r: &BlockReport, last: u64) {
         None => println!("  signer      none (genesis)"),
     }
     println!(
-        "  difficulty  {} (total {}), chain size {} bytes, sealing checkpoint record {}",
+        "  difficulty  {} (total {}), chain size {} bytes, sealing record {}",
         b.difficulty,
         b.total_difficulty,
         b.chain_bytes,
