@@ -133,7 +133,9 @@ proptest! {
                 let message = e.to_string();
                 let named = match &e {
                     ConfigError::Parse { source_name, .. } => source_name == SOURCE,
-                    ConfigError::UnknownKey { key, .. } | ConfigError::WrongType { key, .. } => {
+                    ConfigError::UnknownKey { key, .. }
+                    | ConfigError::WrongType { key, .. }
+                    | ConfigError::UnknownValue { key, .. } => {
                         key.ends_with(&format!("(in {SOURCE})"))
                     }
                     ConfigError::OutOfRange { .. } => message.starts_with("configuration key `"),
