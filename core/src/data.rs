@@ -14,7 +14,7 @@ use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::DataConfig;
+use crate::config::{DataConfig, WindowRule};
 use crate::types::{RobotId, SimTime};
 
 /// One training example cut from a 100-tick trajectory of a neighbour: `input_waypoints`
@@ -51,6 +51,9 @@ impl Recording {
     }
 }
 
+/// `Track::ticks` of a gap marker (`WindowRule::Confirmed` only).
+const GAP: u32 = u32::MAX;
+
 /// A trajectory of one neighbour being recorded.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 struct Track {
@@ -78,12 +81,14 @@ pub struct Recorder {
 impl Recorder {
     /// Records one tick: `heard` are the neighbours heard this tick, ascending. `position(j,
     /// kept)` gives neighbour `j`'s measured position; `kept` says whether the point is stored
-    /// (callers may skip drawing noise otherwise). It is called once per heard neighbour, in
-    /// the order of `heard`. Returns the number of samples completed (appended at the back,
-    /// timed `now`).
+    /// (callers may skip drawing noise otherwise). It is called once per heard neighbour whose
+    /// reading extends a window, in the order of `heard`. Returns the number of samples
+    /// completed (appended at the back, timed `now`). `rule` says when a window completes
+    /// ([`WindowRule`]).
     pub fn observe(
         &mut self,
         rec: &Recording,
+        rule: WindowRule,
         now: SimTime,
         heard: &[RobotId],
         mut position: impl FnMut(RobotId, bool) -> [f32; 2],
@@ -92,19 +97,47 @@ impl Recorder {
             heard.windows(2).all(|w| w[0] < w[1]),
             "heard must be ascending"
         );
+        let confirmed = rule == WindowRule::Confirmed;
         let mut old = std::mem::take(&mut self.tracks);
         let mut new = std::mem::take(&mut self.spare);
         debug_assert!(new.is_empty());
         let mut completed = 0;
         let mut discarded = 0;
+        // A track not heard this tick: discarded; under `confirmed`, it stays as a gap marker
+        // (the authors' code notices the gap only at the neighbour's next reading, which it
+        // drops).
+        let mut missed = |t: Track, new: &mut Vec<Track>| {
+            if t.ticks == GAP {
+                new.push(t);
+            } else {
+                discarded += 1;
+                if confirmed {
+                    new.push(Track {
+                        neighbour: t.neighbour,
+                        ticks: GAP,
+                        points: Vec::new(),
+                    });
+                }
+            }
+        };
         {
             let mut old_iter = old.drain(..).peekable();
             for &j in heard {
-                while old_iter.peek().is_some_and(|t| t.neighbour < j) {
-                    old_iter.next();
-                    discarded += 1;
+                while let Some(t) = old_iter.next_if(|t| t.neighbour < j) {
+                    missed(t, &mut new);
                 }
                 let mut track = match old_iter.next_if(|t| t.neighbour == j) {
+                    // The reading after a gap: dropped, the next one starts a window.
+                    Some(t) if t.ticks == GAP => continue,
+                    // A full window confirmed by this reading, which starts nothing.
+                    Some(t) if t.ticks == rec.trajectory_ticks => {
+                        self.samples.push_back(Sample {
+                            time: now,
+                            points: t.points,
+                        });
+                        completed += 1;
+                        continue;
+                    }
                     Some(t) => t,
                     None => Track {
                         neighbour: j,
@@ -118,7 +151,7 @@ impl Recorder {
                     track.points.push(p);
                 }
                 track.ticks += 1;
-                if track.ticks == rec.trajectory_ticks {
+                if track.ticks == rec.trajectory_ticks && !confirmed {
                     debug_assert_eq!(track.points.len(), rec.kept_waypoints as usize);
                     self.samples.push_back(Sample {
                         time: now,
@@ -129,7 +162,9 @@ impl Recorder {
                     new.push(track);
                 }
             }
-            discarded += old_iter.count() as u64;
+            for t in old_iter {
+                missed(t, &mut new);
+            }
         }
         self.tracks = new;
         self.spare = old;
@@ -168,6 +203,89 @@ impl Recorder {
     pub fn tracks(&self) -> impl Iterator<Item = (RobotId, u32)> + '_ {
         self.tracks.iter().map(|t| (t.neighbour, t.ticks))
     }
+}
+
+/// Speed bins of [`heterogeneity`]'s histogram: end-to-end speed over a sample's waypoints,
+/// in steps of 0.01 m/s (the last bin open).
+const SPEED_BINS: usize = 6;
+/// Turn bins: the angle between the first and second half of the sample's displacement,
+/// uniform over [0, pi].
+const TURN_BINS: usize = 4;
+
+/// The (speed, turn) histogram cell of one sample, or `None` for a sample too short to have
+/// two halves. Speed = distance between the first and last kept waypoints over their time
+/// span; turn = angle between the displacements of the first and second half. Both are
+/// computed from end points, not from steps, so the range-and-bearing noise (1 cm against 2.5
+/// mm a tick) barely moves them.
+fn cell(sample: &Sample, tick_s: f64) -> Option<usize> {
+    let n = sample.points.len();
+    if n < 3 {
+        return None;
+    }
+    let p = |k: usize| {
+        (
+            f64::from(sample.points[k][0]),
+            f64::from(sample.points[k][1]),
+        )
+    };
+    let (a, m, b) = (p(0), p(n / 2), p(n - 1));
+    let (d1, d2) = ((m.0 - a.0, m.1 - a.1), (b.0 - m.0, b.1 - m.1));
+    let dist = libm::hypot(b.0 - a.0, b.1 - a.1);
+    let speed = dist / ((n - 1) as f64 * tick_s);
+    let speed_bin = ((speed / 0.01) as usize).min(SPEED_BINS - 1);
+    let turn = libm::atan2(d1.0 * d2.1 - d1.1 * d2.0, d1.0 * d2.0 + d1.1 * d2.1).abs();
+    let turn_bin = ((turn / std::f64::consts::PI * TURN_BINS as f64) as usize).min(TURN_BINS - 1);
+    Some(speed_bin * TURN_BINS + turn_bin)
+}
+
+/// Data heterogeneity between robots: the mean over robots that hold samples of the
+/// total-variation distance between the robot's histogram of sample features (end-to-end
+/// speed x turn, [`SPEED_BINS`] x [`TURN_BINS`] cells) and the pooled histogram of every
+/// robot's samples. 0 when every robot's data has the same distribution, 1 when each robot's
+/// data lies in cells no other robot's does. Why this: federated learning's hard case is
+/// robots whose local data follow different distributions; speed and turning are what a
+/// trajectory model learns, and they are what differs between behaviours (a flock moves
+/// together at cruise speed, foragers shuttle and rest, avoiders wander). It is computed on the
+/// data sets robots train on (after expiry), in a fixed order, so it is a deterministic
+/// function of the state. Finite samples bias it upward (about the square root of
+/// cells/samples): compare swarms with similar data volumes.
+pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_s: f64) -> f64 {
+    const CELLS: usize = SPEED_BINS * TURN_BINS;
+    let hists: Vec<[u64; CELLS]> = sets
+        .map(|set| {
+            let mut h = [0u64; CELLS];
+            for c in set.iter().filter_map(|s| cell(s, tick_s)) {
+                h[c] += 1;
+            }
+            h
+        })
+        .collect();
+    let mut pooled = [0u64; CELLS];
+    for h in &hists {
+        for (p, &v) in pooled.iter_mut().zip(h) {
+            *p += v;
+        }
+    }
+    let total: u64 = pooled.iter().sum();
+    if total == 0 {
+        return 0.0;
+    }
+    let (mut sum, mut robots) = (0.0, 0u32);
+    for h in &hists {
+        let n: u64 = h.iter().sum();
+        if n == 0 {
+            continue;
+        }
+        let tv: f64 = h
+            .iter()
+            .zip(&pooled)
+            .map(|(&v, &p)| (v as f64 / n as f64 - p as f64 / total as f64).abs())
+            .sum::<f64>()
+            / 2.0;
+        sum += tv;
+        robots += 1;
+    }
+    sum / f64::from(robots)
 }
 
 /// The noise-free ground-truth observer: it sees every robot every tick, so every robot yields
@@ -244,7 +362,9 @@ mod tests {
         let mut r = Recorder::default();
         for (k, heard) in ticks.iter().enumerate() {
             let now = SimTime(100 * (k as u64 + 1));
-            r.observe(&rec(), now, heard, |j, _| [j as f32, k as f32]);
+            r.observe(&rec(), WindowRule::Contiguous, now, heard, |j, _| {
+                [j as f32, k as f32]
+            });
         }
         r
     }

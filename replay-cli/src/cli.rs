@@ -112,6 +112,9 @@ pub enum Command {
     },
     /// Time one subsystem and print its figures.
     Bench(BenchArgs),
+    /// The data volume: samples per robot of the world alone (no learning, no ledger) per
+    /// behaviour, swarm size and seed, beside Flow-FL's published dataset counts.
+    DataVolume(DataVolumeArgs),
     /// One size of `bench scale`, run in a child process so that its peak RSS is its own:
     /// prints one JSON line.
     #[command(hide = true)]
@@ -358,6 +361,28 @@ pub struct BenchArgs {
     /// `scale` only: simulated seconds per size (default 300; `run.duration_s` of each run).
     #[arg(long = "duration", visible_alias = "duration-s", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: Option<f64>,
+}
+
+/// The arguments of `swarmfl data-volume`.
+#[derive(Args, Debug)]
+pub struct DataVolumeArgs {
+    #[command(flatten)]
+    pub config: ConfigArgs,
+    /// The behaviours, comma-separated (`world.behaviour` values; default all four).
+    #[arg(long, default_value = "avoidance,flocking,foraging,mixed")]
+    pub behaviours: String,
+    /// The swarm sizes, comma-separated (the arena stays as configured, as in Flow-FL).
+    #[arg(long, default_value = "15,60")]
+    pub robots: String,
+    /// The seeds, comma-separated.
+    #[arg(long, default_value = "1,2,3")]
+    pub seeds: String,
+    /// Simulated seconds of each run (Flow-FL's dataset: 5000).
+    #[arg(long, default_value_t = 5000.0)]
+    pub duration_s: f64,
+    /// Print machine-readable JSON.
+    #[arg(long)]
+    pub json: bool,
 }
 
 /// The arguments of `swarmfl bench-scale-one`.

@@ -60,6 +60,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Presets => presets::command(),
         Command::Config { config } => config::command(&config),
         Command::Bench(args) => bench::command(args),
+        Command::DataVolume(args) => data_volume::command(args),
         Command::BenchScaleOne(args) => bench::scale_one(args),
     }
 }

@@ -9,6 +9,7 @@
 //! configuration names (rules, defences, attacks, engines, options) are defined here, each
 //! domain keeps their behaviour; the checks that span domains live in `validate.rs`.
 
+mod behaviour;
 mod byzantine;
 mod contract;
 mod error;
@@ -23,6 +24,7 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
+pub use behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,

@@ -3,6 +3,7 @@
 
 use std::fmt;
 
+use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey,
@@ -27,6 +28,10 @@ pub enum Preset {
     Reference,
     /// 15 robots for 600 s: quick, for fixtures and CI.
     Smoke,
+    /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots in a
+    /// 4 x 4 m arena, 2 m range, robots occlude): matches its dataset's sample counts (issue
+    /// #38; docs/SPEC.md section 1, "Data volume").
+    Flowfl,
     /// Experiment 1: no security, no Byzantine robots; sweep `data.expiration_s`.
     E1Expiration,
     /// Experiment 1: no security, one faulty robot.
@@ -49,11 +54,12 @@ pub enum Preset {
 
 impl Preset {
     /// Every variant, in documentation order (the order `swarmfl presets` lists them).
-    pub const ALL: [Preset; 12] = [
+    pub const ALL: [Preset; 13] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
         Preset::Smoke,
+        Preset::Flowfl,
         Preset::E1Expiration,
         Preset::E1Faulty,
         Preset::E2Faulty,
@@ -71,6 +77,7 @@ impl Preset {
             Preset::PaperText => "paper-text",
             Preset::Reference => "reference",
             Preset::Smoke => "smoke",
+            Preset::Flowfl => "flowfl",
             Preset::E1Expiration => "e1-expiration",
             Preset::E1Faulty => "e1-faulty",
             Preset::E2Faulty => "e2-faulty",
@@ -95,6 +102,9 @@ impl Preset {
                 "the reference implementation's values: 4 x 4 m, 2.0 m range, 4980 s, SGD 0.01"
             }
             Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
+            Preset::Flowfl => {
+                "Flow-FL's data collection: Khepera IV, 4 x 4 m, 2.0 m range, 5 cm/s, robots occlude"
+            }
             Preset::E1Expiration => {
                 "Exp. 1: security off, no Byzantine robots; sweep data.expiration_s 250..1250"
             }
@@ -152,6 +162,20 @@ impl Preset {
             }
             Preset::Smoke => {
                 c.run.duration_s = 600.0;
+            }
+            Preset::Flowfl => {
+                // NESTLab/TrajectoryCollection, argos-scripts/experiments/*_batch.argos and
+                // controllers/: the values and their sources are in docs/SPEC.md section 1.
+                c.world.arena_side_m = 4.0;
+                c.world.obstacle_spread_half_m = 0.0;
+                c.world.rab_range_m = 2.0;
+                c.world.robot_radius_m = 0.0704;
+                c.world.wheel_base_m = 0.1054;
+                c.world.cruise_speed_mps = 0.05;
+                c.world.random_turn_rate_per_s = 0.0;
+                c.world.proximity_threshold = 0.0;
+                c.world.rab_robot_occlusion = true;
+                c.data.window_rule = WindowRule::Confirmed;
             }
             Preset::E1Expiration => {
                 c.contract.security = false;
@@ -236,6 +260,11 @@ impl Config {
                 rab_occlusion: true,
                 rab_packet_drop: 0.0,
                 peer_refresh_s: 0.5,
+                rab_robot_occlusion: false,
+                behaviour: Behaviour::Avoidance,
+                mixed: MixedConfig::default(),
+                flocking: FlockingConfig::default(),
+                foraging: ForagingConfig::default(),
             },
             data: DataConfig {
                 trajectory_ticks: 100,
@@ -243,6 +272,7 @@ impl Config {
                 target_waypoints: 48,
                 expiration_s: 750.0,
                 heldout_samples: 200,
+                window_rule: WindowRule::Contiguous,
             },
             learn: LearnConfig {
                 lstm_units: 16,

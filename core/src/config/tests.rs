@@ -410,3 +410,36 @@ fn a_value_under_a_table_the_user_set_is_theirs_and_the_message_is_said_once() {
         "{text}"
     );
 }
+
+#[test]
+fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
+    // The text of every preset that does not use them is what it was before they existed (so
+    // its log hash chain is too), yet `swarmfl config` shows them and `--set` reaches them.
+    let smoke = Config::resolve(Some("smoke"), None, &[]).unwrap();
+    let text = smoke.to_toml();
+    let full = smoke.to_toml_full();
+    for key in [
+        "world.rab_robot_occlusion",
+        "world.behaviour",
+        "world.mixed",
+        "world.flocking",
+        "world.foraging",
+        "data.window_rule",
+    ] {
+        let leaf = key.rsplit('.').next().unwrap();
+        assert!(!text.contains(&format!("{leaf} =")), "{key} in {text}");
+        assert!(!text.contains(&format!("[{key}]")), "{key} in {text}");
+        assert!(
+            full.contains(&format!("{leaf} =")) || full.contains(&format!("[{key}]")),
+            "{key} missing from the full text {full}"
+        );
+    }
+    assert!(full.contains("window_rule = \"contiguous\""));
+    let back: Config = toml::from_str(&text).unwrap();
+    assert_eq!(back, smoke);
+    let flocking =
+        Config::resolve(Some("smoke"), None, &["world.behaviour=flocking".into()]).unwrap();
+    assert!(flocking.to_toml().contains("behaviour = \"flocking\""));
+    let back: Config = toml::from_str(&flocking.to_toml()).unwrap();
+    assert_eq!(back, flocking);
+}

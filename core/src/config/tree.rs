@@ -6,6 +6,7 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
+use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
@@ -97,6 +98,26 @@ pub struct WorldConfig {
     pub rab_packet_drop: f64,
     /// Period of the peer-set refresh in seconds: the node's peers are the robots in range.
     pub peer_refresh_s: f64,
+    /// Whether other robots' bodies block range-and-bearing line of sight, as in ARGoS's
+    /// range-and-bearing medium (the authors' and Flow-FL's simulator: a message passes only if
+    /// the first body its ray meets is the receiver's). Off by default; on in `flowfl`
+    /// (docs/SPEC.md section 1, "Data volume"). This key and the four behaviour keys
+    /// below are left out of the recorded configuration at their default, so runs that do not
+    /// use them keep the configuration text, hence the hash chain, they had before the keys.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub rab_robot_occlusion: bool,
+    /// The robots' controller: `avoidance` (default), `flocking`, `foraging` or `mixed`.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub behaviour: Behaviour,
+    /// `mixed` only: which robot runs which behaviour.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub mixed: MixedConfig,
+    /// The flocking controller's parameters.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub flocking: FlockingConfig,
+    /// The foraging controller's nest, food sources and rest time.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub foraging: ForagingConfig,
 }
 
 /// Trajectory recording and the data set of each robot.
@@ -113,6 +134,11 @@ pub struct DataConfig {
     pub expiration_s: f64,
     /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
     pub heldout_samples: u32,
+    /// When a window becomes a sample: `contiguous` (default) or `confirmed` (the authors'
+    /// code; docs/SPEC.md section 1, "Data volume"). Left out of the recorded configuration
+    /// at its default, so existing runs keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub window_rule: WindowRule,
 }
 
 /// The model and local training.
@@ -341,6 +367,16 @@ pub const AUTHORS_BLOCK_GAS_LIMIT: u64 = 0x9000000000000;
 /// `contract.block_gas_limit`'s default, [`AUTHORS_BLOCK_GAS_LIMIT`].
 pub fn default_block_gas_limit() -> u64 {
     AUTHORS_BLOCK_GAS_LIMIT
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// True when a key holds its type's default: with `skip_serializing_if`, keys added after
+/// records existed stay out of the recorded text while unused (see [`Config::to_toml`]).
+fn is_default<T: Default + PartialEq>(value: &T) -> bool {
+    *value == T::default()
 }
 
 fn is_default_block_gas_limit(limit: &u64) -> bool {

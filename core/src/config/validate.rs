@@ -4,6 +4,7 @@
 //! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
 //! engine) read only configuration fields, so they live here too.
 
+use super::behaviour::Behaviour;
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
@@ -77,6 +78,9 @@ fn table(c: &Config) -> Vec<Step> {
         Number("world.rab_noise_std_m", w.rab_noise_std_m, 0.0, 100.0),
         Number("world.rab_packet_drop", w.rab_packet_drop, 0.0, 1.0),
         Number("world.peer_refresh_s", w.peer_refresh_s, run.tick_s, 1.0e6),
+        Across(mixed_swarm_is_complete),
+        Across(flocking_fits_the_arena),
+        Across(foraging_fits_the_arena),
         Integer("data.trajectory_ticks", d.trajectory_ticks.into(), 2, 100_000),
         Integer("data.input_waypoints", d.input_waypoints.into(), 1, 10_000),
         Integer("data.target_waypoints", d.target_waypoints.into(), 1, 10_000),
@@ -181,6 +185,140 @@ fn preset_is_known(c: &Config) -> Result<(), ConfigError> {
         format!("{:?}", c.preset),
         format!("one of {}", Preset::ALL.map(Preset::name).join(", ")),
     )
+}
+
+/// Whether any robot of the swarm runs `b` (directly or in a mixed swarm).
+fn runs(c: &Config, b: Behaviour) -> bool {
+    let w = &c.world;
+    w.behaviour == b
+        || (w.behaviour == Behaviour::Mixed
+            && (0..w.robots).any(|i| w.mixed.behaviour_of(i, w.robots) == b))
+}
+
+fn mixed_swarm_is_complete(c: &Config) -> Result<(), ConfigError> {
+    let w = &c.world;
+    let m = &w.mixed;
+    if !m.per_robot.is_empty() && w.behaviour != Behaviour::Mixed {
+        return out_of_range(
+            "world.mixed.per_robot",
+            format!("{} entries", m.per_robot.len()),
+            format!(
+                "empty unless world.behaviour = \"mixed\" (it is \"{}\"); set world.behaviour=mixed",
+                w.behaviour.name()
+            ),
+        );
+    }
+    if w.behaviour != Behaviour::Mixed {
+        return Ok(());
+    }
+    if !m.per_robot.is_empty() {
+        if m.per_robot.len() != w.robots as usize {
+            return out_of_range(
+                "world.mixed.per_robot",
+                format!("{} entries", m.per_robot.len()),
+                format!(
+                    "one behaviour per robot: {} entries (world.robots)",
+                    w.robots
+                ),
+            );
+        }
+        if let Some(i) = m.per_robot.iter().position(|&b| b == Behaviour::Mixed) {
+            return out_of_range(
+                "world.mixed.per_robot",
+                format!("\"mixed\" at index {i}"),
+                "avoidance, flocking or foraging for each robot".to_string(),
+            );
+        }
+        return Ok(());
+    }
+    for (key, v) in [
+        ("world.mixed.avoidance", m.avoidance),
+        ("world.mixed.flocking", m.flocking),
+        ("world.mixed.foraging", m.foraging),
+    ] {
+        number(key, v, 0.0, 1.0)?;
+    }
+    let sum = m.avoidance + m.flocking + m.foraging;
+    if (sum - 1.0).abs() > 1e-6 {
+        return out_of_range(
+            "world.mixed",
+            format!(
+                "avoidance {} + flocking {} + foraging {} = {sum}",
+                m.avoidance, m.flocking, m.foraging
+            ),
+            "fractions that sum to 1 (e.g. --set world.mixed.avoidance=0.5 --set \
+             world.mixed.flocking=0.25 --set world.mixed.foraging=0.25)"
+                .to_string(),
+        );
+    }
+    Ok(())
+}
+
+/// The largest |coordinate| of a point inside the walls, keeping `margin` from them.
+fn inside(c: &Config, key: &str, value: f64, margin: f64) -> Result<(), ConfigError> {
+    let half = c.world.arena_side_m / 2.0 - margin;
+    if value.is_finite() && value.abs() <= half {
+        return Ok(());
+    }
+    out_of_range(
+        key,
+        value.to_string(),
+        format!("inside the arena: |value| <= world.arena_side_m / 2 - {margin} = {half} m"),
+    )
+}
+
+fn flocking_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
+    if !runs(c, Behaviour::Flocking) {
+        return Ok(());
+    }
+    let f = &c.world.flocking;
+    positive("world.flocking.target_distance_m", f.target_distance_m)?;
+    number(
+        "world.flocking.cohesion_weight",
+        f.cohesion_weight,
+        0.0,
+        1.0e6,
+    )?;
+    number(
+        "world.flocking.alignment_weight",
+        f.alignment_weight,
+        0.0,
+        1.0e6,
+    )?;
+    number("world.flocking.goal_weight", f.goal_weight, 0.0, 1.0e6)?;
+    number("world.flocking.goal_swap_s", f.goal_swap_s, 0.0, 1.0e9)?;
+    inside(c, "world.flocking.goal_x_m", f.goal_x_m, 0.0)?;
+    inside(c, "world.flocking.goal_y_m", f.goal_y_m, 0.0)
+}
+
+fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
+    if !runs(c, Behaviour::Foraging) {
+        return Ok(());
+    }
+    let f = &c.world.foraging;
+    positive("world.foraging.nest_radius_m", f.nest_radius_m)?;
+    number(
+        "world.foraging.nest_radius_m",
+        f.nest_radius_m,
+        0.0,
+        c.world.arena_side_m / 2.0,
+    )?;
+    inside(c, "world.foraging.nest_x_m", f.nest_x_m, f.nest_radius_m)?;
+    inside(c, "world.foraging.nest_y_m", f.nest_y_m, f.nest_radius_m)?;
+    integer(
+        "world.foraging.food_sources",
+        f.food_sources.into(),
+        1,
+        10_000,
+    )?;
+    positive("world.foraging.food_radius_m", f.food_radius_m)?;
+    number(
+        "world.foraging.food_radius_m",
+        f.food_radius_m,
+        0.0,
+        c.world.arena_side_m / 4.0,
+    )?;
+    number("world.foraging.rest_s", f.rest_s, 0.0, 1.0e7)
 }
 
 fn waypoints_fit_the_trajectory(c: &Config) -> Result<(), ConfigError> {

@@ -1,7 +1,9 @@
-//! The robots' controller: a random walk at cruise speed with Braitenberg-style obstacle
-//! avoidance on the IR proximity sensors (docs/SPEC.md section 1). It runs on the driver side: its
-//! decisions become [`TickEvent`]s that the physics reducer folds; its state is not part of
-//! the [`World`].
+//! The robots' controllers. This file holds the default behaviour, the avoidance walk: a random
+//! walk at cruise speed with Braitenberg-style obstacle avoidance on the IR proximity sensors
+//! (docs/SPEC.md section 1), the steering shared by the other behaviours, and [`Controllers`],
+//! which runs each robot's behaviour (`flocking.rs`, `foraging.rs`; `behaviour.rs` says
+//! which robot runs which). It runs on the driver side: its decisions become [`TickEvent`]s
+//! that the physics reducer folds; its state is not part of the [`World`].
 //!
 //! Per robot and tick, in this order:
 //! 1. If a front sensor (one pointing less than 90 degrees off the heading) reads above
@@ -17,7 +19,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::World;
-use crate::config::Config;
+use crate::config::{Behaviour, Config, FlockingConfig};
 use crate::rng::{self, Purpose, Rng};
 
 /// Wheel speeds of one robot for one tick, quantised to millimetres per second (so that the
@@ -66,17 +68,150 @@ pub struct TickEvent {
     pub commands: Vec<WheelCommand>,
 }
 
+/// One robot's controller state (driver side).
 #[derive(Clone, Debug)]
-struct RobotController {
+pub(super) struct RobotController {
     rng: Rng,
     /// Ticks left in the current random turn.
     turn_ticks: u32,
     /// Direction of the random turn: +1 counter-clockwise, -1 clockwise.
     turn_dir: i8,
     /// Direction of the avoidance turn in progress, if any.
-    avoiding: Option<i8>,
+    pub(super) avoiding: Option<i8>,
     /// Direction of the last avoidance turn (used on ties).
     last_avoid_dir: i8,
+    /// Steering behaviours only: ticks left driving straight after an avoidance turn.
+    straight_ticks: u32,
+}
+
+/// Ticks a steering robot (flocking, a returning forager) drives straight after an avoidance
+/// turn before it steers again (2 s at 10 Hz), so it rounds an obstacle instead of turning
+/// straight back into it.
+pub(super) const HOLD_TICKS: u32 = 20;
+
+/// What a robot's sensors say this tick, for the steering behaviours.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct Steer {
+    /// A front proximity reading exceeds the threshold.
+    pub(super) blocked: bool,
+    /// The front readings weighted by the sine of their angle (> 0: the obstacle is left).
+    pub(super) lean: f64,
+    /// Cruise speed in mm/s.
+    pub(super) cruise_mmps: i16,
+}
+
+fn spin(v: i16, dir: i8) -> WheelCommand {
+    if dir > 0 {
+        WheelCommand {
+            left_mmps: -v,
+            right_mmps: v,
+        }
+    } else {
+        WheelCommand {
+            left_mmps: v,
+            right_mmps: -v,
+        }
+    }
+}
+
+/// The avoidance turn: away from the side the obstacle leans to, keeping the direction of a
+/// turn in progress; cancels any random turn.
+fn avoid(c: &mut RobotController, lean: f64, v: i16) -> WheelCommand {
+    c.turn_ticks = 0;
+    let dir = match c.avoiding {
+        Some(d) => d,
+        None if lean > 0.0 => -1,
+        None if lean < 0.0 => 1,
+        None => c.last_avoid_dir,
+    };
+    c.avoiding = Some(dir);
+    c.last_avoid_dir = dir;
+    spin(v, dir)
+}
+
+/// The steering behaviours' move toward the world-frame vector `to`: avoid an obstacle in
+/// front; else hold straight after an avoidance; else turn in place when the target is more
+/// than 90 degrees off the heading, and otherwise drive with the inner wheel slowed in
+/// proportion to the angle (straight when aligned).
+pub(super) fn steer_to(
+    c: &mut RobotController,
+    s: &Steer,
+    pose: super::Pose,
+    to: (f64, f64),
+) -> WheelCommand {
+    let v = s.cruise_mmps;
+    if s.blocked {
+        c.straight_ticks = HOLD_TICKS;
+        return avoid(c, s.lean, v);
+    }
+    c.avoiding = None;
+    let straight = WheelCommand {
+        left_mmps: v,
+        right_mmps: v,
+    };
+    if c.straight_ticks > 0 {
+        c.straight_ticks -= 1;
+        return straight;
+    }
+    if to.0 * to.0 + to.1 * to.1 < 1e-12 {
+        return straight;
+    }
+    let mut err = libm::atan2(to.1, to.0) - pose.theta;
+    while err > std::f64::consts::PI {
+        err -= 2.0 * std::f64::consts::PI;
+    }
+    while err < -std::f64::consts::PI {
+        err += 2.0 * std::f64::consts::PI;
+    }
+    let half = std::f64::consts::FRAC_PI_2;
+    if err.abs() > half {
+        return spin(v, if err > 0.0 { 1 } else { -1 });
+    }
+    let inner = (f64::from(v) * (half - err.abs()) / half).round() as i16;
+    if err > 0.0 {
+        WheelCommand {
+            left_mmps: inner,
+            right_mmps: v,
+        }
+    } else {
+        WheelCommand {
+            left_mmps: v,
+            right_mmps: inner,
+        }
+    }
+}
+
+/// The random walk's parameters.
+#[derive(Clone, Copy, Debug)]
+struct Walk {
+    turn_probability: f64,
+    turn_max_s: f64,
+    tick_s: f64,
+}
+
+/// The avoidance walk without an obstacle in front: a random turn in progress, or with
+/// probability `turn_probability` a new one, else straight.
+fn walk(c: &mut RobotController, w: &Walk, v: i16) -> WheelCommand {
+    let straight = WheelCommand {
+        left_mmps: v,
+        right_mmps: v,
+    };
+    c.avoiding = None;
+    if c.turn_ticks > 0 {
+        c.turn_ticks -= 1;
+        spin(v, c.turn_dir)
+    } else if c.rng.chance(w.turn_probability) {
+        let ticks = (c.rng.uniform() * w.turn_max_s / w.tick_s).round() as u32;
+        c.turn_dir = if c.rng.below(2) == 0 { 1 } else { -1 };
+        if ticks > 0 {
+            c.turn_ticks = ticks - 1;
+            spin(v, c.turn_dir)
+        } else {
+            straight
+        }
+    } else {
+        straight
+    }
 }
 
 /// The robots' controllers: driver-side state (random-walk timers, their random streams).
@@ -84,13 +219,16 @@ struct RobotController {
 pub struct Controllers {
     cruise_mmps: i16,
     threshold: f64,
-    turn_probability: f64,
-    turn_max_s: f64,
-    tick_s: f64,
+    walk: Walk,
     /// For each sensor, whether it faces forward and the sine of its angle.
     sensors: Vec<(bool, f64)>,
     robots: Vec<RobotController>,
     readings: Vec<f64>,
+    /// Each robot's behaviour (`world/behaviour.rs`).
+    behaviours: Vec<Behaviour>,
+    flocking: FlockingConfig,
+    /// Reused buffer: the range-and-bearing contacts flockers read.
+    contacts: Vec<Vec<crate::types::RobotId>>,
 }
 
 impl Controllers {
@@ -114,18 +252,24 @@ impl Controllers {
                     turn_dir: 1,
                     avoiding: None,
                     last_avoid_dir,
+                    straight_ticks: 0,
                 }
             })
             .collect();
         Controllers {
             cruise_mmps: WheelCommand::from_mps(w.cruise_speed_mps, 0.0).left_mmps,
             threshold: w.proximity_threshold,
-            turn_probability: (w.random_turn_rate_per_s * config.run.tick_s).min(1.0),
-            turn_max_s: w.random_turn_max_s,
-            tick_s: config.run.tick_s,
+            walk: Walk {
+                turn_probability: (w.random_turn_rate_per_s * config.run.tick_s).min(1.0),
+                turn_max_s: w.random_turn_max_s,
+                tick_s: config.run.tick_s,
+            },
             sensors,
             robots,
             readings: vec![0.0; n as usize],
+            behaviours: super::behaviour::assignment(config),
+            flocking: w.flocking.clone(),
+            contacts: Vec::new(),
         }
     }
 
@@ -137,23 +281,9 @@ impl Controllers {
             "controllers built for another swarm"
         );
         let v = self.cruise_mmps;
-        let straight = WheelCommand {
-            left_mmps: v,
-            right_mmps: v,
-        };
-        let turn = |dir: i8| {
-            if dir > 0 {
-                WheelCommand {
-                    left_mmps: -v,
-                    right_mmps: v,
-                }
-            } else {
-                WheelCommand {
-                    left_mmps: v,
-                    right_mmps: -v,
-                }
-            }
-        };
+        if self.behaviours.contains(&Behaviour::Flocking) {
+            world.contacts(&mut self.contacts);
+        }
         let mut commands = Vec::with_capacity(self.robots.len());
         for (i, c) in self.robots.iter_mut().enumerate() {
             world.proximity(i as u32, &mut self.readings);
@@ -165,34 +295,35 @@ impl Controllers {
                     lean += r * sin;
                 }
             }
-            let command = if front_max > self.threshold {
-                c.turn_ticks = 0;
-                let dir = match c.avoiding {
-                    Some(d) => d,
-                    None if lean > 0.0 => -1,
-                    None if lean < 0.0 => 1,
-                    None => c.last_avoid_dir,
-                };
-                c.avoiding = Some(dir);
-                c.last_avoid_dir = dir;
-                turn(dir)
-            } else {
-                c.avoiding = None;
-                if c.turn_ticks > 0 {
-                    c.turn_ticks -= 1;
-                    turn(c.turn_dir)
-                } else if c.rng.chance(self.turn_probability) {
-                    let ticks = (c.rng.uniform() * self.turn_max_s / self.tick_s).round() as u32;
-                    c.turn_dir = if c.rng.below(2) == 0 { 1 } else { -1 };
-                    if ticks > 0 {
-                        c.turn_ticks = ticks - 1;
-                        turn(c.turn_dir)
-                    } else {
-                        straight
-                    }
+            let blocked = front_max > self.threshold;
+            let steer = Steer {
+                blocked,
+                lean,
+                cruise_mmps: v,
+            };
+            let walk_params = self.walk;
+            let avoidance = |c: &mut RobotController| {
+                if blocked {
+                    avoid(c, lean, v)
                 } else {
-                    straight
+                    walk(c, &walk_params, v)
                 }
+            };
+            let pose = world.poses()[i];
+            let command = match (self.behaviours[i], world.behaviours()) {
+                (Behaviour::Flocking, _) => super::flocking::command(
+                    c,
+                    &steer,
+                    i,
+                    world.poses(),
+                    &self.contacts[i],
+                    &self.flocking,
+                    world.time().secs(),
+                ),
+                (Behaviour::Foraging, Some(b)) => {
+                    super::foraging::command(c, b.foragers[i], pose, b, &steer, avoidance)
+                }
+                _ => avoidance(c),
             };
             commands.push(command);
         }

@@ -14,19 +14,24 @@
 //! Submodules: [`arena`] (walls, obstacles, grid), [`physics`], [`sensors`], [`controller`].
 
 pub mod arena;
+pub mod behaviour;
 pub mod controller;
+pub mod flocking;
+pub mod foraging;
 pub mod physics;
 pub mod sensors;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, ConfigError};
+use crate::config::{Config, ConfigError, WindowRule};
 use crate::data::{HeldoutObserver, Recorder, Recording, Sample};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
 
 pub use arena::{Arena, Obstacle};
+pub use behaviour::{Behaviours, Food, Nest};
 pub use controller::{Controllers, TickEvent, WheelCommand};
+pub use foraging::Forager;
 use physics::{Body, RobotGrid};
 
 /// What can go wrong building a world or folding an event into it.
@@ -85,6 +90,13 @@ pub struct WorldStats {
     pub messages_dropped: u64,
     /// Samples in the held-out set.
     pub heldout_samples: u64,
+    /// Data heterogeneity between robots' current data sets (`data::heterogeneity`: mean
+    /// total-variation distance of each robot's speed x turn histogram to the pooled one).
+    #[serde(default)]
+    pub data_heterogeneity: f64,
+    /// Items delivered to the nest by foragers (0 without foraging).
+    #[serde(default)]
+    pub foraging_deliveries: u64,
 }
 
 /// Parameters derived from the configuration, in the units the reducer uses.
@@ -148,8 +160,38 @@ pub struct World {
     reading_mix: u64,
     /// Digest of the parts fixed at construction (parameters, arena, held-out set).
     fixed_digest: Digest,
+    /// What later issues added (behaviours, robot occlusion, window rule); left out of the
+    /// serialized state and of the digests while at its default, so that worlds which do not
+    /// use it keep their records.
+    #[serde(default, skip_serializing_if = "Extra::is_default")]
+    extra: Extra,
     #[serde(skip)]
     scratch: Scratch,
+}
+
+/// The world's parameters and state beyond the original ones (see `World::extra`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+struct Extra {
+    /// Robots block range-and-bearing line of sight (`world.rab_robot_occlusion`).
+    rab_robot_occlusion: bool,
+    /// When a window becomes a sample (`data.window_rule`).
+    window_rule: WindowRule,
+    /// The behaviours, unless every robot runs the default avoidance walk.
+    behaviours: Option<Behaviours>,
+}
+
+impl Extra {
+    fn new(config: &Config, seed: u64, arena: &Arena) -> Result<Extra, WorldError> {
+        Ok(Extra {
+            rab_robot_occlusion: config.world.rab_robot_occlusion,
+            window_rule: config.data.window_rule,
+            behaviours: Behaviours::new(config, seed, arena)?,
+        })
+    }
+
+    fn is_default(&self) -> bool {
+        *self == Extra::default()
+    }
 }
 
 impl World {
@@ -210,6 +252,7 @@ impl World {
             &mut rng::stream(placement_seed, Purpose::Placement, 0),
         )?;
         let n = w.robots;
+        let extra = Extra::new(config, seed, &arena)?;
         let mut world = World {
             params,
             arena,
@@ -225,6 +268,7 @@ impl World {
             sample_chain: Digest::default(),
             reading_mix: 0,
             fixed_digest: Digest::default(),
+            extra,
             scratch: Scratch {
                 grid,
                 grid_tick: Some(0),
@@ -285,6 +329,9 @@ impl World {
         debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick + 1);
         self.counters.collisions += overlaps;
         self.tick += 1;
+        if let Some(b) = &mut self.extra.behaviours {
+            foraging::advance(b, &self.poses, self.params.body.radius_m, self.tick);
+        }
         self.scratch.grid = grid;
         self.scratch.grid_tick = Some(self.tick);
         if self.params.sensing {
@@ -316,24 +363,26 @@ impl World {
             // the neighbour's true position plus that noise.
             let poses = &self.poses;
             let mix = &mut self.reading_mix;
-            let completed = self.recorders[i].observe(&p.recording, now, &heard, |j, kept| {
-                if !kept {
-                    return [0.0, 0.0];
-                }
-                let q = poses[j as usize];
-                let (nx, ny) = if sigma > 0.0 {
-                    gaussian_pair(rng, sigma)
-                } else {
-                    (0.0, 0.0)
-                };
-                let point = [(q.x + nx) as f32, (q.y + ny) as f32];
-                *mix = mix_in(*mix, (u64::from(j) << 32) | i as u64);
-                *mix = mix_in(
-                    *mix,
-                    (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()),
-                );
-                point
-            });
+            let rule = self.extra.window_rule;
+            let completed =
+                self.recorders[i].observe(&p.recording, rule, now, &heard, |j, kept| {
+                    if !kept {
+                        return [0.0, 0.0];
+                    }
+                    let q = poses[j as usize];
+                    let (nx, ny) = if sigma > 0.0 {
+                        gaussian_pair(rng, sigma)
+                    } else {
+                        (0.0, 0.0)
+                    };
+                    let point = [(q.x + nx) as f32, (q.y + ny) as f32];
+                    *mix = mix_in(*mix, (u64::from(j) << 32) | i as u64);
+                    *mix = mix_in(
+                        *mix,
+                        (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()),
+                    );
+                    point
+                });
             if completed > 0 {
                 let samples = self.recorders[i].samples();
                 for s in samples.range(samples.len() - completed as usize..) {
@@ -369,6 +418,12 @@ impl World {
     /// The arena: walls and obstacles.
     pub fn arena(&self) -> &Arena {
         &self.arena
+    }
+
+    /// The behaviours (each robot's, the nest, the food sources, the foragers' states), or
+    /// `None` when every robot runs the default avoidance walk.
+    pub fn behaviours(&self) -> Option<&Behaviours> {
+        self.extra.behaviours.as_ref()
     }
 
     /// The robots' body radius in metres.
@@ -451,6 +506,11 @@ impl World {
             blocked_moves: self.counters.blocked_moves,
             messages_dropped: self.counters.messages_dropped,
             heldout_samples: self.heldout.len() as u64,
+            data_heterogeneity: crate::data::heterogeneity(
+                self.recorders.iter().map(Recorder::samples),
+                self.params.tick_ms as f64 / 1000.0,
+            ),
+            foraging_deliveries: self.extra.behaviours.as_ref().map_or(0, |b| b.deliveries),
         }
     }
 
@@ -495,12 +555,18 @@ impl World {
             h.update(&v.to_le_bytes());
         }
         h.update(&self.sample_chain.0);
+        if let Some(b) = &self.extra.behaviours {
+            h.update(&rmp_serde::to_vec(&(&b.foragers, b.deliveries)).expect("states serialise"));
+        }
         h.finalize().into()
     }
 
     fn compute_fixed_digest(&self) -> Digest {
         let mut bytes =
             rmp_serde::to_vec(&(&self.params, &self.arena)).expect("world parameters serialise");
+        if !self.extra.is_default() {
+            bytes.extend(rmp_serde::to_vec(&self.extra).expect("world extras serialise"));
+        }
         for s in &self.heldout {
             bytes.extend_from_slice(&s.time.0.to_le_bytes());
             for p in &s.points {

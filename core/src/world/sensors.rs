@@ -7,7 +7,8 @@
 //!
 //! Range-and-bearing: robot `i` is in contact with `j` when their centers are at most
 //! `rab_range_m` apart and, with `rab_occlusion`, no obstacle crosses the segment between them
-//! (robots do not occlude). Contact is symmetric; it defines the links, the peer sets and
+//! (robots occlude only with `rab_robot_occlusion`: a third robot's body meets the segment, as
+//! in ARGoS). Contact is symmetric; it defines the links, the peer sets and
 //! `mean_neighbours`. Each tick, each message from a contact is lost with probability
 //! `rab_packet_drop` (drawn by the receiver); the peer set ignores packet drop, because gossip
 //! has its own loss (`ledger.packet_loss`).
@@ -121,6 +122,7 @@ impl World {
                 let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
                 if d2 <= range * range
                     && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
+                    && !(self.extra.rab_robot_occlusion && self.robot_between(i as u32, j))
                 {
                     adj[i].push(j);
                     adj[j as usize].push(i as u32);
@@ -130,6 +132,38 @@ impl World {
         for a in adj.iter_mut() {
             a.sort_unstable();
         }
+    }
+
+    /// Whether the body of a robot other than `a` and `b` meets the segment between their
+    /// centers (ARGoS's range-and-bearing medium: the first body on the ray must be the
+    /// receiver's).
+    fn robot_between(&self, a: RobotId, b: RobotId) -> bool {
+        let p = self.poses[a as usize];
+        let q = self.poses[b as usize];
+        let r = self.params.body.radius_m;
+        let (dx, dy) = (q.x - p.x, q.y - p.y);
+        let len2 = dx * dx + dy * dy;
+        let mut hit = false;
+        self.robots_near(
+            p.x.min(q.x) - r,
+            p.y.min(q.y) - r,
+            p.x.max(q.x) + r,
+            p.y.max(q.y) + r,
+            |k| {
+                if hit || k == a || k == b {
+                    return;
+                }
+                let c = self.poses[k as usize];
+                let t = if len2 > 0.0 {
+                    (((c.x - p.x) * dx + (c.y - p.y) * dy) / len2).clamp(0.0, 1.0)
+                } else {
+                    0.0
+                };
+                let (ex, ey) = (p.x + t * dx - c.x, p.y + t * dy - c.y);
+                hit = ex * ex + ey * ey < r * r;
+            },
+        );
+        hit
     }
 
     /// The range-and-bearing links of the current state (pairs `(i, j)`, `i < j`, ascending),

@@ -7,6 +7,7 @@ pub mod bench;
 pub mod bisect;
 pub mod chaos;
 pub mod config;
+pub mod data_volume;
 pub mod diff;
 pub mod export;
 pub mod fixtures;

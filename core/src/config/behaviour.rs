@@ -1,0 +1,182 @@
+//! The configuration types of the robots' behaviours (`world.behaviour`, `world.mixed`,
+//! `world.flocking`, `world.foraging`) and of the trajectory window rule (`data.window_rule`).
+//! Their behaviour lives in `world/` (one controller a file) and `data.rs`; docs/SPEC.md
+//! section 1 has every value beside Flow-FL's.
+
+use serde::{Deserialize, Serialize};
+
+/// What a robot does: the controller that drives it.
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(rename_all = "lowercase")]
+pub enum Behaviour {
+    /// Random walk at cruise speed with obstacle avoidance (the paper's robots; today's default).
+    #[default]
+    Avoidance,
+    /// Separation, cohesion and alignment from the range-and-bearing readings of neighbours,
+    /// steered toward a goal (Flow-FL's flocking to a light).
+    Flocking,
+    /// Shuttling between food sources and the nest: explore, return with an item, rest.
+    Foraging,
+    /// A swarm whose robots run different behaviours (`world.mixed`).
+    Mixed,
+}
+
+impl Behaviour {
+    /// Every behaviour, in the order of their names in errors and summaries.
+    pub const ALL: [Behaviour; 4] = [
+        Behaviour::Avoidance,
+        Behaviour::Flocking,
+        Behaviour::Foraging,
+        Behaviour::Mixed,
+    ];
+
+    /// The name used in configurations, summaries and drawings.
+    pub fn name(self) -> &'static str {
+        match self {
+            Behaviour::Avoidance => "avoidance",
+            Behaviour::Flocking => "flocking",
+            Behaviour::Foraging => "foraging",
+            Behaviour::Mixed => "mixed",
+        }
+    }
+}
+
+/// How the robots of a `mixed` swarm get their behaviours.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MixedConfig {
+    /// Share of the swarm that runs avoidance; robot `i` gets the behaviour whose cumulative
+    /// share first exceeds `(i + 0.5) / robots` (avoidance, then flocking, then foraging), so
+    /// the split is exact up to rounding and needs no random draw. The three must sum to 1.
+    pub avoidance: f64,
+    /// Share that runs flocking.
+    pub flocking: f64,
+    /// Share that runs foraging.
+    pub foraging: f64,
+    /// One behaviour per robot (`avoidance`, `flocking` or `foraging`), overriding the shares
+    /// when not empty; it must name every robot.
+    pub per_robot: Vec<Behaviour>,
+}
+
+impl Default for MixedConfig {
+    fn default() -> Self {
+        MixedConfig {
+            avoidance: 1.0 / 3.0,
+            flocking: 1.0 / 3.0,
+            foraging: 1.0 / 3.0,
+            per_robot: Vec::new(),
+        }
+    }
+}
+
+impl MixedConfig {
+    /// Robot `robot`'s behaviour in a swarm of `robots` (never `Mixed`).
+    pub fn behaviour_of(&self, robot: u32, robots: u32) -> Behaviour {
+        if let Some(&b) = self.per_robot.get(robot as usize) {
+            return b;
+        }
+        let at = (f64::from(robot) + 0.5) / f64::from(robots.max(1));
+        if at < self.avoidance {
+            Behaviour::Avoidance
+        } else if at < self.avoidance + self.flocking {
+            Behaviour::Flocking
+        } else {
+            Behaviour::Foraging
+        }
+    }
+}
+
+/// Flocking: the parameters of the heading rule (world/flocking.rs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlockingConfig {
+    /// Preferred distance to a neighbour in metres (Flow-FL: 75 cm); closer repels, farther
+    /// attracts (a generalised Lennard-Jones potential of exponent 2).
+    pub target_distance_m: f64,
+    /// Weight of the separation/cohesion term (its length is clamped to 1 before weighting).
+    pub cohesion_weight: f64,
+    /// Weight of the alignment term: the mean heading of the neighbours heard.
+    pub alignment_weight: f64,
+    /// Weight of the pull toward the goal (Flow-FL: the light).
+    pub goal_weight: f64,
+    /// The goal's x in metres (Flow-FL's light: -2 m of a 4 m arena, i.e. near the west wall).
+    pub goal_x_m: f64,
+    /// The goal's y in metres (Flow-FL's light: -1.5 m).
+    pub goal_y_m: f64,
+    /// Period in seconds after which the goal moves to its mirror image through the arena's
+    /// center (0 = a fixed goal, as Flow-FL's light), so the flock keeps travelling.
+    pub goal_swap_s: f64,
+}
+
+impl Default for FlockingConfig {
+    fn default() -> Self {
+        FlockingConfig {
+            target_distance_m: 0.75,
+            cohesion_weight: 1.0,
+            alignment_weight: 0.5,
+            goal_weight: 1.0,
+            goal_x_m: -1.5,
+            goal_y_m: -1.0,
+            goal_swap_s: 200.0,
+        }
+    }
+}
+
+/// Foraging: the nest, the food sources and the state machine's times (world/foraging.rs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ForagingConfig {
+    /// The nest's center x in metres (Flow-FL: the west strip of the arena, by its lights).
+    pub nest_x_m: f64,
+    /// The nest's center y in metres.
+    pub nest_y_m: f64,
+    /// The nest's radius in metres; it must lie inside the arena's walls.
+    pub nest_radius_m: f64,
+    /// Number of food sources, placed from the seed (`Purpose::Obstacles`' stream, after the
+    /// obstacles) inside the walls, clear of the nest and of the obstacles.
+    pub food_sources: u32,
+    /// Radius of a food source in metres (Flow-FL's items: 0.1 m).
+    pub food_radius_m: f64,
+    /// Seconds a robot rests in the nest after delivering an item before exploring again.
+    pub rest_s: f64,
+}
+
+impl Default for ForagingConfig {
+    fn default() -> Self {
+        ForagingConfig {
+            nest_x_m: -1.4,
+            nest_y_m: 0.0,
+            nest_radius_m: 0.5,
+            food_sources: 4,
+            food_radius_m: 0.15,
+            rest_s: 10.0,
+        }
+    }
+}
+
+/// When a window of consecutive readings of one neighbour becomes a sample.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum WindowRule {
+    /// At its `trajectory_ticks`-th reading; the next window starts at the next reading, and a
+    /// missed tick discards the window (ours until now).
+    #[default]
+    Contiguous,
+    /// The authors' code (Flow-FL's `trajectory_collection_loop_functions.cpp` and
+    /// geth-argos' `main.py`, same logic): a full window is saved only when the neighbour is
+    /// heard again on the next tick, and that reading starts nothing; a gap is noticed at the
+    /// next reading of that neighbour, which is dropped too.
+    Confirmed,
+}
+
+impl WindowRule {
+    /// The name used in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            WindowRule::Contiguous => "contiguous",
+            WindowRule::Confirmed => "confirmed",
+        }
+    }
+}

@@ -1,0 +1,171 @@
+//! Which robot runs which behaviour, and the part of the reduced state that behaviours add:
+//! the foraging arena (nest, food sources) and each forager's state (docs/SPEC.md section 1,
+//! "Behaviours").
+//!
+//! The assignment is a pure function of the configuration (`world.behaviour`, and for
+//! `mixed` the shares or the per-robot list of `world.mixed`), so the world and the
+//! controllers agree on it without a random draw. Food sources are placed from their own
+//! seeded stream (`Purpose::Obstacles`, index 1), so they never perturb the obstacles' or the
+//! robots' placement. Forager states change in the reducer, from positions alone (see
+//! [`super::foraging`]): replaying the tick events reproduces them, and they enter the world's
+//! digest, so every checkpoint covers them.
+
+use serde::{Deserialize, Serialize};
+
+use super::arena::{Arena, PLACEMENT_ATTEMPTS};
+use super::foraging::Forager;
+use super::WorldError;
+use crate::config::{Behaviour, Config};
+use crate::rng::{self, Purpose};
+
+/// Each robot's behaviour (never `Mixed`), in robot order.
+pub fn assignment(config: &Config) -> Vec<Behaviour> {
+    let w = &config.world;
+    (0..w.robots)
+        .map(|i| match w.behaviour {
+            Behaviour::Mixed => w.mixed.behaviour_of(i, w.robots),
+            b => b,
+        })
+        .collect()
+}
+
+/// The nest of a foraging swarm: a disk robots bring items to.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Nest {
+    /// Center x in metres.
+    pub x: f64,
+    /// Center y in metres.
+    pub y: f64,
+    /// Radius in metres.
+    pub radius_m: f64,
+}
+
+impl Nest {
+    /// Whether the point lies in the nest.
+    pub fn contains(&self, x: f64, y: f64) -> bool {
+        (x - self.x) * (x - self.x) + (y - self.y) * (y - self.y) <= self.radius_m * self.radius_m
+    }
+}
+
+/// A food source: a disk where an exploring robot picks an item up (sources never run out).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Food {
+    /// Center x in metres.
+    pub x: f64,
+    /// Center y in metres.
+    pub y: f64,
+}
+
+/// The behaviours' part of the world.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Behaviours {
+    /// Each robot's behaviour, in robot order.
+    pub of: Vec<Behaviour>,
+    /// The nest, when some robot forages.
+    pub nest: Option<Nest>,
+    /// The food sources (empty without foragers).
+    pub food: Vec<Food>,
+    /// Radius of every food source in metres.
+    pub food_radius_m: f64,
+    /// Ticks a forager rests in the nest.
+    pub rest_ticks: u64,
+    /// Each robot's foraging state (`Explore` for robots that do not forage).
+    pub foragers: Vec<Forager>,
+    /// Items ever delivered to the nest, all robots.
+    pub deliveries: u64,
+}
+
+impl Behaviours {
+    /// The behaviours of the run seeded with `seed`, or `None` when every robot runs the
+    /// default avoidance walk (then the world is exactly what it was before behaviours).
+    pub fn new(
+        config: &Config,
+        seed: u64,
+        arena: &Arena,
+    ) -> Result<Option<Behaviours>, WorldError> {
+        let of = assignment(config);
+        if of.iter().all(|&b| b == Behaviour::Avoidance) {
+            return Ok(None);
+        }
+        let f = &config.world.foraging;
+        let foraging = of.contains(&Behaviour::Foraging);
+        let nest = foraging.then_some(Nest {
+            x: f.nest_x_m,
+            y: f.nest_y_m,
+            radius_m: f.nest_radius_m,
+        });
+        let food = match nest {
+            Some(nest) => place_food(config, seed, arena, &nest)?,
+            None => Vec::new(),
+        };
+        Ok(Some(Behaviours {
+            foragers: vec![Forager::Explore; of.len()],
+            of,
+            nest,
+            food,
+            food_radius_m: f.food_radius_m,
+            rest_ticks: (f.rest_s / config.run.tick_s).round() as u64,
+            deliveries: 0,
+        }))
+    }
+
+    /// Whether a robot at (`x`, `y`) with body radius `r` touches a food source.
+    pub fn at_food(&self, x: f64, y: f64, r: f64) -> bool {
+        let reach = self.food_radius_m + r;
+        self.food
+            .iter()
+            .any(|s| (x - s.x) * (x - s.x) + (y - s.y) * (y - s.y) <= reach * reach)
+    }
+}
+
+/// Food sources uniformly inside the walls, each clear of the nest and of every obstacle by a
+/// robot's diameter (so a robot can reach it), and of the other sources.
+fn place_food(
+    config: &Config,
+    seed: u64,
+    arena: &Arena,
+    nest: &Nest,
+) -> Result<Vec<Food>, WorldError> {
+    let f = &config.world.foraging;
+    let r = config.world.robot_radius_m;
+    let fr = f.food_radius_m;
+    let lim = arena.half_side_m - fr - 2.0 * r;
+    let mut rng = rng::stream(seed, Purpose::Obstacles, 1);
+    let mut food: Vec<Food> = Vec::with_capacity(f.food_sources as usize);
+    for k in 0..f.food_sources {
+        let mut placed = None;
+        for _ in 0..PLACEMENT_ATTEMPTS {
+            if lim <= 0.0 {
+                break;
+            }
+            let (x, y) = (rng.range(-lim, lim), rng.range(-lim, lim));
+            let clear_of_nest = libm::hypot(x - nest.x, y - nest.y) > nest.radius_m + fr;
+            let clear_of_food = food
+                .iter()
+                .all(|s| libm::hypot(x - s.x, y - s.y) > 2.0 * fr);
+            let reach = fr + 2.0 * r;
+            let clear_of_obstacles = arena
+                .obstacles
+                .iter()
+                .all(|o| o.distance_sq(x, y) > reach * reach);
+            if clear_of_nest && clear_of_food && clear_of_obstacles {
+                placed = Some(Food { x, y });
+                break;
+            }
+        }
+        let Some(source) = placed else {
+            return Err(WorldError::Placement {
+                what: format!("food source {k}"),
+                why: format!(
+                    "no spot clear of the nest, the obstacles and the other sources after \
+                     {PLACEMENT_ATTEMPTS} attempts: world.foraging.food_sources = {} of \
+                     world.foraging.food_radius_m = {} do not fit in world.arena_side_m = {}; \
+                     use fewer or smaller sources, a smaller nest or a larger arena",
+                    f.food_sources, fr, config.world.arena_side_m
+                ),
+            });
+        };
+        food.push(source);
+    }
+    Ok(food)
+}

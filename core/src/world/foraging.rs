@@ -1,0 +1,93 @@
+//! Foraging (Flow-FL's third behaviour; docs/SPEC.md section 1, "Behaviours"): robots shuttle
+//! between food sources and the nest.
+//!
+//! States, changed by the reducer after each tick's physics from the robot's position alone
+//! ([`advance`]), so that replay reproduces them and checkpoints cover them:
+//! - `Explore`: the avoidance random walk; touching a food source (center within the source's
+//!   radius plus the robot's) picks an item up: `Return`.
+//! - `Return`: steer straight for the nest's center, with the same obstacle avoidance (after an
+//!   avoidance turn the robot drives straight for `HOLD_TICKS` before steering again, so it
+//!   rounds obstacles instead of turning back into them); entering the nest delivers the item:
+//!   `Rest` for `world.foraging.rest_s`.
+//! - `Rest`: the robot stands still in the nest; then `Explore` again.
+//!
+//! The controller side ([`command`]) reads the state from the world.
+
+use serde::{Deserialize, Serialize};
+
+use super::behaviour::Behaviours;
+use super::controller::{steer_to, RobotController, Steer};
+use super::{Pose, WheelCommand};
+use crate::config::Behaviour;
+
+/// A forager's state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Forager {
+    /// Looking for food (the avoidance walk).
+    Explore,
+    /// Carrying an item to the nest.
+    Return,
+    /// Resting in the nest until the given tick.
+    Rest {
+        /// The tick at which it explores again.
+        until: u64,
+    },
+}
+
+impl Forager {
+    /// A short name for drawings and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Forager::Explore => "explore",
+            Forager::Return => "return",
+            Forager::Rest { .. } => "rest",
+        }
+    }
+}
+
+/// Moves every forager's state on after the tick that brought the world to `tick`.
+pub(super) fn advance(b: &mut Behaviours, poses: &[Pose], radius_m: f64, tick: u64) {
+    let Some(nest) = b.nest else {
+        return;
+    };
+    for i in 0..b.of.len() {
+        if b.of[i] != Behaviour::Foraging {
+            continue;
+        }
+        let p = poses[i];
+        b.foragers[i] = match b.foragers[i] {
+            Forager::Explore if b.at_food(p.x, p.y, radius_m) => Forager::Return,
+            Forager::Return if nest.contains(p.x, p.y) => {
+                b.deliveries += 1;
+                Forager::Rest {
+                    until: tick + b.rest_ticks,
+                }
+            }
+            Forager::Rest { until } if tick >= until => Forager::Explore,
+            state => state,
+        };
+    }
+}
+
+/// The wheel command of forager `i` for the next tick. `walk` is the avoidance walk's command
+/// (what an exploring forager does, computed by the caller with the same draws an avoidance
+/// robot makes).
+pub(super) fn command(
+    c: &mut RobotController,
+    state: Forager,
+    pose: Pose,
+    b: &Behaviours,
+    steer: &Steer,
+    walk: impl FnOnce(&mut RobotController) -> WheelCommand,
+) -> WheelCommand {
+    match (state, b.nest) {
+        (Forager::Explore, _) | (_, None) => walk(c),
+        (Forager::Return, Some(nest)) => {
+            steer_to(c, steer, pose, (nest.x - pose.x, nest.y - pose.y))
+        }
+        (Forager::Rest { .. }, Some(_)) => {
+            c.avoiding = None;
+            WheelCommand::from_mps(0.0, 0.0)
+        }
+    }
+}

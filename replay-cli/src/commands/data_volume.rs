@@ -1,0 +1,176 @@
+//! `swarmfl data-volume`: how much trajectory data the robots collect, from the world alone
+//! (controllers, physics, sensing and recording; no learning, no ledger), per behaviour, swarm
+//! size and seed, beside the counts of Flow-FL's published dataset (NESTLab
+//! `mrs_fl_dataset`, per robot over 5000 s; issue #38). docs/SPEC.md section 1, "Data
+//! volume", explains the differences.
+
+use std::process::ExitCode;
+
+use anyhow::Context;
+use serde::Serialize;
+use swarmfl_core::config::Behaviour;
+use swarmfl_core::world::{Controllers, World};
+
+use crate::cli::DataVolumeArgs;
+
+/// Flow-FL's dataset: samples per robot over 5000 s, mean and standard deviation where
+/// published, at 15 and 60 robots (issue #38).
+const FLOWFL: &[(Behaviour, u32, f64, Option<f64>)] = &[
+    (Behaviour::Avoidance, 15, 1415.0, Some(206.0)),
+    (Behaviour::Avoidance, 60, 3610.0, Some(397.0)),
+    (Behaviour::Flocking, 15, 3267.0, None),
+    (Behaviour::Flocking, 60, 5552.0, None),
+    (Behaviour::Foraging, 15, 2390.0, None),
+    (Behaviour::Foraging, 60, 3122.0, None),
+    (Behaviour::Mixed, 15, 2042.0, None),
+    (Behaviour::Mixed, 60, 2914.0, None),
+];
+
+/// One behaviour at one swarm size, over the seeds.
+#[derive(Serialize)]
+struct Row {
+    behaviour: &'static str,
+    robots: u32,
+    seeds: Vec<u64>,
+    duration_s: f64,
+    /// Per seed: the mean over robots of the samples each collected in the run.
+    per_seed: Vec<f64>,
+    /// Mean over seeds of `per_seed`.
+    samples_per_robot: f64,
+    /// Mean over seeds of the standard deviation over robots.
+    std_over_robots: f64,
+    /// `samples_per_robot` scaled to 600 s.
+    samples_per_robot_per_600s: f64,
+    /// Mean over seeds of the data-heterogeneity measure (summary `data_heterogeneity`).
+    heterogeneity: f64,
+    /// Flow-FL's count for this behaviour and size, scaled to `duration_s`, if published.
+    flowfl: Option<f64>,
+    /// `samples_per_robot / flowfl`.
+    ratio: Option<f64>,
+}
+
+fn list<T: std::str::FromStr>(what: &str, text: &str) -> anyhow::Result<Vec<T>>
+where
+    T::Err: std::fmt::Display,
+{
+    text.split(',')
+        .map(|s| {
+            s.trim()
+                .parse::<T>()
+                .map_err(|e| anyhow::anyhow!("--{what}: cannot read `{s}`: {e}"))
+        })
+        .collect()
+}
+
+/// Runs `swarmfl data-volume`.
+pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
+    let base = args.config.resolve()?;
+    anyhow::ensure!(
+        args.duration_s.is_finite() && args.duration_s > 0.0,
+        "--duration-s: must be a positive number of seconds, got {}",
+        args.duration_s
+    );
+    let robots: Vec<u32> = list("robots", &args.robots)?;
+    let seeds: Vec<u64> = list("seeds", &args.seeds)?;
+    let behaviours = args
+        .behaviours
+        .split(',')
+        .map(|s| {
+            let s = s.trim();
+            Behaviour::ALL
+                .into_iter()
+                .find(|b| b.name() == s)
+                .ok_or_else(|| {
+                    anyhow::anyhow!(
+                        "--behaviours: unknown behaviour `{s}`; expected one of {}",
+                        Behaviour::ALL.map(Behaviour::name).join(", ")
+                    )
+                })
+        })
+        .collect::<anyhow::Result<Vec<_>>>()?;
+    let mut rows = Vec::new();
+    for &behaviour in &behaviours {
+        for &n in &robots {
+            let mut config = base.clone();
+            config.world.robots = n;
+            config.world.behaviour = behaviour;
+            config.run.duration_s = args.duration_s;
+            config
+                .validate()
+                .with_context(|| format!("behaviour {} at {n} robots", behaviour.name()))?;
+            let ticks = (args.duration_s / config.run.tick_s).round() as u64;
+            let (mut per_seed, mut stds, mut het) = (Vec::new(), Vec::new(), Vec::new());
+            for &seed in &seeds {
+                let mut world = World::new(&config, seed)
+                    .with_context(|| format!("building the world of seed {seed}"))?;
+                let mut controllers = Controllers::new(&config, seed);
+                for _ in 0..ticks {
+                    let event = controllers.decide(&world);
+                    world.apply(&event);
+                }
+                let s = world.stats();
+                let scale = world.time().secs() / 600.0;
+                per_seed.push(s.samples_per_robot_per_600s * scale);
+                stds.push(s.samples_per_robot_per_600s_std * scale);
+                het.push(s.data_heterogeneity);
+            }
+            let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+            let samples_per_robot = mean(&per_seed);
+            let flowfl = FLOWFL
+                .iter()
+                .find(|&&(b, r, _, _)| b == behaviour && r == n)
+                .map(|&(_, _, count, _)| count * args.duration_s / 5000.0);
+            rows.push(Row {
+                behaviour: behaviour.name(),
+                robots: n,
+                seeds: seeds.clone(),
+                duration_s: args.duration_s,
+                samples_per_robot,
+                std_over_robots: mean(&stds),
+                samples_per_robot_per_600s: samples_per_robot * 600.0 / args.duration_s,
+                heterogeneity: mean(&het),
+                flowfl,
+                ratio: flowfl.map(|f| samples_per_robot / f),
+                per_seed,
+            });
+        }
+    }
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&rows)?);
+    } else {
+        println!(
+            "preset {}, {} s, seeds {:?} (samples per robot over the run; Flow-FL's dataset scaled to the same length)",
+            base.preset, args.duration_s, seeds
+        );
+        println!(
+            "{:<10} {:>6} {:>10} {:>9} {:>9} {:>8} {:>7} {:>13}  per seed",
+            "behaviour",
+            "robots",
+            "samples",
+            "+-robots",
+            "per 600s",
+            "Flow-FL",
+            "ratio",
+            "heterogeneity"
+        );
+        for r in &rows {
+            println!(
+                "{:<10} {:>6} {:>10.1} {:>9.1} {:>9.1} {:>8} {:>7} {:>13.4}  {}",
+                r.behaviour,
+                r.robots,
+                r.samples_per_robot,
+                r.std_over_robots,
+                r.samples_per_robot_per_600s,
+                r.flowfl.map_or("-".to_string(), |f| format!("{f:.0}")),
+                r.ratio.map_or("-".to_string(), |x| format!("{x:.2}")),
+                r.heterogeneity,
+                r.per_seed
+                    .iter()
+                    .map(|v| format!("{v:.1}"))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            );
+        }
+    }
+    Ok(ExitCode::SUCCESS)
+}
