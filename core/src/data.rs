@@ -434,4 +434,62 @@ mod tests {
         assert_eq!(s[1].points, vec![[1.0, 1.0], [1.0, 2.0], [1.0, 3.0]]);
         assert_eq!(s[2].points, vec![[0.0, 6.0], [0.0, 7.0], [0.0, 8.0]]);
     }
+
+    #[test]
+    fn the_confirmed_rule_saves_a_window_at_the_next_reading_and_drops_the_reading_after_a_gap() {
+        let mut r = Recorder::default();
+        let mut completions = Vec::new();
+        // Heard at ticks 0..12 except tick 7.
+        for k in 0..12u64 {
+            let heard: &[RobotId] = if k == 7 { &[] } else { &[1] };
+            let done = r.observe(
+                &rec(),
+                WindowRule::Confirmed,
+                SimTime(k * 100),
+                heard,
+                |_, _| [0.0, 0.0],
+            );
+            if done > 0 {
+                completions.push(k);
+            }
+        }
+        // Window 0..5 (5 readings) confirmed at tick 5, which starts nothing; 6 starts a window
+        // that the gap at 7 discards; 8 (the reading after the gap) is dropped; 9..12 start
+        // the next window, still open.
+        assert_eq!(completions, vec![5]);
+        assert_eq!(r.discarded(), 1);
+        assert_eq!(r.tracks().collect::<Vec<_>>(), vec![(1, 3)]);
+        let mut c = Recorder::default();
+        let mut contiguous = Vec::new();
+        for k in 0..12u64 {
+            let heard: &[RobotId] = if k == 7 { &[] } else { &[1] };
+            if c.observe(
+                &rec(),
+                WindowRule::Contiguous,
+                SimTime(k * 100),
+                heard,
+                |_, _| [0.0, 0.0],
+            ) > 0
+            {
+                contiguous.push(k);
+            }
+        }
+        assert_eq!(contiguous, vec![4]);
+    }
+
+    #[test]
+    fn heterogeneity_is_zero_for_identical_data_and_grows_when_robots_differ() {
+        let slow: Sample = Sample {
+            time: SimTime(0),
+            points: (0..10).map(|k| [k as f32 * 0.001, 0.0]).collect(),
+        };
+        let fast: Sample = Sample {
+            time: SimTime(0),
+            points: (0..10).map(|k| [k as f32 * 0.005, 0.0]).collect(),
+        };
+        let same: Vec<VecDeque<Sample>> = vec![vec![slow.clone(), fast.clone()].into(); 2];
+        assert_eq!(heterogeneity(same.iter(), 0.1), 0.0);
+        let apart: Vec<VecDeque<Sample>> = vec![vec![slow].into(), vec![fast].into()];
+        assert_eq!(heterogeneity(apart.iter(), 0.1), 0.5);
+    }
 }

@@ -443,3 +443,45 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
     let back: Config = toml::from_str(&flocking.to_toml()).unwrap();
     assert_eq!(back, flocking);
 }
+
+#[test]
+fn bad_behaviour_settings_are_refused_naming_the_key() {
+    let err = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        Config::resolve(None, None, &sets).unwrap_err().to_string()
+    };
+    let e = err(&["world.behaviour=dance"]);
+    assert!(
+        e.contains("world.behaviour") && e.contains("flocking"),
+        "{e}"
+    );
+    let e = err(&["world.behaviour=mixed", "world.mixed.avoidance=0.5"]);
+    assert!(e.contains("world.mixed") && e.contains("sum to 1"), "{e}");
+    let e = err(&["world.behaviour=foraging", "world.foraging.nest_x_m=2.3"]);
+    assert!(
+        e.contains("world.foraging.nest_x_m") && e.contains("inside the arena"),
+        "{e}"
+    );
+    let e = err(&[
+        "world.behaviour=mixed",
+        "world.mixed.per_robot=[\"flocking\"]",
+    ]);
+    assert!(
+        e.contains("world.mixed.per_robot") && e.contains("15"),
+        "{e}"
+    );
+    let e = err(&["world.mixed.per_robot=[\"flocking\"]"]);
+    assert!(e.contains("world.mixed.per_robot"), "{e}");
+    // Accepted: shares that sum to 1, and a foraging-free swarm ignores the nest.
+    let ok = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        Config::resolve(None, None, &sets).unwrap()
+    };
+    ok(&[
+        "world.behaviour=mixed",
+        "world.mixed.avoidance=0.5",
+        "world.mixed.flocking=0.5",
+        "world.mixed.foraging=0",
+    ]);
+    ok(&["world.behaviour=flocking", "world.foraging.nest_x_m=9"]);
+}
