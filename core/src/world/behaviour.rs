@@ -6,14 +6,13 @@
 //! `mixed` the shares or the per-robot list of `world.mixed`), so the world and the
 //! controllers agree on it without a random draw. Food sources are placed from their own
 //! seeded stream (`Purpose::Obstacles`, index 1), so they never perturb the obstacles' or the
-//! robots' placement. Forager states change in the reducer, from positions alone (see
-//! [`super::foraging`]): replaying the tick events reproduces them, and they enter the world's
+//! robots' placement. Forager states ([`Forager`]) change in the reducer, from positions
+//! alone (`foraging.rs`): replaying the tick events reproduces them, and they enter the world's
 //! digest, so every checkpoint covers them.
 
 use serde::{Deserialize, Serialize};
 
 use super::arena::{Arena, PLACEMENT_ATTEMPTS};
-use super::foraging::Forager;
 use super::WorldError;
 use crate::config::{Behaviour, Config};
 use crate::rng::{self, Purpose};
@@ -54,6 +53,31 @@ pub struct Food {
     pub x: f64,
     /// Center y in metres.
     pub y: f64,
+}
+
+/// A forager's state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Forager {
+    /// Looking for food (the avoidance walk).
+    Explore,
+    /// Carrying an item to the nest.
+    Return,
+    /// Resting in the nest until the given tick.
+    Rest {
+        /// The tick at which it explores again.
+        until: u64,
+    },
+}
+
+impl Forager {
+    /// A short name for drawings and summaries.
+    pub fn name(self) -> &'static str {
+        match self {
+            Forager::Explore => "explore",
+            Forager::Return => "return",
+            Forager::Rest { .. } => "rest",
+        }
+    }
 }
 
 /// The behaviours' part of the world.

@@ -13,12 +13,12 @@
 //!   `goal_swap_s` seconds the goal moves to its mirror image through the arena's center, so
 //!   the flock keeps crossing the arena (0 keeps it fixed, as Flow-FL's light).
 //!
-//! The robot steers along the sum with the shared steering (`controller::steer_to`): obstacle
+//! The robot steers along the sum with the shared steering (`steering::steer_to`): obstacle
 //! avoidance first, then a turn proportional to the heading error. The controller reads the
 //! neighbours' true offsets (the recorded data carries the noise; steering does not need it).
 
-use super::controller::{steer_to, RobotController, Steer};
-use super::{Pose, WheelCommand};
+use super::steering::{steer_to, RobotController, Steer, WheelCommand};
+use super::Pose;
 use crate::config::FlockingConfig;
 use crate::types::RobotId;
 

@@ -11,39 +11,13 @@
 //!   `Rest` for `world.foraging.rest_s`.
 //! - `Rest`: the robot stands still in the nest; then `Explore` again.
 //!
-//! The controller side ([`command`]) reads the state from the world.
+//! The controller side ([`command`]) reads the state from the world. The state type,
+//! [`Forager`], lives in `behaviour.rs` with the rest of the behaviours' reduced state.
 
-use serde::{Deserialize, Serialize};
-
-use super::behaviour::Behaviours;
-use super::controller::{steer_to, RobotController, Steer};
-use super::{Pose, WheelCommand};
+use super::behaviour::{Behaviours, Forager};
+use super::steering::{steer_to, RobotController, Steer, WheelCommand};
+use super::Pose;
 use crate::config::Behaviour;
-
-/// A forager's state.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum Forager {
-    /// Looking for food (the avoidance walk).
-    Explore,
-    /// Carrying an item to the nest.
-    Return,
-    /// Resting in the nest until the given tick.
-    Rest {
-        /// The tick at which it explores again.
-        until: u64,
-    },
-}
-
-impl Forager {
-    /// A short name for drawings and summaries.
-    pub fn name(self) -> &'static str {
-        match self {
-            Forager::Explore => "explore",
-            Forager::Return => "return",
-            Forager::Rest { .. } => "rest",
-        }
-    }
-}
 
 /// Moves every forager's state on after the tick that brought the world to `tick`.
 pub(super) fn advance(b: &mut Behaviours, poses: &[Pose], radius_m: f64, tick: u64) {

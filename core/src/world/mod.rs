@@ -20,6 +20,7 @@ pub mod flocking;
 pub mod foraging;
 pub mod physics;
 pub mod sensors;
+pub mod steering;
 
 use serde::{Deserialize, Serialize};
 
@@ -29,10 +30,10 @@ use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
 
 pub use arena::{Arena, Obstacle};
-pub use behaviour::{Behaviours, Food, Nest};
-pub use controller::{Controllers, TickEvent, WheelCommand};
-pub use foraging::Forager;
+pub use behaviour::{Behaviours, Food, Forager, Nest};
+pub use controller::{Controllers, TickEvent};
 use physics::{Body, RobotGrid};
+pub use steering::WheelCommand;
 
 /// What can go wrong building a world or folding an event into it.
 #[derive(Debug, thiserror::Error)]

@@ -11,7 +11,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::arena::{Arena, GridShape};
-use super::controller::WheelCommand;
+use super::steering::WheelCommand;
 use super::Pose;
 
 /// Most sub-steps of one move; a longer move (over 2048 radii in a tick) is refused.
