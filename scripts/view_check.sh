@@ -3,9 +3,12 @@
 #   1. the page runs without script errors (it writes its state into <pre id="status">, which
 #      --dump-dom reads);
 #   2. opened at a block (URL hash #block=H), it shows the log's state at that block: every
-#      robot's position and tokens equal what `swarmfl inspect LOG --block H --json` prints;
+#      robot's position, tokens, behaviour and forager state equal what
+#      `swarmfl inspect LOG --block H --json` prints; each behaviour has a colour of its own;
+#      a swarm with foragers shows the nest and the food sources;
 #   3. a screenshot at that moment is taken (SCREENSHOT=path keeps it, e.g. docs/view.png).
-# Usage: scripts/view_check.sh [LOG]   (default: a fresh smoke run; SWARMFL=path/to/swarmfl)
+# Usage: scripts/view_check.sh [LOG]   (default: a fresh smoke run of a mixed swarm, a third of
+#   each behaviour; RUN_SET="key=value ..." replaces its overrides; SWARMFL=path/to/swarmfl)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${SWARMFL:-target/release/swarmfl}
@@ -13,7 +16,9 @@ work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 log=${1:-}
 if [ -z "$log" ]; then
-  "$bin" run --preset smoke --seed 3 --out "$work/run" --quiet
+  sets=()
+  for kv in ${RUN_SET-world.behaviour=mixed}; do sets+=(--set "$kv"); done
+  "$bin" run --preset smoke --seed 3 "${sets[@]}" --out "$work/run" --quiet
   log=$work/run/run.swlog
 fi
 "$bin" view "$log" --out "$work/run.html"
@@ -58,10 +63,24 @@ for r in status["robots"]:
         bad.append(f"robot {r['id']} at ({r['x']}, {r['y']}), log ({w['x']:.4f}, {w['y']:.4f})")
     if abs(r["tokens"] - tokens[r["id"]]) > 0.0006:
         bad.append(f"robot {r['id']} tokens {r['tokens']}, log {tokens[r['id']]}")
+    if r["behaviour"] != w["behaviour"] or r.get("forager") != w.get("forager"):
+        bad.append(f"robot {r['id']} {r['behaviour']}/{r.get('forager')}, "
+                   f"log {w['behaviour']}/{w.get('forager')}")
+colours = {}
+for r in status["robots"]:
+    colours.setdefault(r["behaviour"], set()).add(r["colour"])
+# With more than one behaviour, robots are coloured by behaviour alone (Byzantine ones ringed).
+if len(colours) > 1 and (any(len(c) != 1 for c in colours.values())
+                         or len(set().union(*colours.values())) != len(colours)):
+    bad.append(f"behaviours do not each have a colour of their own: {colours}")
+if any(r["behaviour"] == "foraging" for r in status["robots"]) and \
+        (not status["nest"] or not status["food"]):
+    bad.append("foragers but no nest or food sources on the page")
 if bad:
     sys.exit("view_check: the page differs from the log:\n  " + "\n  ".join(bad))
 print(f"view_check: block {height} at t = {status['time_s']} s: {len(status['robots'])} robots' "
-      f"positions and tokens match `swarmfl inspect`; no script errors")
+      f"positions, tokens and behaviours ({', '.join(sorted(colours))}) match `swarmfl inspect`; "
+      f"no script errors")
 EOF
 test -s "$work/view.png" || { echo "view_check: no screenshot" >&2; cat "$work/chrome.log" >&2; exit 1; }
 if [ -n "${SCREENSHOT:-}" ]; then

@@ -10,7 +10,7 @@ use super::fold::{fold_to_record, LastLearning};
 use super::index::{BlockRow, RunIndex};
 use super::sidecar::Sidecar;
 use crate::byzantine;
-use crate::config::Config;
+use crate::config::{Behaviour, Config};
 use crate::contract::{Call, ContractState, Outcome, Submission, Verdict};
 use crate::ledger::{BlockEntry, BlockHash};
 use crate::log::LogReader;
@@ -184,6 +184,11 @@ pub struct RobotInfo {
     pub peers: usize,
     /// Samples in its data set.
     pub dataset: usize,
+    /// Its behaviour (`world.behaviour`; each robot's own in a `mixed` swarm).
+    pub behaviour: &'static str,
+    /// A forager's state (`explore`, `return` or `rest`); absent for other behaviours.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub forager: Option<&'static str>,
 }
 
 /// One robot's view of the run at a block.
@@ -417,6 +422,14 @@ impl ReportInput<'_> {
             theta: pose.theta,
             peers: world.peers(r).len(),
             dataset: world.dataset_len(r),
+            behaviour: world
+                .behaviours()
+                .map_or(Behaviour::Avoidance, |b| b.of[r as usize])
+                .name(),
+            forager: world
+                .behaviours()
+                .filter(|b| b.of[r as usize] == Behaviour::Foraging)
+                .map(|b| b.foragers[r as usize].name()),
         }
     }
 

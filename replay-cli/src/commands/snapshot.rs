@@ -3,7 +3,10 @@
 //! ones red) with a heading line, range-and-bearing links as cyan lines, and each robot's
 //! proximity rays as short light-blue lines (as long as the free distance they measure).
 //! Each robot carries its id; axes in metres, a 1 m scale bar and a legend explain the
-//! picture. Text is drawn with the system's sans-serif font (plotters `ttf`); if no font can
+//! picture. A run with behaviours other than the avoidance walk (`world.behaviour`) colours each
+//! robot by its behaviour instead (avoidance green, flocking blue, foraging orange; Byzantine
+//! robots then carry a red ring), draws the foraging nest and food sources, and marks a forager
+//! carrying an item (a yellow dot) or resting (a white dot). Text is drawn with the system's sans-serif font (plotters `ttf`); if no font can
 //! be loaded, the picture is drawn without text rather than failing.
 
 use std::path::Path;
@@ -13,8 +16,9 @@ use anyhow::Context;
 use plotters::coord::types::RangedCoordf64;
 use plotters::coord::Shift;
 use plotters::prelude::*;
+use swarmfl_core::config::Behaviour;
 use swarmfl_core::replay;
-use swarmfl_core::world::{Obstacle, World};
+use swarmfl_core::world::{Forager, Obstacle, World};
 use swarmfl_core::SimTime;
 
 use crate::cli::SnapshotArgs;
@@ -35,6 +39,20 @@ const RAY: RGBColor = RGBColor(120, 200, 255);
 const OBSTACLE: RGBColor = RGBColor(150, 150, 150);
 const HONEST: RGBColor = RGBColor(40, 170, 60);
 const BYZANTINE: RGBColor = RGBColor(220, 30, 30);
+const FLOCKING: RGBColor = RGBColor(40, 100, 220);
+const FORAGING: RGBColor = RGBColor(230, 130, 0);
+const NEST: RGBColor = RGBColor(250, 215, 160);
+const FOOD: RGBColor = RGBColor(120, 80, 20);
+const ITEM: RGBColor = RGBColor(255, 225, 0);
+
+/// The colour of a behaviour's robots (avoidance keeps the honest robots' green).
+pub fn behaviour_colour(b: Behaviour) -> RGBColor {
+    match b {
+        Behaviour::Flocking => FLOCKING,
+        Behaviour::Foraging => FORAGING,
+        Behaviour::Avoidance | Behaviour::Mixed => HONEST,
+    }
+}
 
 /// Draws `world` with the robots marked as given (missing marks are honest) into `out`
 /// (`.svg` or `.png`, by extension).
@@ -118,6 +136,7 @@ where
     draw_rays(&mut chart, world)?;
     draw_links(&mut chart, world)?;
     draw_obstacles(&mut chart, world, px_per_m)?;
+    draw_foraging_arena(&mut chart, world, px_per_m)?;
     // Walls.
     chart
         .draw_series(std::iter::once(Rectangle::new(
@@ -127,7 +146,7 @@ where
         .map_err(err::<DB>)?;
     draw_robots(&mut chart, world, marks, px_per_m)?;
     if title.is_some() {
-        draw_text(&mut chart, world)?;
+        draw_text(&mut chart, world, marks)?;
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok(())
@@ -231,7 +250,43 @@ where
     Ok(())
 }
 
-/// The robots as disks in the colour of their mark, with heading lines.
+/// The foraging nest (a pale disk with an outline) and the food sources (brown disks).
+fn draw_foraging_arena<'a, DB: DrawingBackend + 'a>(
+    chart: &mut Chart<'a, DB>,
+    world: &World,
+    px_per_m: f64,
+) -> anyhow::Result<()>
+where
+    DB::ErrorType: 'static,
+{
+    let Some(b) = world.behaviours() else {
+        return Ok(());
+    };
+    if let Some(nest) = b.nest {
+        for style in [NEST.filled(), FORAGING.stroke_width(2)] {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (nest.x, nest.y),
+                    px(nest.radius_m, px_per_m),
+                    style,
+                )))
+                .map_err(err::<DB>)?;
+        }
+    }
+    for f in &b.food {
+        chart
+            .draw_series(std::iter::once(Circle::new(
+                (f.x, f.y),
+                px(b.food_radius_m, px_per_m),
+                FOOD.filled(),
+            )))
+            .map_err(err::<DB>)?;
+    }
+    Ok(())
+}
+
+/// The robots as disks in the colour of their mark (of their behaviour when the run has
+/// behaviours, Byzantine ones ringed red), with heading lines and a forager's item.
 fn draw_robots<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
     world: &World,
@@ -242,10 +297,13 @@ where
     DB::ErrorType: 'static,
 {
     let r = world.robot_radius_m();
+    let behaviours = world.behaviours();
     for (i, p) in world.poses().iter().enumerate() {
-        let color = match marks.get(i) {
-            Some(RobotMark::Byzantine) => BYZANTINE,
-            _ => HONEST,
+        let byzantine = marks.get(i) == Some(&RobotMark::Byzantine);
+        let color = match behaviours {
+            Some(b) => behaviour_colour(b.of[i]),
+            None if byzantine => BYZANTINE,
+            None => HONEST,
         };
         chart
             .draw_series(std::iter::once(Circle::new(
@@ -254,6 +312,29 @@ where
                 color.filled(),
             )))
             .map_err(err::<DB>)?;
+        if byzantine && behaviours.is_some() {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (p.x, p.y),
+                    px(r, px_per_m) + 2,
+                    BYZANTINE.stroke_width(3),
+                )))
+                .map_err(err::<DB>)?;
+        }
+        let item = match behaviours.map(|b| (b.of[i], b.foragers[i])) {
+            Some((Behaviour::Foraging, Forager::Return)) => Some(ITEM),
+            Some((Behaviour::Foraging, Forager::Rest { .. })) => Some(WHITE),
+            _ => None,
+        };
+        if let Some(item) = item {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (p.x, p.y),
+                    (px(r, px_per_m) / 2).max(2),
+                    item.filled(),
+                )))
+                .map_err(err::<DB>)?;
+        }
         let tip = (p.x + 2.2 * r * p.theta.cos(), p.y + 2.2 * r * p.theta.sin());
         chart
             .draw_series(std::iter::once(PathElement::new(
@@ -269,6 +350,7 @@ where
 fn draw_text<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
     world: &World,
+    marks: &[RobotMark],
 ) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
@@ -304,14 +386,36 @@ where
             ("sans-serif", 14).into_font().color(&BLACK),
         )))
         .map_err(err::<DB>)?;
-    // The legend: one entry per kind of mark.
-    let entries: [(&str, ShapeStyle); 5] = [
-        ("honest robot (id)", HONEST.filled()),
-        ("Byzantine robot", BYZANTINE.filled()),
-        ("radio link", LINK.stroke_width(2)),
-        ("obstacle", OBSTACLE.filled()),
-        ("proximity ray", RAY.stroke_width(1)),
-    ];
+    // The legend: one entry per kind of mark (per behaviour present, when there are any).
+    let mut entries: Vec<(&str, ShapeStyle)> = Vec::new();
+    match world.behaviours() {
+        None => {
+            entries.push(("honest robot (id)", HONEST.filled()));
+            entries.push(("Byzantine robot", BYZANTINE.filled()));
+        }
+        Some(b) => {
+            for (behaviour, label) in [
+                (Behaviour::Avoidance, "avoidance robot (id)"),
+                (Behaviour::Flocking, "flocking robot"),
+                (Behaviour::Foraging, "foraging robot"),
+            ] {
+                if b.of.contains(&behaviour) {
+                    entries.push((label, behaviour_colour(behaviour).filled()));
+                }
+            }
+            if marks.contains(&RobotMark::Byzantine) {
+                entries.push(("Byzantine robot (red ring)", BYZANTINE.stroke_width(3)));
+            }
+            if b.nest.is_some() {
+                entries.push(("carrying food (white dot: resting)", ITEM.filled()));
+                entries.push(("nest", NEST.filled()));
+                entries.push(("food source", FOOD.filled()));
+            }
+        }
+    }
+    entries.push(("radio link", LINK.stroke_width(2)));
+    entries.push(("obstacle", OBSTACLE.filled()));
+    entries.push(("proximity ray", RAY.stroke_width(1)));
     for (label, style) in entries {
         chart
             .draw_series(std::iter::once(Circle::new((-2.0 * h, -2.0 * h), 0, style)))
@@ -428,5 +532,41 @@ mod tests {
         draw(&world, &marks, "nested", &nested).unwrap();
         assert!(nested.exists());
         std::fs::remove_dir_all(nested.parent().unwrap().parent().unwrap()).unwrap();
+    }
+
+    #[test]
+    fn a_mixed_world_draws_each_behaviour_and_the_foraging_arena() {
+        let config = swarmfl_core::config::Config::resolve(
+            Some("smoke"),
+            None,
+            &["world.behaviour=mixed".into()],
+        )
+        .unwrap();
+        let mut world = World::new(&config, 1).unwrap();
+        let mut controllers = Controllers::new(&config, 1);
+        for _ in 0..600 {
+            let event = controllers.decide(&world);
+            world.apply(&event);
+        }
+        let out = std::env::temp_dir().join(format!("swarmfl-mixed-{}.svg", std::process::id()));
+        draw(&world, &[RobotMark::Byzantine], "mixed", &out).unwrap();
+        let svg = std::fs::read_to_string(&out).unwrap().replace('\n', "");
+        std::fs::remove_file(&out).unwrap();
+        for text in [
+            "avoidance robot",
+            "flocking robot",
+            "foraging robot",
+            "Byzantine robot (red ring)",
+            ">nest<",
+            "food source",
+        ] {
+            assert!(svg.contains(text), "legend entry {text}");
+        }
+        // Each behaviour's colour fills some robot; the nest's fill is drawn.
+        for colour in [HONEST, FLOCKING, FORAGING, NEST, FOOD] {
+            let RGBColor(r, g, b) = colour;
+            let hex = format!("#{r:02X}{g:02X}{b:02X}");
+            assert!(svg.contains(&hex), "{hex} drawn");
+        }
     }
 }

@@ -1,6 +1,7 @@
 //! `swarmfl view LOG --out run.html`: one self-contained HTML file to watch a run in a browser
 //! (no network, no server): the arena with obstacles, robots with ids, Byzantine marks and radio
-//! links, animated over time with a scrubber that also jumps by block height; beside it each
+//! links (with behaviours, `world.behaviour`: robots coloured by behaviour, the foraging nest and
+//! food sources, each forager's state), animated over time with a scrubber that also jumps by block height; beside it each
 //! robot's tokens, the loss per round and the chain (forks and reorgs) up to the current time.
 //!
 //! Two folds of the log: [`inspect::index_run`] for the final canonical chain, its balances
@@ -21,12 +22,13 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
+use swarmfl_core::config::Behaviour;
 use swarmfl_core::event::{CheckpointCause, Event, Record};
 use swarmfl_core::inspect::{self, expr::Env};
 use swarmfl_core::log::{LogError, LogReader};
 use swarmfl_core::replay;
 use swarmfl_core::state::State;
-use swarmfl_core::world::Obstacle;
+use swarmfl_core::world::{Forager, Obstacle};
 use swarmfl_core::Digest;
 
 use crate::cli::ViewArgs;
@@ -279,6 +281,27 @@ fn page_data(
         .iter()
         .map(|&b| if b { "1" } else { "0" })
         .collect();
+    // Behaviours: each robot's name, the nest `[x, y, r]` and food `[x, y]` (empty without).
+    let behaviours = walk.state.world.behaviours();
+    let names: Vec<String> = (0..config.world.robots as usize)
+        .map(|i| {
+            let b = behaviours.map_or(Behaviour::Avoidance, |b| b.of[i]);
+            format!("\"{}\"", b.name())
+        })
+        .collect();
+    let nest = match behaviours.and_then(|b| b.nest) {
+        Some(n) => format!("[{},{},{}]", n.x, n.y, n.radius_m),
+        None => "null".to_string(),
+    };
+    let food: Vec<String> = behaviours
+        .map(|b| {
+            b.food
+                .iter()
+                .map(|f| format!("[{},{}]", f.x, f.y))
+                .collect()
+        })
+        .unwrap_or_default();
+    let food_radius = behaviours.map_or(0.0, |b| b.food_radius_m);
     let frames = &walk.frames;
     // A block's frame may be taken after the frame of the tick's end: order by time (stable,
     // so a block's frame follows a tick frame of the same time and wins at that time).
@@ -299,7 +322,8 @@ fn page_data(
     Ok(format!(
         "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
-         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"blocks\":{},\
+         \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius},\
+         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"blocks\":{},\
          \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
          \"truncated\":{}}}",
         serde_json::to_string(title)?,
@@ -309,10 +333,13 @@ fn page_data(
         config.world.rab_range_m,
         obstacles.join(","),
         byzantine.join(","),
+        names.join(","),
+        food.join(","),
         times,
         pick(&frames.pose),
         pick(&frames.links),
         pick(&frames.heads),
+        pick(&frames.forager),
         walk.blocks,
         walk.reorgs,
         serde_json::to_string(&index.truncated)?,
@@ -394,6 +421,9 @@ struct Frames {
     pose: Vec<String>,
     links: Vec<String>,
     heads: Vec<String>,
+    /// Each robot's forager state as one letter (`e` explore, `r` return, `s` rest, `-` not a
+    /// forager); empty text when nobody forages.
+    forager: Vec<String>,
 }
 
 impl Frames {
@@ -438,6 +468,21 @@ impl Frames {
             })
             .collect();
         self.heads.push(format!("[{}]", heads.join(",")));
+        let forager: String = match world.behaviours().filter(|b| b.nest.is_some()) {
+            Some(b) => {
+                b.of.iter()
+                    .zip(&b.foragers)
+                    .map(|(&of, f)| match (of, f) {
+                        (Behaviour::Foraging, Forager::Explore) => 'e',
+                        (Behaviour::Foraging, Forager::Return) => 'r',
+                        (Behaviour::Foraging, Forager::Rest { .. }) => 's',
+                        _ => '-',
+                    })
+                    .collect()
+            }
+            None => String::new(),
+        };
+        self.forager.push(format!("\"{forager}\""));
     }
 }
 
