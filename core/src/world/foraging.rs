@@ -24,11 +24,10 @@ pub(super) fn advance(b: &mut Behaviours, poses: &[Pose], radius_m: f64, tick: u
     let Some(nest) = b.nest else {
         return;
     };
-    for i in 0..b.of.len() {
+    for (i, &p) in poses.iter().enumerate().take(b.of.len()) {
         if b.of[i] != Behaviour::Foraging {
             continue;
         }
-        let p = poses[i];
         b.foragers[i] = match b.foragers[i] {
             Forager::Explore if b.at_food(p.x, p.y, radius_m) => Forager::Return,
             Forager::Return if nest.contains(p.x, p.y) => {
