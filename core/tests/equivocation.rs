@@ -21,6 +21,12 @@ fn an_equivocating_sealer_stops_sealing_once_the_evidence_is_in_a_block() {
     config.byzantine.count = 2;
     config.byzantine.kind = ByzantineKind::None;
     config.byzantine.ledger = LedgerBehaviour::Equivocate;
+    // The world this test was written against (before #38 moved `paper`'s to the authors'
+    // code): with robot occlusion and no random turns, 10 robots meet less and the evidence
+    // reaches a block too late for 1200 s. The test is about the ledger, not the world.
+    config.world.rab_robot_occlusion = false;
+    config.world.random_turn_rate_per_s = 0.1;
+    config.data.window_rule = swarmfl_core::config::WindowRule::Contiguous;
     config.validate().expect("a valid configuration");
     let robots = config.world.robots;
     let byzantine = byzantine_robots(&config, seed);
