@@ -272,7 +272,11 @@ fn flocking_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
         return Ok(());
     }
     let f = &c.world.flocking;
-    positive("world.flocking.target_distance_m", f.target_distance_m)?;
+    positive(
+        "world.flocking.target_distance_m",
+        f.target_distance_m,
+        100.0,
+    )?;
     number(
         "world.flocking.cohesion_weight",
         f.cohesion_weight,
@@ -296,7 +300,7 @@ fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
         return Ok(());
     }
     let f = &c.world.foraging;
-    positive("world.foraging.nest_radius_m", f.nest_radius_m)?;
+    positive("world.foraging.nest_radius_m", f.nest_radius_m, 100.0)?;
     number(
         "world.foraging.nest_radius_m",
         f.nest_radius_m,
@@ -311,7 +315,7 @@ fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
         1,
         10_000,
     )?;
-    positive("world.foraging.food_radius_m", f.food_radius_m)?;
+    positive("world.foraging.food_radius_m", f.food_radius_m, 100.0)?;
     number(
         "world.foraging.food_radius_m",
         f.food_radius_m,
