@@ -10,12 +10,12 @@
 //!
 //! Training is a pure function of (shape, config, start weights, data, dropout stream): plain
 //! SGD on the mean squared error with full backpropagation through time, in `f32` as
-//! TensorFlow, with every sum in a fixed order (`kernels.rs`) and activations bit-identical to
-//! the `libm` crate ([`math`]). The result is the same bits on any number of threads, in debug
+//! TensorFlow, with every sum in a fixed order (`kernels.rs`) and activations built from IEEE basic
+//! operations in a fixed order ([`math`]: within 1 ulp, checked on all 2^32 inputs). The result is the same bits on any number of threads, in debug
 //! or release, and on any x86-64 build; AVX-512 or AVX2 code is selected at run time where the CPU has
 //! it and is tested to give the same bits as the baseline code.
 //!
-//! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise `expf`/`tanhf`),
+//! Submodules: [`init`] (Keras-default initialisation), [`math`] (lane-wise exp, sigmoid, tanh),
 //! `kernels.rs` (forward, backward, SGD), [`fixed`] (on-chain fixed point).
 
 mod background;

@@ -705,7 +705,7 @@ struct RefPass {
 }
 
 /// The unblocked forward pass of one sample, in the orders of the kernels' documentation,
-/// with the `libm` activations.
+/// with the scalar activations of [`math`].
 fn ref_forward(shape: &ModelShape, w: &[f32], x: &[f32], mask: &[f32]) -> RefPass {
     let (t_n, d, h, g, r1, o) = (
         shape.steps_in(),
@@ -736,16 +736,16 @@ fn ref_forward(shape: &ModelShape, w: &[f32], x: &[f32], mask: &[f32]) -> RefPas
         }
         for j in 0..g {
             z[j] = if (2 * h..3 * h).contains(&j) {
-                libm::tanhf(z[j])
+                math::tanh_lane(z[j])
             } else {
-                math::sigmoid_libm(z[j])
+                math::sigmoid_lane(z[j])
             };
         }
         let c_prev = &pass.cs[t];
         let c: Vec<f32> = (0..h)
             .map(|u| z[h + u] * c_prev[u] + z[u] * z[2 * h + u])
             .collect();
-        let tc: Vec<f32> = c.iter().map(|v| libm::tanhf(*v)).collect();
+        let tc: Vec<f32> = c.iter().map(|v| math::tanh_lane(*v)).collect();
         h_prev = (0..h).map(|u| z[3 * h + u] * tc[u]).collect();
         pass.xh.push(xh);
         pass.gates.push(z);
