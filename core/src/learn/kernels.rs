@@ -58,6 +58,17 @@ pub(crate) trait Mat {
     /// # Safety
     /// The CPU has the instruction set the variant is compiled for.
     unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize);
+    /// [`Mat::rows_acc`] into an `out` that starts at +0, whatever it holds: the bits of
+    /// filling it with +0 first (by default exactly that), without reading it.
+    ///
+    /// # Safety
+    /// The CPU has the instruction set the variant is compiled for.
+    #[inline(always)]
+    unsafe fn rows_set(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        out.fill(0.0);
+        // SAFETY: the caller's contract is this method's.
+        unsafe { Self::rows_acc(out, a, m, n) }
+    }
     /// [`outer_one`]: `grad[r][j] += P_s[r][j]` for the one sample `s` of the group.
     ///
     /// # Safety
@@ -548,9 +559,8 @@ impl Workspace {
         step_mut(&mut self.cs, 0, n).fill(0.0);
         for t in 0..t_n {
             let z = step_mut(&mut self.gates, t, n);
-            z.fill(0.0);
             // SAFETY: the caller guarantees the CPU runs `M`.
-            unsafe { M::rows_acc(z, step(&self.xh, t, n), lstm, g) };
+            unsafe { M::rows_set(z, step(&self.xh, t, n), lstm, g) };
             for zi in z.chunks_exact_mut(g) {
                 sigmoid_in_place(&mut zi[..2 * h]);
                 tanh_in_place(&mut zi[2 * h..3 * h]);
@@ -597,9 +607,8 @@ impl Workspace {
             row[h] = 1.0;
         }
         let y = head_mut(&mut self.y, n);
-        y.fill(0.0);
         // SAFETY: as above.
-        unsafe { M::rows_acc(y, head(&self.hd1, n), dense, o) };
+        unsafe { M::rows_set(y, head(&self.hd1, n), dense, o) };
     }
 
     /// The output of sample `s` of the last [`Workspace::forward`].
@@ -732,10 +741,9 @@ impl Workspace {
         let sh = &self.shape;
         let (t_n, h, g) = (sh.steps_in(), sh.units(), sh.gates());
         let dh = head_mut(&mut self.dh, n);
-        dh.fill(0.0);
         // SAFETY: the caller guarantees the CPU runs `M`.
         unsafe {
-            M::rows_acc(
+            M::rows_set(
                 dh,
                 head(&self.dy, n),
                 self.dense_t.as_slice().expect("standard layout"),
@@ -773,9 +781,8 @@ impl Workspace {
             }
             if t > 0 {
                 let dh = head_mut(&mut self.dh, n);
-                dh.fill(0.0);
                 // SAFETY: as above.
-                unsafe { M::rows_acc(dh, step(&self.dz, t, n), rec_t, h) };
+                unsafe { M::rows_set(dh, step(&self.dz, t, n), rec_t, h) };
             }
         }
     }

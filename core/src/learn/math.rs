@@ -25,9 +25,10 @@
 //! - `tanh(x)`: for |x| < 0.55 the odd minimax polynomial `a + a s Q(s)`, `s = a^2`, `Q` of
 //!   degree 4 (relative accuracy near 0, where `1 - 2 / (e^2a + 1)` would cancel); above,
 //!   `1 - 2 / (exp(2 min(a, 10)) + 1)`, whose result is at least 0.5 there, so the quotient's error
-//!   counts at most half; the sign is put back by bits (tanh(-0) = -0). Both candidates are
-//!   computed for every lane (branch-free, so a chunk vectorises) and one is selected; the only
-//!   division is the one of the second.
+//!   counts at most half; the sign is put back by bits (tanh(-0) = -0). A chunk of lanes that
+//!   all take one form computes only that form; a mixed chunk computes both for every lane
+//!   (branch-free, so it vectorises) and selects one per lane, which gives the same bits. The
+//!   only division is the one of the second form.
 //!
 //! Accuracy, checked on all 2^32 inputs against an f64 reference by `SWARMFL_EXHAUSTIVE=1
 //! cargo test --release -p swarmfl-core exhaustive` (without the variable, every 65537th
@@ -78,13 +79,11 @@ fn pow2(k: i32) -> f32 {
     f32::from_bits((k.wrapping_add(127) as u32) << 23)
 }
 
-/// `e^x` of one value (see the module documentation), branch-free so that a loop over lanes
-/// vectorises. NaN gives NaN, +inf gives +inf, -inf gives +0.
+/// The reduction and polynomial of `exp`: `(y, k)` with `e^x = y * 2^k`, `y` in [0.70, 1.42]
+/// and `k = round(x / ln 2)`, for `x` in [`EXP_CLAMP_LO`, `EXP_CLAMP_HI`] or NaN (the callers
+/// clamp, or know their argument is in range).
 #[inline(always)]
-pub fn exp_lane(x: f32) -> f32 {
-    // Comparisons are false for NaN, so NaN passes through both clamps (and yields NaN below).
-    let x = if x > EXP_CLAMP_HI { EXP_CLAMP_HI } else { x };
-    let x = if x < EXP_CLAMP_LO { EXP_CLAMP_LO } else { x };
+fn exp_parts(x: f32) -> (f32, i32) {
     // k = round(x / ln 2) in [-152, 128], as a float and as an integer from the sum's bits.
     let shifted = x * INV_LN2 + ROUND_SHIFT;
     let kf = shifted - ROUND_SHIFT;
@@ -101,11 +100,38 @@ pub fn exp_lane(x: f32) -> f32 {
     let p = r * r * (E2 + r * (E3 + r * (E4 + r * (E5 + r * E6))));
     let one_r = 1.0 + r;
     let e1 = r - (one_r - 1.0);
-    let y = one_r + ((e1 + rc) + p);
+    (one_r + ((e1 + rc) + p), k)
+}
+
+/// `e^x` of one value (see the module documentation), branch-free so that a loop over lanes
+/// vectorises. NaN gives NaN, +inf gives +inf, -inf gives +0.
+#[inline(always)]
+pub fn exp_lane(x: f32) -> f32 {
+    // Comparisons are false for NaN, so NaN passes through both clamps (and yields NaN below).
+    let x = if x > EXP_CLAMP_HI { EXP_CLAMP_HI } else { x };
+    exp_le_hi(x)
+}
+
+/// [`exp_lane`] for `x <= EXP_CLAMP_HI` or NaN: the same bits without the upper clamp (which
+/// does nothing there). The sigmoid's argument `-|x|` is never positive.
+#[inline(always)]
+fn exp_le_hi(x: f32) -> f32 {
+    let x = if x < EXP_CLAMP_LO { EXP_CLAMP_LO } else { x };
+    let (y, k) = exp_parts(x);
     // y * 2^k in two factors, each a normal power of two: y * 2^k1 is exact, the second
     // product rounds once (into the subnormals, or to +inf for k = 128 and y >= 1).
     let k1 = k >> 1;
     y * pow2(k1) * pow2(k.wrapping_sub(k1))
+}
+
+/// [`exp_lane`] for `x` in [0, 2 * TANH_CLAMP] or NaN (the exponential of tanh), the same bits
+/// in fewer operations: neither clamp acts there, and with `k` in [0, 29] the power of two is
+/// one normal factor, `y * 2^k` exact (the two factors of the general case give the same
+/// exact product). A NaN `x` makes `y` NaN whatever the factor.
+#[inline(always)]
+fn exp_tanh_range(x: f32) -> f32 {
+    let (y, k) = exp_parts(x);
+    y * pow2(k)
 }
 
 /// The logistic sigmoid `1 / (1 + e^-x)` of one value with one division: `1 / (1 + e)` for
@@ -114,7 +140,7 @@ pub fn exp_lane(x: f32) -> f32 {
 #[inline(always)]
 pub fn sigmoid_lane(x: f32) -> f32 {
     let a = f32::from_bits(x.to_bits() & 0x7fff_ffff);
-    let e = exp_lane(-a);
+    let e = exp_le_hi(-a);
     let neg = x < 0.0;
     let num = if neg { e } else { 1.0 };
     // The rounding of the divisor 1 + e alone costs up to 1 ulp of the quotient (e/(1 + e)
@@ -135,22 +161,79 @@ pub fn sigmoid_lane(x: f32) -> f32 {
 pub fn tanh_lane(x: f32) -> f32 {
     let sign = x.to_bits() & 0x8000_0000;
     let a = f32::from_bits(x.to_bits() & 0x7fff_ffff);
-    // Near 0: a + a s Q(s). Subnormal a: s underflows to 0 and the result is a, exactly.
+    // NaN fails the comparison and takes the exponential form, which is NaN.
+    let r = if a < TANH_POLY_BELOW {
+        tanh_small(a)
+    } else {
+        tanh_big(a)
+    };
+    f32::from_bits(r.to_bits() | sign)
+}
+
+/// tanh(a) for 0 <= a < [`TANH_POLY_BELOW`]: `a + a s Q(s)`. Subnormal a: s underflows to 0
+/// and the result is a, exactly.
+#[inline(always)]
+fn tanh_small(a: f32) -> f32 {
     let s = a * a;
-    let small = a + a * (s * (T3 + s * (T5 + s * (T7 + s * (T9 + s * T11)))));
-    // From 0.55 on: 1 - 2 / (e^2a + 1), with a clamped to 10 (tanh(10) rounds to 1, and e^2a
-    // stays finite; NaN passes the clamp). As in the sigmoid, the rounding error `d_lo` of the
-    // divisor (Fast2Sum, e^2a > 1) is corrected to first order, with 1 / d = q / 2 (1.49 ulp
-    // at 0.556 without it, measured).
+    a + a * (s * (T3 + s * (T5 + s * (T7 + s * (T9 + s * T11)))))
+}
+
+/// tanh(a) for a >= [`TANH_POLY_BELOW`] (or NaN): `1 - 2 / (e^2a + 1)`, with a clamped to 10
+/// (tanh(10) rounds to 1, and e^2a stays finite; NaN passes the clamp). As in the sigmoid, the
+/// rounding error `d_lo` of the divisor (Fast2Sum, e^2a > 1) is corrected to first order, with
+/// 1 / d = q / 2 (1.49 ulp at 0.556 without it, measured).
+#[inline(always)]
+fn tanh_big(a: f32) -> f32 {
     let ac = if a > TANH_CLAMP { TANH_CLAMP } else { a };
-    let e = exp_lane(ac + ac);
+    let e = exp_tanh_range(ac + ac);
     let d = e + 1.0;
     let d_lo = 1.0 - (d - e);
     let q = 2.0 / d;
-    let big = 1.0 - (q - q * (d_lo * (0.5 * q)));
-    // NaN fails the comparison and takes `big`, which is NaN.
-    let r = if a < TANH_POLY_BELOW { small } else { big };
-    f32::from_bits(r.to_bits() | sign)
+    1.0 - (q - q * (d_lo * (0.5 * q)))
+}
+
+/// Replaces every value by its `tanh` ([`tanh_lane`], bit for bit). A chunk whose lanes all
+/// take the same form of [`tanh_lane`] computes only that form (the polynomial alone skips
+/// the exponential and the division); a mixed chunk computes both and selects per lane, as
+/// `tanh_lane` does. Either way each lane's bits are `tanh_lane`'s.
+#[inline(always)]
+pub fn tanh_in_place(values: &mut [f32]) {
+    let mut chunks = values.chunks_exact_mut(LANES);
+    for chunk in &mut chunks {
+        let mut lanes = [0f32; LANES];
+        lanes.copy_from_slice(chunk);
+        // The magnitudes' bits order like the magnitudes (NaN above +inf), so the largest and
+        // smallest bits say whether every lane is below the switch, or every lane at or above
+        // it (NaN included, as in `tanh_lane`).
+        let (mut most, mut least) = (0u32, u32::MAX);
+        for v in &lanes {
+            let m = v.to_bits() & 0x7fff_ffff;
+            most = most.max(m);
+            least = least.min(m);
+        }
+        let switch = TANH_POLY_BELOW.to_bits();
+        if most < switch {
+            for v in lanes.iter_mut() {
+                let sign = v.to_bits() & 0x8000_0000;
+                let a = f32::from_bits(v.to_bits() & 0x7fff_ffff);
+                *v = f32::from_bits(tanh_small(a).to_bits() | sign);
+            }
+        } else if least >= switch {
+            for v in lanes.iter_mut() {
+                let sign = v.to_bits() & 0x8000_0000;
+                let a = f32::from_bits(v.to_bits() & 0x7fff_ffff);
+                *v = f32::from_bits(tanh_big(a).to_bits() | sign);
+            }
+        } else {
+            for v in lanes.iter_mut() {
+                *v = tanh_lane(*v);
+            }
+        }
+        chunk.copy_from_slice(&lanes);
+    }
+    for v in chunks.into_remainder() {
+        *v = tanh_lane(*v);
+    }
 }
 
 macro_rules! slice_op {
@@ -178,11 +261,6 @@ slice_op!(
     /// Replaces every value by its sigmoid ([`sigmoid_lane`], bit for bit).
     sigmoid_in_place,
     sigmoid_lane
-);
-slice_op!(
-    /// Replaces every value by its `tanh` ([`tanh_lane`], bit for bit).
-    tanh_in_place,
-    tanh_lane
 );
 slice_op!(
     /// Replaces every value by its `exp` ([`exp_lane`], bit for bit).

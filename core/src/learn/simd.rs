@@ -99,10 +99,12 @@ impl Vector for __m256 {
 }
 
 /// `out[s][j] += sum over kk ascending of a[s][kk] m[kk][j]` for samples `s0..s0 + S` and lanes
-/// `j0..j0 + B * W`; `out` is `samples x n`, `a` is `samples x k`, `m` is `k x n`.
+/// `j0..j0 + B * W`; `out` is `samples x n`, `a` is `samples x k`, `m` is `k x n`. With `ZERO`
+/// the sums start from +0 instead of `out` (the bits of `out` filled with +0 first, without
+/// the fill and the loads).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn rows_tile<V: Vector, const S: usize, const B: usize>(
+unsafe fn rows_tile<V: Vector, const S: usize, const B: usize, const ZERO: bool>(
     out: &mut [f32],
     a: &[f32],
     m: &[f32],
@@ -122,9 +124,11 @@ unsafe fn rows_tile<V: Vector, const S: usize, const B: usize>(
     );
     let (out_p, a_p, m_p) = (out.as_mut_ptr(), a.as_ptr(), m.as_ptr());
     let mut acc = [[V::zero(); B]; S];
-    for s in 0..S {
-        for b in 0..B {
-            acc[s][b] = V::load_ptr(out_p.add((s0 + s) * n + j0 + b * V::W));
+    if !ZERO {
+        for s in 0..S {
+            for b in 0..B {
+                acc[s][b] = V::load_ptr(out_p.add((s0 + s) * n + j0 + b * V::W));
+            }
         }
     }
     for kk in 0..k {
@@ -150,7 +154,7 @@ unsafe fn rows_tile<V: Vector, const S: usize, const B: usize>(
 /// One pass of [`rows_tile`] over the lanes `j0..`: as many blocks of `B * W` lanes as fit,
 /// samples in tiles of `S` (the remainder one by one); returns the first lane not covered.
 #[inline(always)]
-unsafe fn rows_pass<V: Vector, const S: usize, const B: usize>(
+unsafe fn rows_pass<V: Vector, const S: usize, const B: usize, const ZERO: bool>(
     out: &mut [f32],
     a: &[f32],
     m: &[f32],
@@ -161,11 +165,11 @@ unsafe fn rows_pass<V: Vector, const S: usize, const B: usize>(
     while j0 + B * V::W <= n {
         let mut s0 = 0;
         while s0 + S <= samples {
-            rows_tile::<V, S, B>(out, a, m, n, k, s0, j0);
+            rows_tile::<V, S, B, ZERO>(out, a, m, n, k, s0, j0);
             s0 += S;
         }
         while s0 < samples {
-            rows_tile::<V, 1, B>(out, a, m, n, k, s0, j0);
+            rows_tile::<V, 1, B, ZERO>(out, a, m, n, k, s0, j0);
             s0 += 1;
         }
         j0 += B * V::W;
@@ -173,13 +177,14 @@ unsafe fn rows_pass<V: Vector, const S: usize, const B: usize>(
     j0
 }
 
-/// The lanes `j0..n` of [`super::kernels::rows_acc`], one scalar at a time (same order).
+/// The lanes `j0..n` of [`super::kernels::rows_acc`], one scalar at a time (same order), from
+/// +0 with `zero`.
 #[inline(always)]
-fn rows_scalar_tail(out: &mut [f32], a: &[f32], m: &[f32], n: usize, j0: usize) {
+fn rows_scalar_tail(out: &mut [f32], a: &[f32], m: &[f32], n: usize, j0: usize, zero: bool) {
     let (samples, k) = (out.len() / n, m.len() / n);
     for s in 0..samples {
         for j in j0..n {
-            let mut acc = out[s * n + j];
+            let mut acc = if zero { 0.0 } else { out[s * n + j] };
             for kk in 0..k {
                 acc += a[s * k + kk] * m[kk * n + j];
             }
@@ -274,9 +279,21 @@ unsafe fn outer_pass<V: Vector, const R: usize, const B: usize>(
             outer_tile::<V, R, B>(grad, a, d, o, s, r0, j0);
             r0 += R;
         }
-        while r0 < o.rows {
-            outer_tile::<V, 1, B>(grad, a, d, o, s, r0, j0);
-            r0 += 1;
+        // The rows left over as one tile (their sums side by side, each row's order as
+        // ever), rather than one tile per row, which would load the gradient rows `d` again
+        // for every row.
+        match o.rows - r0 {
+            0 => {}
+            1 => outer_tile::<V, 1, B>(grad, a, d, o, s, r0, j0),
+            2 => outer_tile::<V, 2, B>(grad, a, d, o, s, r0, j0),
+            3 => outer_tile::<V, 3, B>(grad, a, d, o, s, r0, j0),
+            4 => outer_tile::<V, 4, B>(grad, a, d, o, s, r0, j0),
+            _ => {
+                while r0 < o.rows {
+                    outer_tile::<V, 1, B>(grad, a, d, o, s, r0, j0);
+                    r0 += 1;
+                }
+            }
         }
         j0 += B * V::W;
     }
@@ -327,16 +344,30 @@ fn outer_check(
 /// The AVX-512 kernels: rows in tiles of 5 samples x 64 lanes (20 accumulators), then 5
 /// samples x 16 lanes (the 16-unit hidden gradients: 5 independent chains, so a group of 10
 /// samples is two full tiles; tiles of 8 left two samples as single, latency-bound chains, a
-/// slower training); outer products in tiles of 4 rows x 64 lanes, then 4 rows x 16 lanes.
+/// slower training); outer products in tiles of 5 rows x 64 lanes, then 5 rows x 16 lanes (20
+/// accumulators; the rows left over, 4 of the LSTM's 19, as one tile).
 pub(crate) struct Avx512;
+
+impl Avx512 {
+    /// `rows_acc` (`ZERO` false) or `rows_set` (`ZERO` true).
+    #[inline(always)]
+    unsafe fn rows<const ZERO: bool>(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        rows_check(out, a, m, n);
+        let j0 = rows_pass::<__m512, 5, 4, ZERO>(out, a, m, n, 0);
+        let j0 = rows_pass::<__m512, 5, 1, ZERO>(out, a, m, n, j0);
+        rows_scalar_tail(out, a, m, n, j0, ZERO);
+    }
+}
 
 impl Mat for Avx512 {
     #[inline(always)]
     unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
-        rows_check(out, a, m, n);
-        let j0 = rows_pass::<__m512, 5, 4>(out, a, m, n, 0);
-        let j0 = rows_pass::<__m512, 5, 1>(out, a, m, n, j0);
-        rows_scalar_tail(out, a, m, n, j0);
+        Self::rows::<false>(out, a, m, n)
+    }
+
+    #[inline(always)]
+    unsafe fn rows_set(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        Self::rows::<true>(out, a, m, n)
     }
 
     #[inline(always)]
@@ -349,8 +380,8 @@ impl Mat for Avx512 {
         s: usize,
     ) {
         let o = outer_check(grad, a, d, steps, group, s + 1);
-        let j0 = outer_pass::<__m512, 4, 4>(grad, a, d, &o, s, 0);
-        let j0 = outer_pass::<__m512, 4, 1>(grad, a, d, &o, s, j0);
+        let j0 = outer_pass::<__m512, 5, 4>(grad, a, d, &o, s, 0);
+        let j0 = outer_pass::<__m512, 5, 1>(grad, a, d, &o, s, j0);
         outer_scalar_tail(grad, a, d, &o, s, j0);
     }
 }
@@ -360,14 +391,27 @@ impl Mat for Avx512 {
 /// 32 lanes, then 4 rows x 8 lanes.
 pub(crate) struct Avx2;
 
+impl Avx2 {
+    /// `rows_acc` (`ZERO` false) or `rows_set` (`ZERO` true).
+    #[inline(always)]
+    unsafe fn rows<const ZERO: bool>(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        rows_check(out, a, m, n);
+        let j0 = rows_pass::<__m256, 2, 4, ZERO>(out, a, m, n, 0);
+        let j0 = rows_pass::<__m256, 4, 2, ZERO>(out, a, m, n, j0);
+        let j0 = rows_pass::<__m256, 8, 1, ZERO>(out, a, m, n, j0);
+        rows_scalar_tail(out, a, m, n, j0, ZERO);
+    }
+}
+
 impl Mat for Avx2 {
     #[inline(always)]
     unsafe fn rows_acc(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
-        rows_check(out, a, m, n);
-        let j0 = rows_pass::<__m256, 2, 4>(out, a, m, n, 0);
-        let j0 = rows_pass::<__m256, 4, 2>(out, a, m, n, j0);
-        let j0 = rows_pass::<__m256, 8, 1>(out, a, m, n, j0);
-        rows_scalar_tail(out, a, m, n, j0);
+        Self::rows::<false>(out, a, m, n)
+    }
+
+    #[inline(always)]
+    unsafe fn rows_set(out: &mut [f32], a: &[f32], m: &[f32], n: usize) {
+        Self::rows::<true>(out, a, m, n)
     }
 
     #[inline(always)]
