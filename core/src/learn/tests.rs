@@ -563,7 +563,7 @@ fn training_bits_are_pinned_across_builds() {
 }
 
 const PINNED_TRAINING_DIGEST: &str =
-    "fdc30e2970a74c42304dbe2d6440af92f0bf1cf71372d6403bd41a1804201096";
+    "269b67090957ecd321981cb6ccb9d70a6180fe9a197ca693eb696abd8c85e924";
 
 /// Random values for the equivalence tests: normal, with exact zeros and negative zeros mixed
 /// in (so that `0 + (-0)` and `0 * w` cases are exercised).
