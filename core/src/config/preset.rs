@@ -253,19 +253,14 @@ impl Config {
                 proximity_sensors: 8,
                 proximity_range_m: 0.1,
                 proximity_threshold: 0.2,
-                // The authors' code makes no random turns (`RandomWalk.step` in
-                // `controllers/movement.py` has `self.random()` commented out): its robots turn
-                // only to avoid. docs/SPEC.md section 1, "Data volume".
-                random_turn_rate_per_s: 0.0,
+                random_turn_rate_per_s: 0.1,
                 random_turn_max_s: 3.0,
                 rab_range_m: 2.5,
                 rab_noise_std_m: 0.01,
                 rab_occlusion: true,
                 rab_packet_drop: 0.0,
                 peer_refresh_s: 0.5,
-                // ARGoS' range-and-bearing medium, which the authors' code ran: other robots'
-                // bodies block the line of sight too.
-                rab_robot_occlusion: true,
+                rab_robot_occlusion: false,
                 behaviour: Behaviour::Avoidance,
                 mixed: MixedConfig::default(),
                 flocking: FlockingConfig::default(),
@@ -277,9 +272,7 @@ impl Config {
                 target_waypoints: 48,
                 expiration_s: 750.0,
                 heldout_samples: 200,
-                // The authors' `controllers/main.py` (ported from Flow-FL): a window is saved
-                // at the next reading after its 100th, and the reading after a gap is dropped.
-                window_rule: WindowRule::Confirmed,
+                window_rule: WindowRule::Contiguous,
             },
             learn: LearnConfig {
                 lstm_units: 16,

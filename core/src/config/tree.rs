@@ -100,11 +100,10 @@ pub struct WorldConfig {
     pub peer_refresh_s: f64,
     /// Whether other robots' bodies block range-and-bearing line of sight, as in ARGoS's
     /// range-and-bearing medium (the authors' and Flow-FL's simulator: a message passes only if
-    /// the first body its ray meets is the receiver's). On in `paper`, hence in every preset
-    /// (docs/SPEC.md section 1, "Data volume"); a recorded configuration without the key (made
-    /// before it) reads as false, how it ran. This key and the four behaviour keys below are
-    /// left out of the recorded text at their serde default, so a configuration that does not
-    /// use them keeps the text, hence the hash chain, it had before the keys.
+    /// the first body its ray meets is the receiver's). Off by default; on in `flowfl`
+    /// (docs/SPEC.md section 1, "Data volume"). This key and the four behaviour keys
+    /// below are left out of the recorded configuration at their default, so runs that do not
+    /// use them keep the configuration text, hence the hash chain, they had before the keys.
     #[serde(default, skip_serializing_if = "is_false")]
     pub rab_robot_occlusion: bool,
     /// The robots' controller: `avoidance` (default), `flocking`, `foraging` or `mixed`.
@@ -135,10 +134,9 @@ pub struct DataConfig {
     pub expiration_s: f64,
     /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
     pub heldout_samples: u32,
-    /// When a window becomes a sample: `confirmed` (the authors' code; `paper`, hence every
-    /// preset) or `contiguous` (docs/SPEC.md section 1, "Data volume"). A recorded
-    /// configuration without the key (made before it) reads as `contiguous`, how it ran; the
-    /// key is left out of the recorded text at that value, so such records keep their hashes.
+    /// When a window becomes a sample: `contiguous` (default) or `confirmed` (the authors'
+    /// code; docs/SPEC.md section 1, "Data volume"). Left out of the recorded configuration
+    /// at its default, so existing runs keep their hashes.
     #[serde(default, skip_serializing_if = "is_default")]
     pub window_rule: WindowRule,
 }

@@ -219,10 +219,7 @@ fn obstacles_occlude_range_and_bearing_when_configured() {
 
 #[test]
 fn standing_neighbours_yield_noisy_trajectories_discarded_on_a_gap() {
-    // The contiguous rule's timings (the confirmed rule, `paper`'s, has its own test in data.rs).
-    let mut w = pair(1.0, None, |c| {
-        c.data.window_rule = crate::config::WindowRule::Contiguous;
-    });
+    let mut w = pair(1.0, None, |_| {});
     for _ in 0..250 {
         w.apply(&STILL());
     }
@@ -251,10 +248,7 @@ fn standing_neighbours_yield_noisy_trajectories_discarded_on_a_gap() {
 
 #[test]
 fn samples_expire_after_the_expiration_time() {
-    let mut w = pair(1.0, None, |c| {
-        c.data.expiration_s = 15.0;
-        c.data.window_rule = crate::config::WindowRule::Contiguous;
-    });
+    let mut w = pair(1.0, None, |c| c.data.expiration_s = 15.0);
     let mut seen = Vec::new();
     for _ in 0..400 {
         w.apply(&STILL());
