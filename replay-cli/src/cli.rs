@@ -335,7 +335,7 @@ pub struct ChaosArgs {
     #[arg(long, default_value_t = 0)]
     pub first_seed: u64,
     /// Simulated seconds per run (`run.duration_s` of each run).
-    #[arg(long, default_value_t = 600.0, allow_negative_numbers = true, value_parser = duration_s)]
+    #[arg(long, default_value_t = 600.0, value_name = "SECONDS", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration: f64,
     /// Print the report as JSON (and each seed's outcome on stderr as one JSON line as soon
     /// as it finishes).
@@ -359,7 +359,7 @@ pub struct BenchArgs {
     #[arg(long, value_name = "N,N,..")]
     pub robots: Option<String>,
     /// `scale` only: simulated seconds per size (default 300; `run.duration_s` of each run).
-    #[arg(long = "duration", visible_alias = "duration-s", allow_negative_numbers = true, value_parser = duration_s)]
+    #[arg(long = "duration", visible_alias = "duration-s", value_name = "SECONDS", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: Option<f64>,
 }
 
@@ -392,7 +392,7 @@ pub struct BenchScaleOneArgs {
     #[arg(long)]
     pub robots: u32,
     /// Simulated seconds.
-    #[arg(long = "duration", visible_alias = "duration-s", allow_negative_numbers = true, value_parser = duration_s)]
+    #[arg(long = "duration", visible_alias = "duration-s", value_name = "SECONDS", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: f64,
 }
 

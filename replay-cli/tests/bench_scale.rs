@@ -82,9 +82,11 @@ fn bench_scale_refuses_bad_sizes_and_foreign_options() {
     let (code, err) = run(&["bench", "scale", "--robots", "15,x"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("--robots: `x` is not a swarm size"), "{err}");
+    // The old spelling is an alias of `--duration`, with `run.duration_s`'s range.
     let (code, err) = run(&["bench", "scale", "--robots", "15", "--duration-s", "0"]);
     assert_eq!(code, Some(2));
-    assert!(err.contains("--duration-s"), "{err}");
+    assert!(err.contains("--duration <SECONDS>"), "{err}");
+    assert!(err.contains("0 seconds is out of range"), "{err}");
     let (code, err) = run(&["bench", "train", "--robots", "15"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("belong to `bench scale` only"), "{err}");
