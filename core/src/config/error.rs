@@ -46,18 +46,15 @@ pub enum ConfigError {
         expected: String,
     },
     /// A value that is not one of a key's choices (a typo of a rule or a kind).
-    #[error(
-        "configuration key `{key}`: unknown value `{value}`{nearest}; the choices are: {choices}"
-    )]
+    #[error("configuration key `{key}`: unknown value `{value}`{help}")]
     UnknownValue {
         /// The key.
         key: String,
         /// The value as given.
         value: String,
-        /// The choices, comma-separated.
-        choices: String,
-        /// `; did you mean `x`?` when one choice is close, else empty.
-        nearest: String,
+        /// `; did you mean `x`?` when one choice is close, then `; the choices are: ...` (one
+        /// field, so the error stays as small as its other variants).
+        help: String,
     },
     /// A value outside its allowed range.
     #[error("configuration key `{key}`: value {value} is out of range; allowed: {allowed}")]

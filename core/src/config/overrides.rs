@@ -427,14 +427,14 @@ fn unknown_choice(key: &str, raw: &str, message: &str) -> Option<ConfigError> {
         .filter(|(d, c)| *d <= (c.len() / 3).max(1))
         .map(|(_, c)| format!("; did you mean `{c}`?"))
         .unwrap_or_default();
+    let listed = choices
+        .iter()
+        .map(|c| format!("`{c}`"))
+        .collect::<Vec<_>>()
+        .join(", ");
     Some(ConfigError::UnknownValue {
         key: key.to_string(),
         value: if value.is_empty() { raw } else { value }.to_string(),
-        choices: choices
-            .iter()
-            .map(|c| format!("`{c}`"))
-            .collect::<Vec<_>>()
-            .join(", "),
-        nearest,
+        help: format!("{nearest}; the choices are: {listed}"),
     })
 }
