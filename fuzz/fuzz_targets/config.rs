@@ -41,9 +41,9 @@ fuzz_target!(|data: &[u8]| {
                 let message = e.to_string();
                 let named = match &e {
                     ConfigError::Parse { source_name, .. } => source_name == SOURCE,
-                    ConfigError::UnknownKey { key, .. } | ConfigError::WrongType { key, .. } => {
-                        key.contains(SOURCE)
-                    }
+                    ConfigError::UnknownKey { key, .. }
+                    | ConfigError::WrongType { key, .. }
+                    | ConfigError::UnknownValue { key, .. } => key.contains(SOURCE),
                     ConfigError::OutOfRange { key, .. } => !key.is_empty(),
                     ConfigError::NotSetByYou { key, .. }
                     | ConfigError::NotReconfigurable { key, .. } => {
