@@ -27,19 +27,17 @@ fn scratch(name: &str) -> PathBuf {
     dir
 }
 
+/// `swarmfl run --preset smoke --seed SEED --out OUT` with `extra` arguments after it.
+fn smoke_run(out: &Path, seed: &str, extra: &[&str]) -> Output {
+    let out = out.to_str().unwrap();
+    let mut args = vec!["run", "--preset", "smoke", "--seed", seed, "--out", out];
+    args.extend_from_slice(extra);
+    swarmfl(&args)
+}
+
 /// A 60 s smoke run into `out` (a few hundred records: quick in a test).
 fn short_run(out: &Path, seed: &str) -> Output {
-    swarmfl(&[
-        "run",
-        "--preset",
-        "smoke",
-        "--seed",
-        seed,
-        "--set",
-        "run.duration_s=60",
-        "--out",
-        out.to_str().unwrap(),
-    ])
+    smoke_run(out, seed, &["--set", "run.duration_s=60"])
 }
 
 #[test]
@@ -141,15 +139,7 @@ fn run_explains_its_numbers_and_its_hints_can_be_pasted() {
 fn a_clean_runs_negative_gain_is_shown_as_stake_still_locked() {
     let dir = scratch("gain");
     // 600 s of smoke: rounds close, and one is open at the end.
-    let out = swarmfl(&[
-        "run",
-        "--preset",
-        "smoke",
-        "--seed",
-        "7",
-        "--out",
-        dir.join("r").to_str().unwrap(),
-    ]);
+    let out = smoke_run(&dir.join("r"), "7", &[]);
     let text = stdout(&out);
     assert!(out.status.success(), "{}", stderr(&out));
     assert!(
@@ -206,16 +196,7 @@ fn durations_have_one_name_one_range_and_negative_values_are_values() {
 #[test]
 fn inspect_names_the_last_robot_and_prints_distances_in_model_units() {
     let dir = scratch("inspect");
-    let out = swarmfl(&[
-        "run",
-        "--preset",
-        "smoke",
-        "--seed",
-        "7",
-        "--out",
-        dir.join("r").to_str().unwrap(),
-        "--quiet",
-    ]);
+    let out = smoke_run(&dir.join("r"), "7", &["--quiet"]);
     assert!(out.status.success(), "{}", stderr(&out));
     let log = dir.join("r/run.swlog");
     let out = swarmfl(&[

@@ -206,9 +206,9 @@ pub struct RunOutcome {
 
 /// Runs `config` with `seed`, writing the log and summary into `out`.
 pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result<RunOutcome> {
-    let header = Header::new(seed, config.to_toml());
-    let sim = Sim::new(config, seed)?;
-    write_run(&header, sim, out, quiet, |_| Ok(()))
+    // [`run_until`] with a flag nobody sets: one path from configuration to log.
+    let never = std::sync::atomic::AtomicBool::new(false);
+    run_until(config, seed, out, quiet, &never)
 }
 
 /// [`run`], interrupted at the next record once `stop` is set: the error says so, and the log
