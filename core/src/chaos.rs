@@ -24,8 +24,11 @@
 //!   that the chain's evidence removed (the removed sets recomputed here from the evidence
 //!   the headers carry, and compared with the ledger's), and no honest sealer is ever
 //!   removed; and once an honest node holds evidence of an equivocation on a parent of the
-//!   heaviest honest chain, that chain removes the sealer within [`PUNISH_MS`] (counted from
-//!   the last heal if later).
+//!   heaviest honest chain, that chain removes the sealer within [`PUNISH_MS`] of the time in
+//!   which the evidence could reach it: checkpoints after the last heal at which a holder and
+//!   the chain's node are connected through honest robots that are up ([`EvidenceClock`]). A
+//!   holder that mobility keeps out of radio reach of the heaviest chain cannot hand it the
+//!   evidence, whatever the ledger does.
 //!
 //! The drawn configurations are small and fast (5 to 15 robots, small models, short training
 //! periods) so a campaign of hundreds of seeds fits in minutes; Byzantine robots stay below a
@@ -46,6 +49,7 @@ use crate::rng::{self, Purpose};
 use crate::sim::Sim;
 use crate::state::SimError;
 use crate::types::RobotId;
+use crate::world::World;
 
 /// Blocks at the end of an honest chain that may disagree with the heaviest honest chain once
 /// the faults have healed and settled.
@@ -96,11 +100,54 @@ pub fn quorum_out_of_reach(params: &ContractParams, state: &ContractState) -> bo
     u64::from(state.accepted_count()) + may_submit < u64::from(params.quorum)
 }
 
-/// Time after an honest node first holds evidence of an equivocation (or after the last heal,
-/// if later) within which the heaviest honest chain removes the sealer, ms: enough for a
+/// Time during which the evidence of an equivocation could reach the heaviest honest chain
+/// (after the last heal) within which that chain removes the sealer, ms: enough for a
 /// holder's turn to seal to come round in a swarm of 15 at a 10 s period, with room for its
 /// block to be orphaned once.
 pub const PUNISH_MS: u64 = 240_000;
+
+/// How long the evidence against one (sealer, parent) could reach the heaviest honest chain.
+///
+/// Advanced at every checkpoint: the span since the previous checkpoint (from the last heal at
+/// the earliest) counts when, at this checkpoint, an honest holder of the evidence is connected
+/// to the chain's node through honest robots that are up. Evidence travels only over the
+/// radio's links, so the time a holder spends out of reach of that chain (mobility splits a
+/// small swarm for minutes) owes the chain nothing.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EvidenceClock {
+    /// When an honest node was first seen holding the evidence, ms.
+    pub held_since_ms: u64,
+    /// Time within reach so far, ms.
+    pub reachable_ms: u64,
+    /// The checkpoint the clock was last advanced at, ms.
+    last_ms: u64,
+}
+
+impl EvidenceClock {
+    /// A clock for evidence first seen at the checkpoint at `now_ms`.
+    pub fn new(now_ms: u64) -> EvidenceClock {
+        EvidenceClock {
+            held_since_ms: now_ms,
+            reachable_ms: 0,
+            last_ms: now_ms,
+        }
+    }
+
+    /// Advances to the checkpoint at `now_ms`; the span since the last one counts, from
+    /// `heal_ms` at the earliest, if the evidence was `reachable` at this checkpoint.
+    pub fn advance(&mut self, now_ms: u64, heal_ms: u64, reachable: bool) {
+        let from = self.last_ms.max(heal_ms);
+        if reachable && now_ms > from {
+            self.reachable_ms += now_ms - from;
+        }
+        self.last_ms = self.last_ms.max(now_ms);
+    }
+
+    /// Whether the chain has had its time to remove the sealer.
+    pub fn overdue(&self) -> bool {
+        self.reachable_ms > PUNISH_MS
+    }
+}
 
 /// The configuration seed `seed` of a campaign with runs of `duration_s` draws.
 pub fn draw(seed: u64, duration_s: f64) -> Config {
@@ -215,7 +262,8 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
         round_at_heal: None,
         live: false,
         removed_on: BTreeMap::new(),
-        evidence_since: BTreeMap::new(),
+        evidence: BTreeMap::new(),
+        component: Vec::new(),
     };
     let mut outcome = Outcome {
         liveness_checked: watch.liveness_checked,
@@ -234,6 +282,7 @@ pub fn check(config: Config, seed: u64) -> Result<Outcome, SimError> {
         }
         let now = cp.time.0;
         outcome.checks += 1;
+        watch.component = honest_components(&sim.state().world, &watch, now);
         if let Err((invariant, detail)) = watch.at(&sim.state().ledger, now) {
             outcome.violation = Some(Violation {
                 invariant: invariant.to_string(),
@@ -319,8 +368,12 @@ struct Watch {
     /// The removed signers after each block of an honest canonical chain seen so far, as
     /// recomputed here from the evidence in the headers (genesis: none).
     removed_on: BTreeMap<BlockHash, Arc<BTreeSet<RobotId>>>,
-    /// When an honest node was first seen holding evidence against (sealer, parent), ms.
-    evidence_since: BTreeMap<(RobotId, BlockHash), u64>,
+    /// The evidence against each (sealer, parent) an honest node was seen holding, and how
+    /// long it could reach the heaviest honest chain.
+    evidence: BTreeMap<(RobotId, BlockHash), EvidenceClock>,
+    /// The connected component of each robot at this checkpoint, over the radio's links
+    /// between honest robots that are up (`None`: Byzantine or down).
+    component: Vec<Option<u32>>,
 }
 
 impl Watch {
@@ -483,29 +536,70 @@ fn reference_node(nodes: &[RobotId], ledger: &Ledger) -> Option<RobotId> {
         .max_by_key(|&r| (ledger.head_total_difficulty(r), std::cmp::Reverse(r)))
 }
 
-/// *Punishment*: an honest node's evidence of an equivocation on a parent of the heaviest
-/// honest chain (of the nodes up) leads that chain to remove the sealer within [`PUNISH_MS`]
-/// of the first checkpoint at which some honest node held it, or of the last heal if later.
-fn equivocators_removed(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
+/// The connected components of the radio's links (the world's peer sets) between the honest
+/// robots that are up at `now_ms`, numbered by their lowest robot; `None` for the others.
+fn honest_components(world: &World, watch: &Watch, now_ms: u64) -> Vec<Option<u32>> {
+    let robots = world.poses().len();
+    let mut eligible = vec![false; robots];
     for &r in &watch.honest {
-        for key in ledger.node(r).evidence().keys() {
-            watch.evidence_since.entry(*key).or_insert(now_ms);
+        eligible[r as usize] = !watch.faults.is_down(r, now_ms);
+    }
+    let mut component = vec![None; robots];
+    let mut stack = Vec::new();
+    for start in 0..robots {
+        if !eligible[start] || component[start].is_some() {
+            continue;
+        }
+        component[start] = Some(start as u32);
+        stack.push(start as RobotId);
+        while let Some(r) = stack.pop() {
+            for &p in world.peers(r) {
+                if eligible[p as usize] && component[p as usize].is_none() {
+                    component[p as usize] = Some(start as u32);
+                    stack.push(p);
+                }
+            }
         }
     }
+    component
+}
+
+/// *Punishment*: an honest node's evidence of an equivocation on a parent of the heaviest
+/// honest chain (of the nodes up) leads that chain to remove the sealer within [`PUNISH_MS`]
+/// of the time in which the evidence could reach it ([`EvidenceClock`]).
+fn equivocators_removed(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Result<(), Broken> {
     let up: Vec<RobotId> = watch
         .honest
         .iter()
         .copied()
         .filter(|&r| !watch.faults.is_down(r, now_ms))
         .collect();
-    let Some(reference) = reference_node(&up, ledger) else {
+    let reference = reference_node(&up, ledger);
+    let reference_component = reference.and_then(|r| watch.component[r as usize]);
+    let mut reachable = BTreeSet::new();
+    for &r in &watch.honest {
+        let in_reach =
+            reference_component.is_some() && watch.component[r as usize] == reference_component;
+        for key in ledger.node(r).evidence().keys() {
+            watch
+                .evidence
+                .entry(*key)
+                .or_insert_with(|| EvidenceClock::new(now_ms));
+            if in_reach {
+                reachable.insert(*key);
+            }
+        }
+    }
+    for (key, clock) in watch.evidence.iter_mut() {
+        clock.advance(now_ms, watch.heal_ms, reachable.contains(key));
+    }
+    let Some(reference) = reference else {
         return Ok(());
     };
     let chain = ledger.canonical_chain(reference);
     let head = ledger.head(reference).0;
-    for (&(sealer, parent), &since) in &watch.evidence_since {
-        let deadline = since.max(watch.heal_ms) + PUNISH_MS;
-        if now_ms <= deadline || ledger.removed_at(&head, sealer) {
+    for (&(sealer, parent), clock) in &watch.evidence {
+        if !clock.overdue() || ledger.removed_at(&head, sealer) {
             continue;
         }
         let on_chain = ledger
@@ -515,10 +609,12 @@ fn equivocators_removed(watch: &mut Watch, ledger: &Ledger, now_ms: u64) -> Resu
             return Err((
                 "punishment",
                 format!(
-                    "sealer {sealer} equivocated on block {} (evidence held since {} s) and is \
-                     still a signer on node {reference}'s chain",
+                    "sealer {sealer} equivocated on block {} (evidence held since {} s, within \
+                     radio reach of node {reference} for {} s since) and is still a signer on \
+                     node {reference}'s chain",
                     parent.short(),
-                    since / 1000
+                    clock.held_since_ms / 1000,
+                    clock.reachable_ms / 1000
                 ),
             ));
         }
@@ -663,6 +759,45 @@ mod tests {
             outcome.liveness_checked && outcome.liveness_stalled,
             "{outcome:?}"
         );
+    }
+
+    /// The punishment clock counts only checkpoints at which the evidence could reach the
+    /// heaviest chain, and only after the last heal.
+    #[test]
+    fn the_evidence_clock_counts_only_time_within_reach_after_the_heal() {
+        let mut clock = EvidenceClock::new(10_000);
+        // Before the heal at 100 s nothing counts, reachable or not.
+        clock.advance(50_000, 100_000, true);
+        clock.advance(90_000, 100_000, true);
+        assert_eq!(clock.reachable_ms, 0);
+        // The span that straddles the heal counts from the heal.
+        clock.advance(110_000, 100_000, true);
+        assert_eq!(clock.reachable_ms, 10_000);
+        // Out of reach for ten minutes: nothing counts, the chain owes nothing.
+        clock.advance(710_000, 100_000, false);
+        assert_eq!(clock.reachable_ms, 10_000);
+        assert!(!clock.overdue());
+        // Back in reach: each span counts again, and the chain is overdue past PUNISH_MS.
+        clock.advance(710_000 + PUNISH_MS - 10_000, 100_000, true);
+        assert_eq!(clock.reachable_ms, PUNISH_MS);
+        assert!(!clock.overdue());
+        clock.advance(710_000 + PUNISH_MS - 9_000, 100_000, true);
+        assert!(clock.overdue());
+        assert_eq!(clock.held_since_ms, 10_000);
+    }
+
+    /// Seed 9 of a 1,500 s campaign: 5 robots in a 5 m arena at 2.5 m range, the last fault
+    /// healed at 612 s. Sealer 4 equivocates at about 60 s and honest node 3 holds the evidence
+    /// from 61 s, but node 3 is alone in its radio component nearly all the time: by 1,034 s,
+    /// when the heaviest chain removes the sealer, the evidence had been within reach of that
+    /// chain's node for 10 s. The old invariant counted from the heal and reported "sealer 4
+    /// ... is still a signer" at 857 s.
+    #[test]
+    fn evidence_held_out_of_radio_reach_owes_the_chain_nothing_until_it_can_reach_it() {
+        let outcome = check(draw(9, 1500.0), 9).unwrap();
+        assert!(outcome.violation.is_none(), "{outcome:?}");
+        assert!(outcome.equivocations >= 1, "{outcome:?}");
+        assert_eq!(outcome.removed_sealers, 1, "{outcome:?}");
     }
 
     #[test]
