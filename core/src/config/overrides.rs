@@ -258,55 +258,14 @@ impl Config {
     }
 }
 
-/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
 /// The configuration as a TOML tree with every key, including those [`Config::to_toml`]
-/// leaves out at their default (`contract.preaggregators`, `contract.bucket_size`,
-/// `contract.clip_radius`, `byzantine.search_evals`, `world.rab_robot_occlusion`,
-/// `world.behaviour`, `world.mixed`, `world.flocking`, `world.foraging`, `data.window_rule`:
-/// keys added after records existed, whose recording would move every run's hash), so that
-/// files and `--set` find them.
+/// leaves out at their default (keys added after records existed, whose recording would move
+/// every run's hash), so that files and `--set` find them.
 pub(super) fn full_tree(config: &Config) -> toml::Value {
-    fn tree<T: serde::Serialize>(value: &T) -> toml::Value {
-        toml::Value::try_from(value).expect("configuration values serialise")
-    }
-    let mut root = toml::Value::try_from(config).expect("Config serialises");
-    let (c, b, w) = (&config.contract, &config.byzantine, &config.world);
-    let omitted = [
-        (
-            "contract",
-            "preaggregators",
-            toml::Value::try_from(&c.preaggregators).expect("names serialise"),
-        ),
-        (
-            "contract",
-            "bucket_size",
-            toml::Value::Integer(c.bucket_size.into()),
-        ),
-        ("contract", "clip_radius", toml::Value::Float(c.clip_radius)),
-        (
-            "byzantine",
-            "search_evals",
-            toml::Value::Integer(b.search_evals.into()),
-        ),
-        (
-            "world",
-            "rab_robot_occlusion",
-            toml::Value::Boolean(w.rab_robot_occlusion),
-        ),
-        ("world", "behaviour", tree(&w.behaviour)),
-        ("world", "mixed", tree(&w.mixed)),
-        ("world", "flocking", tree(&w.flocking)),
-        ("world", "foraging", tree(&w.foraging)),
-        ("data", "window_rule", tree(&config.data.window_rule)),
-    ];
-    for (table, key, value) in omitted {
-        if let Some(t) = root.get_mut(table).and_then(toml::Value::as_table_mut) {
-            t.entry(key).or_insert(value);
-        }
-    }
-    root
+    super::tree::with_every_key(|| toml::Value::try_from(config).expect("Config serialises"))
 }
 
+/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
 fn merge(
     base: &mut toml::Value,
     patch: toml::Value,

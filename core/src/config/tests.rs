@@ -425,6 +425,11 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "world.flocking",
         "world.foraging",
         "data.window_rule",
+        "contract.block_gas_limit",
+        "contract.preaggregators",
+        "contract.bucket_size",
+        "contract.clip_radius",
+        "byzantine.search_evals",
     ] {
         let leaf = key.rsplit('.').next().unwrap();
         assert!(!text.contains(&format!("{leaf} =")), "{key} in {text}");
@@ -435,6 +440,9 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         );
     }
     assert!(full.contains("window_rule = \"contiguous\""));
+    assert!(full.contains("block_gas_limit = 2533274790395904"), "{full}");
+    // The full text leaves the recorded one as it was.
+    assert_eq!(smoke.to_toml(), text);
     let back: Config = toml::from_str(&text).unwrap();
     assert_eq!(back, smoke);
     let flocking =

@@ -338,7 +338,7 @@ pub struct ContractConfig {
     /// `bucketing`, `clipping`, `arc`; see `contract::preagg`), e.g. `["nnm"]`. Needs a staking
     /// rule on the native contract; the rule then runs on the stages' output, the rewards stay
     /// on the submissions made (docs/CONTRACT.md). Empty (the default): the rule alone.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(default, skip_serializing_if = "is_empty")]
     pub preaggregators: Vec<Preaggregator>,
     /// `bucketing`: models per bucket, `s` (1..=quorum; 2 by default; the last bucket holds the
     /// remainder when `s` does not divide the quorum).
@@ -369,18 +369,47 @@ pub fn default_block_gas_limit() -> u64 {
     AUTHORS_BLOCK_GAS_LIMIT
 }
 
-fn is_false(b: &bool) -> bool {
-    !*b
+thread_local! {
+    /// Set while [`with_every_key`] serialises: no key is left out.
+    static EVERY_KEY: std::cell::Cell<bool> = const { std::cell::Cell::new(false) };
 }
 
-/// True when a key holds its type's default: with `skip_serializing_if`, keys added after
-/// records existed stay out of the recorded text while unused (see [`Config::to_toml`]).
+/// Serialises with `f` while every `skip_serializing_if` of the configuration answers "keep":
+/// the full tree that `swarmfl config` prints and `--set` walks, by the same serde code as the
+/// recorded text, so a key added with a default left out of records is never missing from it.
+pub(super) fn with_every_key<T>(f: impl FnOnce() -> T) -> T {
+    struct Reset;
+    impl Drop for Reset {
+        fn drop(&mut self) {
+            EVERY_KEY.with(|k| k.set(false));
+        }
+    }
+    EVERY_KEY.with(|k| k.set(true));
+    let _reset = Reset;
+    f()
+}
+
+/// Whether a key at its default is left out of the serialised text: keys added after records
+/// existed stay out of the recorded text while unused (see [`Config::to_toml`]), but never out
+/// of [`with_every_key`]'s.
+pub(super) fn omit(at_default: bool) -> bool {
+    at_default && !EVERY_KEY.with(std::cell::Cell::get)
+}
+
+fn is_false(b: &bool) -> bool {
+    omit(!*b)
+}
+
 fn is_default<T: Default + PartialEq>(value: &T) -> bool {
-    *value == T::default()
+    omit(*value == T::default())
+}
+
+fn is_empty<T>(list: &[T]) -> bool {
+    omit(list.is_empty())
 }
 
 fn is_default_block_gas_limit(limit: &u64) -> bool {
-    *limit == AUTHORS_BLOCK_GAS_LIMIT
+    omit(*limit == AUTHORS_BLOCK_GAS_LIMIT)
 }
 
 impl ContractConfig {
@@ -470,7 +499,7 @@ fn default_search_evals() -> u32 {
 }
 
 fn is_default_search_evals(n: &u32) -> bool {
-    *n == default_search_evals()
+    omit(*n == default_search_evals())
 }
 
 fn default_switch_token_share() -> f64 {
