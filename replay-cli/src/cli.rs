@@ -268,7 +268,8 @@ pub struct ExportArgs {
 #[derive(Args, Debug)]
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
-    /// e3-smart, e4-robustness or e5-smart-defence. Omit it to sweep a --grid.
+    /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors or e3-smart-authors.
+    /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
     /// combination is a point, e.g. `--grid contract.rule=median,krum --grid
@@ -504,6 +505,8 @@ Experiments, points and default runs (seeds 1..=runs):
   e4-robustness  <rule>--<attack>--<count>: 9 rules x (clean + 12 attacks x {3, 7})       3 runs
   e5-smart-defence  <defence>--<attack>--<count>: defences none, agreement, innovation x
                  (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
+  e2-malicious-authors, e3-smart-authors  e2-malicious and e3-smart under the authors'
+                 contract (preset authors: docs/CONTRACT.md's options at their values)  20, 18 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,

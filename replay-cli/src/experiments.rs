@@ -10,7 +10,7 @@
 use swarmfl_core::config::{ByzantineKind, Defence, Rule};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 8] = [
+pub const EXPERIMENTS: [&str; 10] = [
     "e0-baselines",
     "e1-expiration",
     "e1-faulty",
@@ -19,6 +19,8 @@ pub const EXPERIMENTS: [&str; 8] = [
     "e3-smart",
     "e4-robustness",
     "e5-smart-defence",
+    "e2-malicious-authors",
+    "e3-smart-authors",
 ];
 
 /// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
@@ -140,6 +142,20 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             points: byzantine_grid(),
             runs: 18,
         },
+        "e2-malicious-authors" => Experiment {
+            name: "e2-malicious-authors".into(),
+            preset: "authors".into(),
+            axis: "malicious robots".into(),
+            points: authors_grid(ByzantineKind::Malicious),
+            runs: 20,
+        },
+        "e3-smart-authors" => Experiment {
+            name: "e3-smart-authors".into(),
+            preset: "authors".into(),
+            axis: "smart robots".into(),
+            points: authors_grid(ByzantineKind::Smart),
+            runs: 18,
+        },
         "e4-robustness" => Experiment {
             name: "e4-robustness".into(),
             preset: "e4-robustness".into(),
@@ -176,6 +192,18 @@ fn byzantine_grid() -> Vec<Point> {
             tags: Vec::new(),
         })
         .collect()
+}
+
+/// The grid of e2-malicious and e3-smart under the authors' contract (issue #36): the `authors`
+/// preset (the paper's system with [`swarmfl_core::config::AUTHORS_CONTRACT`]) and the same
+/// points, 0 to 7 robots of `kind`, so each point compares with its namesake of the paper's
+/// experiment at the same seeds.
+fn authors_grid(kind: ByzantineKind) -> Vec<Point> {
+    let mut points = byzantine_grid();
+    for p in points.iter_mut().filter(|p| p.x > 0.0) {
+        p.overrides.push(format!("byzantine.kind={}", kind.name()));
+    }
+    points
 }
 
 /// The aggregations the baselines experiment compares, in grid order.
@@ -368,7 +396,36 @@ mod tests {
         check("e2-malicious", 8, 20);
         check("e3-smart", 8, 18);
         check("e5-smart-defence", 39, 3);
+        check("e2-malicious-authors", 8, 20);
+        check("e3-smart-authors", 8, 18);
         assert!(experiment("e4").is_err());
+    }
+
+    /// Each point of an `-authors` experiment is its namesake of the paper's experiment with
+    /// the authors' contract, and nothing else changed.
+    #[test]
+    fn the_authors_experiments_differ_from_the_papers_only_in_the_contract() {
+        for (ours, theirs) in [
+            ("e2-malicious", "e2-malicious-authors"),
+            ("e3-smart", "e3-smart-authors"),
+        ] {
+            let (a, b) = (experiment(ours).unwrap(), experiment(theirs).unwrap());
+            assert_eq!(a.runs, b.runs);
+            for (p, q) in a.points.iter().zip(&b.points) {
+                assert_eq!((&p.name, p.x), (&q.name, q.x));
+                let mine = Config::resolve(Some(&a.preset), None, &p.overrides).unwrap();
+                let mut authors = Config::resolve(Some(&b.preset), None, &q.overrides).unwrap();
+                assert_ne!(mine.contract, authors.contract, "{theirs} {}", q.name);
+                assert_eq!(authors.contract.reward_weights, [1, 1, 1, 1, 1, -1, -1]);
+                assert_eq!(
+                    authors.contract.options(),
+                    swarmfl_core::config::ContractOptions::authors()
+                );
+                authors.contract = mine.contract.clone();
+                authors.preset = mine.preset.clone();
+                assert_eq!(mine, authors, "{theirs} {}", q.name);
+            }
+        }
     }
 
     #[test]
@@ -376,7 +433,7 @@ mod tests {
         for name in EXPERIMENTS {
             let exp = experiment(name).unwrap();
             for point in &exp.points {
-                let config = Config::resolve(Some(name), None, &point.overrides)
+                let config = Config::resolve(Some(&exp.preset), None, &point.overrides)
                     .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
                 if name == "e1-expiration" {
                     assert_eq!(config.data.expiration_s, point.x);

@@ -34,7 +34,7 @@ pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};
 pub use overrides::{is_reconfigurable, RECONFIGURABLE};
 pub use preagg::Preaggregator;
-pub use preset::Preset;
+pub use preset::{Preset, AUTHORS_CONTRACT};
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,
     LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig, AUTHORS_BLOCK_GAS_LIMIT,

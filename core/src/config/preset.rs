@@ -17,6 +17,24 @@ use super::tree::{
 };
 use crate::faults::FaultsConfig;
 
+/// The authors' contract as configuration overrides: every variant option of
+/// docs/CONTRACT.md ("Differences from the authors' contract", rows 1 to 9) at the authors'
+/// value, with the reward weights their script passes to `setInitWeights`. The `authors`
+/// preset applies them to the paper's system, and the `-authors` experiments of `swarmfl
+/// sweep` to each point. Their code's comment gives other weights, one override away:
+/// `contract.reward_weights=[5,4,3,2,1,-1,-2]`.
+pub const AUTHORS_CONTRACT: [&str; 9] = [
+    "contract.median=mean",
+    "contract.fedavg_rounding=truncate",
+    "contract.int48_products=true",
+    "contract.threshold=strict",
+    "contract.rank_key=mae",
+    "contract.rank_ties=quicksort",
+    "contract.payout_rounding=ratio_1e9",
+    "contract.pool=round",
+    "contract.reward_weights=[1,1,1,1,1,-1,-1]",
+];
+
 /// The named configurations shipped with swarmfl.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Preset {
@@ -28,6 +46,9 @@ pub enum Preset {
     Reference,
     /// 15 robots for 600 s: quick, for fixtures and CI.
     Smoke,
+    /// The paper's system under the authors' contract: every variant option of
+    /// docs/CONTRACT.md at the authors' value and their script's reward weights (issue #36).
+    Authors,
     /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots in a
     /// 4 x 4 m arena, 2 m range, robots occlude): matches its dataset's sample counts (issue
     /// #38; docs/SPEC.md section 1, "Data volume").
@@ -54,10 +75,11 @@ pub enum Preset {
 
 impl Preset {
     /// Every variant, in documentation order (the order `swarmfl presets` lists them).
-    pub const ALL: [Preset; 13] = [
+    pub const ALL: [Preset; 14] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
+        Preset::Authors,
         Preset::Smoke,
         Preset::Flowfl,
         Preset::E1Expiration,
@@ -76,6 +98,7 @@ impl Preset {
             Preset::Paper => "paper",
             Preset::PaperText => "paper-text",
             Preset::Reference => "reference",
+            Preset::Authors => "authors",
             Preset::Smoke => "smoke",
             Preset::Flowfl => "flowfl",
             Preset::E1Expiration => "e1-expiration",
@@ -100,6 +123,10 @@ impl Preset {
             }
             Preset::Reference => {
                 "the reference implementation's values: 4 x 4 m, 2.0 m range, 4980 s, SGD 0.01"
+            }
+            Preset::Authors => {
+                "the paper's system under the authors' contract (median, rounding, ranking, \
+                 payouts, pool) and their script's reward weights [1,1,1,1,1,-1,-1]"
             }
             Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
             Preset::Flowfl => {
@@ -159,6 +186,12 @@ impl Preset {
                 c.world.arena_side_m = 4.0;
                 c.world.obstacle_spread_half_m = 1.5;
                 c.world.rab_range_m = 2.0;
+            }
+            Preset::Authors => {
+                for assignment in AUTHORS_CONTRACT {
+                    c.set(assignment)
+                        .expect("the authors' contract options are valid keys and values");
+                }
             }
             Preset::Smoke => {
                 c.run.duration_s = 600.0;

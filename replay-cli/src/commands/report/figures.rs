@@ -89,6 +89,10 @@ fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a
         "e2-faulty" => "per number of faulty robots, security on",
         "e2-malicious" => "per number of malicious robots, security on",
         "e3-smart" => "per number of smart robots, security on",
+        "e2-malicious-authors" => {
+            "per number of malicious robots, security on, the authors' contract"
+        }
+        "e3-smart-authors" => "per number of smart robots, security on, the authors' contract",
         _ => "per configuration",
     };
     (
