@@ -17,6 +17,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
+use crate::byzantine::plugin::Plugins;
 use crate::config::{Config, ConfigError};
 use crate::event::{Event, Reconfiguration, Record};
 use crate::inspect::{self, InspectError};
@@ -27,6 +28,15 @@ use crate::types::SimTime;
 /// Why a fork cannot be made.
 #[derive(Debug, thiserror::Error)]
 pub enum ForkError {
+    /// A plug-in of the parent is not given or its source changed, or an override names a
+    /// plug-in that is not given (`byzantine::plugin`).
+    #[error("fork of {path}: {message}")]
+    Plugin {
+        /// The parent log.
+        path: String,
+        /// Which plug-in, and what is wrong.
+        message: String,
+    },
     /// The parent log cannot be read, replayed or indexed (or the block is past its end).
     #[error(transparent)]
     Inspect(#[from] InspectError),
@@ -133,10 +143,28 @@ pub struct ForkPlan {
 /// the `key=value` `overrides`. Reads the parent's sidecar index when it fits (see
 /// [`inspect::read_sidecar`]), otherwise folds the whole parent log once.
 pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan, ForkError> {
+    plan_with(parent, height, overrides, &Plugins::none())
+}
+
+/// [`plan`] offered `plugins`: the parent's plug-ins must be among them with the sources its
+/// header records (the error names the plug-in and both digests), and the fork's header records
+/// them and any the overrides name.
+pub fn plan_with(
+    parent: &Path,
+    height: u64,
+    overrides: &[String],
+    plugins: &Plugins,
+) -> Result<ForkPlan, ForkError> {
     let name = parent.display().to_string();
     let mut reader = LogReader::open(parent).map_err(ReplayError::from)?;
     let root = header_config(&reader, &name)?;
     let parent_header = reader.header().clone();
+    plugins
+        .check(&parent_header.plugins)
+        .map_err(|message| ForkError::Plugin {
+            path: name.clone(),
+            message,
+        })?;
     let seed = parent_header.seed;
     if height == 0 {
         return Err(ForkError::AtGenesis { path: name, seed });
@@ -181,6 +209,18 @@ pub fn plan(parent: &Path, height: u64, overrides: &[String]) -> Result<ForkPlan
         .expect("a finished reader has its footer")
         .final_hash;
     let mut header = Header::new(seed, parent_header.config_toml.clone());
+    header.plugins = parent_header.plugins.clone();
+    for id in plugins
+        .used_by(&config)
+        .map_err(|message| ForkError::Plugin {
+            path: name.clone(),
+            message,
+        })?
+    {
+        if !header.plugins.contains(&id) {
+            header.plugins.push(id);
+        }
+    }
     header.parent = Some(ForkOrigin {
         parent_final_hash,
         height,

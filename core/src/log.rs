@@ -60,6 +60,11 @@ pub struct Header {
     pub config_toml: String,
     /// For a forked run: the parent log and the block height it was forked at.
     pub parent: Option<ForkOrigin>,
+    /// The plug-ins the run uses (name and source digest, see `byzantine::plugin`). Left out
+    /// of the header and of the run identity when empty, so runs without plug-ins keep their
+    /// bytes and hashes; part of the identity otherwise (another source is another run).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub plugins: Vec<crate::byzantine::plugin::PluginId>,
 }
 
 /// Where a forked run came from.
@@ -95,6 +100,7 @@ impl Header {
             seed,
             config_toml,
             parent: None,
+            plugins: Vec::new(),
         }
     }
 }
@@ -251,13 +257,17 @@ pub struct HashChain {
 }
 
 impl HashChain {
-    /// The chain's start for a run: its identity (seed, configuration, fork origin).
+    /// The chain's start for a run: its identity (seed, configuration, fork origin, and the
+    /// plug-ins' ids when there are any).
     pub fn start(header: &Header) -> HashChain {
         let identity = (header.seed, &header.config_toml, &header.parent);
         let mut h = blake3::Hasher::new();
         h.update(b"swarmfl-log");
         h.update(&FORMAT_VERSION.to_le_bytes());
         h.update(&rmp_serde::to_vec(&identity).expect("identity encodes"));
+        if !header.plugins.is_empty() {
+            h.update(&rmp_serde::to_vec(&header.plugins).expect("plug-in ids encode"));
+        }
         HashChain {
             value: *h.finalize().as_bytes(),
         }

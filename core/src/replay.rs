@@ -4,6 +4,7 @@
 use std::io::Read;
 use std::path::Path;
 
+use crate::byzantine::plugin::Plugins;
 use crate::config::{Config, ConfigError};
 use crate::event::{Event, Record};
 use crate::log::{encode_record, Footer, LogError, LogReader};
@@ -24,6 +25,15 @@ pub enum ReplayError {
         path: String,
         /// What is wrong.
         source: ConfigError,
+    },
+    /// A plug-in the header records is not given, or its source changed
+    /// (`byzantine::plugin`).
+    #[error("{path}: {message}")]
+    Plugin {
+        /// The log.
+        path: String,
+        /// Which plug-in, and what is wrong.
+        message: String,
     },
     /// The run cannot start from the header's configuration.
     #[error("{path}: cannot start the run of the header: {source}")]
@@ -184,8 +194,30 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
 /// Re-simulates the run from the header's seed and configuration and compares every record,
 /// byte for byte, with the log.
 pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
+    resimulate_with(path, &Plugins::none())
+}
+
+/// Checks that the plug-ins the header of the log at `path` records are among `plugins`, with
+/// the same sources: the command (no plug-ins) refuses every log that has one, naming it.
+pub fn check_plugins<R: Read>(
+    reader: &LogReader<R>,
+    path: &str,
+    plugins: &Plugins,
+) -> Result<(), ReplayError> {
+    plugins
+        .check(&reader.header().plugins)
+        .map_err(|message| ReplayError::Plugin {
+            path: path.to_string(),
+            message,
+        })
+}
+
+/// [`resimulate`] offered `plugins`: the header's plug-ins must be among them, with the same
+/// sources ([`check_plugins`]).
+pub fn resimulate_with(path: &Path, plugins: &Plugins) -> Result<ReplayReport, ReplayError> {
     let name = path.display().to_string();
     let mut reader = LogReader::open(path)?;
+    check_plugins(&reader, &name, plugins)?;
     let config = header_config(&reader, &name)?;
     let seed = reader.header().seed;
     let reconfigurations = reader
@@ -194,11 +226,12 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
         .as_ref()
         .map(|p| p.reconfigurations.clone())
         .unwrap_or_default();
-    let mut sim =
-        Sim::forked(config, seed, &reconfigurations).map_err(|source| ReplayError::Start {
+    let mut sim = Sim::forked_with(config, seed, &reconfigurations, plugins).map_err(|source| {
+        ReplayError::Start {
             path: name.clone(),
             source,
-        })?;
+        }
+    })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     let mut buf = Vec::new();
     loop {

@@ -39,6 +39,9 @@ pub enum SimError {
         /// What is wrong.
         message: String,
     },
+    /// The configuration names a plug-in the run is not given (`byzantine::plugin`).
+    #[error("{0}")]
+    Plugin(String),
 }
 
 /// An event that the state cannot fold (only possible with a damaged or foreign log).

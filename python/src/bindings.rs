@@ -18,6 +18,8 @@ use swarmfl_core::config::{Aggregation, Config};
 use swarmfl_core::inspect::{self, timeline, Column, Expr, RunIndex, Table};
 use swarmfl_core::types::SimTime;
 
+use crate::plugins;
+
 pyo3::create_exception!(
     _swarmfl,
     SwarmflError,
@@ -72,29 +74,24 @@ fn resolve(
     Config::resolve(preset, config.as_deref(), overrides).map_err(err)
 }
 
-/// Runs a simulation into `out` (`run.swlog`, `summary.json`) as `swarmfl run` does, and
-/// returns the summary's JSON text. Ctrl-C stops it at its next record and raises
-/// `KeyboardInterrupt` (the log left in `out` is truncated).
-#[pyfunction]
-#[pyo3(signature = (preset, config, overrides, seed, out, quiet))]
-fn run(
+/// A plug-in attack as the Python side hands it over: (name, what was hashed, its source,
+/// the adapter to call).
+type AttackArg = Option<(String, String, String, Py<PyAny>)>;
+
+/// Runs `work` on its own thread while this one checks for Ctrl-C ten times a second (Python
+/// handles signals on the main thread only): Ctrl-C sets the flag `work` is given, which stops
+/// it at its next record, and is raised. A plug-in's first error (`failure`) is raised before
+/// `work`'s own error (the "stopped" it caused).
+fn on_worker<T: Send>(
     py: Python<'_>,
-    preset: Option<String>,
-    config: Option<PathBuf>,
-    overrides: Vec<String>,
-    seed: u64,
-    out: PathBuf,
-    quiet: bool,
-) -> PyResult<String> {
-    let config = resolve(preset.as_deref(), config, &overrides)?;
+    failure: &plugins::Failure,
+    work: impl FnOnce(&AtomicBool) -> anyhow::Result<T> + Send,
+) -> PyResult<T> {
     let stop = AtomicBool::new(false);
     let mut interrupted: Option<PyErr> = None;
-    // The run on its own thread; this one checks for Ctrl-C ten times a second (Python
-    // handles signals on the main thread only) and stops the run at its next record.
     let outcome = std::thread::scope(|scope| {
-        let (stop, out) = (&stop, &out);
-        let worker =
-            scope.spawn(move || swarmfl_cli::api::run_until(config, seed, out, quiet, stop));
+        let stop = &stop;
+        let worker = scope.spawn(move || work(stop));
         while !worker.is_finished() {
             py.detach(|| std::thread::sleep(Duration::from_millis(100)));
             if interrupted.is_none() {
@@ -106,13 +103,114 @@ fn run(
         }
         worker.join()
     });
+    if let Some(e) = plugins::take_failure(failure) {
+        return Err(e);
+    }
     if let Some(e) = interrupted {
         return Err(e);
     }
-    let outcome = outcome
+    outcome
         .map_err(|_| SwarmflError::new_err("the run's thread panicked"))?
-        .map_err(err)?;
+        .map_err(err)
+}
+
+/// The check a run or fork makes before each record: stop after a plug-in failed or Ctrl-C.
+fn check_stop<'a>(
+    stop: &'a AtomicBool,
+    failure: &'a plugins::Failure,
+    out: &'a std::path::Path,
+) -> impl FnMut() -> anyhow::Result<()> + 'a {
+    move || {
+        if plugins::failed(failure) {
+            anyhow::bail!("a plug-in failed: {} is truncated", out.display());
+        }
+        if stop.load(Ordering::Relaxed) {
+            anyhow::bail!(
+                "interrupted: {} is truncated (no summary); run again to redo it",
+                out.join("run.swlog").display()
+            );
+        }
+        Ok(())
+    }
+}
+
+/// Runs a simulation into `out` (`run.swlog`, `summary.json`) as `swarmfl run` does, and
+/// returns the summary's JSON text. Ctrl-C stops it at its next record and raises
+/// `KeyboardInterrupt` (the log left in `out` is truncated). `attack` is a plug-in attack
+/// (`byzantine.kind = "plugin"`, see `plugins.rs`).
+#[pyfunction]
+#[pyo3(signature = (preset, config, overrides, seed, out, quiet, attack=None))]
+#[allow(clippy::too_many_arguments)]
+fn run(
+    py: Python<'_>,
+    preset: Option<String>,
+    config: Option<PathBuf>,
+    overrides: Vec<String>,
+    seed: u64,
+    out: PathBuf,
+    quiet: bool,
+    attack: AttackArg,
+) -> PyResult<String> {
+    let config = resolve(preset.as_deref(), config, &overrides)?;
+    let (plugins, failure) = plugins::plugins(attack);
+    let outcome = on_worker(py, &failure, |stop| {
+        let check = check_stop(stop, &failure, &out);
+        swarmfl_cli::api::run_with_plugins(config, seed, &out, quiet, &plugins, check)
+    })?;
     serde_json::to_string(&outcome.summary).map_err(err)
+}
+
+/// Replays the log at `log` (`swarmfl replay [--resimulate]`) offered the plug-in `attack`:
+/// refuses a log whose plug-in is not given or whose source changed, naming it. Returns
+/// `(records, checkpoints, blocks, final_hash)`.
+#[pyfunction]
+#[pyo3(signature = (log, resimulate, attack=None))]
+fn replay(
+    py: Python<'_>,
+    log: PathBuf,
+    resimulate: bool,
+    attack: AttackArg,
+) -> PyResult<(u64, u64, u64, String)> {
+    use swarmfl_core::replay as core_replay;
+    let (plugins, failure) = plugins::plugins(attack);
+    let report = on_worker(py, &failure, |_| {
+        let name = log.display().to_string();
+        let reader =
+            swarmfl_core::log::LogReader::open(&log).map_err(core_replay::ReplayError::from)?;
+        core_replay::check_plugins(&reader, &name, &plugins)?;
+        drop(reader);
+        Ok(if resimulate {
+            core_replay::resimulate_with(&log, &plugins)?
+        } else {
+            core_replay::replay(&log)?
+        })
+    })?;
+    Ok((
+        report.records,
+        report.checkpoints,
+        report.blocks,
+        report.final_hash.to_hex(),
+    ))
+}
+
+/// Forks the log at `log` at block `at` with `overrides` into `out` (`swarmfl fork`), offered
+/// the plug-in `attack` (the parent's must be given, with the source its header records).
+#[pyfunction]
+#[pyo3(signature = (log, at, overrides, out, quiet, attack=None))]
+fn fork(
+    py: Python<'_>,
+    log: PathBuf,
+    at: u64,
+    overrides: Vec<String>,
+    out: PathBuf,
+    quiet: bool,
+    attack: AttackArg,
+) -> PyResult<()> {
+    let (plugins, failure) = plugins::plugins(attack);
+    on_worker(py, &failure, |stop| {
+        let check = check_stop(stop, &failure, &out);
+        swarmfl_cli::api::fork_with_plugins(&log, at, &overrides, &out, quiet, &plugins, check)
+    })
 }
 
 /// Runs a sweep (`swarmfl sweep`: a built-in experiment, or the grid of `grid`'s
@@ -416,6 +514,8 @@ impl Index {
 fn _swarmfl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("SwarmflError", m.py().get_type::<SwarmflError>())?;
     m.add_function(wrap_pyfunction!(run, m)?)?;
+    m.add_function(wrap_pyfunction!(replay, m)?)?;
+    m.add_function(wrap_pyfunction!(fork, m)?)?;
     m.add_function(wrap_pyfunction!(config_toml, m)?)?;
     m.add_function(wrap_pyfunction!(export, m)?)?;
     m.add_function(wrap_pyfunction!(sweep, m)?)?;

@@ -8,3 +8,5 @@
 
 #[cfg(feature = "python")]
 mod bindings;
+#[cfg(feature = "python")]
+mod plugins;

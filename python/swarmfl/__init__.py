@@ -28,8 +28,10 @@ import pandas as pd
 
 from . import _swarmfl
 from ._swarmfl import SwarmflError
+from .plugins import Attack, AttackView, PluginError, plugin_arg
 
-__all__ = ["run", "open", "Run", "SwarmflError", "config", "sweep", "results", "report"]
+__all__ = ["run", "open", "Run", "SwarmflError", "config", "sweep", "results", "report",
+           "replay", "fork", "Attack", "AttackView", "PluginError"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -78,9 +80,23 @@ def config(preset: Optional[str] = None, set: Optional[Mapping[str, Any]] = None
     return _swarmfl.config_toml(preset, None if config is None else os.fspath(config), _overrides(set))
 
 
+def _with_attack(overrides: list, plugin: Optional[tuple]) -> list:
+    """The overrides plus ``byzantine.kind = "plugin"`` and ``byzantine.plugin = NAME`` for a
+    plug-in attack (a ``set=`` that names another kind is an error)."""
+    if plugin is None:
+        return overrides
+    for o in overrides:
+        key, _, value = o.partition("=")
+        if key.strip() == "byzantine.kind" and value.strip().strip('"') != "plugin":
+            raise SwarmflError(
+                f"attack= runs a plug-in attack (byzantine.kind = \"plugin\"), but set= has {o}: "
+                "drop one of them")
+    return overrides + ['byzantine.kind="plugin"', f"byzantine.plugin={_toml_value(plugin[0])}"]
+
+
 def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, Any]] = None,
         out: Optional[PathLike] = None, config: Optional[PathLike] = None,
-        quiet: bool = True) -> "Run":
+        quiet: bool = True, attack: Optional[Attack] = None) -> "Run":
     """Simulates a run, as ``swarmfl run --preset PRESET --seed SEED --set K=V ... --out OUT``.
 
     ``set`` maps configuration keys to values (``{"byzantine.count": 3, "contract.rule":
@@ -88,7 +104,9 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
     goes into a new temporary directory (kept: its path is ``Run.path``). ``quiet=False`` shows
     the command's progress bar on the terminal. Ctrl-C stops the simulation at its next record
     and raises ``KeyboardInterrupt`` (``out`` then holds a truncated log and no summary).
-    Returns the :class:`Run`.
+    ``attack`` is a plug-in attack (a :class:`swarmfl.Attack` instance) that the Byzantine
+    robots run (``byzantine.count`` of them: set it); a plug-in that raises or answers badly
+    raises :class:`PluginError` naming the round and robot. Returns the :class:`Run`.
     """
     if preset is None and config is None:
         preset = "paper"
@@ -96,12 +114,55 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
         raise SwarmflError(f"seed must be a non-negative integer, got {seed!r}")
     if out is None:
         out = tempfile.mkdtemp(prefix=f"swarmfl-{preset or 'run'}-seed{seed}-")
-    overrides = _overrides(set)
+    plugin = plugin_arg(attack)
+    overrides = _with_attack(_overrides(set), plugin)
     summary = _swarmfl.run(preset, None if config is None else os.fspath(config), overrides,
-                           seed, os.fspath(out), quiet)
+                           seed, os.fspath(out), quiet, plugin)
     r = Run(Path(out) / "run.swlog")
     r._summary = json.loads(summary)
     return r
+
+
+def _log_path(path: PathLike) -> Path:
+    p = Path(path)
+    if p.is_dir():
+        p = p / "run.swlog"
+    if not p.exists():
+        raise SwarmflError(f"cannot open {p}: no such file (give a run directory or its run.swlog)")
+    return p
+
+
+def replay(log: PathLike, resimulate: bool = False, attack: Optional[Attack] = None) -> dict:
+    """Replays a log (``swarmfl replay [--resimulate]``): folds its events and checks every
+    checkpoint, or re-simulates the run and compares every record. A log made with a plug-in
+    attack needs it (``attack=``), with the source its header records: otherwise this raises
+    :class:`SwarmflError` naming the plug-in and both digests. Returns ``records``,
+    ``checkpoints``, ``blocks`` and ``final_hash``; a difference raises :class:`SwarmflError`."""
+    records, checkpoints, blocks, final_hash = _swarmfl.replay(
+        os.fspath(_log_path(log)), bool(resimulate), plugin_arg(attack))
+    return {"records": records, "checkpoints": checkpoints, "blocks": blocks,
+            "final_hash": final_hash}
+
+
+def fork(log: PathLike, at: int, set: Optional[Mapping[str, Any]] = None,
+         out: Optional[PathLike] = None, quiet: bool = True,
+         attack: Optional[Attack] = None) -> "Run":
+    """Forks a chain run at block ``at`` with the overrides ``set`` (``swarmfl fork LOG --at H
+    --set K=V``): re-simulates the parent up to the fork point, checking every record, then
+    continues under the new configuration. ``attack`` is the parent's plug-in attack (required,
+    with the same source, when the parent has one) or one the overrides switch to. Returns the
+    fork's :class:`Run` (in ``out``, default a new temporary directory)."""
+    if not isinstance(at, int) or isinstance(at, bool) or at < 0:
+        raise SwarmflError(f"at must be a non-negative block height, got {at!r}")
+    parent = _log_path(log)
+    if out is None:
+        out = tempfile.mkdtemp(prefix=f"swarmfl-fork-at-{at}-")
+    plugin = plugin_arg(attack)
+    overrides = _overrides(set)
+    if plugin is not None and any(o.partition("=")[0].strip() == "byzantine.kind" for o in overrides):
+        overrides = _with_attack(overrides, plugin)
+    _swarmfl.fork(os.fspath(parent), at, overrides, os.fspath(out), quiet, plugin)
+    return Run(Path(out) / "run.swlog")
 
 
 def _grid_value(value: Any) -> str:

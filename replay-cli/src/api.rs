@@ -3,6 +3,7 @@
 
 use std::path::Path;
 
+use swarmfl_core::byzantine::plugin::Plugins;
 use swarmfl_core::config::Config;
 
 pub use crate::commands::report::{results_frame, Frame};
@@ -25,6 +26,42 @@ pub fn run_until(
     stop: &std::sync::atomic::AtomicBool,
 ) -> anyhow::Result<RunOutcome> {
     crate::commands::run::run_until(config, seed, out, quiet, stop)
+}
+
+/// [`run`] offered `plugins` (plug-in attacks); `check` runs before every record is written and
+/// its error stops the run, leaving the log in `out` truncated.
+pub fn run_with_plugins(
+    config: Config,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+    plugins: &Plugins,
+    check: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<RunOutcome> {
+    crate::commands::run::run_with_plugins(config, seed, out, quiet, plugins, check)
+}
+
+/// Forks the log at `parent` at block `height` with `overrides` into `out`, as `swarmfl fork`
+/// does, offered `plugins` (the parent's must be among them, with the recorded sources);
+/// `check` as in [`run_with_plugins`].
+pub fn fork_with_plugins(
+    parent: &Path,
+    height: u64,
+    overrides: &[String],
+    out: &Path,
+    quiet: bool,
+    plugins: &Plugins,
+    check: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
+    crate::commands::fork::fork_with(
+        parent,
+        height,
+        overrides,
+        Some(out.to_path_buf()),
+        quiet,
+        plugins,
+        check,
+    )
 }
 
 /// Writes the CSV tables of the log at `log` into `out`, as `swarmfl export` does.

@@ -19,7 +19,8 @@
 //! share, then one harmful model), and the adaptive and extreme attacks of issue 33:
 //! `optimal-alie` and `optimal-ipm` (their factor line-searched against the contract's own
 //! pre-aggregators and rule on the robot's chain, `line_search.rs`), `extreme-value` (every weight at the
-//! edge of int48) and `mirror-targets` (label flipping for trajectories). Models are
+//! edge of int48) and `mirror-targets` (label flipping for trajectories); `plugin` runs an
+//! attack the program running the simulation supplies (`plugin.rs`). Models are
 //! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
 //! driver converts them to fixed point as it does honest models.
 
@@ -38,6 +39,7 @@ pub mod min_max;
 pub mod mirror_targets;
 pub mod optimal_alie;
 pub mod optimal_ipm;
+pub mod plugin;
 pub mod poison_data;
 pub mod sign_flip;
 pub mod smart;
@@ -151,10 +153,23 @@ pub trait Attack: Send + Sync {
     fn act(&self, view: &View, rng: &mut Rng) -> Action;
 }
 
-/// The agent of `kind`; `None` for honest robots.
+/// The agent of `config`'s `byzantine.kind` (a plug-in's from `plugins`, by its
+/// `byzantine.plugin` name); `Ok(None)` for honest robots, an error naming the plug-in when it
+/// is not offered.
+pub fn agent(
+    config: &ByzantineConfig,
+    plugins: &plugin::Plugins,
+) -> Result<Option<std::sync::Arc<dyn Attack>>, String> {
+    Ok(match config.kind {
+        ByzantineKind::Plugin => Some(plugin::lookup(plugins, &config.plugin)?),
+        kind => attack(kind).map(std::sync::Arc::from),
+    })
+}
+
+/// The built-in agent of `kind`; `None` for honest robots and for `plugin` (see [`agent`]).
 pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
     Some(match kind {
-        ByzantineKind::None => return None,
+        ByzantineKind::None | ByzantineKind::Plugin => return None,
         ByzantineKind::Faulty => Box::new(faulty::Faulty),
         ByzantineKind::Malicious => Box::new(malicious::Malicious),
         ByzantineKind::Smart => Box::new(smart::Smart),

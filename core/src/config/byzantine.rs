@@ -45,11 +45,14 @@ pub enum ByzantineKind {
     ExtremeValue,
     /// Trains honestly on trajectories whose targets are mirrored across the heading.
     MirrorTargets,
+    /// A plug-in attack named by `byzantine.plugin`, supplied by the program that runs the
+    /// simulation (the Python package's `swarmfl.run(attack=...)`); the command cannot run it.
+    Plugin,
 }
 
 impl ByzantineKind {
     /// Every variant, in documentation order.
-    pub const ALL: [ByzantineKind; 18] = [
+    pub const ALL: [ByzantineKind; 19] = [
         ByzantineKind::None,
         ByzantineKind::Faulty,
         ByzantineKind::Malicious,
@@ -68,6 +71,7 @@ impl ByzantineKind {
         ByzantineKind::OptimalIpm,
         ByzantineKind::ExtremeValue,
         ByzantineKind::MirrorTargets,
+        ByzantineKind::Plugin,
     ];
 
     /// The kind's name as written in configurations.
@@ -91,6 +95,7 @@ impl ByzantineKind {
             ByzantineKind::OptimalIpm => "optimal-ipm",
             ByzantineKind::ExtremeValue => "extreme-value",
             ByzantineKind::MirrorTargets => "mirror-targets",
+            ByzantineKind::Plugin => "plugin",
         }
     }
 }

@@ -373,6 +373,7 @@ impl Config {
                 ledger: LedgerBehaviour::Honest,
                 switch_token_share: 0.5,
                 search_evals: 20,
+                plugin: String::new(),
             },
             faults: FaultsConfig::default(),
             output: OutputConfig {

@@ -492,6 +492,11 @@ pub struct ByzantineConfig {
         skip_serializing_if = "is_default_search_evals"
     )]
     pub search_evals: u32,
+    /// `plugin`: the name of the plug-in attack (`byzantine.kind = "plugin"`), which the
+    /// program running the simulation supplies (the Python package's `swarmfl.run(attack=...)`);
+    /// empty otherwise. Left out of the recorded configuration when empty.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub plugin: String,
 }
 
 fn default_search_evals() -> u32 {

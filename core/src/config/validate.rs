@@ -112,6 +112,7 @@ fn table(c: &Config) -> Vec<Step> {
         Across(variant_options_fit_the_rule),
         Integer("byzantine.count", b.count.into(), 0, w.robots.into()),
         Across(count_matches_the_misbehaviour),
+        Across(plugin_is_named),
         Number("contract.round_timeout_s", k.round_timeout_s, 0.0, 1.0e9),
         // At least a plain transaction's intrinsic gas; at most what revm's gas counter holds
         // with room to spare.
@@ -501,6 +502,38 @@ fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
             b.ledger.name()
         ),
     )
+}
+
+/// `byzantine.kind = "plugin"` needs the plug-in's name in `byzantine.plugin` (a plain name:
+/// it is recorded in the log header and matched against the plug-ins a replay is given), and a
+/// name is only read under that kind.
+fn plugin_is_named(c: &Config) -> Result<(), ConfigError> {
+    let b = &c.byzantine;
+    let plain = |n: &str| {
+        !n.is_empty()
+            && n.len() <= 100
+            && n.chars()
+                .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '_' | '-' | '.'))
+    };
+    match (b.kind == ByzantineKind::Plugin, b.plugin.is_empty()) {
+        (true, _) if !plain(&b.plugin) => out_of_range(
+            "byzantine.plugin",
+            format!("{:?}", b.plugin),
+            "the plug-in attack's name (1 to 100 of A-Z a-z 0-9 _ - .) with byzantine.kind = \
+             \"plugin\"; the Python package sets it from the attack's class: \
+             swarmfl.run(..., attack=MyAttack())"
+                .to_string(),
+        ),
+        (false, false) => out_of_range(
+            "byzantine.plugin",
+            format!("{:?}", b.plugin),
+            format!(
+                "empty unless byzantine.kind = \"plugin\" (byzantine.kind is \"{}\")",
+                b.kind.name()
+            ),
+        ),
+        _ => Ok(()),
+    }
 }
 
 fn faults_fit_the_run(c: &Config) -> Result<(), ConfigError> {

@@ -2,13 +2,15 @@
 //! Byzantine robots' attack, and the decisions and submissions of phases under way.
 
 use std::collections::BTreeMap;
+use std::sync::Arc;
 
 use super::protocol::Submission;
-use crate::byzantine;
+use crate::byzantine::{self, plugin::Plugins};
 use crate::config::{ByzantineKind, Config};
 use crate::learn::{ModelShape, Spawned};
 use crate::metrics::{LearnReport, SkipReason};
 use crate::rng::{self, Purpose};
+use crate::state::SimError;
 use crate::types::RobotId;
 
 /// A robot's decision for one learning phase, before its transaction is made.
@@ -70,7 +72,9 @@ pub(super) struct Learners {
     pub(super) shape: ModelShape,
     pub(super) byzantine: Vec<bool>,
     /// The Byzantine robots' agent (`None` without Byzantine robots).
-    pub(super) attack: Option<Box<dyn byzantine::Attack>>,
+    pub(super) attack: Option<Arc<dyn byzantine::Attack>>,
+    /// The plug-ins the run is offered (a fork's reconfiguration may name one).
+    pub(super) plugins: Plugins,
     /// Byzantine robots whose attack chose to wait, by robot: the phase it waits in.
     pub(super) waiting: BTreeMap<RobotId, Waiting>,
     pub(super) next_due_ms: Vec<u64>,
@@ -84,10 +88,11 @@ pub(super) struct Learners {
 }
 
 impl Learners {
-    pub(super) fn new(config: &Config, seed: u64) -> Learners {
+    /// The learning loop of `config`; an error when it names a plug-in `plugins` lacks.
+    pub(super) fn new(config: &Config, seed: u64, plugins: &Plugins) -> Result<Learners, SimError> {
         let period_ms = (config.learn.training_period_s * 1000.0).round().max(1.0) as u64;
         let robots = config.world.robots;
-        Learners {
+        Ok(Learners {
             shape: ModelShape::from_config(config),
             // Robots that only attack the ledger train honestly.
             byzantine: if config.byzantine.kind == ByzantineKind::None {
@@ -95,7 +100,8 @@ impl Learners {
             } else {
                 byzantine::byzantine_robots(config, seed)
             },
-            attack: byzantine::attack(config.byzantine.kind),
+            attack: byzantine::agent(&config.byzantine, plugins).map_err(SimError::Plugin)?,
+            plugins: plugins.clone(),
             waiting: BTreeMap::new(),
             next_due_ms: (0..robots)
                 .map(|r| rng::stream(seed, Purpose::Schedule, r).below(period_ms))
@@ -109,15 +115,17 @@ impl Learners {
                 0
             },
             pending: BTreeMap::new(),
-        }
+        })
     }
 }
 
 impl Learners {
     /// Takes over a new configuration at a fork point: which robots are Byzantine, the
     /// schedule's period and duration from the next phase on, and the stake.
+    /// (`Sim::forked` checked that the plug-ins each reconfiguration names are offered.)
     pub(super) fn reconfigure(&mut self, config: &Config, seed: u64) {
-        let fresh = Learners::new(config, seed);
+        let fresh = Learners::new(config, seed, &self.plugins)
+            .expect("Sim::forked checked every reconfiguration's plug-in");
         // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
         self.byzantine = fresh.byzantine;
         self.attack = fresh.attack;

@@ -24,7 +24,7 @@ mod recorder;
 
 use std::collections::{BTreeMap, VecDeque};
 
-use crate::byzantine;
+use crate::byzantine::{self, plugin::Plugins};
 use crate::config::Config;
 use crate::data::Sample;
 use crate::event::{CheckpointCause, Event, Reconfiguration, Record};
@@ -105,10 +105,21 @@ impl Sim {
     /// A run whose speculative training window is `lookahead_ms` (0: each robot trains when
     /// due, alone). The records are the same for every window.
     pub fn with_lookahead(config: Config, seed: u64, lookahead_ms: u64) -> Result<Sim, SimError> {
+        Sim::with_plugins(config, seed, lookahead_ms, &Plugins::none())
+    }
+
+    /// A run offered `plugins` (`byzantine.kind = "plugin"` takes its agent from them; an
+    /// error names a plug-in the configuration names and `plugins` lacks).
+    pub fn with_plugins(
+        config: Config,
+        seed: u64,
+        lookahead_ms: u64,
+        plugins: &Plugins,
+    ) -> Result<Sim, SimError> {
         let state = State::genesis(&config, seed)?;
         let tick_ms = (config.run.tick_s * 1000.0).round() as u64;
         assert!(tick_ms > 0, "validated config has tick_s >= 1 ms");
-        let learners = Learners::new(&config, seed);
+        let learners = Learners::new(&config, seed, plugins)?;
         let ahead = LookAhead {
             world: state.world.clone(),
             controllers: Controllers::new(&config, seed),
@@ -146,7 +157,18 @@ impl Sim {
         seed: u64,
         reconfigurations: &[Reconfiguration],
     ) -> Result<Sim, SimError> {
-        let mut sim = Sim::new(config, seed)?;
+        Sim::forked_with(config, seed, reconfigurations, &Plugins::none())
+    }
+
+    /// [`Sim::forked`] offered `plugins` (every configuration, the root's and each
+    /// reconfiguration's, may name one of them).
+    pub fn forked_with(
+        config: Config,
+        seed: u64,
+        reconfigurations: &[Reconfiguration],
+        plugins: &Plugins,
+    ) -> Result<Sim, SimError> {
+        let mut sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
         let mut current = sim.config.clone();
         let mut last_ms = 0;
         for (index, change) in reconfigurations.iter().enumerate() {
@@ -177,6 +199,7 @@ impl Sim {
             current
                 .check_reconfiguration(&next)
                 .map_err(|e| fail(e.to_string()))?;
+            byzantine::agent(&next.byzantine, plugins).map_err(fail)?;
             if next.ticks() * sim.tick_ms <= change.at_ms {
                 return Err(fail(format!(
                     "run.duration_s = {} ends the run before the fork point",

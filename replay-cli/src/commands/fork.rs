@@ -5,6 +5,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
+use swarmfl_core::byzantine::plugin::Plugins;
 use swarmfl_core::fork::{self, PrefixCheck};
 use swarmfl_core::sim::Sim;
 
@@ -34,8 +35,31 @@ pub fn fork(
     out: Option<PathBuf>,
     quiet: bool,
 ) -> anyhow::Result<()> {
+    fork_with(
+        parent,
+        height,
+        overrides,
+        out,
+        quiet,
+        &Plugins::none(),
+        || Ok(()),
+    )
+}
+
+/// [`fork`] offered `plugins` (the Python package's attacks; the parent's must be among them
+/// with the sources its header records); `check` runs before every record is written and its
+/// error stops the fork (a plug-in that failed). Returns the fork's directory.
+pub fn fork_with(
+    parent: &Path,
+    height: u64,
+    overrides: &[String],
+    out: Option<PathBuf>,
+    quiet: bool,
+    plugins: &Plugins,
+    mut stop: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<()> {
     let started = Instant::now();
-    let plan = fork::plan(parent, height, overrides)?;
+    let plan = fork::plan_with(parent, height, overrides, plugins)?;
     let out = out.unwrap_or_else(|| {
         parent
             .parent()
@@ -58,8 +82,14 @@ pub fn fork(
         );
     }
     let mut check = PrefixCheck::open(parent, &plan)?;
-    let sim = Sim::forked(plan.root.clone(), plan.seed, &plan.reconfigurations)?;
+    let sim = Sim::forked_with(
+        plan.root.clone(),
+        plan.seed,
+        &plan.reconfigurations,
+        plugins,
+    )?;
     let outcome = run::write_run(&plan.header, sim, &out, quiet, |record| {
+        stop()?;
         check.check(record).map_err(anyhow::Error::from)
     })?;
     anyhow::ensure!(

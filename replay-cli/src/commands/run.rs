@@ -5,10 +5,11 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use anyhow::Context;
+use swarmfl_core::byzantine::plugin::Plugins;
 use swarmfl_core::config::Config;
 use swarmfl_core::event::Record;
 use swarmfl_core::log::{Header, LogWriter};
-use swarmfl_core::sim::{Part, Profiler, Sim};
+use swarmfl_core::sim::{Part, Profiler, Sim, DEFAULT_LOOKAHEAD_MS};
 use swarmfl_core::state::State;
 use swarmfl_core::summary::RunSummary;
 
@@ -220,9 +221,7 @@ pub fn run_until(
     quiet: bool,
     stop: &std::sync::atomic::AtomicBool,
 ) -> anyhow::Result<RunOutcome> {
-    let header = Header::new(seed, config.to_toml());
-    let sim = Sim::new(config, seed)?;
-    write_run(&header, sim, out, quiet, |_| {
+    run_with_plugins(config, seed, out, quiet, &Plugins::none(), || {
         if stop.load(std::sync::atomic::Ordering::Relaxed) {
             anyhow::bail!(
                 "interrupted: {} is truncated (no summary); run again to redo it",
@@ -231,6 +230,23 @@ pub fn run_until(
         }
         Ok(())
     })
+}
+
+/// [`run_until`] offered `plugins` (the Python package's attacks): the header records the ones
+/// the configuration uses; `check` runs before every record is written, and its error stops
+/// the run (a plug-in that failed, Ctrl-C), leaving the log truncated.
+pub fn run_with_plugins(
+    config: Config,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+    plugins: &Plugins,
+    mut check: impl FnMut() -> anyhow::Result<()>,
+) -> anyhow::Result<RunOutcome> {
+    let mut header = Header::new(seed, config.to_toml());
+    header.plugins = plugins.used_by(&config).map_err(anyhow::Error::msg)?;
+    let sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
+    write_run(&header, sim, out, quiet, |_| check())
 }
 
 /// Drives `sim` to its end, writing `out/run.swlog` (with `header`) and `out/summary.json`;
