@@ -108,11 +108,10 @@ impl Plugins {
                         "the log was made with {}, which is not given: {}",
                         id.describe(),
                         if id.kind == "attack" {
-                            format!(
-                                "pass the same attack class (swarmfl.replay(..., attack=...) or \
-                                 swarmfl.fork(..., attack=...) in Python); the swarmfl command \
-                                 cannot run plug-ins"
-                            )
+                            "pass the same attack class (swarmfl.replay(..., attack=...) or \
+                             swarmfl.fork(..., attack=...) in Python); the swarmfl command cannot \
+                             run plug-ins"
+                                .to_string()
                         } else {
                             format!("this swarmfl does not know plug-ins of kind `{}`", id.kind)
                         }
@@ -137,7 +136,7 @@ pub fn missing(name: &str) -> String {
     format!(
         "byzantine.kind = \"plugin\" names the plug-in attack `{name}` (byzantine.plugin), which \
          is not given: plug-in attacks run only from the Python package (swarmfl.run(..., \
-         attack=...)); the swarmfl command cannot run them"
+         attack=...)); the swarmfl command cannot run plug-ins"
     )
 }
 
