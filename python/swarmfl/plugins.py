@@ -135,13 +135,24 @@ def describe(attack: Any) -> tuple:
             f"plug-in attack name {name!r}: use 1 to 100 of A-Z a-z 0-9 _ - . (set the class's "
             "name attribute)")
     try:
-        source = inspect.getsource(cls)
+        return name, f"inspect.getsource({cls.__qualname__})", inspect.getsource(cls)
+    except (OSError, TypeError):
+        pass
+    # A class of a notebook cell (before Python 3.13 inspect finds no class source there, but
+    # finds its functions'): the sources of its methods, in name order.
+    try:
+        parts = [inspect.getsource(v) for _, v in sorted(vars(cls).items())
+                 if inspect.isfunction(v)]
     except (OSError, TypeError) as e:
         raise SwarmflError(
             f"plug-in attack `{name}`: cannot read the source of class {cls.__qualname__} "
             f"({e}); the log header records its digest: define it in a file or a notebook cell"
         ) from None
-    return name, f"inspect.getsource({cls.__qualname__})", source
+    if not parts:
+        raise SwarmflError(
+            f"plug-in attack `{name}`: class {cls.__qualname__} defines no method of its own "
+            "(act comes from a base class): define act in it")
+    return name, f"inspect.getsource of {cls.__qualname__}'s methods", "".join(parts)
 
 
 def _fail(name: str, view: AttackView, what: str, detail: str = "") -> PluginError:
