@@ -441,7 +441,10 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         );
     }
     assert!(full.contains("window_rule = \"contiguous\""));
-    assert!(full.contains("block_gas_limit = 2533274790395904"), "{full}");
+    assert!(
+        full.contains("block_gas_limit = 2533274790395904"),
+        "{full}"
+    );
     // The full text leaves the recorded one as it was.
     assert_eq!(smoke.to_toml(), text);
     let back: Config = toml::from_str(&text).unwrap();
