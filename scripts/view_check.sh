@@ -6,7 +6,12 @@
 #      robot's position, tokens, behaviour and forager state equal what
 #      `swarmfl inspect LOG --block H --json` prints; each behaviour has a colour of its own;
 #      a swarm with foragers shows the nest and the food sources;
-#   3. a screenshot at that moment is taken (SCREENSHOT=path keeps it, e.g. docs/view.png).
+#   3. a screenshot at that moment is taken (SCREENSHOT=path keeps it, e.g. docs/view.png);
+#   4. the layout (scripts/page_check.py layout): no horizontal scroll at 1024x768, the reorg
+#      text above the fold at 1400x900 (SCREENSHOT_1024=path keeps the 1024 px screenshot);
+#   5. the live view (scripts/page_check.py live): `swarmfl run --live` in headless Chromium,
+#      frames advancing while the run goes, Ctrl-C stopping run and server, and a page open at
+#      the end saying the run ended (LIVE_SCREENSHOT=path keeps a screenshot of it running).
 # Usage: scripts/view_check.sh [LOG]   (default: a fresh smoke run of a mixed swarm, a third of
 #   each behaviour; RUN_SET="key=value ..." replaces its overrides; SWARMFL=path/to/swarmfl)
 set -euo pipefail
@@ -87,3 +92,5 @@ if [ -n "${SCREENSHOT:-}" ]; then
   cp "$work/view.png" "$SCREENSHOT"
   echo "view_check: screenshot in $SCREENSHOT"
 fi
+python3 scripts/page_check.py layout "$url" ${SCREENSHOT_1024:+--shot "$SCREENSHOT_1024"}
+python3 scripts/page_check.py live "$bin" ${LIVE_SCREENSHOT:+--shot "$LIVE_SCREENSHOT"}

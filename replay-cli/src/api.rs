@@ -38,7 +38,15 @@ pub fn run_with_plugins(
     plugins: &Plugins,
     check: impl FnMut() -> anyhow::Result<()>,
 ) -> anyhow::Result<RunOutcome> {
-    crate::commands::run::run_with_plugins(config, seed, out, quiet, plugins, check)
+    crate::commands::run::run_with_plugins(
+        config,
+        seed,
+        out,
+        quiet,
+        plugins,
+        crate::commands::run::Flush::WhenFull,
+        check,
+    )
 }
 
 /// Forks the log at `parent` at block `height` with `overrides` into `out`, as `swarmfl fork`

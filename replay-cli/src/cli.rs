@@ -135,6 +135,16 @@ pub struct RunArgs {
     /// No progress bar and no summary on stdout.
     #[arg(long)]
     pub quiet: bool,
+    /// Watch the run while it goes: serve the viewer (the page of `swarmfl view`) on
+    /// http://127.0.0.1:PORT/ (loopback only), its frames following the log as it grows. The
+    /// page says when the run has ended, and keeps the whole run to scrub; the server stops
+    /// with the run (a few seconds later, while a page is still asking) or on Ctrl-C. The log
+    /// and summary are the same as without --live.
+    #[arg(long)]
+    pub live: bool,
+    /// The live view's port (0: any free port; the URL is printed).
+    #[arg(long, default_value_t = 8700, requires = "live")]
+    pub port: u16,
 }
 
 /// The arguments of `swarmfl replay`.

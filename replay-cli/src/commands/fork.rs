@@ -88,10 +88,17 @@ pub fn fork_with(
         &plan.reconfigurations,
         plugins,
     )?;
-    let outcome = run::write_run(&plan.header, sim, &out, quiet, |record| {
-        stop()?;
-        check.check(record).map_err(anyhow::Error::from)
-    })?;
+    let outcome = run::write_run(
+        &plan.header,
+        sim,
+        &out,
+        quiet,
+        run::Flush::WhenFull,
+        |record| {
+            stop()?;
+            check.check(record).map_err(anyhow::Error::from)
+        },
+    )?;
     anyhow::ensure!(
         check.done(),
         "the fork never reached its reconfiguration (a bug: the plan's fork point is inside the run)"

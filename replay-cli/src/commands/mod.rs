@@ -13,6 +13,7 @@ pub mod export;
 pub mod fixtures;
 pub mod fork;
 pub mod inspect;
+pub mod live;
 pub mod presets;
 pub mod recheck;
 pub mod replay;

@@ -1,8 +1,10 @@
 //! `swarmfl run`: simulate a run into `DIR/run.swlog` and `DIR/summary.json`.
 
+use std::fs::File;
+use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use anyhow::Context;
 use swarmfl_core::byzantine::plugin::Plugins;
@@ -105,19 +107,40 @@ pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
         seed,
         out,
         quiet,
+        live,
+        port,
     } = args;
     let config = config.resolve()?;
     let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
     if let Some(warning) = density_warning(&config) {
         eprintln!("{warning}");
     }
+    // Bound before the previous run is cleared: a port in use changes nothing on disk.
+    let server = match live {
+        true => Some(crate::commands::live::Live::bind(port)?),
+        false => None,
+    };
     if let Some(replaced) = clear_previous_run(&out)? {
         eprintln!(
             "replacing the previous run in {} ({replaced})",
             out.display()
         );
     }
-    let outcome = run(config, seed, &out, quiet)?;
+    let outcome = match server {
+        None => run(config, seed, &out, quiet)?,
+        Some(server) => {
+            let live = server.start(&out.join("run.swlog"));
+            eprintln!(
+                "live view: {} (while the run goes; Ctrl-C stops the run and the view)",
+                live.url()
+            );
+            let never = std::sync::atomic::AtomicBool::new(false);
+            let outcome = run_with(config, seed, &out, quiet, &never, LIVE_FLUSH);
+            // Whether the run ended or failed, the page gets the log as it is and says so.
+            live.finish();
+            outcome?
+        }
+    };
     if !quiet {
         print_summary(&outcome);
         print_next(&outcome);
@@ -221,7 +244,23 @@ pub fn run_until(
     quiet: bool,
     stop: &std::sync::atomic::AtomicBool,
 ) -> anyhow::Result<RunOutcome> {
-    run_with_plugins(config, seed, out, quiet, &Plugins::none(), || {
+    run_with(config, seed, out, quiet, stop, Flush::WhenFull)
+}
+
+/// How far behind the run the live view's reader of the log may fall: the log is flushed at
+/// the first record after this much wall time.
+const LIVE_FLUSH: Flush = Flush::Every(Duration::from_millis(250));
+
+/// [`run_until`] with the log flushed as `flush` says (the bytes are the same either way).
+pub fn run_with(
+    config: Config,
+    seed: u64,
+    out: &Path,
+    quiet: bool,
+    stop: &std::sync::atomic::AtomicBool,
+    flush: Flush,
+) -> anyhow::Result<RunOutcome> {
+    run_with_plugins(config, seed, out, quiet, &Plugins::none(), flush, || {
         if stop.load(std::sync::atomic::Ordering::Relaxed) {
             anyhow::bail!(
                 "interrupted: {} is truncated (no summary); run again to redo it",
@@ -241,21 +280,59 @@ pub fn run_with_plugins(
     out: &Path,
     quiet: bool,
     plugins: &Plugins,
+    flush: Flush,
     mut check: impl FnMut() -> anyhow::Result<()>,
 ) -> anyhow::Result<RunOutcome> {
     let mut header = Header::new(seed, config.to_toml());
     header.plugins = plugins.used_by(&config).map_err(anyhow::Error::msg)?;
     let sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
-    write_run(&header, sim, out, quiet, |_| check())
+    write_run(&header, sim, out, quiet, flush, |_| check())
 }
 
-/// Drives `sim` to its end, writing `out/run.swlog` (with `header`) and `out/summary.json`;
-/// `check` sees every record before it is written (a fork compares them with its parent's).
+/// When the log's buffered bytes reach its file while a run goes. Either way the file ends
+/// with the same bytes: only when a reader of the growing file sees them changes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Flush {
+    /// When the 1 MB buffer is full, and at the end: the fewest writes.
+    WhenFull,
+    /// Also at the first write after this much wall time since the last flush, so a reader of
+    /// the growing log (the live view) is never further behind than that.
+    Every(Duration),
+}
+
+/// The log's file behind a 1 MB buffer, flushed as a [`Flush`] says.
+struct LogFile {
+    out: BufWriter<File>,
+    every: Option<Duration>,
+    last: Instant,
+}
+
+impl Write for LogFile {
+    fn write(&mut self, buf: &[u8]) -> std::io::Result<usize> {
+        let n = self.out.write(buf)?;
+        if let Some(every) = self.every {
+            if self.last.elapsed() >= every {
+                self.out.flush()?;
+                self.last = Instant::now();
+            }
+        }
+        Ok(n)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// Drives `sim` to its end, writing `out/run.swlog` (with `header`, flushed as `flush` says)
+/// and `out/summary.json`; `check` sees every record before it is written (a fork compares
+/// them with its parent's).
 pub fn write_run(
     header: &Header,
     mut sim: Sim,
     out: &Path,
     quiet: bool,
+    flush: Flush,
     mut check: impl FnMut(&Record) -> anyhow::Result<()>,
 ) -> anyhow::Result<RunOutcome> {
     std::fs::create_dir_all(out)
@@ -263,7 +340,17 @@ pub fn write_run(
     let log_path = out.join("run.swlog");
     let started = Instant::now();
     let seed = sim.seed();
-    let mut writer = LogWriter::create(&log_path, header)?;
+    let file = File::create(&log_path)
+        .with_context(|| format!("cannot create the log {}", log_path.display()))?;
+    let file = LogFile {
+        out: BufWriter::with_capacity(1 << 20, file),
+        every: match flush {
+            Flush::WhenFull => None,
+            Flush::Every(every) => Some(every),
+        },
+        last: started,
+    };
+    let mut writer = LogWriter::new(file, &log_path.display().to_string(), header)?;
     let mut timing = Timing::default();
     sim.set_profiler(Box::new(timing.clone()));
     let (_, total_ms) = sim.progress();

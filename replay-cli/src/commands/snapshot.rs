@@ -3,7 +3,8 @@
 //! ones red) with a heading line, range-and-bearing links as cyan lines, and each robot's
 //! proximity rays as short light-blue lines (as long as the free distance they measure).
 //! Each robot carries its id; axes in metres, a 1 m scale bar and a legend explain the
-//! picture. A run with behaviours other than the avoidance walk (`world.behaviour`) colours each
+//! picture. The legend and the scale bar sit in a panel right of the arena, so they cover no
+//! robot, label or wall; the title names the run (preset, seed, the time shown). A run with behaviours other than the avoidance walk (`world.behaviour`) colours each
 //! robot by its behaviour instead (avoidance green, flocking blue, foraging orange; Byzantine
 //! robots then carry a red ring), draws the foraging nest and food sources, and marks a forager
 //! carrying an item (a yellow dot) or resting (a white dot). Text is drawn with the system's sans-serif font (plotters `ttf`); if no font can
@@ -33,7 +34,10 @@ pub enum RobotMark {
     Byzantine,
 }
 
-const SIZE_PX: u32 = 900;
+/// The picture: the arena's square chart, and the panel of legend and scale bar right of it.
+const SIZE_PX: (u32, u32) = (1200, 900);
+/// Width of the arena's chart (axes included); the panel takes the rest.
+const ARENA_PX: u32 = 900;
 const LINK: RGBColor = RGBColor(0, 190, 210);
 const RAY: RGBColor = RGBColor(120, 200, 255);
 const OBSTACLE: RGBColor = RGBColor(150, 150, 150);
@@ -54,9 +58,21 @@ pub fn behaviour_colour(b: Behaviour) -> RGBColor {
     }
 }
 
+/// A rectangle of the picture in pixels: left, top, right, bottom.
+pub type PixelRect = (i32, i32, i32, i32);
+
+/// Where a snapshot put its parts, so a test can see that nothing covers the arena.
+#[derive(Clone, Debug, Default)]
+pub struct Placed {
+    /// The arena's plotting area (walls, robots and their ids are inside it).
+    pub arena: PixelRect,
+    /// The legend's box and the scale bar with its label (empty when drawn without text).
+    pub overlays: Vec<(&'static str, PixelRect)>,
+}
+
 /// Draws `world` with the robots marked as given (missing marks are honest) into `out`
 /// (`.svg` or `.png`, by extension).
-pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyhow::Result<()> {
+pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyhow::Result<Placed> {
     let ext = out
         .extension()
         .and_then(|e| e.to_str())
@@ -78,16 +94,21 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
     }
     let result = match ext.as_deref() {
         Some("svg") => {
-            let root = SVGBackend::new(out, (SIZE_PX, SIZE_PX)).into_drawing_area();
+            let root = SVGBackend::new(out, SIZE_PX).into_drawing_area();
             draw_on(&root, world, marks, Some(title))
                 .or_else(|_| draw_on(&root, world, marks, None))
         }
-        Some("png") => crate::png::draw_png(out, (SIZE_PX, SIZE_PX), |root| {
-            draw_on(root, world, marks, Some(title))
-                .or_else(|_| draw_on(root, world, marks, None))
-                .map_err(|e| format!("{e:#}"))
-        })
-        .map_err(|e| anyhow::anyhow!(e)),
+        Some("png") => {
+            let mut placed = Placed::default();
+            crate::png::draw_png(out, SIZE_PX, |root| {
+                placed = draw_on(root, world, marks, Some(title))
+                    .or_else(|_| draw_on(root, world, marks, None))
+                    .map_err(|e| format!("{e:#}"))?;
+                Ok(())
+            })
+            .map_err(|e| anyhow::anyhow!(e))
+            .map(|()| placed)
+        }
         _ => unreachable!("the extension was checked above"),
     };
     result.with_context(|| format!("drawing the snapshot into {}", out.display()))
@@ -97,25 +118,30 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
 type Chart<'a, DB> = ChartContext<'a, DB, Cartesian2d<RangedCoordf64, RangedCoordf64>>;
 
 /// Draws the picture on `root`, with text (title, axes, ids, scale bar, legend) when `title`
-/// is given. Layers in order: proximity rays, radio links, obstacles, walls, robots, text.
+/// is given. Layers in order: proximity rays, radio links, obstacles, walls, robots, text;
+/// the legend and the scale bar in the panel right of the arena.
 fn draw_on<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     world: &World,
     marks: &[RobotMark],
     title: Option<&str>,
-) -> anyhow::Result<()>
+) -> anyhow::Result<Placed>
 where
     DB::ErrorType: 'static,
 {
     root.fill(&WHITE).map_err(|e| anyhow::anyhow!("{e}"))?;
     let h = world.arena().half_side_m;
-    let mut builder = ChartBuilder::on(root);
+    let body = match title {
+        Some(title) => root
+            .titled(title, ("sans-serif", 24))
+            .map_err(|e| anyhow::anyhow!("{e}"))?,
+        None => root.clone(),
+    };
+    let (left, panel) = body.split_horizontally(ARENA_PX);
+    let mut builder = ChartBuilder::on(&left);
     builder.margin(20);
-    if let Some(title) = title {
-        builder
-            .caption(title, ("sans-serif", 22))
-            .x_label_area_size(40)
-            .y_label_area_size(50);
+    if title.is_some() {
+        builder.x_label_area_size(40).y_label_area_size(50);
     }
     let mut chart = builder
         .build_cartesian_2d(-h..h, -h..h)
@@ -131,8 +157,12 @@ where
             .draw()
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     }
-    let (xr, _) = chart.plotting_area().get_pixel_range();
+    let (xr, yr) = chart.plotting_area().get_pixel_range();
     let px_per_m = f64::from(xr.end - xr.start) / (2.0 * h);
+    let mut placed = Placed {
+        arena: (xr.start, yr.start, xr.end, yr.end),
+        overlays: Vec::new(),
+    };
     draw_rays(&mut chart, world)?;
     draw_links(&mut chart, world)?;
     draw_obstacles(&mut chart, world, px_per_m)?;
@@ -146,10 +176,11 @@ where
         .map_err(err::<DB>)?;
     draw_robots(&mut chart, world, marks, px_per_m)?;
     if title.is_some() {
-        draw_text(&mut chart, world, marks)?;
+        draw_ids(&mut chart, world)?;
+        placed.overlays = draw_panel(&panel, world, marks, px_per_m)?;
     }
     root.present().map_err(|e| anyhow::anyhow!("{e}"))?;
-    Ok(())
+    Ok(placed)
 }
 
 /// A plotters error as an `anyhow` one.
@@ -346,18 +377,15 @@ where
     Ok(())
 }
 
-/// The text over the picture: robot ids, a scale bar and the legend.
-fn draw_text<'a, DB: DrawingBackend + 'a>(
+/// Every robot's id, beside its body.
+fn draw_ids<'a, DB: DrawingBackend + 'a>(
     chart: &mut Chart<'a, DB>,
     world: &World,
-    marks: &[RobotMark],
 ) -> anyhow::Result<()>
 where
     DB::ErrorType: 'static,
 {
-    let h = world.arena().half_side_m;
     let r = world.robot_radius_m();
-    // Robot ids, beside each body.
     for (i, p) in world.poses().iter().enumerate() {
         chart
             .draw_series(std::iter::once(Text::new(
@@ -367,26 +395,11 @@ where
             )))
             .map_err(err::<DB>)?;
     }
-    // A 1 m scale bar (or the largest power of ten that fits) in the lower left corner.
-    let mut bar_m = 1.0;
-    while bar_m > h {
-        bar_m /= 10.0;
-    }
-    let (x0, y0) = (-h + 0.05 * h, -h + 0.05 * h);
-    chart
-        .draw_series(std::iter::once(PathElement::new(
-            vec![(x0, y0), (x0 + bar_m, y0)],
-            BLACK.stroke_width(3),
-        )))
-        .map_err(err::<DB>)?;
-    chart
-        .draw_series(std::iter::once(Text::new(
-            format!("{bar_m} m"),
-            (x0, y0 + 0.04 * h),
-            ("sans-serif", 14).into_font().color(&BLACK),
-        )))
-        .map_err(err::<DB>)?;
-    // The legend: one entry per kind of mark (per behaviour present, when there are any).
+    Ok(())
+}
+
+/// The legend entries: one per kind of mark (per behaviour present, when there are any).
+fn legend_entries(world: &World, marks: &[RobotMark]) -> Vec<(&'static str, ShapeStyle)> {
     let mut entries: Vec<(&str, ShapeStyle)> = Vec::new();
     match world.behaviours() {
         None => {
@@ -407,7 +420,8 @@ where
                 entries.push(("Byzantine robot (red ring)", BYZANTINE.stroke_width(3)));
             }
             if b.nest.is_some() {
-                entries.push(("carrying food (white dot: resting)", ITEM.filled()));
+                entries.push(("carrying food", ITEM.filled()));
+                entries.push(("resting (white dot)", WHITE.filled()));
                 entries.push(("nest", NEST.filled()));
                 entries.push(("food source", FOOD.filled()));
             }
@@ -416,24 +430,76 @@ where
     entries.push(("radio link", LINK.stroke_width(2)));
     entries.push(("obstacle", OBSTACLE.filled()));
     entries.push(("proximity ray", RAY.stroke_width(1)));
-    for (label, style) in entries {
-        chart
-            .draw_series(std::iter::once(Circle::new((-2.0 * h, -2.0 * h), 0, style)))
-            .map_err(err::<DB>)?
-            .label(label)
-            .legend(move |(x, y)| {
-                EmptyElement::at((x, y)) + Rectangle::new([(0, -5), (14, 5)], style)
-            });
+    entries
+}
+
+/// The panel right of the arena: the legend in a box, then a scale bar of 1 m (or the largest
+/// power of ten that fits) at the arena's scale. Returns where each was drawn.
+fn draw_panel<DB: DrawingBackend>(
+    panel: &DrawingArea<DB, Shift>,
+    world: &World,
+    marks: &[RobotMark],
+    px_per_m: f64,
+) -> anyhow::Result<Vec<(&'static str, PixelRect)>>
+where
+    DB::ErrorType: 'static,
+{
+    let e = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e}");
+    // The panel's own coordinates start at its top left corner; `placed` is in the picture's.
+    let (dx, dy) = panel.get_base_pixel();
+    let font = ("sans-serif", 16).into_font().color(&BLACK);
+    let entries = legend_entries(world, marks);
+    let (x0, y0, row) = (10, 60, 26);
+    let bottom = y0 + 12 + row * entries.len() as i32;
+    let (width, _) = panel.dim_in_pixel();
+    let right = width as i32 - 10;
+    panel
+        .draw(&Rectangle::new([(x0, y0), (right, bottom)], BLACK))
+        .map_err(e)?;
+    for (k, (label, style)) in entries.into_iter().enumerate() {
+        let y = y0 + 12 + row * k as i32;
+        panel
+            .draw(&Rectangle::new(
+                [(x0 + 10, y + 2), (x0 + 26, y + 16)],
+                style,
+            ))
+            .map_err(e)?;
+        panel
+            .draw(&Text::new(label, (x0 + 34, y), font.clone()))
+            .map_err(e)?;
     }
-    chart
-        .configure_series_labels()
-        .position(SeriesLabelPosition::UpperRight)
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .label_font(("sans-serif", 14))
-        .draw()
-        .map_err(err::<DB>)?;
-    Ok(())
+    let h = world.arena().half_side_m;
+    let mut bar_m = 1.0;
+    while bar_m > h {
+        bar_m /= 10.0;
+    }
+    let bar_px = px(bar_m, px_per_m);
+    let (bx, by) = (x0 + 10, bottom + 60);
+    panel
+        .draw(&Text::new(
+            format!("{bar_m} m (scale bar)"),
+            (bx, by - 26),
+            font.clone(),
+        ))
+        .map_err(e)?;
+    panel
+        .draw(&PathElement::new(
+            vec![(bx, by), (bx + bar_px, by)],
+            BLACK.stroke_width(3),
+        ))
+        .map_err(e)?;
+    Ok(vec![
+        ("legend", (dx + x0, dy + y0, dx + right, dy + bottom)),
+        (
+            "scale bar",
+            (
+                dx + bx,
+                dy + by - 26,
+                dx + bx + bar_px.max(140),
+                dy + by + 2,
+            ),
+        ),
+    ])
 }
 
 /// Runs `swarmfl snapshot`: the world at a block or a time, drawn into `--out`.
@@ -453,8 +519,9 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
                 .at_block
                 .ok_or_else(|| anyhow::anyhow!("block {height} was not captured"))?;
             let title = format!(
-                "{} after block {height} (t = {})",
-                log.display(),
+                "preset {}, seed {}: t = {}, right after block {height}",
+                index.config.preset,
+                index.seed,
                 state.world.time()
             );
             (state.world, index.config, index.seed, title)
@@ -464,7 +531,21 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
                 anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
             }
             let (state, config, seed) = replay::state_at_time(log, SimTime::from_secs(time))?;
-            let title = format!("{} at t = {}", log.display(), state.world.time());
+            // The fold stops at the first tick at or after the time asked; a world that never
+            // got there is the run's end, and a picture of it under another time would lie.
+            if state.world.time() < SimTime::from_secs(time) {
+                anyhow::bail!(
+                    "--time {time} is past the end of {} (its last tick is at t = {}): give a                      time from 0 to {}, or --block HEIGHT for a block of its final chain",
+                    log.display(),
+                    state.world.time(),
+                    state.world.time().secs()
+                );
+            }
+            let title = format!(
+                "preset {}, seed {seed}: t = {}",
+                config.preset,
+                state.world.time()
+            );
             (state.world, config, seed, title)
         }
         (None, None) => anyhow::bail!("give --time SECONDS or --block HEIGHT"),
@@ -480,7 +561,7 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
         })
         .collect();
     draw(&world, &marks, &title, &out)?;
-    println!("wrote {} ({title})", out.display());
+    println!("wrote {} ({title}; from {})", out.display(), log.display());
     Ok(ExitCode::SUCCESS)
 }
 

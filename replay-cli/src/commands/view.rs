@@ -67,39 +67,98 @@ pub struct ViewOutcome {
 
 /// Writes the viewer of `log` into `out`.
 pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
-    let index = inspect::index_run(log, None)?;
-    warn_if_truncated(&index);
-    let config = &index.config;
-    // Uniform frames every `every_ticks` ticks.
-    let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
-    let total_ticks = config.ticks().max(1);
-    let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
-    let frame_ms = every_ticks * tick_ms;
-    let walk = Walk::fold(log, &index, tick_ms, frame_ms)?;
-    let title = format!(
-        "{} — preset {}, seed {}, {} robots, {} s",
-        log.display(),
-        config.preset,
-        index.seed,
-        config.world.robots,
-        config.run.duration_s
-    );
-    let data = page_data(&index, &walk, &title, total_ticks * tick_ms, frame_ms)?;
-    let html = TEMPLATE
-        .replace("__TITLE__", &html_escape(&title))
-        // `</` cannot appear inside the data: JSON strings escape it.
-        .replace("__DATA__", &data.replace("</", "<\\/"));
+    let page = Page::build(log, None)?;
+    warn_if_truncated(&page.index);
+    let html = page.html();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the folder {}", dir.display()))?;
     }
     std::fs::write(out, &html).with_context(|| format!("cannot write {}", out.display()))?;
     Ok(ViewOutcome {
-        frames: walk.frames.t.len(),
-        blocks: walk.ids.len(),
+        frames: page.frames,
+        blocks: page.blocks,
         bytes: html.len(),
-        frame_s: frame_ms as f64 / 1000.0,
+        frame_s: page.frame_ms as f64 / 1000.0,
     })
+}
+
+/// What the live view (`run --live`) adds to a page's data: where the run is, so the page
+/// follows it and says when it has ended.
+#[derive(Clone, Copy, Debug)]
+pub struct LiveState {
+    /// Counts the pages built during the run; the page asks for a newer one.
+    pub version: u64,
+    /// The run has ended and this page holds its whole log.
+    pub ended: bool,
+    /// How often the page asks for a newer version, in milliseconds.
+    pub poll_ms: u64,
+}
+
+/// The viewer's data for a log (or the intact prefix of a log still being written): what
+/// `swarmfl view` writes into its page and what the live view serves.
+pub struct Page {
+    /// The first fold: the canonical chain, balances and rounds.
+    pub index: inspect::RunIndex,
+    /// The page's title.
+    pub title: String,
+    /// The page's data object as JSON text.
+    pub data: String,
+    /// Frames in the data.
+    pub frames: usize,
+    /// Blocks of every node (forks included).
+    pub blocks: usize,
+    /// Milliseconds between uniform frames.
+    pub frame_ms: u64,
+}
+
+impl Page {
+    /// Folds `log` (as far as it is intact) into the viewer's data; `live` is `None` for a
+    /// finished run's page.
+    pub fn build(log: &Path, live: Option<LiveState>) -> anyhow::Result<Page> {
+        let index = inspect::index_run(log, None)?;
+        let config = &index.config;
+        // Uniform frames every `every_ticks` ticks.
+        let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
+        let total_ticks = config.ticks().max(1);
+        let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
+        let frame_ms = every_ticks * tick_ms;
+        let walk = Walk::fold(log, &index, tick_ms, frame_ms)?;
+        let title = format!(
+            "{}{} — preset {}, seed {}, {} robots, {} s",
+            if live.is_some() { "live: " } else { "" },
+            log.display(),
+            config.preset,
+            index.seed,
+            config.world.robots,
+            config.run.duration_s
+        );
+        let upto_ms = walk.frames.t.iter().copied().max().unwrap_or(0);
+        let data = page_data(
+            &index,
+            &walk,
+            &title,
+            total_ticks * tick_ms,
+            frame_ms,
+            live.map(|l| (l, upto_ms)),
+        )?;
+        Ok(Page {
+            frames: walk.frames.t.len(),
+            blocks: walk.ids.len(),
+            index,
+            title,
+            data,
+            frame_ms,
+        })
+    }
+
+    /// The self-contained page: the viewer with this data.
+    pub fn html(&self) -> String {
+        TEMPLATE
+            .replace("__TITLE__", &html_escape(&self.title))
+            // `</` cannot appear inside the data: JSON strings escape it.
+            .replace("__DATA__", &self.data.replace("</", "<\\/"))
+    }
 }
 
 /// The second fold of the log: frames, every node's blocks and the reorgs.
@@ -263,6 +322,7 @@ fn page_data(
     title: &str,
     duration_ms: u64,
     frame_ms: u64,
+    live: Option<(LiveState, u64)>,
 ) -> anyhow::Result<String> {
     let config = &index.config;
     let (chain, balances) = chain_json(index, &walk.ids);
@@ -319,13 +379,20 @@ fn page_data(
         .map(|&k| frames.t[k].to_string())
         .collect::<Vec<_>>()
         .join(",");
+    let live = match live {
+        Some((l, upto_ms)) => format!(
+            "{{\"version\":{},\"ended\":{},\"poll_ms\":{},\"upto_ms\":{upto_ms}}}",
+            l.version, l.ended, l.poll_ms
+        ),
+        None => "null".to_string(),
+    };
     Ok(format!(
         "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
          \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius},\
          \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"blocks\":{},\
          \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
-         \"truncated\":{}}}",
+         \"truncated\":{},\"live\":{live}}}",
         serde_json::to_string(title)?,
         config.world.robots,
         arena.half_side_m,

@@ -1,0 +1,260 @@
+//! `swarmfl run --live`: the viewer of `swarmfl view`, served on the loopback address while the
+//! run goes, its frames following the log as it grows.
+//!
+//! Two threads beside the run, and neither touches it: they only read the log file, which the
+//! run flushes every [`super::run::Flush`] interval, so the log and the summary are the bytes of
+//! a run without `--live`.
+//! - The builder folds the log's intact prefix into the viewer's data with the code of
+//!   `swarmfl view` ([`Page::build`]), numbering each build (its version). It builds again
+//!   [`POLL_MS`] after the last build, or twice as long as that build took if longer, so the
+//!   view never takes more than a third of one core from the run however long the log grows.
+//!   When the run ends it builds once more from the finished log: that page says the run ended.
+//! - The server (tiny_http, synchronous, no async runtime) answers `GET /` with the page and
+//!   `GET /data.json?have=V` with the newest data (or `{"unchanged":true}` when the page holds
+//!   version V already). The page asks every [`POLL_MS`]. After the last build the server keeps
+//!   answering while pages still ask (at most [`LINGER`]), so an open page learns that the run
+//!   ended, then stops; Ctrl-C ends the process, server included, and an open page says the
+//!   server is gone.
+
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::thread::JoinHandle;
+use std::time::{Duration, Instant};
+
+use tiny_http::{Header, Request, Response, Server};
+
+use crate::commands::view::{LiveState, Page};
+
+/// How often the page asks for newer data, and the shortest time between two builds (ms).
+pub const POLL_MS: u64 = 1000;
+
+/// The longest the server answers after the run's last build, while pages still ask.
+pub const LINGER: Duration = Duration::from_secs(5);
+
+/// A page that has not asked for this long after the last build is taken as gone (or as
+/// having seen the end: it stops asking then).
+const QUIET_AFTER_END: Duration = Duration::from_millis(2 * POLL_MS);
+
+/// The server bound to its port, before the run starts.
+pub struct Bound {
+    server: Server,
+    port: u16,
+}
+
+/// The running live view: [`Live::finish`] it when the run has ended.
+pub struct Live {
+    shared: Arc<Shared>,
+    port: u16,
+    builder: JoinHandle<()>,
+    server: JoinHandle<()>,
+}
+
+/// What the builder, the server and the run share.
+struct Shared {
+    /// The newest build, if any build has succeeded yet.
+    page: Mutex<Option<Arc<Built>>>,
+    /// The run has ended (set by [`Live::finish`]).
+    run_ended: AtomicBool,
+    /// The builder has published its last build (from the finished log).
+    built_last: AtomicBool,
+    /// The last time a page asked for anything.
+    last_request: Mutex<Instant>,
+}
+
+/// One build, ready to serve.
+struct Built {
+    version: u64,
+    html: String,
+    data: String,
+}
+
+impl Live {
+    /// Binds the live view to `127.0.0.1:port` (`0`: any free port). A port in use is an error
+    /// that names it and the way out.
+    pub fn bind(port: u16) -> anyhow::Result<Bound> {
+        let server = Server::http(("127.0.0.1", port)).map_err(|e| {
+            let in_use = e
+                .downcast_ref::<std::io::Error>()
+                .is_some_and(|io| io.kind() == std::io::ErrorKind::AddrInUse);
+            if in_use {
+                anyhow::anyhow!(
+                    "--live: port {port} on 127.0.0.1 is in use (another `swarmfl run --live`, \
+                     or another program); choose a free one with --port N, or --port 0 for \
+                     any free port (the URL is printed)"
+                )
+            } else {
+                anyhow::anyhow!("--live: cannot serve on 127.0.0.1:{port}: {e}; try --port 0")
+            }
+        })?;
+        let port = server
+            .server_addr()
+            .to_ip()
+            .map_or(port, |addr| addr.port());
+        Ok(Bound { server, port })
+    }
+
+    /// The page's address.
+    pub fn url(&self) -> String {
+        format!("http://127.0.0.1:{}/", self.port)
+    }
+
+    /// Called when the run has ended (or failed): the builder makes its last page from the
+    /// log as it is, the server answers while pages still ask (at most [`LINGER`]), then both
+    /// stop.
+    pub fn finish(self) {
+        self.shared.run_ended.store(true, Ordering::SeqCst);
+        // A thread that panicked has nothing left to stop; the run's result stands.
+        let _ = self.builder.join();
+        let _ = self.server.join();
+    }
+}
+
+impl Bound {
+    /// Starts the builder (reading `log` as the run writes it) and the server.
+    pub fn start(self, log: &Path) -> Live {
+        let shared = Arc::new(Shared {
+            page: Mutex::new(None),
+            run_ended: AtomicBool::new(false),
+            built_last: AtomicBool::new(false),
+            last_request: Mutex::new(Instant::now()),
+        });
+        let builder = {
+            let shared = Arc::clone(&shared);
+            let log = log.to_path_buf();
+            std::thread::spawn(move || build_loop(&shared, &log))
+        };
+        let server = {
+            let shared = Arc::clone(&shared);
+            let server = self.server;
+            std::thread::spawn(move || serve_loop(&shared, &server))
+        };
+        Live {
+            shared,
+            port: self.port,
+            builder,
+            server,
+        }
+    }
+}
+
+/// The builder: a page from the log's intact prefix every [`POLL_MS`] (or twice the last
+/// build's time), and a last one from the finished log.
+fn build_loop(shared: &Shared, log: &PathBuf) {
+    let mut version = 0;
+    loop {
+        // Read before the build: a run that ends during it gets one more build.
+        let ended = shared.run_ended.load(Ordering::SeqCst);
+        let started = Instant::now();
+        let live = LiveState {
+            version: version + 1,
+            ended,
+            poll_ms: POLL_MS,
+        };
+        match Page::build(log, Some(live)) {
+            Ok(page) => {
+                version += 1;
+                let built = Built {
+                    version,
+                    html: page.html(),
+                    data: page.data,
+                };
+                *lock(&shared.page) = Some(Arc::new(built));
+            }
+            // Until the header is on disk the log cannot be read: the page says the run is
+            // starting. A run that failed before writing anything leaves nothing to show.
+            Err(e) => {
+                if ended {
+                    eprintln!("live view: the log cannot be shown: {e:#}");
+                }
+            }
+        }
+        if ended {
+            shared.built_last.store(true, Ordering::SeqCst);
+            return;
+        }
+        let wait = Duration::from_millis(POLL_MS).max(started.elapsed() * 2);
+        let until = started + wait;
+        while Instant::now() < until && !shared.run_ended.load(Ordering::SeqCst) {
+            std::thread::sleep(Duration::from_millis(50));
+        }
+    }
+}
+
+/// The server: answers until the last build has been published and no page asked for
+/// [`QUIET_AFTER_END`] (at most [`LINGER`] after that build).
+fn serve_loop(shared: &Shared, server: &Server) {
+    let mut last_built_at: Option<Instant> = None;
+    loop {
+        match server.recv_timeout(Duration::from_millis(100)) {
+            Ok(Some(request)) => {
+                *lock(&shared.last_request) = Instant::now();
+                answer(shared, request);
+            }
+            Ok(None) => {}
+            Err(e) => {
+                eprintln!("live view: the server stopped: {e}");
+                return;
+            }
+        }
+        if shared.built_last.load(Ordering::SeqCst) {
+            let at = *last_built_at.get_or_insert_with(Instant::now);
+            let asked = *lock(&shared.last_request);
+            let quiet = asked.elapsed() >= QUIET_AFTER_END && at.elapsed() >= QUIET_AFTER_END / 2;
+            if quiet || at.elapsed() >= LINGER {
+                return;
+            }
+        }
+    }
+}
+
+/// The page shown before the first build (the run's first records are not on disk yet).
+const STARTING: &str = "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"utf-8\">\
+    <meta http-equiv=\"refresh\" content=\"1\"><title>swarmfl live: starting</title></head>\
+    <body><p>The run is starting; this page reloads itself.</p>\
+    <pre id=\"status\">{\"ok\":false,\"loading\":true,\"live\":{\"starting\":true}}</pre></body></html>";
+
+/// Answers one request: `/` the page, `/data.json?have=V` the newest data, else 404.
+fn answer(shared: &Shared, request: Request) {
+    let page = lock(&shared.page).clone();
+    let url = request.url().to_string();
+    let (path, query) = url.split_once('?').unwrap_or((url.as_str(), ""));
+    let (status, kind, body) = match (path, page) {
+        ("/" | "/index.html", Some(page)) => (200, "text/html; charset=utf-8", page.html.clone()),
+        ("/" | "/index.html", None) => (200, "text/html; charset=utf-8", STARTING.to_string()),
+        ("/data.json", Some(page)) => {
+            let have = query
+                .split('&')
+                .find_map(|kv| kv.strip_prefix("have="))
+                .and_then(|v| v.parse::<u64>().ok());
+            if have == Some(page.version) {
+                (200, "application/json", "{\"unchanged\":true}".to_string())
+            } else {
+                (200, "application/json", page.data.clone())
+            }
+        }
+        ("/data.json", None) => (503, "application/json", "{\"starting\":true}".to_string()),
+        _ => (
+            404,
+            "text/plain; charset=utf-8",
+            format!("no {path} here: the live view is at /"),
+        ),
+    };
+    let response = Response::from_string(body)
+        .with_status_code(status)
+        .with_header(header("Content-Type", kind))
+        .with_header(header("Cache-Control", "no-store"));
+    // A page closed mid-answer is no error of the run's.
+    let _ = request.respond(response);
+}
+
+/// A header from constant, valid text.
+fn header(name: &str, value: &str) -> Header {
+    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("a constant, valid header")
+}
+
+/// Locks a mutex whose holder may have panicked (the data is still whole: every writer
+/// replaces it in one assignment).
+fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
+    m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
