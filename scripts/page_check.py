@@ -132,6 +132,9 @@ def layout(url, shot):
             s = c.wait_status(lambda s: True, 20, "the page did not render")
             if not s["ok"]:
                 fail(f"script errors: {s['errors']}")
+            axes = s["loss_axes"]
+            if len(axes["x"]) < 3 or len(axes["y"]) < 3 or len(axes["titles"]) != 2:
+                fail(f"the loss chart needs ticks along both axes and two axis titles: {axes}")
             time.sleep(0.3)
             wide = c.eval("[document.documentElement.scrollWidth, window.innerWidth]")
             if wide[0] > wide[1]:
@@ -145,6 +148,7 @@ def layout(url, shot):
                 fail("the reorg text is empty")
             if bottom[0] > bottom[1]:
                 fail(f"at 1400x900 the reorg text ends at y = {bottom[0]:.0f}, below the fold ({bottom[1]})")
+            print(f"page_check: layout: loss chart ticks x {axes['x']}, y {axes['y']}, titles {axes['titles']}")
             print(f"page_check: layout: no horizontal scroll at 1024x768 (scrollWidth {wide[0]}); "
                   f"reorg text above the fold at 1400x900 (ends at y = {bottom[0]:.0f})")
         finally:

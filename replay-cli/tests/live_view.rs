@@ -26,13 +26,13 @@ fn smoke(out: &Path, extra: &[&str]) -> Command {
     c
 }
 
-/// One `GET path` on 127.0.0.1:port: the status code and the body.
+/// One `GET path` on 127.0.0.1:port: the status code and the body (HTTP/1.0: no chunks).
 fn get(port: u16, path: &str) -> Option<(u16, String)> {
     let mut s = TcpStream::connect(("127.0.0.1", port)).ok()?;
     s.set_read_timeout(Some(Duration::from_secs(10))).ok()?;
     write!(
         s,
-        "GET {path} HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"
+        "GET {path} HTTP/1.0\r\nHost: 127.0.0.1\r\n\r\n"
     )
     .ok()?;
     let mut text = String::new();

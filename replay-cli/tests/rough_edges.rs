@@ -221,3 +221,166 @@ fn inspect_names_the_last_robot_and_prints_distances_in_model_units() {
     assert!(distances.iter().all(|l| l.contains("per weight")), "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn snapshot_titles_the_run_and_refuses_a_time_past_its_end() {
+    let dir = scratch("snapshot");
+    let out = short_run(&dir.join("r"), "7");
+    assert!(out.status.success(), "{}", stderr(&out));
+    let log = dir.join("r/run.swlog");
+    let log = log.to_str().unwrap();
+    let png = dir.join("s.png");
+    let png = png.to_str().unwrap();
+    let out = swarmfl(&["snapshot", log, "--time", "9999", "--out", png]);
+    let err = stderr(&out);
+    assert_eq!(out.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("--time 9999 is past the end of")
+            && err.contains("its last tick is at t = 60.000 s")
+            && err.contains("give a time from 0 to 60, or --block HEIGHT"),
+        "{err}"
+    );
+    assert!(
+        !Path::new(png).exists(),
+        "a refused snapshot wrote a picture"
+    );
+    // The run's own end is a time of the run; the title names the run, not the file.
+    let out = swarmfl(&["snapshot", log, "--time", "60", "--out", png]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    assert!(
+        stdout(&out).contains("(preset smoke, seed 7: t = 60.000 s; from "),
+        "{}",
+        stdout(&out)
+    );
+    let svg = dir.join("s.svg");
+    let out = swarmfl(&[
+        "snapshot",
+        log,
+        "--block",
+        "2",
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let text = std::fs::read_to_string(&svg).unwrap().replace('\n', "");
+    assert!(text.contains("preset smoke, seed 7: t = "), "no run title");
+    assert!(
+        text.contains("right after block 2"),
+        "no block in the title"
+    );
+    assert!(!text.contains("run.swlog"), "the title is the file path");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// The number just before `words` in `text` (e.g. "81" in "81 sealings on all forks").
+fn number_before(text: &str, words: &str) -> u64 {
+    let at = text
+        .find(words)
+        .unwrap_or_else(|| panic!("no `{words}` in: {text}"));
+    let digits: String = text[..at]
+        .trim_end()
+        .chars()
+        .rev()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits
+        .chars()
+        .rev()
+        .collect::<String>()
+        .parse()
+        .unwrap_or_else(|_| panic!("no number before `{words}` in: {text}"))
+}
+
+/// The number just after `words` in `text` (e.g. "59" in "canonical height 59").
+fn number_after(text: &str, words: &str) -> u64 {
+    let at = text
+        .find(words)
+        .unwrap_or_else(|| panic!("no `{words}` in: {text}"))
+        + words.len();
+    let digits: String = text[at..]
+        .trim_start()
+        .chars()
+        .take_while(char::is_ascii_digit)
+        .collect();
+    digits
+        .parse()
+        .unwrap_or_else(|_| panic!("no number after `{words}` in: {text}"))
+}
+
+#[test]
+fn block_counts_say_what_they_count_and_agree_between_commands() {
+    let dir = scratch("blocks");
+    // 600 s of smoke: forks and reorgs happen, so "all forks" and "final chain" differ.
+    let out = smoke_run(&dir.join("r"), "7", &[]);
+    let run = stdout(&out);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let log = dir.join("r/run.swlog");
+    let log = log.to_str().unwrap();
+    let replay = stdout(&swarmfl(&["replay", log]));
+    let html = dir.join("v.html");
+    let view = stdout(&swarmfl(&["view", log, "--out", html.to_str().unwrap()]));
+    let csv = dir.join("csv");
+    let export = stdout(&swarmfl(&["export", log, "--out", csv.to_str().unwrap()]));
+    let height = number_after(&run, "canonical height");
+    let sealings = number_before(&run, "sealings on all forks (every block any node sealed");
+    assert!(sealings > height, "forks in a 600 s smoke run: {run}");
+    assert!(
+        run.contains("blocks of the final chain, genesis apart"),
+        "{run}"
+    );
+    for (command, text) in [("replay", &replay), ("view", &view)] {
+        assert_eq!(
+            number_before(
+                text,
+                "sealings on all forks (every block any node sealed, genesis apart"
+            ),
+            sealings,
+            "{command}: {text}"
+        );
+    }
+    assert_eq!(
+        number_after(&replay, "the final canonical chain has height"),
+        height,
+        "{replay}"
+    );
+    assert_eq!(
+        number_after(&view, "final canonical chain height"),
+        height,
+        "{view}"
+    );
+    assert_eq!(
+        number_before(&export, "blocks of the final canonical chain"),
+        height,
+        "{export}"
+    );
+    assert_eq!(
+        number_before(&export, "sealings on all forks"),
+        sealings,
+        "{export}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn bench_world_says_what_it_is_doing_before_its_long_first_case() {
+    use std::io::BufRead;
+    // The command takes 16-19 s; its first line must come before the first case's work, so
+    // the test reads one line of stderr and stops the command (with the old silent command
+    // the line would never come and stderr would close empty at its end).
+    let mut child = Command::new(env!("CARGO_BIN_EXE_swarmfl"))
+        .args(["bench", "world", "--json"])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut line = String::new();
+    std::io::BufReader::new(child.stderr.take().unwrap())
+        .read_line(&mut line)
+        .unwrap();
+    let _ = child.kill();
+    let _ = child.wait();
+    assert!(
+        line.starts_with("bench world: paper-15, 15 robots") && line.contains("run 1 of 3"),
+        "{line}"
+    );
+}

@@ -40,11 +40,11 @@ pub fn export(log: &Path, out: &Path) -> anyhow::Result<()> {
         write(out, "balances.csv", &index.balances_table()?)?;
         write(out, "chain_bytes.csv", &index.chain_bytes_table()?)?;
         println!(
-            "wrote {}: rounds.csv ({} rounds), submissions.csv ({} submissions), balances.csv ({} blocks x {} robots), chain_bytes.csv ({} sealings), trajectories.csv ({} samples of the final data sets) in {:.0} ms",
+            "wrote {}: rounds.csv ({} rounds), submissions.csv ({} submissions), balances.csv (genesis and the {} blocks of the final canonical chain x {} robots), chain_bytes.csv (every node's chain at each of the {} sealings on all forks), trajectories.csv ({} samples of the final data sets) in {:.0} ms",
             out.display(),
             rounds.rows(),
             submissions.rows(),
-            index.chain.len(),
+            index.last_height(),
             index.config.world.robots,
             index.chain_bytes.len(),
             samples,

@@ -4,7 +4,7 @@ use std::process::ExitCode;
 
 use swarmfl_core::byzantine::plugin::Plugins;
 use swarmfl_core::log::LogReader;
-use swarmfl_core::replay;
+use swarmfl_core::{metrics, replay};
 
 use crate::cli::ReplayArgs;
 
@@ -21,8 +21,12 @@ pub fn command(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     } else {
         replay::replay(&log)?
     };
+    let ledger = &report.state.ledger;
+    let height = ledger.head(metrics::best_node(ledger)).1;
     println!(
-        "bit-exact: {} records, {} sealings on all forks ({} checkpoints verified{}); final hash {}",
+        "bit-exact: {} records, {} sealings on all forks (every block any node sealed, genesis \
+         apart; the final canonical chain has height {height}) ({} checkpoints verified{}); \
+         final hash {}",
         report.records,
         report.blocks,
         report.checkpoints,

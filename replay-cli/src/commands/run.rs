@@ -9,7 +9,7 @@ use std::time::{Duration, Instant};
 use anyhow::Context;
 use swarmfl_core::byzantine::plugin::Plugins;
 use swarmfl_core::config::Config;
-use swarmfl_core::event::Record;
+use swarmfl_core::event::{CheckpointCause, Record};
 use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::sim::{Part, Profiler, Sim, DEFAULT_LOOKAHEAD_MS};
 use swarmfl_core::state::State;
@@ -226,6 +226,9 @@ pub struct RunOutcome {
     pub summary: serde_json::Value,
     /// The log's path.
     pub log_path: PathBuf,
+    /// Blocks sealed by any node on any fork (genesis apart): the log's block checkpoints,
+    /// what `replay`, `view` and `export` count as sealings.
+    pub sealings: u64,
 }
 
 /// Runs `config` with `seed`, writing the log and summary into `out`.
@@ -356,9 +359,15 @@ pub fn write_run(
     let (_, total_ms) = sim.progress();
     let label = format!("run {} seed {seed}", sim.config().preset);
     let mut progress = Progress::new(&label, "sim s", total_ms / 1000, quiet);
+    let mut sealings = 0;
     while let Some(record) = sim.next() {
         timing.switch(Part::Log);
         check(&record)?;
+        if let Record::Checkpoint(cp) = &record {
+            if matches!(cp.cause, CheckpointCause::Block { .. }) {
+                sealings += 1;
+            }
+        }
         writer.append(&record)?;
         let (done_ms, _) = sim.progress();
         progress.set(done_ms / 1000, || {
@@ -386,7 +395,11 @@ pub fn write_run(
         serde_json::to_string_pretty(&summary)? + "\n",
     )
     .with_context(|| format!("cannot write {}", summary_path.display()))?;
-    Ok(RunOutcome { summary, log_path })
+    Ok(RunOutcome {
+        summary,
+        log_path,
+        sealings,
+    })
 }
 
 /// Without the `evm` feature no run has an EVM, so no gas to report.
@@ -495,10 +508,12 @@ pub fn print_summary(outcome: &RunOutcome) {
     }
     let l = &s["ledger"];
     println!(
-        "ledger:     canonical height {} (blocks on the best chain; `replay` and `export` also \
-         count the sealings of forks), forks {}, reorgs {} (deepest {}), tx delay median {} s \
-         p95 {} s, {:.0} B/submission",
+        "ledger:     canonical height {} (blocks of the final chain, genesis apart), {} \
+         sealings on all forks (every block any node sealed, as `replay`, `view` and `export` \
+         count them), forks {}, reorgs {} (deepest {}), tx delay median {} s p95 {} s, {:.0} \
+         B/submission",
         l["canonical_height"],
+        outcome.sealings,
         l["forks"],
         l["reorgs"],
         l["deepest_reorg"],

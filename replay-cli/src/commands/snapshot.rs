@@ -111,7 +111,17 @@ pub fn draw(world: &World, marks: &[RobotMark], title: &str, out: &Path) -> anyh
         }
         _ => unreachable!("the extension was checked above"),
     };
-    result.with_context(|| format!("drawing the snapshot into {}", out.display()))
+    let placed = result.with_context(|| format!("drawing the snapshot into {}", out.display()))?;
+    debug_assert!(
+        placed.overlays.iter().all(|(_, r)| apart(*r, placed.arena)),
+        "the legend or the scale bar covers the arena: {placed:?}"
+    );
+    Ok(placed)
+}
+
+/// Two rectangles share no pixel.
+fn apart(a: PixelRect, b: PixelRect) -> bool {
+    a.0 >= b.2 || a.2 <= b.0 || a.1 >= b.3 || a.3 <= b.1
 }
 
 /// The chart a snapshot is drawn on: metres on both axes.
@@ -141,7 +151,7 @@ where
     let mut builder = ChartBuilder::on(&left);
     builder.margin(20);
     if title.is_some() {
-        builder.x_label_area_size(40).y_label_area_size(50);
+        builder.x_label_area_size(50).y_label_area_size(60);
     }
     let mut chart = builder
         .build_cartesian_2d(-h..h, -h..h)
@@ -152,6 +162,8 @@ where
             .disable_mesh()
             .x_desc("x (m)")
             .y_desc("y (m)")
+            .label_style(("sans-serif", 15))
+            .axis_desc_style(("sans-serif", 17))
             .x_label_formatter(&|v| format!("{v:.1}"))
             .y_label_formatter(&|v| format!("{v:.1}"))
             .draw()
@@ -535,7 +547,8 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
             // got there is the run's end, and a picture of it under another time would lie.
             if state.world.time() < SimTime::from_secs(time) {
                 anyhow::bail!(
-                    "--time {time} is past the end of {} (its last tick is at t = {}): give a                      time from 0 to {}, or --block HEIGHT for a block of its final chain",
+                    "--time {time} is past the end of {} (its last tick is at t = {}): give a \
+                     time from 0 to {}, or --block HEIGHT for a block of its final chain",
                     log.display(),
                     state.world.time(),
                     state.world.time().secs()
@@ -585,9 +598,28 @@ mod tests {
         let dir = std::env::temp_dir();
         for name in ["swarmfl-snapshot-600s.png", "swarmfl-snapshot-600s.svg"] {
             let out = dir.join(name);
-            draw(&world, &marks, "paper preset, seed 1, t = 600 s", &out).unwrap();
+            let placed = draw(&world, &marks, "paper preset, seed 1, t = 600 s", &out).unwrap();
             let size = std::fs::metadata(&out).unwrap().len();
             assert!(size > 5_000, "{name}: {size} bytes");
+            // The legend and the scale bar are drawn, each clear of the arena: they cover no
+            // robot, id or wall (robots and ids are inside the arena's plotting area).
+            let names: Vec<&str> = placed.overlays.iter().map(|(n, _)| *n).collect();
+            assert_eq!(names, ["legend", "scale bar"], "{name}");
+            let (l, t, r, b) = placed.arena;
+            assert!(
+                r - l > 700 && b - t > 700,
+                "{name}: arena {:?}",
+                placed.arena
+            );
+            for (what, (l2, t2, r2, b2)) in &placed.overlays {
+                let apart = *l2 >= r || *r2 <= l || *t2 >= b || *b2 <= t;
+                assert!(
+                    apart,
+                    "{name}: the {what} {:?} overlaps the arena {:?}",
+                    (l2, t2, r2, b2),
+                    placed.arena
+                );
+            }
         }
         // plotters writes each text's content on a line of its own.
         let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg"))

@@ -40,12 +40,14 @@ pub fn command(args: ViewArgs) -> anyhow::Result<ExitCode> {
     let v = view(&log, &out)?;
     println!(
         "wrote {} ({:.1} MB: {} frames, one every {} s plus one per block of the final \
-         chain; {} blocks of every node); open it in a browser",
+         chain; {} sealings on all forks (every block any node sealed, genesis apart), final \
+         canonical chain height {}); open it in a browser",
         out.display(),
         v.bytes as f64 / 1.0e6,
         v.frames,
         v.frame_s,
-        v.blocks
+        v.sealings,
+        v.height
     );
     Ok(ExitCode::SUCCESS)
 }
@@ -57,8 +59,10 @@ const MAX_FRAMES: u64 = 2000;
 pub struct ViewOutcome {
     /// Frames in the file.
     pub frames: usize,
-    /// Blocks of every node (forks included).
-    pub blocks: usize,
+    /// Blocks sealed by any node on any fork (genesis apart).
+    pub sealings: u64,
+    /// Height of the final canonical chain.
+    pub height: u64,
     /// Size of the HTML file in bytes.
     pub bytes: usize,
     /// Seconds between uniform frames.
@@ -77,7 +81,8 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
     std::fs::write(out, &html).with_context(|| format!("cannot write {}", out.display()))?;
     Ok(ViewOutcome {
         frames: page.frames,
-        blocks: page.blocks,
+        sealings: page.sealings,
+        height: page.index.last_height(),
         bytes: html.len(),
         frame_s: page.frame_ms as f64 / 1000.0,
     })
@@ -106,8 +111,8 @@ pub struct Page {
     pub data: String,
     /// Frames in the data.
     pub frames: usize,
-    /// Blocks of every node (forks included).
-    pub blocks: usize,
+    /// Blocks sealed by any node on any fork (genesis apart): the log's block checkpoints.
+    pub sealings: u64,
     /// Milliseconds between uniform frames.
     pub frame_ms: u64,
 }
@@ -144,7 +149,7 @@ impl Page {
         )?;
         Ok(Page {
             frames: walk.frames.t.len(),
-            blocks: walk.ids.len(),
+            sealings: walk.sealings,
             index,
             title,
             data,
@@ -173,6 +178,8 @@ struct Walk {
     reorgs: String,
     /// Reorgs written into `reorgs`.
     reorg_count: usize,
+    /// Block checkpoints folded: every sealing of any node.
+    sealings: u64,
     /// Every node's head after the last ledger event.
     heads: Vec<Digest>,
     /// The sampled frames.
@@ -202,6 +209,7 @@ impl Walk {
             blocks: String::from("[[0,-1,0,-1,0]"),
             reorgs: String::from("["),
             reorg_count: 0,
+            sealings: 0,
             heads: vec![genesis; index.config.world.robots as usize],
             frames: Frames::default(),
             state,
@@ -224,6 +232,7 @@ impl Walk {
                 } => walk.note_reorgs(time.0),
                 Record::Checkpoint(cp) => {
                     if let CheckpointCause::Block { node, height } = cp.cause {
+                        walk.sealings += 1;
                         walk.note_block(node, height, cp.time.0, &canonical);
                     }
                 }
