@@ -129,14 +129,15 @@ impl Page {
         let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
         let frame_ms = every_ticks * tick_ms;
         let walk = Walk::fold(log, &index, tick_ms, frame_ms)?;
+        // The run first (what a reader of a screenshot wants), its file last.
         let title = format!(
-            "{}{} — preset {}, seed {}, {} robots, {} s",
+            "{}preset {}, seed {}, {} robots, {} s — {}",
             if live.is_some() { "live: " } else { "" },
-            log.display(),
             config.preset,
             index.seed,
             config.world.robots,
-            config.run.duration_s
+            config.run.duration_s,
+            log.display()
         );
         let upto_ms = walk.frames.t.iter().copied().max().unwrap_or(0);
         let data = page_data(

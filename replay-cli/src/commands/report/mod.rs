@@ -153,6 +153,41 @@ mod tests {
     }
 
     #[test]
+    fn paper_figures_are_print_sized_with_vector_text_and_filled_bands() {
+        let dir = temp("style");
+        synthetic_dir(&dir, &["e2-faulty"], 3);
+        let out = dir.join("report");
+        report(&dir, &out).unwrap();
+        // The PNG at twice the 900 px (7 inch) layout: about 260 dpi in print.
+        let png = std::fs::read(out.join("e2-faulty-loss.png")).unwrap();
+        let width = u32::from_be_bytes(png[16..20].try_into().unwrap());
+        assert_eq!(width, 1800, "PNG width");
+        // The SVG is vector text at the layout's sizes: none below the tick labels' 15 px.
+        // plotters writes a font's em, its size / 1.24, into `font-size`.
+        let svg = std::fs::read_to_string(out.join("e2-faulty-loss.svg")).unwrap();
+        assert!(svg.contains("width=\"900\""), "SVG width");
+        let sizes: Vec<f64> = svg
+            .split("font-size=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next()?.trim_end_matches("px").parse().ok())
+            .collect();
+        assert!(!sizes.is_empty(), "no text in the SVG");
+        let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min) * 1.24;
+        assert!(smallest >= style::TICK - 0.01, "font sizes {sizes:?}");
+        // Confidence bands are filled, translucent polygons, not thin lines.
+        let bands = svg
+            .split("<polygon")
+            .skip(1)
+            .filter(|p| {
+                let head = p.split('>').next().unwrap_or("");
+                head.contains("opacity=\"0.") && head.contains("fill=\"#")
+            })
+            .count();
+        assert!(bands >= 1, "no filled translucent band in the loss figure");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn report_numbers_do_not_depend_on_file_order_or_sharding() {
         let dir = temp("order");
         synthetic_dir(&dir, &["e1-expiration", "e2-faulty"], 3);
