@@ -16,7 +16,7 @@
 //!   ended, then stops; Ctrl-C ends the process, server included, and an open page says the
 //!   server is gone.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
@@ -140,7 +140,7 @@ impl Bound {
 
 /// The builder: a page from the log's intact prefix every [`POLL_MS`] (or twice the last
 /// build's time), and a last one from the finished log.
-fn build_loop(shared: &Shared, log: &PathBuf) {
+fn build_loop(shared: &Shared, log: &Path) {
     let mut version = 0;
     loop {
         // Read before the build: a run that ends during it gets one more build.
