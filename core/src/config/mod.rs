@@ -18,6 +18,7 @@ mod overrides;
 mod preagg;
 mod preagg_fit;
 mod preset;
+mod skip;
 mod tree;
 mod validate;
 

@@ -262,7 +262,7 @@ impl Config {
 /// leaves out at their default (keys added after records existed, whose recording would move
 /// every run's hash), so that files and `--set` find them.
 pub(super) fn full_tree(config: &Config) -> toml::Value {
-    super::tree::with_every_key(|| toml::Value::try_from(config).expect("Config serialises"))
+    super::skip::with_every_key(|| toml::Value::try_from(config).expect("Config serialises"))
 }
 
 /// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.

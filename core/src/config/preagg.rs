@@ -70,10 +70,10 @@ pub fn default_clip_radius() -> f64 {
 /// True for the default bucket size: left out of the recorded configuration, so runs without
 /// pre-aggregators keep their hashes.
 pub fn is_default_bucket_size(s: &u32) -> bool {
-    super::tree::omit(*s == default_bucket_size())
+    super::skip::omit(*s == default_bucket_size())
 }
 
 /// True for the default clipping radius (see [`is_default_bucket_size`]).
 pub fn is_default_clip_radius(c: &f64) -> bool {
-    super::tree::omit(*c == default_clip_radius())
+    super::skip::omit(*c == default_clip_radius())
 }
