@@ -352,10 +352,12 @@ pub fn summarise(
             }
         }
         for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
-            let Some(submitted) = ledger
-                .tx(tx_hash)
-                .filter(|t| matches!(t.tx.call, Call::SubmitModel { .. }))
-            else {
+            let Some(submitted) = ledger.tx(tx_hash).filter(|t| {
+                matches!(
+                    t.tx.call,
+                    Call::SubmitModel { .. } | Call::SubmitUpdate { .. }
+                )
+            }) else {
                 continue;
             };
             *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;

@@ -41,6 +41,12 @@ pub struct ChainBytesPoint {
     pub mean: f64,
     /// Largest node, bytes.
     pub max: f64,
+    /// Blocks held per node (side branches included), mean over nodes, bytes.
+    #[serde(default)]
+    pub stored_mean: f64,
+    /// Gossip bytes sent so far per node, mean over nodes (lost ones included).
+    #[serde(default)]
+    pub sent_mean: f64,
 }
 
 impl LedgerSummary {
@@ -60,6 +66,8 @@ impl LedgerSummary {
                     time_s: s.time_s,
                     mean: s.mean_bytes,
                     max: s.max_bytes as f64,
+                    stored_mean: s.stored_mean_bytes,
+                    sent_mean: s.sent_mean_bytes,
                 })
                 .collect(),
             details: stats,

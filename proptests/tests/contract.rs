@@ -33,6 +33,7 @@ fn params(security: bool) -> ContractParams {
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     }
 }
 

@@ -45,6 +45,7 @@ fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
             refund_percent,
         }),
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
+        buffered: None,
     }
 }
 

@@ -63,6 +63,7 @@ fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
             bucket_size: 2,
             clip_radius_units: 30_000_000,
         }),
+        buffered: None,
     };
     p.check().ok().map(|()| p)
 }

@@ -41,6 +41,7 @@ fn params(rule: Rule) -> ContractParams {
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     }
 }
 

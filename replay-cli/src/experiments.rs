@@ -10,7 +10,7 @@
 use swarmfl_core::config::{ByzantineKind, Defence, Rule};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 10] = [
+pub const EXPERIMENTS: [&str; 12] = [
     "e0-baselines",
     "e1-expiration",
     "e1-faulty",
@@ -21,6 +21,8 @@ pub const EXPERIMENTS: [&str; 10] = [
     "e5-smart-defence",
     "e2-malicious-authors",
     "e3-smart-authors",
+    "e6-scale",
+    "e6-scale-1000",
 ];
 
 /// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
@@ -169,6 +171,22 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             axis: "Byzantine robots".into(),
             points: e5_points(),
             runs: 3,
+        },
+        // Issue 32. Two experiments so that each has one number of runs: 3 seeds up to 240
+        // robots, 2 at 1000 (whose runs take minutes each).
+        "e6-scale" => Experiment {
+            name: "e6-scale".into(),
+            preset: "e6-scale".into(),
+            axis: "robots".into(),
+            points: e6_points(&[15, 60, 240], true),
+            runs: 3,
+        },
+        "e6-scale-1000" => Experiment {
+            name: "e6-scale-1000".into(),
+            preset: "e6-scale".into(),
+            axis: "robots".into(),
+            points: e6_points(&[1000], false),
+            runs: 2,
         },
         other => anyhow::bail!(
             "unknown experiment {other:?}; the experiments are {}",
@@ -329,6 +347,73 @@ fn e5_points() -> Vec<Point> {
     points
 }
 
+/// The protocols `e6-scale` compares: the paper's rounds, the buffered protocol and the gossip
+/// baseline, as a point-name prefix and its overrides.
+pub const E6_PROTOCOLS: [(&str, &[&str]); 3] = [
+    ("rounds", &["contract.protocol=rounds"]),
+    ("buffered", &["contract.protocol=buffered"]),
+    (
+        "gossip",
+        &["contract.protocol=rounds", "learn.aggregation=gossip"],
+    ),
+];
+
+/// The faulty robots of `e6-scale`'s 240-robot points with faults: 10 % of the swarm.
+pub const E6_FAULTY: u32 = 24;
+
+/// The overrides that put the paper's system at `robots` robots at its density (the rule of
+/// `bench scale`): the arena side grown by `sqrt(robots / 15)`, the obstacles with the area.
+pub fn paper_density(robots: u32) -> Vec<String> {
+    let scale = f64::from(robots) / 15.0;
+    let obstacles = (5.0 * scale).round() as u32;
+    vec![
+        format!("world.robots={robots}"),
+        format!("world.arena_side_m={}", 5.0 * scale.sqrt()),
+        format!("world.cylinders={obstacles}"),
+        format!("world.boxes={obstacles}"),
+    ]
+}
+
+/// The grid of `e6-scale`: every size in `sizes` x [`E6_PROTOCOLS`] (`<protocol>-<robots>`),
+/// then, with `faulty`, rounds and buffered at 240 robots with [`E6_FAULTY`] faulty robots
+/// (`<protocol>-240-faulty-24`). x is the swarm's size.
+fn e6_points(sizes: &[u32], faulty: bool) -> Vec<Point> {
+    let mut points = Vec::new();
+    for &robots in sizes {
+        for (protocol, overrides) in E6_PROTOCOLS {
+            let mut all = paper_density(robots);
+            all.extend(overrides.iter().map(|o| o.to_string()));
+            points.push(Point {
+                name: format!("{protocol}-{robots}"),
+                x: f64::from(robots),
+                overrides: all,
+                tags: vec![
+                    ("protocol", protocol.to_string()),
+                    ("condition", "clean".to_string()),
+                ],
+            });
+        }
+    }
+    if faulty {
+        for (protocol, overrides) in &E6_PROTOCOLS[..2] {
+            let mut all = paper_density(240);
+            all.extend(overrides.iter().map(|o| o.to_string()));
+            all.push("byzantine.kind=faulty".into());
+            all.push(format!("byzantine.count={E6_FAULTY}"));
+            points.push(Point {
+                name: format!("{protocol}-240-faulty-{E6_FAULTY}"),
+                x: 240.0,
+                overrides: all,
+                tags: vec![
+                    ("protocol", protocol.to_string()),
+                    ("condition", format!("faulty-{E6_FAULTY}")),
+                ],
+            });
+        }
+    }
+    points
+}
+
 /// One task: a configuration point and a seed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Task {
@@ -398,6 +483,8 @@ mod tests {
         check("e5-smart-defence", 39, 3);
         check("e2-malicious-authors", 8, 20);
         check("e3-smart-authors", 8, 18);
+        check("e6-scale", 11, 3);
+        check("e6-scale-1000", 3, 2);
         assert!(experiment("e4").is_err());
     }
 
@@ -437,6 +524,11 @@ mod tests {
                     .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
                 if name == "e1-expiration" {
                     assert_eq!(config.data.expiration_s, point.x);
+                } else if name.starts_with("e6-scale") {
+                    assert_eq!(f64::from(config.world.robots), point.x);
+                    let protocol = point.name.split('-').next().unwrap();
+                    let buffered = config.contract.protocol.name() == "buffered";
+                    assert_eq!(buffered, protocol == "buffered", "{}", point.name);
                 } else {
                     assert_eq!(f64::from(config.byzantine.count), point.x);
                 }

@@ -50,17 +50,16 @@ pub struct Round {
 /// The round as `view`'s node holds it, or `None` while it holds fewer than `need` honest
 /// accepted models (or the round is already full).
 pub fn hypothetical_round(view: &View, need: usize) -> Option<Round> {
-    let accepted: Vec<_> = view
-        .chain
-        .submissions
-        .iter()
-        .filter(|s| s.verdict == Verdict::Accepted)
+    // Indices into the round's submissions; a model is read as the round reads it (under the
+    // buffered protocol, the update rebased on w(t)).
+    let accepted: Vec<usize> = (0..view.chain.submissions.len())
+        .filter(|&i| view.chain.submissions[i].verdict == Verdict::Accepted)
         .collect();
     let in_coalition = |r: u32| view.coalition.get(r as usize).copied().unwrap_or(false);
     let honest: Vec<Vec<i64>> = accepted
         .iter()
-        .filter(|s| !in_coalition(s.sender))
-        .map(|s| s.weights.to_vec())
+        .filter(|&&i| !in_coalition(view.chain.submissions[i].sender))
+        .map(|&i| view.chain.round_model(i).to_vec())
         .collect();
     let quorum = view.params.quorum as usize;
     if honest.len() < need.max(1) || accepted.len() >= quorum {
@@ -81,7 +80,10 @@ pub fn hypothetical_round(view: &View, need: usize) -> Option<Round> {
     Some(Round {
         onchain: accepted
             .iter()
-            .map(|s| (s.sender, s.weights.to_vec(), s.samples))
+            .map(|&i| {
+                let s = &view.chain.submissions[i];
+                (s.sender, view.chain.round_model(i).to_vec(), s.samples)
+            })
             .collect(),
         forged_copies,
         standins,

@@ -20,8 +20,10 @@ impl Attack for Mimic {
             return Action::Wait;
         }
         let victim = honest[0];
+        // Its weights, or under the buffered protocol its update rebased on w(t).
+        let model = view.honest_fixed()[0];
         Action::Submit {
-            weights: learn::from_fixed(&victim.weights, view.weight_scale),
+            weights: learn::from_fixed(model, view.weight_scale),
             samples: u32::try_from(victim.samples).unwrap_or(u32::MAX),
         }
     }

@@ -97,22 +97,31 @@ impl View<'_> {
         self.chain
             .submissions
             .iter()
-            .filter(|s| {
-                !self
-                    .coalition
-                    .get(s.sender as usize)
-                    .copied()
-                    .unwrap_or(false)
-            })
+            .filter(|s| !self.in_coalition(s.sender))
             .collect()
     }
 
-    /// The weights of [`View::honest_submissions`], as floats.
+    /// The models of [`View::honest_submissions`], as floats: their weights, or under the
+    /// buffered protocol their updates rebased on the shared model (so an attack reads the
+    /// buffer as it reads a round: every model relative to `w(t)`, whatever its base).
     pub fn honest_models(&self) -> Vec<Vec<f32>> {
-        self.honest_submissions()
-            .iter()
-            .map(|s| learn::from_fixed(&s.weights, self.weight_scale))
+        self.honest_fixed()
+            .into_iter()
+            .map(|w| learn::from_fixed(w, self.weight_scale))
             .collect()
+    }
+
+    /// The fixed-point models of [`View::honest_submissions`] (see [`View::honest_models`]).
+    pub fn honest_fixed(&self) -> Vec<&[i64]> {
+        let chain = self.chain;
+        (0..chain.submissions.len())
+            .filter(|&i| !self.in_coalition(chain.submissions[i].sender))
+            .map(|i| &chain.round_model(i)[..])
+            .collect()
+    }
+
+    fn in_coalition(&self, robot: RobotId) -> bool {
+        self.coalition.get(robot as usize).copied().unwrap_or(false)
     }
 
     /// The outlier threshold as a mean absolute distance per weight (public contract rule).

@@ -161,6 +161,30 @@ impl Defence {
     }
 }
 
+/// How the contract turns submissions into model versions (`contract.protocol`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum RoundProtocol {
+    /// The paper's rounds: every submission is judged against the newest shared model, a
+    /// robot submits once per round, the round closes at the quorum.
+    #[default]
+    Rounds,
+    /// Buffered, staleness-aware aggregation (issue 32, FedBuff with FedAsync's staleness
+    /// weight): a submission names the model version it trained from and is judged against
+    /// it; every `contract.buffer_size` accepted updates move the model (`contract/buffered.rs`).
+    Buffered,
+}
+
+impl RoundProtocol {
+    /// The protocol's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            RoundProtocol::Rounds => "rounds",
+            RoundProtocol::Buffered => "buffered",
+        }
+    }
+}
+
 /// Which machine executes the contract.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -18,6 +18,7 @@ mod overrides;
 mod preagg;
 mod preagg_fit;
 mod preset;
+mod protocol_fit;
 mod skip;
 mod tree;
 mod validate;
@@ -29,7 +30,8 @@ pub use behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, Wind
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,
-    PayoutRounding, PoolRule, RankKey, RankTies, Rule, ThresholdRule, MDA_MAX_SUBSETS,
+    PayoutRounding, PoolRule, RankKey, RankTies, RoundProtocol, Rule, ThresholdRule,
+    MDA_MAX_SUBSETS,
 };
 pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};

@@ -7,7 +7,7 @@ use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, W
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey,
-    RankTies, Rule, ThresholdRule,
+    RankTies, RoundProtocol, Rule, ThresholdRule,
 };
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
@@ -71,11 +71,15 @@ pub enum Preset {
     /// Baselines: the chain (security on) against Flow-FL gossip and a central server; sweep
     /// `learn.aggregation` and the Byzantine robots.
     E0Baselines,
+    /// Issue 32: the paper's system with the buffered protocol (`contract.protocol =
+    /// "buffered"`); the `e6-scale` sweep grows it to 60, 240 and 1000 robots at the paper's
+    /// density and compares it with the paper's rounds and the gossip baseline.
+    E6Scale,
 }
 
 impl Preset {
     /// Every variant, in documentation order (the order `swarmfl presets` lists them).
-    pub const ALL: [Preset; 14] = [
+    pub const ALL: [Preset; 15] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
@@ -90,6 +94,7 @@ impl Preset {
         Preset::E4Robustness,
         Preset::E5SmartDefence,
         Preset::E0Baselines,
+        Preset::E6Scale,
     ];
 
     /// The preset's name as written on the command line.
@@ -109,6 +114,7 @@ impl Preset {
             Preset::E4Robustness => "e4-robustness",
             Preset::E5SmartDefence => "e5-smart-defence",
             Preset::E0Baselines => "e0-baselines",
+            Preset::E6Scale => "e6-scale",
         }
     }
 
@@ -150,6 +156,10 @@ impl Preset {
             Preset::E0Baselines => {
                 "Baselines: chain vs Flow-FL gossip vs central server, SGD 0.01; sweep \
                  learn.aggregation x {0, 1 faulty, 3 malicious}"
+            }
+            Preset::E6Scale => {
+                "Scale: the paper's system with the buffered protocol (K = 7); sweep robots \
+                 15..1000 at the paper's density x rounds / buffered / gossip"
             }
         }
     }
@@ -245,6 +255,11 @@ impl Preset {
                 // The paper's system (security on, learning rate 0.01, docs/SPEC.md section
                 // 2) at its full 5000 s; the sweep varies learn.aggregation and the Byzantine
                 // robots.
+            }
+            Preset::E6Scale => {
+                // The paper's system, buffered; the sweep sets the swarm's size (and the
+                // arena and obstacles that keep the paper's density) and the protocol.
+                c.contract.protocol = RoundProtocol::Buffered;
             }
         }
         c
@@ -357,6 +372,11 @@ impl Config {
                 preaggregators: Vec::new(),
                 bucket_size: 2,
                 clip_radius: 1.0,
+                protocol: RoundProtocol::Rounds,
+                buffer_size: super::tree::default_buffer_size(),
+                max_staleness: super::tree::default_max_staleness(),
+                staleness_exponent: super::tree::default_staleness_exponent(),
+                server_step: super::tree::default_server_step(),
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,

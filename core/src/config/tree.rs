@@ -10,7 +10,7 @@ use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, W
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
-    RankKey, RankTies, Rule, ThresholdRule,
+    RankKey, RankTies, RoundProtocol, Rule, ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};
@@ -355,6 +355,79 @@ pub struct ContractConfig {
         skip_serializing_if = "preagg::is_default_clip_radius"
     )]
     pub clip_radius: f64,
+    /// How submissions become model versions: `rounds` (the paper's, the default) or
+    /// `buffered` (issue 32: a submission names the version it trained from, is judged
+    /// against it, and every `buffer_size` accepted updates move the model by their sample-
+    /// and staleness-weighted mean; `contract/buffered.rs`, docs/CONTRACT.md). Left out of
+    /// the recorded configuration at its default, so existing runs keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub protocol: RoundProtocol,
+    /// `buffered`: accepted updates per model version, K (1..=world.robots; 7 by default, the
+    /// paper's quorum, whatever the swarm's size). Replaces the quorum of `quorum_fraction`,
+    /// so `penalised_ranks` and `reward_weights` count buffer ranks.
+    #[serde(
+        default = "default_buffer_size",
+        skip_serializing_if = "is_default_buffer_size"
+    )]
+    pub buffer_size: u32,
+    /// `buffered`: the oldest base a submission may name, in versions behind the newest
+    /// (0..=1000; 64 by default): an older one is refused as stale, its stake untouched.
+    /// Every node keeps the last `max_staleness` versions to judge submissions against them.
+    #[serde(
+        default = "default_max_staleness",
+        skip_serializing_if = "is_default_max_staleness"
+    )]
+    pub max_staleness: u32,
+    /// `buffered`: FedAsync's staleness exponent a, weight `(1 + tau)^-a` of an update
+    /// trained `tau` versions ago (0..=10; 0.5 by default; 0 weighs every update alike).
+    #[serde(
+        default = "default_staleness_exponent",
+        skip_serializing_if = "is_default_staleness_exponent"
+    )]
+    pub staleness_exponent: f64,
+    /// `buffered`: the server step size eta: the model moves by eta times the weighted mean
+    /// update (in (0, 10]; 1 by default, FedBuff's plain mean).
+    #[serde(
+        default = "default_server_step",
+        skip_serializing_if = "is_default_server_step"
+    )]
+    pub server_step: f64,
+}
+
+/// `contract.buffer_size`'s default: the paper's quorum of 7.
+pub fn default_buffer_size() -> u32 {
+    7
+}
+
+fn is_default_buffer_size(k: &u32) -> bool {
+    omit(*k == default_buffer_size())
+}
+
+/// `contract.max_staleness`'s default (see `contract/buffered.rs` for the reason).
+pub fn default_max_staleness() -> u32 {
+    64
+}
+
+fn is_default_max_staleness(v: &u32) -> bool {
+    omit(*v == default_max_staleness())
+}
+
+/// `contract.staleness_exponent`'s default: FedAsync's a = 0.5.
+pub fn default_staleness_exponent() -> f64 {
+    0.5
+}
+
+fn is_default_staleness_exponent(a: &f64) -> bool {
+    omit(*a == default_staleness_exponent())
+}
+
+/// `contract.server_step`'s default: 1.
+pub fn default_server_step() -> f64 {
+    1.0
+}
+
+fn is_default_server_step(eta: &f64) -> bool {
+    omit(*eta == default_server_step())
 }
 
 fn default_defence_refund_percent() -> u32 {
@@ -533,8 +606,14 @@ impl Config {
         }
     }
 
-    /// The quorum: max(floor(q * N_r), 1).
+    /// The quorum: max(floor(q * N_r), 1); under `contract.protocol = "buffered"` the buffer
+    /// size K (the accepted submissions one aggregation takes).
     pub fn quorum(&self) -> u32 {
+        if self.contract.protocol == RoundProtocol::Buffered {
+            // At least 1 so that the table of checks can be built before
+            // `contract.buffer_size = 0` is refused.
+            return self.contract.buffer_size.max(1);
+        }
         ((self.contract.quorum_fraction * f64::from(self.world.robots)).floor() as u32).max(1)
     }
 

@@ -104,6 +104,8 @@ fn table(c: &Config) -> Vec<Step> {
         Across(tokens_fit_in_62_bits),
         Number("contract.quorum_fraction", k.quorum_fraction, 0.0, 1.0),
         Number("contract.outlier_threshold", k.outlier_threshold, 0.0, 1.0e6),
+        // Before the rows that read the quorum, which is the buffer size under `buffered`.
+        Across(super::protocol_fit::buffered_fits),
         Integer("contract.penalised_ranks", k.penalised_ranks.into(), 0, (c.quorum() - 1).into()),
         Across(robust_rules_need_security),
         Across(assumed_f_fits_the_rule),

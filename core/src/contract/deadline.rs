@@ -66,6 +66,10 @@ impl ContractState {
             return;
         }
         let before = self.total_units();
+        if let Some(b) = self.buffered.as_mut() {
+            std::sync::Arc::make_mut(b)
+                .refund(&self.submissions, |s| s.verdict == Verdict::Accepted);
+        }
         for s in std::mem::take(&mut self.submissions) {
             if s.verdict != Verdict::Accepted {
                 continue;
@@ -113,6 +117,7 @@ mod tests {
             defence: None,
             block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
             preagg: None,
+            buffered: None,
         }
     }
 

@@ -44,6 +44,7 @@
 //!
 //! After every call, `sum(balances) + holdings_units == robots * initial_units` is asserted.
 
+pub mod buffered;
 pub mod claims;
 pub mod deadline;
 pub mod defences;
@@ -55,6 +56,7 @@ pub mod evm;
 pub mod options;
 pub mod payout;
 pub mod preagg;
+mod rewards;
 pub mod rules;
 
 #[cfg(test)]
@@ -64,9 +66,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{
-    Config, ContractEngine, ContractOptions, Defence, PoolRule, Rule, ThresholdRule,
-};
+use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule, ThresholdRule};
 use crate::types::{Digest, RobotId};
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
@@ -141,6 +141,11 @@ pub struct ContractParams {
     /// genesis commitment (the log's header records the configuration).
     #[serde(skip, default = "crate::config::default_block_gas_limit")]
     pub block_gas_limit: u64,
+    /// The buffered protocol's parameters (`contract.protocol = "buffered"`, see [`buffered`]);
+    /// `None` under the paper's rounds, and then left out of the encoding, so the parameters'
+    /// digest of rounds runs is the one they had before the protocol existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub buffered: Option<buffered::BufferedParams>,
 }
 
 /// The claim bound of [`ContractParams`].
@@ -231,6 +236,7 @@ impl ContractParams {
             },
             engine: c.engine,
             block_gas_limit: c.block_gas_limit,
+            buffered: buffered::BufferedParams::from_config(config),
         }
     }
 
@@ -353,6 +359,12 @@ impl ContractParams {
                 return Err("pre-aggregators need a staking rule and the native engine".into());
             }
         }
+        if let Some(b) = &self.buffered {
+            b.check()?;
+            if self.engine == ContractEngine::Evm {
+                return Err("the buffered protocol needs the native engine".into());
+            }
+        }
         if !self.reward_weights.iter().any(|&k| k > 0) {
             return Err("at least one rewarded rank".into());
         }
@@ -389,6 +401,19 @@ pub enum Call {
         weights: Arc<[i64]>,
         /// Training samples claimed.
         samples: u64,
+    },
+    /// `submitUpdate(weights, n, base)` (`contract.protocol = "buffered"`, [`buffered`]): a
+    /// model trained from version `base_round`, whose digest the sender's chain showed as
+    /// `base_digest`. A new variant, so the encoding of the other calls does not change.
+    SubmitUpdate {
+        /// The weights, fixed point.
+        weights: Arc<[i64]>,
+        /// Training samples claimed.
+        samples: u64,
+        /// The version trained from.
+        base_round: u64,
+        /// Its digest as the sender's chain showed it.
+        base_digest: Digest,
     },
     /// Moves `amount_units` from the sender to `to`.
     Transfer {
@@ -456,6 +481,8 @@ pub enum Outcome {
         /// The block gas limit it exceeded.
         gas_limit: u64,
     },
+    /// The buffered protocol refused the submission's base (reason given); no stake moved.
+    Refused(buffered::Refusal),
 }
 
 impl Outcome {
@@ -471,6 +498,7 @@ impl Outcome {
             Outcome::InsufficientFunds => "insufficient_funds",
             Outcome::Malformed(_) => "malformed",
             Outcome::OverGasLimit { .. } => "over_gas_limit",
+            Outcome::Refused(r) => r.name(),
         }
     }
 
@@ -561,6 +589,10 @@ pub struct ContractState {
     /// state's portable form) and not in [`ContractState::digest`] (they mirror it exactly).
     #[serde(skip)]
     pub evm: Option<Arc<evm::EvmState>>,
+    /// The buffered protocol's state ([`buffered`]); `None` under rounds, and then in neither
+    /// the encoding nor the digest.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub buffered: Option<Arc<buffered::BufferState>>,
 }
 
 impl ContractState {
@@ -585,6 +617,10 @@ impl ContractState {
                 ContractEngine::Native => None,
                 ContractEngine::Evm => Some(Arc::new(evm::EvmState::deploy(params))),
             },
+            buffered: params
+                .buffered
+                .as_ref()
+                .map(|_| Arc::new(buffered::BufferState::genesis(params.robots))),
         }
     }
 
@@ -610,8 +646,12 @@ impl ContractState {
             .collect()
     }
 
-    /// True when `robot` has a counted submission in the current round.
+    /// True when `robot` has a counted submission in the current round (under the buffered
+    /// protocol: against the newest version).
     pub fn has_submitted(&self, robot: RobotId) -> bool {
+        if let Some(b) = &self.buffered {
+            return b.last_base.get(robot as usize) > Some(&self.round);
+        }
         self.submissions.iter().any(|s| s.sender == robot)
     }
 
@@ -631,9 +671,31 @@ impl ContractState {
         );
         let outcome = match (params.engine, call) {
             (ContractEngine::Evm, call) => evm::execute(self, params, sender, value_units, call),
+            (ContractEngine::Native, Call::SubmitModel { .. }) if params.buffered.is_some() => {
+                Outcome::Malformed(
+                    "the buffered protocol takes submitUpdate naming the base".into(),
+                )
+            }
             (ContractEngine::Native, Call::SubmitModel { weights, samples }) => {
                 self.submit_model(params, sender, value_units, weights, *samples)
             }
+            (
+                ContractEngine::Native,
+                Call::SubmitUpdate {
+                    weights,
+                    samples,
+                    base_round,
+                    base_digest,
+                },
+            ) => self.submit_update(
+                params,
+                sender,
+                value_units,
+                weights,
+                *samples,
+                *base_round,
+                base_digest,
+            ),
             (ContractEngine::Native, Call::Transfer { to, amount_units }) => {
                 self.transfer(sender, value_units, *to, *amount_units)
             }
@@ -653,6 +715,9 @@ impl ContractState {
     pub fn restart_round(&mut self) {
         if self.evm.is_some() {
             return evm::restart_round(self);
+        }
+        if let Some(b) = self.buffered.as_mut() {
+            Arc::make_mut(b).refund(&self.submissions, |_| true);
         }
         for s in std::mem::take(&mut self.submissions) {
             self.holdings_units = self
@@ -707,6 +772,9 @@ impl ContractState {
             .update(&self.round_opened_ms.to_le_bytes())
             .update(&self.rounds_timed_out.to_le_bytes())
             .update(&self.timeout_refunded_units.to_le_bytes());
+        if let Some(b) = &self.buffered {
+            b.hash(&mut h);
+        }
         Digest::from(h.finalize())
     }
 
@@ -835,7 +903,6 @@ impl ContractState {
             .collect();
         assert_eq!(accepted.len(), params.quorum as usize);
 
-        let rule = params.rule();
         let inputs: Vec<rules::Input> = accepted
             .iter()
             .map(|s| rules::Input {
@@ -859,90 +926,9 @@ impl ContractState {
         let new_weights: Arc<[i64]> = aggregate.weights.into();
         assert_eq!(new_weights.len(), self.weights.len());
 
-        let stakes: u128 = submissions.iter().map(|s| u128::from(s.stake_units)).sum();
-        let pool_units = match params.options.pool {
-            PoolRule::Carry => self.holdings_units,
-            PoolRule::Round if params.security => u64::try_from(stakes).expect("stakes are held"),
-            PoolRule::Round => self.holdings_units,
-        };
-        let mut payouts = Vec::new();
-        if params.security {
-            assert!(
-                u128::from(pool_units) >= stakes,
-                "the pool holds the round's stakes"
-            );
-            assert!(
-                u128::from(pool_units)
-                    >= u128::from(params.quorum) * u128::from(params.stake_units),
-                "every accepted submission staked"
-            );
-            let order = &aggregate.used;
-            if let Some(defence) = params.defence {
-                // The defence replaces the reward rule: score the used models, share the pool.
-                let models: Vec<&[i64]> = order.iter().map(|&i| &accepted[i].weights[..]).collect();
-                let scores = defences::scores(
-                    defence.defence,
-                    &self.weights,
-                    self.previous_weights.as_deref(),
-                    &models,
-                );
-                let units = defences::payouts(pool_units, &scores, defence.refund_percent);
-                for (rank, ((&i, units), score)) in order.iter().zip(units).zip(scores).enumerate()
-                {
-                    payouts.push(Payout {
-                        robot: accepted[i].sender,
-                        rank: rank as u32,
-                        reward_weight: score,
-                        units,
-                    });
-                }
-            } else if rule == Rule::Paper {
-                let ranked_samples: Vec<u64> = order.iter().map(|&i| accepted[i].samples).collect();
-                let units = payout::payouts(
-                    pool_units,
-                    params.stake_units,
-                    &ranked_samples,
-                    &params.reward_weights,
-                    params.options.payout_rounding,
-                );
-                // Rounded-down penalties (ratio_1e9) can ask for a few units more than the
-                // pool: they come from what the contract holds, and run out in rank order.
-                let mut available = self.holdings_units;
-                for (rank, (&i, units)) in order.iter().zip(units).enumerate() {
-                    let units = units.min(available);
-                    available -= units;
-                    payouts.push(Payout {
-                        robot: accepted[i].sender,
-                        rank: rank as u32,
-                        reward_weight: params.reward_weights[rank],
-                        units,
-                    });
-                }
-            } else {
-                let units = payout::equal_shares(pool_units, order.len());
-                for (rank, &i) in order.iter().enumerate() {
-                    payouts.push(Payout {
-                        robot: accepted[i].sender,
-                        rank: rank as u32,
-                        reward_weight: 1,
-                        units,
-                    });
-                }
-            }
-        }
-        let paid: u64 = payouts.iter().map(|p| p.units).sum();
-        assert!(
-            paid <= self.holdings_units,
-            "payouts {paid} exceed the holdings {}",
-            self.holdings_units
-        );
-        for p in &payouts {
-            let balance = &mut self.balances[p.robot as usize];
-            *balance = balance
-                .checked_add(p.units)
-                .expect("conserved supply fits u64");
-        }
-        self.holdings_units -= paid;
+        let models: Vec<&[i64]> = accepted.iter().map(|s| &s.weights[..]).collect();
+        let (payouts, pool_units) =
+            self.settle(params, &submissions, &accepted, &models, &aggregate.used);
 
         self.previous_weights = Some(std::mem::replace(&mut self.weights, new_weights));
         self.previous_digest = self.weights_digest;

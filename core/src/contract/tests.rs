@@ -31,6 +31,7 @@ fn params(security: bool) -> ContractParams {
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     }
 }
 

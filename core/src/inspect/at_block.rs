@@ -327,6 +327,11 @@ impl ReportInput<'_> {
                         t.value_units,
                         match &t.call {
                             Call::SubmitModel { samples, .. } => format!("submit(n={samples})"),
+                            Call::SubmitUpdate {
+                                samples,
+                                base_round,
+                                ..
+                            } => format!("submit(n={samples}, base version {base_round})"),
                             Call::Transfer { to, amount_units } => {
                                 format!("transfer(to={to}, {} tokens)", self.tokens(*amount_units))
                             }
@@ -480,6 +485,7 @@ fn outcome_detail(outcome: &Outcome, distance: impl Fn(u64) -> String) -> String
             distance(*distance_units)
         ),
         Outcome::Malformed(reason) => reason.clone(),
+        Outcome::Refused(refusal) => refusal.reason(),
         Outcome::OverGasLimit { gas_limit } => {
             format!("needs more gas than a block holds (contract.block_gas_limit {gas_limit})")
         }

@@ -88,6 +88,10 @@ pub struct ChainBytesSample {
     pub stored_mean_bytes: f64,
     /// Most bytes of blocks held by one node.
     pub stored_max_bytes: u64,
+    /// Gossip bytes sent so far (lost ones included), per node: what one robot's radio has
+    /// carried for the chain, on average (issue 32: the cost per node as the swarm grows).
+    #[serde(default)]
+    pub sent_mean_bytes: f64,
 }
 
 /// The ledger section of `summary.json`.
@@ -232,7 +236,10 @@ impl Tracker {
         self.submissions.entry(hash).or_insert(Submission {
             at,
             size_bytes,
-            is_model: matches!(tx.call, Call::SubmitModel { .. }),
+            is_model: matches!(
+                tx.call,
+                Call::SubmitModel { .. } | Call::SubmitUpdate { .. }
+            ),
             seen_by: vec![0; self.robots.div_ceil(64) as usize],
             seen_count: 0,
             all_seen_at: None,
@@ -287,7 +294,8 @@ impl Tracker {
         blocks: &BTreeMap<BlockHash, BlockEntry>,
     ) {
         while self.next_sample_ms <= at.0 {
-            let sample = sample(self.next_sample_ms, nodes, blocks);
+            let mut sample = sample(self.next_sample_ms, nodes, blocks);
+            sample.sent_mean_bytes = self.gossip_bytes as f64 / f64::from(self.robots.max(1));
             self.samples.push(sample);
             self.next_sample_ms += SAMPLE_PERIOD_MS;
         }
@@ -312,6 +320,7 @@ fn sample(
         stored_mean_bytes: nodes.iter().map(|n| n.stored_bytes).sum::<u64>() as f64
             / nodes.len().max(1) as f64,
         stored_max_bytes: nodes.iter().map(|n| n.stored_bytes).max().unwrap_or(0),
+        sent_mean_bytes: 0.0,
     }
 }
 
@@ -327,7 +336,8 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
     for n in &ledger.nodes {
         *head_counts.entry(n.head).or_insert(0) += 1;
     }
-    let last = sample(ledger.now.0, &ledger.nodes, &ledger.blocks);
+    let mut last = sample(ledger.now.0, &ledger.nodes, &ledger.blocks);
+    last.sent_mean_bytes = t.gossip_bytes as f64 / f64::from(t.robots.max(1));
     let subs: Vec<&Submission> = t.submissions.values().collect();
     let mean = |v: Vec<u32>| {
         if v.is_empty() {

@@ -186,8 +186,9 @@ impl Protocol {
     }
 
     /// The submission of `weights` claiming `samples` by `robot` and its identity in the
-    /// learning report: a transaction signed by its own node (staking `stake_units`), or a
-    /// baseline's write or upload.
+    /// learning report: a transaction signed by its own node (staking `stake_units`; under the
+    /// buffered protocol naming the base its node's head shows), or a baseline's write or
+    /// upload.
     pub(super) fn submission(
         &self,
         state: &State,
@@ -199,7 +200,19 @@ impl Protocol {
         let weights: Arc<[i64]> = Arc::from(weights);
         match self {
             Protocol::Chain(_) => {
-                let call = Call::SubmitModel { weights, samples };
+                let head = state.ledger.head_state(robot);
+                let call = if head.buffered.is_some() {
+                    // The buffered protocol: the base is what the robot trained from, its
+                    // node's head when its phase began (the submission is made in that tick).
+                    Call::SubmitUpdate {
+                        weights,
+                        samples,
+                        base_round: head.round,
+                        base_digest: head.weights_digest,
+                    }
+                } else {
+                    Call::SubmitModel { weights, samples }
+                };
                 let tx = state.ledger.make_tx(robot, stake_units, call);
                 (tx.hash_and_size().0, Submission::Tx(tx))
             }

@@ -364,6 +364,15 @@ pub fn execute(
     value_units: u64,
     call: &Call,
 ) -> Outcome {
+    if matches!(call, Call::SubmitUpdate { .. }) {
+        // Validation refuses the buffered protocol with this engine; a foreign transaction
+        // can still carry the call.
+        return Outcome::Malformed(
+            "submitUpdate is the buffered protocol's; contracts/SwarmFL.sol implements the \
+             paper's rounds only"
+                .to_string(),
+        );
+    }
     let evm = Arc::make_mut(
         state
             .evm
@@ -383,6 +392,7 @@ pub fn execute(
             data.extend_from_slice(&args.finish());
             (data, Some(weights), *samples)
         }
+        Call::SubmitUpdate { .. } => unreachable!("refused above"),
         Call::Transfer { to, amount_units } => {
             let mut data = abi::selector("transfer(address,uint64,uint64)");
             let mut args = Encoder::default();

@@ -106,6 +106,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     }
 }
 
@@ -320,6 +321,7 @@ fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     };
     let pe = ContractParams {
         engine: ContractEngine::Evm,
@@ -506,6 +508,7 @@ fn a_submission_over_the_block_gas_limit_is_refused_and_changes_nothing() {
         defence: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     };
     let submit = |weights: &Arc<[i64]>| Call::SubmitModel {
         weights: weights.clone(),

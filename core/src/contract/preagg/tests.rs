@@ -169,6 +169,7 @@ fn a_contract_round_with_nnm_conserves_tokens_and_pays_the_nearest() {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         claim_bound: Default::default(),
         preagg: Some(chain(&[Preaggregator::Nnm], 2)),
+        buffered: None,
     };
     p.check().unwrap();
     let mut s = ContractState::genesis(&p);
@@ -221,6 +222,7 @@ fn parameters_without_a_chain_encode_as_before() {
         preagg: None,
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         claim_bound: Default::default(),
+        buffered: None,
     };
     let q = ContractParams {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,

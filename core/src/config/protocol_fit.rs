@@ -1,0 +1,114 @@
+//! The checks of `contract.protocol = "buffered"` and its keys (issue 32): the buffer size
+//! against the swarm, the staleness bound, the exponent and the server step, and what the
+//! buffered protocol cannot run with. They read several keys, so they sit apart from the
+//! single-key rows of `validate.rs`; every error names the key, the value and the fix.
+
+use super::contract::{ContractEngine, RoundProtocol};
+use super::error::ConfigError;
+use super::tree::{Aggregation, Config};
+
+/// The largest `contract.max_staleness`: every node keeps that many past versions of the
+/// model to judge submissions against their base, so the bound caps what a node stores.
+pub const MAX_STALENESS_LIMIT: u32 = 1000;
+
+/// The largest `contract.server_step`: beyond 10 times the mean update the model
+/// extrapolates far outside what any robot submitted.
+pub const MAX_SERVER_STEP: f64 = 10.0;
+
+/// The largest `contract.staleness_exponent`: `(1 + 1)^-10` already weighs an update one
+/// version old at 1/1024.
+pub const MAX_STALENESS_EXPONENT: f64 = 10.0;
+
+fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
+    Err(ConfigError::OutOfRange {
+        key: key.to_string(),
+        value,
+        allowed,
+    })
+}
+
+/// The buffered protocol's keys are in range (checked whatever the protocol, so that a
+/// typo is caught before it is switched on), and the buffered protocol runs only where a
+/// contract implements it.
+///
+/// K above the swarm's size is refused: a robot counts at most once per base version and the
+/// version does not move while the buffer fills, so a buffer of more than `world.robots`
+/// updates could only fill from robots' stale second submissions, and may never fill.
+pub(super) fn buffered_fits(config: &Config) -> Result<(), ConfigError> {
+    let k = &config.contract;
+    let robots = config.world.robots;
+    if k.buffer_size == 0 || k.buffer_size > robots {
+        return refuse(
+            "contract.buffer_size",
+            k.buffer_size.to_string(),
+            format!(
+                "an integer in [1, world.robots = {robots}]: K updates move the model, and a \
+                 robot counts once per base version; set contract.buffer_size to at most \
+                 {robots} (7 by default)"
+            ),
+        );
+    }
+    if k.max_staleness > MAX_STALENESS_LIMIT {
+        return refuse(
+            "contract.max_staleness",
+            k.max_staleness.to_string(),
+            format!(
+                "an integer in [0, {MAX_STALENESS_LIMIT}] (versions behind the newest; every \
+                 node keeps that many past models); set contract.max_staleness to at most \
+                 {MAX_STALENESS_LIMIT} (64 by default)"
+            ),
+        );
+    }
+    let a = k.staleness_exponent;
+    if !(a.is_finite() && (0.0..=MAX_STALENESS_EXPONENT).contains(&a)) {
+        return refuse(
+            "contract.staleness_exponent",
+            a.to_string(),
+            format!(
+                "a number in [0, {MAX_STALENESS_EXPONENT}] (FedAsync's a in (1 + tau)^-a; 0.5 \
+                 by default)"
+            ),
+        );
+    }
+    let eta = k.server_step;
+    if !(eta.is_finite() && eta > 0.0 && eta <= MAX_SERVER_STEP) {
+        return refuse(
+            "contract.server_step",
+            eta.to_string(),
+            format!("a number in (0, {MAX_SERVER_STEP}] (1 by default: the plain mean update)"),
+        );
+    }
+    if k.protocol != RoundProtocol::Buffered {
+        return Ok(());
+    }
+    if config.learn.aggregation != Aggregation::Chain {
+        return refuse(
+            "contract.protocol",
+            "buffered".to_string(),
+            format!(
+                "rounds with learn.aggregation = {} (the buffered protocol is the contract's); \
+                 set learn.aggregation = chain, or contract.protocol = rounds",
+                config.learn.aggregation.name()
+            ),
+        );
+    }
+    if k.engine == ContractEngine::Evm {
+        return refuse(
+            "contract.protocol",
+            "buffered".to_string(),
+            "rounds with contract.engine = evm: contracts/SwarmFL.sol implements the paper's \
+             rounds only; set contract.engine = native to run the buffered protocol"
+                .to_string(),
+        );
+    }
+    if k.int48_products {
+        return refuse(
+            "contract.int48_products",
+            "true".to_string(),
+            "false with contract.protocol = buffered: the authors' int48 accumulator sums \
+             models, the buffered contract sums updates; set contract.int48_products = false"
+                .to_string(),
+        );
+    }
+    Ok(())
+}
