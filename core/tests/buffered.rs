@@ -79,7 +79,10 @@ fn every_byzantine_kind_acts_under_the_buffered_protocol() {
             .validate()
             .unwrap_or_else(|e| panic!("{}: {e}", kind.name()));
         let (_, head) = run(&config, 2);
-        assert_eq!(head.total_units(), 7 * 21 * config.contract.token_units);
+        assert_eq!(
+            head.total_units(),
+            u128::from(7 * 21 * config.contract.token_units)
+        );
         if kind == ByzantineKind::Faulty {
             // Random weights are far from every base: outliers, whose stakes are lost.
             let initial = config.contract.initial_tokens * config.contract.token_units;
