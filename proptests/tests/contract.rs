@@ -230,6 +230,8 @@ fn run(security: bool, txs: &[Tx]) -> Result<(), TestCaseError> {
             | Outcome::OverGasLimit { .. } => {
                 prop_assert_eq!(&state, &before, "a failed call changed the state");
             }
+            // The buffered protocol's refusals: these rounds send no `submitUpdate`.
+            Outcome::Refused(r) => prop_assert!(false, "a refusal under rounds: {r:?}"),
         }
     }
     prop_assert_eq!(state.round, aggregations);
