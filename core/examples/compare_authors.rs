@@ -204,6 +204,7 @@ fn params(
         defence: None,
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
+        buffered: None,
     }
 }
 
