@@ -1,5 +1,6 @@
 //! The configuration types of the robots' behaviours (`world.behaviour`, `world.mixed`,
-//! `world.flocking`, `world.foraging`) and of the trajectory window rule (`data.window_rule`).
+//! `world.flocking`, `world.foraging`), of the obstacle-avoidance rule (`world.avoidance`) and
+//! of the trajectory window rule (`data.window_rule`).
 //! Their behaviour lives in `world/` (one controller a file) and `data.rs`; docs/SPEC.md
 //! section 1 has every value beside Flow-FL's.
 
@@ -177,6 +178,33 @@ impl WindowRule {
         match self {
             WindowRule::Contiguous => "contiguous",
             WindowRule::Confirmed => "confirmed",
+        }
+    }
+}
+
+/// How robots sense and avoid obstacles (`world.avoidance`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Avoidance {
+    /// Ours until issue #38: sensors evenly spaced from the heading, reading `1 - d / range`;
+    /// a front reading above `world.proximity_threshold` makes the robot turn in place, in
+    /// the same direction until the front is clear (`world/steering.rs`).
+    #[default]
+    Turn,
+    /// The paper's code on ARGoS's e-puck (`world/epuck.rs`): the e-puck proximity ring
+    /// (8 sensors from 11.25 degrees, 1 mm off the body, ARGoS's calibrated reading curve, 0
+    /// beyond 5 cm) and geth-argos' `RandomWalk.avoid`: every sensor above the threshold adds
+    /// its weight times its reading to one wheel and takes it from the other, around half the
+    /// cruise speed, saturated at the cruise speed. Needs `world.proximity_sensors = 8`.
+    Epuck,
+}
+
+impl Avoidance {
+    /// The name used in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Avoidance::Turn => "turn",
+            Avoidance::Epuck => "epuck",
         }
     }
 }

@@ -26,7 +26,9 @@ mod validate;
 #[cfg(test)]
 mod tests;
 
-pub use behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
+pub use behaviour::{
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule,
+};
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,

@@ -3,7 +3,9 @@
 
 use std::fmt;
 
-use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
+use super::behaviour::{
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule,
+};
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey,
@@ -313,6 +315,8 @@ impl Config {
                 mixed: MixedConfig::default(),
                 flocking: FlockingConfig::default(),
                 foraging: ForagingConfig::default(),
+                avoidance: Avoidance::Turn,
+                slide_on_contact: false,
             },
             data: DataConfig {
                 trajectory_ticks: 100,

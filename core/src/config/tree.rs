@@ -6,7 +6,9 @@ use std::collections::BTreeMap;
 
 use serde::{Deserialize, Serialize};
 
-use super::behaviour::{Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule};
+use super::behaviour::{
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule,
+};
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
@@ -119,6 +121,16 @@ pub struct WorldConfig {
     /// The foraging controller's nest, food sources and rest time.
     #[serde(default, skip_serializing_if = "is_default")]
     pub foraging: ForagingConfig,
+    /// How robots sense and avoid obstacles: `turn` (default) or `epuck` (the paper's code on
+    /// ARGoS's e-puck; docs/SPEC.md section 1, "Data volume"). Left out of the recorded
+    /// configuration at its default, like the keys above.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub avoidance: Avoidance,
+    /// Whether a robot whose translation would overlap something slides along it (ARGoS's
+    /// dynamics2d, the authors' and Flow-FL's simulator) instead of staying put (default
+    /// false; `world/physics.rs`). Left out of the recorded configuration when false.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub slide_on_contact: bool,
 }
 
 /// Trajectory recording and the data set of each robot.

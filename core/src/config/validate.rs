@@ -4,7 +4,7 @@
 //! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
 //! engine) read only configuration fields, so they live here too.
 
-use super::behaviour::Behaviour;
+use super::behaviour::{Avoidance, Behaviour};
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
@@ -72,6 +72,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("world.proximity_sensors", w.proximity_sensors.into(), 1, 64),
         Number("world.proximity_range_m", w.proximity_range_m, 0.001, 10.0),
         Number("world.proximity_threshold", w.proximity_threshold, 0.0, 1.0),
+        Across(epuck_avoidance_has_the_epuck_ring),
         Number("world.random_turn_rate_per_s", w.random_turn_rate_per_s, 0.0, 100.0),
         Number("world.random_turn_max_s", w.random_turn_max_s, 0.0, 1000.0),
         Number("world.rab_range_m", w.rab_range_m, 0.0, 10_000.0),
@@ -188,6 +189,19 @@ fn preset_is_known(c: &Config) -> Result<(), ConfigError> {
         format!("{:?}", c.preset),
         format!("one of {}", Preset::ALL.map(Preset::name).join(", ")),
     )
+}
+
+/// `world.avoidance = "epuck"` weighs the e-puck's eight sensors one by one.
+fn epuck_avoidance_has_the_epuck_ring(c: &Config) -> Result<(), ConfigError> {
+    let w = &c.world;
+    if w.avoidance == Avoidance::Epuck && w.proximity_sensors != 8 {
+        return out_of_range(
+            "world.proximity_sensors",
+            w.proximity_sensors.to_string(),
+            "8 with world.avoidance = \"epuck\" (the e-puck's ring and its weights); set world.proximity_sensors=8 or world.avoidance=turn".to_string(),
+        );
+    }
+    Ok(())
 }
 
 /// Whether any robot of the swarm runs `b` (directly or in a mixed swarm).

@@ -15,12 +15,17 @@
 //! 3. Else, with probability `random_turn_rate_per_s * tick_s`, it starts a random turn of
 //!    uniform duration in [0, `random_turn_max_s`] in a random direction; otherwise it drives
 //!    straight at `cruise_speed_mps`.
+//!
+//! With `world.avoidance = "epuck"`, step 1 is the paper's code instead (`epuck.rs`): when any
+//! sensor reads above the threshold, the wheel speeds its weighted readings give (any random
+//! turn is cancelled); steps 2 and 3 stay. The steering behaviours (flocking, foraging) keep
+//! their turn on the e-puck's readings.
 
 use serde::{Deserialize, Serialize};
 
-use super::steering::{avoid, walk, RobotController, Steer, Walk, WheelCommand};
-use super::{behaviour, flocking, foraging, World};
-use crate::config::{Behaviour, Config, FlockingConfig};
+use super::steering::{avoid, override_walk, walk, RobotController, Steer, Walk, WheelCommand};
+use super::{behaviour, epuck, flocking, foraging, sensor_angle, World};
+use crate::config::{Avoidance, Behaviour, Config, FlockingConfig};
 use crate::rng::{self, Purpose};
 
 /// One tick of the world: every robot's wheel command, in robot order.
@@ -34,6 +39,8 @@ pub struct TickEvent {
 #[derive(Clone, Debug)]
 pub struct Controllers {
     cruise_mmps: i16,
+    /// `world.avoidance = "epuck"`: the avoidance behaviour uses the paper's rule.
+    epuck: bool,
     threshold: f64,
     walk: Walk,
     /// For each sensor, whether it faces forward and the sine of its angle.
@@ -54,7 +61,7 @@ impl Controllers {
         let n = w.proximity_sensors.max(1);
         let sensors = (0..n)
             .map(|k| {
-                let a = 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(n);
+                let a = sensor_angle(w.avoidance, k, n);
                 (libm::cos(a) > 1e-9, libm::sin(a))
             })
             .collect();
@@ -63,6 +70,7 @@ impl Controllers {
             .collect();
         Controllers {
             cruise_mmps: WheelCommand::from_mps(w.cruise_speed_mps, 0.0).left_mmps,
+            epuck: w.avoidance == Avoidance::Epuck,
             threshold: w.proximity_threshold,
             walk: Walk {
                 turn_probability: (w.random_turn_rate_per_s * config.run.tick_s).min(1.0),
@@ -107,12 +115,15 @@ impl Controllers {
                 cruise_mmps: v,
             };
             let walk_params = self.walk;
-            let avoidance = |c: &mut RobotController| {
-                if blocked {
-                    avoid(c, lean, v)
-                } else {
-                    walk(c, &walk_params, v)
-                }
+            let paper = if self.epuck {
+                epuck::avoid(&self.readings, self.threshold, f64::from(v) / 1000.0)
+            } else {
+                None
+            };
+            let avoidance = |c: &mut RobotController| match paper {
+                Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
+                None if blocked && !self.epuck => avoid(c, lean, v),
+                None => walk(c, &walk_params, v),
             };
             let pose = world.poses()[i];
             let command = match (self.behaviours[i], world.behaviours()) {

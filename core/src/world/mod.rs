@@ -16,6 +16,7 @@
 pub mod arena;
 pub mod behaviour;
 pub mod controller;
+mod epuck;
 pub mod flocking;
 pub mod foraging;
 pub mod physics;
@@ -24,7 +25,7 @@ pub mod steering;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, ConfigError, WindowRule};
+use crate::config::{Avoidance, Config, ConfigError, WindowRule};
 use crate::data::{HeldoutObserver, Recorder, Recording, Sample};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
@@ -179,6 +180,31 @@ struct Extra {
     window_rule: WindowRule,
     /// The behaviours, unless every robot runs the default avoidance walk.
     behaviours: Option<Behaviours>,
+    /// The proximity sensors' model (`world.avoidance`; `epuck.rs`).
+    #[serde(default, skip_serializing_if = "is_turn")]
+    avoidance: Avoidance,
+    /// Refused translations slide along the contact (`world.slide_on_contact`).
+    #[serde(default, skip_serializing_if = "is_false")]
+    slide_on_contact: bool,
+}
+
+fn is_turn(a: &Avoidance) -> bool {
+    *a == Avoidance::Turn
+}
+
+fn is_false(b: &bool) -> bool {
+    !*b
+}
+
+/// Angle of proximity sensor `k` from the heading, counter-clockwise: evenly spaced from the
+/// heading, or the e-puck's ring from 11.25 degrees (`world.avoidance = "epuck"`).
+/// `n` is the number of sensors.
+pub(crate) fn sensor_angle(avoidance: Avoidance, k: u32, n: u32) -> f64 {
+    let start = match avoidance {
+        Avoidance::Turn => 0.0,
+        Avoidance::Epuck => epuck::START_ANGLE,
+    };
+    start + 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(n)
 }
 
 impl Extra {
@@ -187,6 +213,8 @@ impl Extra {
             rab_robot_occlusion: config.world.rab_robot_occlusion,
             window_rule: config.data.window_rule,
             behaviours: Behaviours::new(config, seed, arena)?,
+            avoidance: config.world.avoidance,
+            slide_on_contact: config.world.slide_on_contact,
         })
     }
 
@@ -221,10 +249,9 @@ impl World {
             wheel_base_m: w.wheel_base_m,
             dt_s: tick_ms as f64 / 1000.0,
         };
-        let sensors = w.proximity_sensors;
-        let sensor_dirs = (0..sensors)
+        let sensor_dirs = (0..w.proximity_sensors)
             .map(|k| {
-                let a = 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(sensors);
+                let a = sensor_angle(w.avoidance, k, w.proximity_sensors);
                 (libm::cos(a), libm::sin(a))
             })
             .collect();
@@ -324,6 +351,7 @@ impl World {
             &mut self.poses,
             &self.params.body,
             &event.commands,
+            self.extra.slide_on_contact,
         );
         let overlaps =
             physics::overlaps(&self.arena, &grid, &self.poses, self.params.body.radius_m);

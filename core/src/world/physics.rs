@@ -7,10 +7,18 @@
 //! obstacles and robots. Otherwise the robot *stays* where it is (it does not slide): the
 //! controller sees the obstacle on its proximity sensors and turns away. Touching is allowed,
 //! overlapping never.
+//!
+//! With `world.slide_on_contact` (ARGoS's dynamics2d, where a robot pushing against a wall,
+//! an obstacle or another robot slides along it), a refused translation is replaced by its
+//! part tangent to the nearest contact at the robot's place (the nearest wall, obstacle or
+//! robot within the move's length: the move minus its component into that contact's normal),
+//! taken if its path is free in the same sub-steps. Without it, a
+//! robot driving slightly into something its sensors do not weigh (a robot beside it) stays
+//! there for good.
 
 use serde::{Deserialize, Serialize};
 
-use super::arena::{Arena, GridShape};
+use super::arena::{Arena, GridShape, Obstacle};
 use super::steering::WheelCommand;
 use super::Pose;
 
@@ -122,14 +130,121 @@ pub fn blocked(
     hit
 }
 
+/// The unit normal, pointing away from it, of the nearest wall, obstacle or robot (other than
+/// `skip`) that a disk of radius `r` at (`x`, `y`) moving by `m` comes less than the move's
+/// length near and moves toward (the deepest, if it overlaps some); `None` if there is none.
+/// Ties go to the first found (walls, then obstacles, then robots, in index order).
+#[allow(clippy::too_many_arguments)]
+fn contact_normal(
+    arena: &Arena,
+    grid: &RobotGrid,
+    poses: &[Pose],
+    r: f64,
+    skip: u32,
+    x: f64,
+    y: f64,
+    m: (f64, f64),
+) -> Option<(f64, f64)> {
+    let margin = (m.0 * m.0 + m.1 * m.1).sqrt();
+    let mut best: Option<(f64, (f64, f64))> = None;
+    let mut consider = |depth: f64, n: (f64, f64)| {
+        if depth > -margin && m.0 * n.0 + m.1 * n.1 < 0.0 && best.is_none_or(|(d, _)| depth > d) {
+            best = Some((depth, n));
+        }
+    };
+    let h = arena.half_side_m;
+    consider(x + r - h, (-1.0, 0.0));
+    consider(r - h - x, (1.0, 0.0));
+    consider(y + r - h, (0.0, -1.0));
+    consider(r - h - y, (0.0, 1.0));
+    // Away from the nearest point of a body at `distance` (its closest point is `q`).
+    let away = |qx: f64, qy: f64, distance: f64| ((x - qx) / distance, (y - qy) / distance);
+    let (ro, reach) = (r + margin, 2.0 * r + margin);
+    arena.obstacles_near(x - ro, y - ro, x + ro, y + ro, |o| {
+        let (qx, qy) = match arena.obstacles[o as usize] {
+            Obstacle::Cylinder {
+                x: cx,
+                y: cy,
+                radius_m,
+            } => {
+                let d = ((x - cx) * (x - cx) + (y - cy) * (y - cy)).sqrt();
+                if d > 0.0 {
+                    consider(radius_m + r - d, away(cx, cy, d));
+                }
+                return;
+            }
+            Obstacle::Box {
+                x: bx,
+                y: by,
+                half_side_m,
+            } => (
+                x.clamp(bx - half_side_m, bx + half_side_m),
+                y.clamp(by - half_side_m, by + half_side_m),
+            ),
+        };
+        let d = ((x - qx) * (x - qx) + (y - qy) * (y - qy)).sqrt();
+        if d > 0.0 {
+            consider(r - d, away(qx, qy, d));
+        }
+    });
+    grid.near(
+        &arena.grid,
+        x - reach,
+        y - reach,
+        x + reach,
+        y + reach,
+        |j| {
+            if j != skip {
+                let q = &poses[j as usize];
+                let d = ((q.x - x) * (q.x - x) + (q.y - y) * (q.y - y)).sqrt();
+                if d > 0.0 {
+                    consider(2.0 * r - d, away(q.x, q.y, d));
+                }
+            }
+        },
+    );
+    best.map(|(_, n)| n)
+}
+
+/// Whether robot `i`, at `p`, can translate by (`dx`, `dy`): every sub-step of at most half a
+/// radius is free.
+#[allow(clippy::too_many_arguments)]
+fn path_free(
+    arena: &Arena,
+    grid: &RobotGrid,
+    poses: &[Pose],
+    r: f64,
+    i: u32,
+    p: Pose,
+    dx: f64,
+    dy: f64,
+) -> bool {
+    let len = (dx * dx + dy * dy).sqrt();
+    let substeps = (len / (0.5 * r)).ceil();
+    substeps <= f64::from(MAX_SUBSTEPS) && {
+        let n = substeps.max(1.0) as u32;
+        (1..=n).all(|k| {
+            let f = f64::from(k) / f64::from(n);
+            let (x, y) = if k == n {
+                (p.x + dx, p.y + dy)
+            } else {
+                (p.x + f * dx, p.y + f * dy)
+            };
+            !blocked(arena, grid, poses, r, i, x, y)
+        })
+    }
+}
+
 /// Moves every robot by its wheel command for one tick; returns how many translations were
-/// refused. `grid` must index `poses` on entry and indexes them on exit.
+/// refused (a slid one counts as taken). `grid` must index `poses` on entry and indexes them
+/// on exit. `slide`: `world.slide_on_contact`.
 pub fn step(
     arena: &Arena,
     grid: &mut RobotGrid,
     poses: &mut [Pose],
     body: &Body,
     commands: &[WheelCommand],
+    slide: bool,
 ) -> u64 {
     assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
     debug_assert_eq!(grid.robots(), poses.len());
@@ -163,9 +278,24 @@ pub fn step(
                 !blocked(arena, grid, poses, r, i as u32, x, y)
             })
         };
-        if free {
-            poses[i].x = p.x + dx;
-            poses[i].y = p.y + dy;
+        let taken = if free {
+            Some((dx, dy))
+        } else if slide {
+            contact_normal(arena, grid, poses, r, i as u32, p.x, p.y, (dx, dy))
+                .map(|(nx, ny)| {
+                    let into = dx * nx + dy * ny;
+                    (dx - into * nx, dy - into * ny)
+                })
+                .filter(|&(sx, sy)| {
+                    (sx != 0.0 || sy != 0.0)
+                        && path_free(arena, grid, poses, r, i as u32, p, sx, sy)
+                })
+        } else {
+            None
+        };
+        if let Some((tx, ty)) = taken {
+            poses[i].x = p.x + tx;
+            poses[i].y = p.y + ty;
             grid.relocate(&arena.grid, i as u32, poses[i].x, poses[i].y);
         } else {
             refused += 1;
@@ -198,5 +328,91 @@ pub fn wrap_angle(a: f64) -> f64 {
         a
     } else {
         libm::remainder(a, 2.0 * std::f64::consts::PI)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Robot 0 drives at 10 degrees into robot 1, which touches it on its left: it can only
+    /// move by sliding.
+    fn side_by_side() -> (Arena, RobotGrid, Vec<Pose>, Body, Vec<WheelCommand>) {
+        let arena = Arena::with_obstacles(2.0, Vec::new(), 0.5);
+        let r = 0.035;
+        let poses = vec![
+            Pose {
+                x: 0.0,
+                y: 0.0,
+                theta: 10f64.to_radians(),
+            },
+            Pose {
+                x: 0.0,
+                y: 2.0 * r,
+                theta: 0.0,
+            },
+        ];
+        let mut grid = RobotGrid::default();
+        grid.rebuild(&arena.grid, &poses);
+        let body = Body {
+            radius_m: r,
+            wheel_base_m: 0.053,
+            dt_s: 0.1,
+        };
+        let commands = vec![
+            WheelCommand::from_mps(0.025, 0.025),
+            WheelCommand::from_mps(0.0, 0.0),
+        ];
+        (arena, grid, poses, body, commands)
+    }
+
+    #[test]
+    fn a_robot_driving_into_its_neighbour_stays_unless_it_slides() {
+        let (arena, mut grid, mut poses, body, commands) = side_by_side();
+        assert_eq!(
+            step(&arena, &mut grid, &mut poses, &body, &commands, false),
+            1
+        );
+        assert_eq!((poses[0].x, poses[0].y), (0.0, 0.0));
+
+        let (arena, mut grid, mut poses, body, commands) = side_by_side();
+        assert_eq!(
+            step(&arena, &mut grid, &mut poses, &body, &commands, true),
+            0
+        );
+        // It moved forward along the neighbour (the tangent is +x), not into it.
+        assert!(poses[0].x > 0.002, "{:?}", poses[0]);
+        assert!(poses[0].y.abs() < 1e-9, "{:?}", poses[0]);
+        assert_eq!(overlaps(&arena, &grid, &poses, body.radius_m), 0);
+    }
+
+    #[test]
+    fn a_robot_slides_along_a_wall_and_stops_in_a_corner() {
+        let arena = Arena::with_obstacles(1.0, Vec::new(), 0.5);
+        let r = 0.035;
+        let body = Body {
+            radius_m: r,
+            wheel_base_m: 0.053,
+            dt_s: 0.1,
+        };
+        // Touching the top wall, heading 30 degrees into it.
+        let mut poses = vec![Pose {
+            x: 0.0,
+            y: 1.0 - r,
+            theta: 60f64.to_radians(),
+        }];
+        let mut grid = RobotGrid::default();
+        grid.rebuild(&arena.grid, &poses);
+        let go = vec![WheelCommand::from_mps(0.025, 0.025)];
+        assert_eq!(step(&arena, &mut grid, &mut poses, &body, &go, true), 0);
+        assert!(poses[0].x > 0.0 && poses[0].y == 1.0 - r, "{:?}", poses[0]);
+        // Pushed into the corner, it can go nowhere.
+        poses[0] = Pose {
+            x: 1.0 - r,
+            y: 1.0 - r,
+            theta: 45f64.to_radians(),
+        };
+        grid.rebuild(&arena.grid, &poses);
+        assert_eq!(step(&arena, &mut grid, &mut poses, &body, &go, true), 1);
     }
 }

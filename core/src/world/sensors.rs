@@ -3,7 +3,9 @@
 //! Proximity: `proximity_sensors` rays evenly spaced around the body, the first along the
 //! heading, starting at the body surface, of length `proximity_range_m`; a reading is
 //! `1 - distance / range` to the nearest wall, obstacle or robot (1 at contact, 0 at range or
-//! with nothing in range).
+//! with nothing in range). With `world.avoidance = "epuck"`, ARGoS's e-puck ring instead
+//! (`epuck.rs`): the first ray at 11.25 degrees, rays from 1 mm off the body, at most 5 cm
+//! long, and ARGoS's reading curve.
 //!
 //! Range-and-bearing: robot `i` is in contact with `j` when their centers are at most
 //! `rab_range_m` apart and, with `rab_occlusion`, no obstacle crosses the segment between them
@@ -17,7 +19,8 @@ use parry2d_f64::na::{Point2, Vector2};
 use parry2d_f64::query::{Ray, RayCast};
 use parry2d_f64::shape::Ball;
 
-use super::World;
+use super::{epuck, World};
+use crate::config::Avoidance;
 use crate::types::RobotId;
 
 impl World {
@@ -41,8 +44,16 @@ impl World {
         out.fill(0.0);
         let p = self.poses[robot as usize];
         let r = self.params.body.radius_m;
-        let range = self.params.proximity_range_m;
-        let reach = r + range;
+        let epuck = self.extra.avoidance == Avoidance::Epuck;
+        let (offset, range) = if epuck {
+            (
+                r + epuck::RING_OFFSET_M,
+                self.params.proximity_range_m.min(epuck::RANGE_M),
+            )
+        } else {
+            (r, self.params.proximity_range_m)
+        };
+        let reach = offset + range;
         // Only cast rays when something is within reach.
         let mut robots: [u32; 16] = [0; 16];
         let mut robot_count = 0usize;
@@ -74,7 +85,7 @@ impl World {
         let ball = Ball::new(r);
         for (k, &(ox, oy)) in dirs.iter().enumerate() {
             let dir = (c * ox - s * oy, s * ox + c * oy);
-            let origin = (p.x + r * dir.0, p.y + r * dir.1);
+            let origin = (p.x + offset * dir.0, p.y + offset * dir.1);
             let mut best = if near_static {
                 self.arena
                     .ray_toi(origin, dir, range)
@@ -101,7 +112,11 @@ impl World {
                 robots[..robot_count].iter().for_each(|&j| cast(j));
             }
             if best <= range {
-                out[k] = 1.0 - best / range;
+                out[k] = if epuck {
+                    epuck::reading(best)
+                } else {
+                    1.0 - best / range
+                };
             }
         }
     }

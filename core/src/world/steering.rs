@@ -126,6 +126,14 @@ pub(super) fn avoid(c: &mut RobotController, lean: f64, v: i16) -> WheelCommand 
     spin(v, dir)
 }
 
+/// A command decided elsewhere (`world.avoidance = "epuck"`'s rule) that, like the
+/// avoidance turn, cancels any random turn.
+pub(super) fn override_walk(c: &mut RobotController, command: WheelCommand) -> WheelCommand {
+    c.turn_ticks = 0;
+    c.avoiding = None;
+    command
+}
+
 /// The steering behaviours' move toward the world-frame vector `to`: avoid an obstacle in
 /// front; else hold straight after an avoidance; else turn in place when the target is more
 /// than 90 degrees off the heading, and otherwise drive with the inner wheel slowed in

@@ -2,7 +2,9 @@
 //! (controllers, physics, sensing and recording; no learning, no ledger), per behaviour, swarm
 //! size and seed, beside the counts of Flow-FL's published dataset (NESTLab
 //! `mrs_fl_dataset`, per robot over 5000 s; issue #38). docs/SPEC.md section 1, "Data
-//! volume", explains the differences.
+//! volume", explains the differences. Beside the counts it prints where the robots spend
+//! their time (near a wall, in a corner) and how often a move was refused, the measures that
+//! tell a swarm spread over the arena from one piled against the walls.
 
 use std::process::ExitCode;
 
@@ -26,6 +28,9 @@ const FLOWFL: &[(Behaviour, u32, f64, Option<f64>)] = &[
     (Behaviour::Mixed, 60, 2914.0, None),
 ];
 
+/// "Near" a wall: the robot's center within this distance of it, in metres (issue #38's 0.3 m).
+const NEAR_M: f64 = 0.3;
+
 /// One behaviour at one swarm size, over the seeds.
 #[derive(Serialize)]
 struct Row {
@@ -43,6 +48,19 @@ struct Row {
     samples_per_robot_per_600s: f64,
     /// Mean over seeds of the data-heterogeneity measure (summary `data_heterogeneity`).
     heterogeneity: f64,
+    /// Per seed: the data-heterogeneity measure at the end of the run.
+    heterogeneity_per_seed: Vec<f64>,
+    /// Per seed: fraction of robot-ticks with the robot's center within `NEAR_M` of a wall.
+    wall_per_seed: Vec<f64>,
+    /// Per seed: fraction of robot-ticks within `NEAR_M` of two walls (a corner square).
+    corner_per_seed: Vec<f64>,
+    /// Per seed: refused moves per robot-tick (`blocked_moves` / (robots x ticks)).
+    blocked_per_seed: Vec<f64>,
+    /// The wall and corner fractions of robots spread uniformly over the arena (obstacles
+    /// ignored), for comparison.
+    uniform_wall: f64,
+    /// See `uniform_wall`.
+    uniform_corner: f64,
     /// Flow-FL's count for this behaviour and size, scaled to `duration_s`, if published.
     flowfl: Option<f64>,
     /// `samples_per_robot / flowfl`.
@@ -100,20 +118,35 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 .with_context(|| format!("behaviour {} at {n} robots", behaviour.name()))?;
             let ticks = (args.duration_s / config.run.tick_s).round() as u64;
             let (mut per_seed, mut stds, mut het) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut wall, mut corner, mut blocked) = (Vec::new(), Vec::new(), Vec::new());
+            let half = 0.5 * config.world.arena_side_m;
             for &seed in &seeds {
                 let mut world = World::new(&config, seed)
                     .with_context(|| format!("building the world of seed {seed}"))?;
                 let mut controllers = Controllers::new(&config, seed);
+                let (mut near_wall, mut near_corner) = (0u64, 0u64);
                 for _ in 0..ticks {
                     let event = controllers.decide(&world);
                     world.apply(&event);
+                    for p in world.poses() {
+                        let near_x = half - p.x.abs() < NEAR_M;
+                        let near_y = half - p.y.abs() < NEAR_M;
+                        near_wall += u64::from(near_x || near_y);
+                        near_corner += u64::from(near_x && near_y);
+                    }
                 }
                 let s = world.stats();
                 let scale = world.time().secs() / 600.0;
                 per_seed.push(s.samples_per_robot_per_600s * scale);
                 stds.push(s.samples_per_robot_per_600s_std * scale);
                 het.push(s.data_heterogeneity);
+                let robot_ticks = (u64::from(n) * ticks).max(1) as f64;
+                wall.push(near_wall as f64 / robot_ticks);
+                corner.push(near_corner as f64 / robot_ticks);
+                blocked.push(s.blocked_moves as f64 / robot_ticks);
             }
+            let inner = ((half - NEAR_M).max(0.0) / half).powi(2);
+            let edge = (NEAR_M / half).min(1.0);
             let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
             let samples_per_robot = mean(&per_seed);
             let flowfl = FLOWFL
@@ -129,6 +162,12 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 std_over_robots: mean(&stds),
                 samples_per_robot_per_600s: samples_per_robot * 600.0 / args.duration_s,
                 heterogeneity: mean(&het),
+                heterogeneity_per_seed: het,
+                wall_per_seed: wall,
+                corner_per_seed: corner,
+                blocked_per_seed: blocked,
+                uniform_wall: 1.0 - inner,
+                uniform_corner: edge * edge,
                 flowfl,
                 ratio: flowfl.map(|f| samples_per_robot / f),
                 per_seed,
@@ -143,7 +182,7 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
             base.preset, args.duration_s, seeds
         );
         println!(
-            "{:<10} {:>6} {:>10} {:>9} {:>9} {:>8} {:>7} {:>13}  per seed",
+            "{:<10} {:>6} {:>10} {:>9} {:>9} {:>8} {:>7} {:>13} {:>6} {:>6} {:>7}",
             "behaviour",
             "robots",
             "samples",
@@ -151,11 +190,21 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
             "per 600s",
             "Flow-FL",
             "ratio",
-            "heterogeneity"
+            "heterogeneity",
+            "wall",
+            "corner",
+            "blocked"
         );
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        let seeds_of = |v: &[f64], digits: usize| {
+            v.iter()
+                .map(|x| format!("{x:.digits$}"))
+                .collect::<Vec<_>>()
+                .join(" ")
+        };
         for r in &rows {
             println!(
-                "{:<10} {:>6} {:>10.1} {:>9.1} {:>9.1} {:>8} {:>7} {:>13.4}  {}",
+                "{:<10} {:>6} {:>10.1} {:>9.1} {:>9.1} {:>8} {:>7} {:>13.4} {:>6.3} {:>6.3} {:>7.3}",
                 r.behaviour,
                 r.robots,
                 r.samples_per_robot,
@@ -164,11 +213,23 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 r.flowfl.map_or("-".to_string(), |f| format!("{f:.0}")),
                 r.ratio.map_or("-".to_string(), |x| format!("{x:.2}")),
                 r.heterogeneity,
-                r.per_seed
-                    .iter()
-                    .map(|v| format!("{v:.1}"))
-                    .collect::<Vec<_>>()
-                    .join(" ")
+                mean(&r.wall_per_seed),
+                mean(&r.corner_per_seed),
+                mean(&r.blocked_per_seed),
+            );
+            println!(
+                "    per seed: samples {} | heterogeneity {} | wall {} | corner {} | blocked {}",
+                seeds_of(&r.per_seed, 1),
+                seeds_of(&r.heterogeneity_per_seed, 4),
+                seeds_of(&r.wall_per_seed, 3),
+                seeds_of(&r.corner_per_seed, 3),
+                seeds_of(&r.blocked_per_seed, 3),
+            );
+        }
+        if let Some(r) = rows.first() {
+            println!(
+                "wall / corner: fraction of robot-ticks with the center within {NEAR_M} m of a wall / of two walls (uniform over the arena: {:.3} / {:.3}); blocked: refused moves per robot-tick",
+                r.uniform_wall, r.uniform_corner
             );
         }
     }
