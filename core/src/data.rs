@@ -238,17 +238,20 @@ fn cell(sample: &Sample, tick_s: f64) -> Option<usize> {
     Some(speed_bin * TURN_BINS + turn_bin)
 }
 
-/// Data heterogeneity between robots: the mean over robots that hold samples of the
-/// total-variation distance between the robot's histogram of sample features (end-to-end
-/// speed x turn, [`SPEED_BINS`] x [`TURN_BINS`] cells) and the pooled histogram of every
-/// robot's samples. 0 when every robot's data has the same distribution, 1 when each robot's
-/// data lies in cells no other robot's does. Why this: federated learning's hard case is
-/// robots whose local data follow different distributions; speed and turning are what a
-/// trajectory model learns, and they are what differs between behaviours (a flock moves
-/// together at cruise speed, foragers shuttle and rest, avoiders wander). It is computed on the
-/// data sets robots train on (after expiry), in a fixed order, so it is a deterministic
-/// function of the state. Finite samples bias it upward (about the square root of
-/// cells/samples): compare swarms with similar data volumes.
+/// Data heterogeneity between robots: how much a sample's robot tells about its features,
+/// as the bias-corrected Cramer's V (Bergsma 2013, J. Korean Stat. Soc. 42) of the
+/// contingency table of robots (those that hold samples) x feature cells (end-to-end speed x
+/// turn, [`SPEED_BINS`] x [`TURN_BINS`] cells, those that hold samples). 0 when every robot's
+/// data follows the same distribution, 1 when each robot's data lies in cells of its own.
+/// Why this: federated learning's hard case is robots whose local data follow different
+/// distributions; speed and turning are what a trajectory model learns, and they are what
+/// differs between behaviours (a flock moves together at cruise speed, foragers shuttle and
+/// rest, avoiders wander). The correction removes what finite samples alone contribute (the
+/// chi-square's expectation under one shared distribution): the measure used until issue
+/// #38's second session, the mean total-variation distance of each robot's histogram to the
+/// pooled one, grew as robots held fewer samples, so a swarm of stuck robots scored above a
+/// mixed one. It is computed on the data sets robots train on (after expiry), with sums in a
+/// fixed order, so it is a deterministic function of the state.
 pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_s: f64) -> f64 {
     const CELLS: usize = SPEED_BINS * TURN_BINS;
     let hists: Vec<[u64; CELLS]> = sets
@@ -259,6 +262,7 @@ pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_
             }
             h
         })
+        .filter(|h| h.iter().any(|&v| v > 0))
         .collect();
     let mut pooled = [0u64; CELLS];
     for h in &hists {
@@ -267,25 +271,30 @@ pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_
         }
     }
     let total: u64 = pooled.iter().sum();
-    if total == 0 {
+    let rows = hists.len() as f64;
+    let cols = pooled.iter().filter(|&&c| c > 0).count() as f64;
+    if total < 2 || rows < 2.0 || cols < 2.0 {
         return 0.0;
     }
-    let (mut sum, mut robots) = (0.0, 0u32);
+    let n = total as f64;
+    let mut chi2 = 0.0;
     for h in &hists {
-        let n: u64 = h.iter().sum();
-        if n == 0 {
-            continue;
+        let row: u64 = h.iter().sum();
+        for (&o, &c) in h.iter().zip(&pooled) {
+            if c > 0 {
+                let e = row as f64 * c as f64 / n;
+                chi2 += (o as f64 - e) * (o as f64 - e) / e;
+            }
         }
-        let tv: f64 = h
-            .iter()
-            .zip(&pooled)
-            .map(|(&v, &p)| (v as f64 / n as f64 - p as f64 / total as f64).abs())
-            .sum::<f64>()
-            / 2.0;
-        sum += tv;
-        robots += 1;
     }
-    sum / f64::from(robots)
+    let phi2 = (chi2 / n - (cols - 1.0) * (rows - 1.0) / (n - 1.0)).max(0.0);
+    let cols_c = cols - (cols - 1.0) * (cols - 1.0) / (n - 1.0);
+    let rows_c = rows - (rows - 1.0) * (rows - 1.0) / (n - 1.0);
+    let dim = (cols_c - 1.0).min(rows_c - 1.0);
+    if dim <= 0.0 {
+        return 0.0;
+    }
+    (phi2 / dim).sqrt().min(1.0)
 }
 
 /// The noise-free ground-truth observer: it sees every robot every tick, so every robot yields
@@ -489,7 +498,19 @@ mod tests {
         };
         let same: Vec<VecDeque<Sample>> = vec![vec![slow.clone(), fast.clone()].into(); 2];
         assert_eq!(heterogeneity(same.iter(), 0.1), 0.0);
-        let apart: Vec<VecDeque<Sample>> = vec![vec![slow].into(), vec![fast].into()];
-        assert_eq!(heterogeneity(apart.iter(), 0.1), 0.5);
+        // Each robot's data in a cell of its own: 1.
+        let apart: Vec<VecDeque<Sample>> =
+            vec![vec![slow.clone(); 10].into(), vec![fast.clone(); 10].into()];
+        assert!((heterogeneity(apart.iter(), 0.1) - 1.0).abs() < 1e-12);
+        // Half of one robot's data like the other's: in between.
+        let mut half = vec![slow.clone(); 5];
+        half.extend(vec![fast.clone(); 5]);
+        let partly: Vec<VecDeque<Sample>> = vec![vec![slow.clone(); 10].into(), half.into()];
+        let v = heterogeneity(partly.iter(), 0.1);
+        assert!(v > 0.3 && v < 0.9, "{v}");
+        // One sample each is no evidence of a difference: the finite-sample part is removed
+        // (the mean total-variation distance used before gave 0.5 here).
+        let one_each: Vec<VecDeque<Sample>> = vec![vec![slow].into(), vec![fast].into()];
+        assert_eq!(heterogeneity(one_each.iter(), 0.1), 0.0);
     }
 }

@@ -424,6 +424,8 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "world.mixed",
         "world.flocking",
         "world.foraging",
+        "world.avoidance",
+        "world.slide_on_contact",
         "data.window_rule",
         "contract.block_gas_limit",
         "contract.preaggregators",
@@ -496,4 +498,17 @@ fn bad_behaviour_settings_are_refused_naming_the_key() {
         "world.mixed.foraging=0",
     ]);
     ok(&["world.behaviour=flocking", "world.foraging.nest_x_m=9"]);
+    // The e-puck's avoidance weighs its eight sensors; an unknown rule names its key.
+    let e = err(&["world.avoidance=epuck", "world.proximity_sensors=6"]);
+    assert!(
+        e.contains("world.proximity_sensors") && e.contains("world.avoidance"),
+        "{e}"
+    );
+    let e = err(&["world.avoidance=swerve"]);
+    assert!(e.contains("world.avoidance") && e.contains("epuck"), "{e}");
+    let e = err(&["world.slide_on_contact=3"]);
+    assert!(e.contains("world.slide_on_contact"), "{e}");
+    let c = ok(&["world.avoidance=epuck", "world.slide_on_contact=true"]);
+    assert!(c.to_toml().contains("avoidance = \"epuck\""));
+    assert!(c.to_toml().contains("slide_on_contact = true"));
 }
