@@ -31,13 +31,16 @@ fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> 
 /// typo is caught before it is switched on), and the buffered protocol runs only where a
 /// contract implements it.
 ///
-/// K above the swarm's size is refused: a robot counts at most once per base version and the
-/// version does not move while the buffer fills, so a buffer of more than `world.robots`
-/// updates could only fill from robots' stale second submissions, and may never fill.
+/// K above the swarm's size is refused under the buffered protocol: a robot counts at most
+/// once per base version and the version does not move while the buffer fills, so a buffer
+/// of more than `world.robots` updates could only fill from robots' stale second
+/// submissions, and may never fill. Under the paper's rounds the buffer is unused, so a
+/// small swarm keeps the default K.
 pub(super) fn buffered_fits(config: &Config) -> Result<(), ConfigError> {
     let k = &config.contract;
     let robots = config.world.robots;
-    if k.buffer_size == 0 || k.buffer_size > robots {
+    let buffered = k.protocol == RoundProtocol::Buffered;
+    if k.buffer_size == 0 || (buffered && k.buffer_size > robots) {
         return refuse(
             "contract.buffer_size",
             k.buffer_size.to_string(),

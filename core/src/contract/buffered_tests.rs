@@ -297,6 +297,12 @@ fn absurd_buffer_and_staleness_settings_are_refused_naming_the_key_and_the_fix()
     // The paper's 15 robots: a buffer of 16 would need a robot twice per version.
     let err = config_error(&[b, "contract.buffer_size=16"]);
     assert!(err.contains("world.robots = 15"), "{err}");
+    // Under the paper's rounds the buffer is unused: a swarm smaller than the default K runs
+    // (the smoke sweeps of 4 and 6 robots), and buffered with the same swarm is refused.
+    let small = "world.robots=4";
+    assert!(crate::config::Config::resolve(None, None, &[small.to_string()]).is_ok());
+    let err = config_error(&[b, small]);
+    assert!(err.contains("world.robots = 4"), "{err}");
     let err = config_error(&[b, "contract.max_staleness=100000"]);
     assert!(
         err.contains("contract.max_staleness") && err.contains("at most 1000"),
