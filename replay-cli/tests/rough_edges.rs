@@ -384,3 +384,90 @@ fn bench_world_says_what_it_is_doing_before_its_long_first_case() {
         "{line}"
     );
 }
+
+/// The data object of a `swarmfl view` page.
+fn page_data(html: &Path) -> serde_json::Value {
+    let page = std::fs::read_to_string(html).unwrap();
+    let start = page
+        .find(r#"<script id="data" type="application/json">"#)
+        .expect("the page has its data")
+        + r#"<script id="data" type="application/json">"#.len();
+    let end = start + page[start..].find("</script>").unwrap();
+    serde_json::from_str(&page[start..end].replace("<\\/", "</")).unwrap()
+}
+
+#[test]
+fn view_shows_a_baselines_aggregations_as_summary_and_export_count_them() {
+    // Issue #34: the viewer of a gossip or central run showed an empty chain.
+    for kind in ["gossip", "central"] {
+        let dir = scratch(&format!("view-{kind}"));
+        let set = format!("learn.aggregation={kind}");
+        let out = smoke_run(
+            &dir.join("r"),
+            "7",
+            &["--set", &set, "--set", "run.duration_s=300", "--quiet"],
+        );
+        assert!(out.status.success(), "{}", stderr(&out));
+        let summary: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(dir.join("r/summary.json")).unwrap())
+                .unwrap();
+        let count = summary["contract"]["rounds"].as_u64().unwrap();
+        assert!(count > 0, "{kind}: a 300 s smoke run aggregates");
+        let log = dir.join("r/run.swlog");
+        let html = dir.join("v.html");
+        let view = swarmfl(&[
+            "view",
+            log.to_str().unwrap(),
+            "--out",
+            html.to_str().unwrap(),
+        ]);
+        let said = stdout(&view);
+        assert!(view.status.success(), "{}", stderr(&view));
+        assert!(
+            said.contains(&format!(
+                "a {kind} run has no blocks: its {count} aggregations"
+            )),
+            "{said}"
+        );
+        let data = page_data(&html);
+        assert_eq!(data["aggregation"], kind);
+        let rounds = data["rounds"].as_array().unwrap();
+        assert_eq!(
+            rounds.len() as u64,
+            count,
+            "{kind}: the page's aggregations"
+        );
+        // The same losses, in the same order, as summary.json's.
+        let losses: Vec<f64> = rounds.iter().map(|r| r[3].as_f64().unwrap()).collect();
+        let want: Vec<f64> = summary["contract"]["loss_by_round"]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|v| v.as_f64().unwrap())
+            .collect();
+        assert_eq!(losses, want, "{kind}");
+        // Per-robot versions in every frame, never going back, some robot past genesis at the end.
+        let versions = data["versions"].as_array().unwrap();
+        assert_eq!(versions.len(), data["t"].as_array().unwrap().len());
+        let robots = data["robots"].as_u64().unwrap() as usize;
+        let at = |f: usize, r: usize| versions[f][r].as_u64().unwrap();
+        for f in 1..versions.len() {
+            for r in 0..robots {
+                assert!(at(f, r) >= at(f - 1, r), "{kind}: frame {f}, robot {r}");
+            }
+        }
+        assert!((0..robots).any(|r| at(versions.len() - 1, r) > 0), "{kind}");
+        // export's rounds table has the same rows.
+        let csv = dir.join("csv");
+        let export = swarmfl(&[
+            "export",
+            log.to_str().unwrap(),
+            "--out",
+            csv.to_str().unwrap(),
+        ]);
+        assert!(export.status.success(), "{}", stderr(&export));
+        let rows = std::fs::read_to_string(csv.join("rounds.csv")).unwrap();
+        assert_eq!(rows.lines().count() as u64, count + 1, "{kind}: {rows}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

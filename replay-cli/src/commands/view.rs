@@ -3,6 +3,10 @@
 //! links (with behaviours, `world.behaviour`: robots coloured by behaviour, the foraging nest and
 //! food sources, each forager's state), animated over time with a scrubber that also jumps by block height; beside it each
 //! robot's tokens, the loss per round and the chain (forks and reorgs) up to the current time.
+//! A baseline run (`learn.aggregation` = `gossip` or `central`) has no blocks or tokens: its
+//! page shows each robot's model version instead of its tokens, the loss per aggregation (the
+//! rows of `export`'s rounds table, as `summary.json` counts them) and every aggregation over
+//! time instead of the chain.
 //!
 //! Two folds of the log: [`inspect::index_run`] for the final canonical chain, its balances
 //! and rounds; then a second fold that samples frames. Thinning: frames every
@@ -22,9 +26,9 @@ use std::path::Path;
 use std::process::ExitCode;
 
 use anyhow::Context;
-use swarmfl_core::config::Behaviour;
+use swarmfl_core::config::{Aggregation, Behaviour};
 use swarmfl_core::event::{CheckpointCause, Event, Record};
-use swarmfl_core::inspect::{self, expr::Env};
+use swarmfl_core::inspect::{self, expr::Env, Column};
 use swarmfl_core::log::{LogError, LogReader};
 use swarmfl_core::replay;
 use swarmfl_core::state::State;
@@ -38,6 +42,17 @@ use crate::commands::inspect::warn_if_truncated;
 pub fn command(args: ViewArgs) -> anyhow::Result<ExitCode> {
     let ViewArgs { log, out } = args;
     let v = view(&log, &out)?;
+    if let Some((kind, count)) = v.aggregations {
+        println!(
+            "wrote {} ({:.1} MB: {} frames, one every {} s; a {kind} run has no blocks: its {count} \
+             aggregations, as summary.json counts them); open it in a browser",
+            out.display(),
+            v.bytes as f64 / 1.0e6,
+            v.frames,
+            v.frame_s,
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     println!(
         "wrote {} ({:.1} MB: {} frames, one every {} s plus one per block of the final \
          chain; {} sealings on all forks (every block any node sealed, genesis apart), final \
@@ -67,6 +82,9 @@ pub struct ViewOutcome {
     pub bytes: usize,
     /// Seconds between uniform frames.
     pub frame_s: f64,
+    /// A baseline run's aggregation (`gossip`, `central`) and its aggregations in the page;
+    /// `None` for a chain run.
+    pub aggregations: Option<(&'static str, usize)>,
 }
 
 /// Writes the viewer of `log` into `out`.
@@ -85,6 +103,7 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
         height: page.index.last_height(),
         bytes: html.len(),
         frame_s: page.frame_ms as f64 / 1000.0,
+        aggregations: page.aggregations,
     })
 }
 
@@ -115,6 +134,8 @@ pub struct Page {
     pub sealings: u64,
     /// Milliseconds between uniform frames.
     pub frame_ms: u64,
+    /// A baseline run's aggregation and its aggregations in the data; `None` for a chain run.
+    pub aggregations: Option<(&'static str, usize)>,
 }
 
 impl Page {
@@ -148,7 +169,12 @@ impl Page {
             frame_ms,
             live.map(|l| (l, upto_ms)),
         )?;
+        let kind = config.learn.aggregation;
+        let aggregations = (kind != Aggregation::Chain)
+            .then(|| index.rounds_table().map(|t| (kind.name(), t.rows())))
+            .transpose()?;
         Ok(Page {
+            aggregations,
             frames: walk.frames.t.len(),
             sealings: walk.sealings,
             index,
@@ -336,7 +362,7 @@ fn page_data(
 ) -> anyhow::Result<String> {
     let config = &index.config;
     let (chain, balances) = chain_json(index, &walk.ids);
-    let rounds = rounds_json(index);
+    let rounds = rounds_json(index)?;
     let arena = walk.state.world.arena();
     let obstacles: Vec<String> = arena
         .obstacles
@@ -400,8 +426,8 @@ fn page_data(
         "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
          \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius},\
-         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"blocks\":{},\
-         \"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
+         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"versions\":[{}],\
+         \"blocks\":{},\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
          \"truncated\":{},\"live\":{live}}}",
         serde_json::to_string(title)?,
         config.world.robots,
@@ -417,7 +443,9 @@ fn page_data(
         pick(&frames.links),
         pick(&frames.heads),
         pick(&frames.forager),
+        pick(&frames.versions),
         walk.blocks,
+        config.learn.aggregation.name(),
         walk.reorgs,
         serde_json::to_string(&index.truncated)?,
     ))
@@ -454,8 +482,13 @@ fn chain_json(index: &inspect::RunIndex, ids: &BTreeMap<Digest, u32>) -> (String
     (chain, balances)
 }
 
-/// The closed rounds as JSON: `[round, block, time ms, loss, held-out loss]` each.
-fn rounds_json(index: &inspect::RunIndex) -> String {
+/// The closed rounds as JSON: `[round, block, time ms, loss, held-out loss]` each; a baseline's
+/// aggregations (its rounds table: the same rows as `export` and `summary.json`) as
+/// `[aggregation, -1, time ms, loss, held-out loss, robot (-1: the server), models averaged]`.
+fn rounds_json(index: &inspect::RunIndex) -> anyhow::Result<String> {
+    if index.config.learn.aggregation != Aggregation::Chain {
+        return baseline_rounds_json(index);
+    }
     let values = index.values();
     let mut rounds = String::from("[");
     for (k, r) in index.rounds().iter().enumerate() {
@@ -472,7 +505,51 @@ fn rounds_json(index: &inspect::RunIndex) -> String {
         );
     }
     rounds.push(']');
-    rounds
+    Ok(rounds)
+}
+
+/// A baseline's aggregations as JSON (see [`rounds_json`]), from its rounds table.
+fn baseline_rounds_json(index: &inspect::RunIndex) -> anyhow::Result<String> {
+    let table = index.rounds_table()?;
+    let column = |name: &str| {
+        table
+            .column(name)
+            .ok_or_else(|| anyhow::anyhow!("the rounds table of a baseline has no `{name}`"))
+    };
+    let (
+        Column::U64(round),
+        Column::F64(time_s),
+        Column::I64(robot),
+        Column::U64(models),
+        Column::F64(loss),
+        Column::F64(heldout),
+    ) = (
+        column("round")?,
+        column("time_s")?,
+        column("robot")?,
+        column("models")?,
+        column("loss")?,
+        column("heldout_loss")?,
+    )
+    else {
+        anyhow::bail!("the rounds table of a baseline has a column of another type");
+    };
+    let mut rounds = String::from("[");
+    for k in 0..round.len() {
+        let _ = write!(
+            rounds,
+            "{}[{},-1,{},{},{},{},{}]",
+            if k == 0 { "" } else { "," },
+            round[k],
+            (time_s[k] * 1000.0).round() as u64,
+            json_num(loss.get(k).copied().unwrap_or(f64::NAN)),
+            json_num(heldout.get(k).copied().unwrap_or(f64::NAN)),
+            robot[k],
+            models[k]
+        );
+    }
+    rounds.push(']');
+    Ok(rounds)
 }
 
 /// A number as JSON (`null` for NaN and infinities).
@@ -501,6 +578,9 @@ struct Frames {
     /// Each robot's forager state as one letter (`e` explore, `r` return, `s` rest, `-` not a
     /// forager); empty text when nobody forages.
     forager: Vec<String>,
+    /// A baseline's model version of each robot (`gossip`: the merges it made; `central`: the
+    /// server's round it holds); `null` for a chain run.
+    versions: Vec<String>,
 }
 
 impl Frames {
@@ -560,6 +640,15 @@ impl Frames {
             None => String::new(),
         };
         self.forager.push(format!("\"{forager}\""));
+        let versions = if state.aggregation.kind() == Aggregation::Chain {
+            "null".to_string()
+        } else {
+            let v: Vec<String> = (0..n as u32)
+                .map(|r| state.aggregation.current(r).round.to_string())
+                .collect();
+            format!("[{}]", v.join(","))
+        };
+        self.versions.push(versions);
     }
 }
 
