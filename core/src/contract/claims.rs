@@ -39,6 +39,7 @@ use super::MAX_SAMPLES;
 use crate::config::Config;
 use crate::learn::split_point;
 use crate::types::SimTime;
+use serde::{Deserialize, Serialize};
 
 /// The most samples a robot can hold for training under `config` (the derivation above),
 /// at least 1 and at most the contract's hard limit [`MAX_SAMPLES`].
@@ -88,5 +89,39 @@ mod tests {
         c.world.robots = 1;
         c.contract.max_claimed_samples = 0;
         assert_eq!(derived_max_samples(&c), 1, "never below one sample");
+    }
+}
+
+/// The claim bound of [`super::ContractParams`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ClaimBound {
+    /// The largest sample count a submission may claim, at most [`MAX_SAMPLES`].
+    pub max_samples: u64,
+    /// Set by `contract.max_claimed_samples` rather than derived from the data window.
+    pub explicit: bool,
+}
+
+impl Default for ClaimBound {
+    /// The contract's hard limit only (what hand-made parameters in tests get).
+    fn default() -> ClaimBound {
+        ClaimBound {
+            max_samples: MAX_SAMPLES,
+            explicit: false,
+        }
+    }
+}
+
+impl ClaimBound {
+    /// The bound of a run's configuration: explicit, or derived when the key is 0.
+    pub fn from_config(config: &Config) -> ClaimBound {
+        ClaimBound {
+            max_samples: max_samples(config),
+            explicit: config.contract.max_claimed_samples != 0,
+        }
+    }
+
+    /// Not set explicitly (left out of the parameters' encoding).
+    pub fn is_derived(&self) -> bool {
+        !self.explicit
     }
 }

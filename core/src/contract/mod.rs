@@ -69,6 +69,8 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule, ThresholdRule};
 use crate::types::{Digest, RobotId};
 
+pub use claims::ClaimBound;
+
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
 
@@ -146,40 +148,6 @@ pub struct ContractParams {
     /// digest of rounds runs is the one they had before the protocol existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub buffered: Option<buffered::BufferedParams>,
-}
-
-/// The claim bound of [`ContractParams`].
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub struct ClaimBound {
-    /// The largest sample count a submission may claim, at most [`MAX_SAMPLES`].
-    pub max_samples: u64,
-    /// Set by `contract.max_claimed_samples` rather than derived from the data window.
-    pub explicit: bool,
-}
-
-impl Default for ClaimBound {
-    /// The contract's hard limit only (what hand-made parameters in tests get).
-    fn default() -> ClaimBound {
-        ClaimBound {
-            max_samples: MAX_SAMPLES,
-            explicit: false,
-        }
-    }
-}
-
-impl ClaimBound {
-    /// The bound of a run's configuration: explicit, or derived when the key is 0.
-    pub fn from_config(config: &Config) -> ClaimBound {
-        ClaimBound {
-            max_samples: claims::max_samples(config),
-            explicit: config.contract.max_claimed_samples != 0,
-        }
-    }
-
-    /// Not set explicitly (left out of the parameters' encoding).
-    pub fn is_derived(&self) -> bool {
-        !self.explicit
-    }
 }
 
 /// A robust rule of [`ContractParams`].
