@@ -127,6 +127,8 @@ impl State {
         let genesis = genesis_weights(config, seed)?;
         let aggregation = AggregationState::new(config, genesis.clone());
         let params = ContractParams::from_config(config, genesis);
+        // A plug-in rule that is not given is a refusal naming it, not a panic in the ledger.
+        params.check().map_err(SimError::Genesis)?;
         let mut digest = blake3::Hasher::new();
         digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
         let ledger = Ledger::new(config, seed, params);

@@ -16,12 +16,13 @@ use std::sync::Arc;
 use serde::{Deserialize, Serialize};
 
 use super::Attack;
-use crate::config::{ByzantineKind, Config};
+use crate::config::{ByzantineKind, Config, Rule};
+use crate::contract::rules::plugin::{self as rule_plugin, RuleId, RulePlugin};
 
 /// A plug-in as a log header records it.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
 pub struct PluginId {
-    /// What it plugs into: `attack`.
+    /// What it plugs into: `attack` or `rule`.
     pub kind: String,
     /// Its name, as `byzantine.plugin` names it.
     pub name: String,
@@ -42,6 +43,14 @@ impl PluginId {
         }
     }
 
+    /// The id of an aggregation-rule plug-in.
+    pub fn rule(name: &str, digest: &str, source: &str) -> PluginId {
+        PluginId {
+            kind: "rule".to_string(),
+            ..PluginId::attack(name, digest, source)
+        }
+    }
+
     /// `attack `name` (blake3 abcd1234...)`, for messages.
     pub fn describe(&self) -> String {
         format!(
@@ -55,12 +64,14 @@ impl PluginId {
 #[derive(Clone, Default)]
 pub struct Plugins {
     attacks: BTreeMap<String, (PluginId, Arc<dyn Attack>)>,
+    rules: BTreeMap<String, PluginId>,
 }
 
 impl std::fmt::Debug for Plugins {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_list()
             .entries(self.attacks.values().map(|(id, _)| id))
+            .entries(self.rules.values())
             .finish()
     }
 }
@@ -76,6 +87,18 @@ impl Plugins {
         self.attacks.insert(id.name.clone(), (id, attack));
     }
 
+    /// Offers the aggregation rule `rule` under `id.name`: registers it with the contract's
+    /// plug-in rules ([`rule_plugin::register`]), where every node's contract and every fold
+    /// of the run's log finds it by name and digest.
+    pub fn add_rule(&mut self, id: PluginId, rule: Arc<dyn RulePlugin>) {
+        let key = RuleId {
+            name: id.name.clone(),
+            digest: id.digest.clone(),
+        };
+        rule_plugin::register(key, rule);
+        self.rules.insert(id.name.clone(), id);
+    }
+
     /// The attack plug-in called `name`.
     pub fn attack(&self, name: &str) -> Option<&Arc<dyn Attack>> {
         self.attacks.get(name).map(|(_, a)| a)
@@ -84,14 +107,22 @@ impl Plugins {
     /// The ids of the plug-ins `config` uses (what its log header records), or why one is
     /// missing.
     pub fn used_by(&self, config: &Config) -> Result<Vec<PluginId>, String> {
-        if config.byzantine.kind != ByzantineKind::Plugin {
-            return Ok(Vec::new());
+        let mut used = Vec::new();
+        if config.byzantine.kind == ByzantineKind::Plugin {
+            let name = &config.byzantine.plugin;
+            match self.attacks.get(name) {
+                Some((id, _)) => used.push(id.clone()),
+                None => return Err(missing(name)),
+            }
         }
-        let name = &config.byzantine.plugin;
-        match self.attacks.get(name) {
-            Some((id, _)) => Ok(vec![id.clone()]),
-            None => Err(missing(name)),
+        if config.rule() == Rule::Plugin {
+            let name = &config.contract.rule_plugin;
+            match self.rules.get(name) {
+                Some(id) => used.push(id.clone()),
+                None => return Err(rule_plugin::missing(name, None)),
+            }
         }
+        Ok(used)
     }
 
     /// Checks that every plug-in a log `recorded` is offered here with the same source: the
@@ -100,6 +131,7 @@ impl Plugins {
         for id in recorded {
             let offered = match id.kind.as_str() {
                 "attack" => self.attacks.get(&id.name).map(|(o, _)| o),
+                "rule" => self.rules.get(&id.name),
                 _ => None,
             };
             match offered {
@@ -111,6 +143,10 @@ impl Plugins {
                             "pass the same attack class (swarmfl.replay(..., attack=...) or \
                              swarmfl.fork(..., attack=...) in Python); the swarmfl command cannot \
                              run plug-ins"
+                                .to_string()
+                        } else if id.kind == "rule" {
+                            "pass the same rule (swarmfl.open/replay/fork(..., rule=...) in \
+                             Python); the swarmfl command cannot run plug-ins"
                                 .to_string()
                         } else {
                             format!("this swarmfl does not know plug-ins of kind `{}`", id.kind)

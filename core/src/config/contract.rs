@@ -38,6 +38,9 @@ pub enum Rule {
     Signguard,
     /// Divide and conquer: drop the `f` models farthest along the top principal direction.
     Dnc,
+    /// A rule supplied by the program that runs the simulation (the Python package), named by
+    /// `contract.rule_plugin`; not in [`Rule::ALL`], which lists the built-in rules.
+    Plugin,
 }
 
 impl Rule {
@@ -76,12 +79,16 @@ impl Rule {
             Rule::Monna => "monna",
             Rule::Signguard => "signguard",
             Rule::Dnc => "dnc",
+            Rule::Plugin => "plugin",
         }
     }
 
     /// Looks a rule up by its configuration name.
     pub fn from_name(name: &str) -> Option<Rule> {
-        Rule::ALL.into_iter().find(|r| r.name() == name)
+        Rule::ALL
+            .into_iter()
+            .chain([Rule::Plugin])
+            .find(|r| r.name() == name)
     }
 
     /// True when submissions stake tokens and the used ones are paid (every rule but fedavg).
@@ -92,10 +99,11 @@ impl Rule {
     /// The smallest quorum for which the rule is defined with `f` assumed Byzantine
     /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed, centered
     /// clipping, mda, meamed, monna, signguard and dnc `2f + 1`, bulyan `4f + 3`, fedavg and
-    /// paper 1.
+    /// paper 1; a plug-in rule 1 (it is given `f` and the round's models and answers for
+    /// itself).
     pub fn min_quorum(self, f: u32) -> u32 {
         match self {
-            Rule::Fedavg | Rule::Paper => 1,
+            Rule::Fedavg | Rule::Paper | Rule::Plugin => 1,
             Rule::Krum | Rule::MultiKrum => 2 * f + 3,
             Rule::Median
             | Rule::TrimmedMean

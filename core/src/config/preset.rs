@@ -357,6 +357,7 @@ impl Config {
                 outlier_threshold: 0.05,
                 penalised_ranks: 2,
                 rule: Rule::Paper,
+                rule_plugin: String::new(),
                 assumed_f: 1,
                 round_timeout_s: DEFAULT_ROUND_TIMEOUT_S,
                 max_claimed_samples: 0,

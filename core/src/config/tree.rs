@@ -257,10 +257,16 @@ pub struct ContractConfig {
     pub penalised_ranks: u32,
     /// The aggregation rule (`fedavg`, `paper`, `krum`, `multi-krum`, `median`,
     /// `trimmed-mean`, `geomed`, `centered-clipping`, `bulyan`, `mda`, `meamed`, `monna`,
-    /// `signguard`, `dnc`; see `contract::rules`).
+    /// `signguard`, `dnc`, or `plugin` for one named by `rule_plugin`; see `contract::rules`).
     /// `security = false` means `fedavg` whatever this says (old configurations read as before).
     #[serde(default = "default_rule")]
     pub rule: Rule,
+    /// `rule_plugin`: the name of the plug-in aggregation rule (`contract.rule = "plugin"`),
+    /// which the program running the simulation supplies (the Python package's
+    /// `swarmfl.run(rule=...)`); empty otherwise. Left out of the recorded configuration when
+    /// empty, so the records of every other rule do not move.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub rule_plugin: String,
     /// Byzantine submissions per round the robust rules assume (f): krum and multi-krum need
     /// quorum >= 2f + 3, median, trimmed-mean, geomed, centered-clipping, mda, meamed, monna,
     /// signguard and dnc 2f + 1, bulyan 4f + 3 (and mda at most 2^20 subsets C(quorum, f)).

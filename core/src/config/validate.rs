@@ -116,6 +116,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("byzantine.count", b.count.into(), 0, w.robots.into()),
         Across(count_matches_the_misbehaviour),
         Across(plugin_is_named),
+        Across(rule_plugin_is_named),
         Number("contract.round_timeout_s", k.round_timeout_s, 0.0, 1.0e9),
         // At least a plain transaction's intrinsic gas; at most what revm's gas counter holds
         // with room to spare.
@@ -550,6 +551,49 @@ fn plugin_is_named(c: &Config) -> Result<(), ConfigError> {
         ),
         _ => Ok(()),
     }
+}
+
+/// `contract.rule = "plugin"` needs the plug-in rule's name in `contract.rule_plugin` (a plain
+/// name, like `byzantine.plugin`'s), takes no pre-aggregators (the chain is built for the
+/// built-in rules), and a name is only read under that rule.
+fn rule_plugin_is_named(c: &Config) -> Result<(), ConfigError> {
+    let k = &c.contract;
+    let plain = |n: &str| {
+        !n.is_empty()
+            && n.len() <= 100
+            && n.chars()
+                .all(|ch| ch.is_ascii_alphanumeric() || matches!(ch, '_' | '-' | '.'))
+    };
+    let plugin = k.rule == Rule::Plugin;
+    if plugin && !plain(&k.rule_plugin) {
+        return out_of_range(
+            "contract.rule_plugin",
+            format!("{:?}", k.rule_plugin),
+            "the plug-in rule's name (1 to 100 of A-Z a-z 0-9 _ - .) with contract.rule = \
+             \"plugin\"; the Python package sets it from the rule: swarmfl.run(..., \
+             rule=my_rule)"
+                .to_string(),
+        );
+    }
+    if !plugin && !k.rule_plugin.is_empty() {
+        return out_of_range(
+            "contract.rule_plugin",
+            format!("{:?}", k.rule_plugin),
+            format!(
+                "empty unless contract.rule = \"plugin\" (contract.rule is \"{}\")",
+                k.rule.name()
+            ),
+        );
+    }
+    if plugin && c.rule() == Rule::Plugin && !k.preaggregators.is_empty() {
+        return out_of_range(
+            "contract.preaggregators",
+            format!("{:?}", k.preaggregators),
+            "[] with contract.rule = \"plugin\" (a plug-in rule does its own filtering)"
+                .to_string(),
+        );
+    }
+    Ok(())
 }
 
 fn faults_fit_the_run(c: &Config) -> Result<(), ConfigError> {

@@ -44,6 +44,7 @@ fn params(k: u32, max_staleness: u32, step_units: u64) -> ContractParams {
                 .collect(),
             step_units,
         }),
+        rule_plugin: None,
     }
 }
 
@@ -237,6 +238,7 @@ fn a_submission_is_judged_against_its_base_and_bad_bases_are_refused_without_a_s
     assert_eq!(s.execute(&p, 5, STAKE, &model).name(), "malformed");
     let rounds = ContractParams {
         buffered: None,
+        rule_plugin: None,
         ..p.clone()
     };
     let mut r = ContractState::genesis(&rounds);

@@ -118,6 +118,7 @@ mod tests {
             block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
             preagg: None,
             buffered: None,
+            rule_plugin: None,
         }
     }
 

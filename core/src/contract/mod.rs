@@ -148,6 +148,12 @@ pub struct ContractParams {
     /// digest of rounds runs is the one they had before the protocol existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub buffered: Option<buffered::BufferedParams>,
+    /// The plug-in rule (`contract.rule = "plugin"`, see [`rules::plugin`]): its name and
+    /// source digest, so that the genesis block commits to the rule's source; `None` under
+    /// every built-in rule, and then left out of the encoding, so their parameters' digest is
+    /// the one they had before plug-in rules existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rule_plugin: Option<rules::plugin::RuleId>,
 }
 
 /// A robust rule of [`ContractParams`].
@@ -205,6 +211,14 @@ impl ContractParams {
             engine: c.engine,
             block_gas_limit: c.block_gas_limit,
             buffered: buffered::BufferedParams::from_config(config),
+            rule_plugin: (rule == Rule::Plugin).then(|| {
+                // The source registered last under the name; an unknown digest when none is,
+                // which `check` refuses by name.
+                rules::plugin::current(&c.rule_plugin).unwrap_or(rules::plugin::RuleId {
+                    name: c.rule_plugin.clone(),
+                    digest: String::new(),
+                })
+            }),
         }
     }
 
@@ -219,6 +233,10 @@ impl ContractParams {
         seed: [u8; 32],
     ) -> rules::Aggregate {
         let (rule, f) = (self.rule(), self.assumed_f() as usize);
+        if let Some(id) = &self.rule_plugin {
+            // `check` keeps pre-aggregators away from plug-in rules.
+            return rules::plugin::aggregate(id, current, inputs, f);
+        }
         match &self.preagg {
             None => rule.aggregate(current, inputs, f, &self.options),
             Some(chain) => preagg::aggregate(rule, chain, current, inputs, f, &self.options, seed),
@@ -311,6 +329,19 @@ impl ContractParams {
                     crate::config::MDA_MAX_SUBSETS
                 ));
             }
+        }
+        match (&self.rule_plugin, self.rule() == Rule::Plugin) {
+            (Some(id), true) if !rules::plugin::is_registered(id) => {
+                let digest = (!id.digest.is_empty()).then_some(id.digest.as_str());
+                return Err(rules::plugin::missing(&id.name, digest));
+            }
+            (Some(_), true) if self.preagg.is_some() => {
+                return Err("a plug-in rule takes no pre-aggregators".into());
+            }
+            (Some(_), false) | (None, true) => {
+                return Err("a plug-in rule and its id go together".into());
+            }
+            _ => {}
         }
         if let Some(d) = self.defence {
             if d.defence == Defence::None || d.refund_percent > 100 || !self.security {

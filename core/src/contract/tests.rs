@@ -32,6 +32,7 @@ fn params(security: bool) -> ContractParams {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     }
 }
 

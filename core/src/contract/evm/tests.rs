@@ -107,6 +107,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     }
 }
 
@@ -322,6 +323,7 @@ fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     };
     let pe = ContractParams {
         engine: ContractEngine::Evm,
@@ -509,6 +511,7 @@ fn a_submission_over_the_block_gas_limit_is_refused_and_changes_nothing() {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     };
     let submit = |weights: &Arc<[i64]>| Call::SubmitModel {
         weights: weights.clone(),

@@ -33,6 +33,7 @@ pub mod median;
 pub mod monna;
 pub mod multi_krum;
 pub mod paper;
+pub mod plugin;
 pub mod signguard;
 pub mod trimmed_mean;
 
@@ -104,6 +105,11 @@ impl Rule {
             Rule::Monna => monna::aggregate(current, inputs, f),
             Rule::Signguard => signguard::aggregate(current, inputs, f),
             Rule::Dnc => dnc::aggregate(inputs, f),
+            // A plug-in is found by the id in the contract's parameters, which
+            // `ContractParams::round_aggregate` passes to `plugin::aggregate`; validation keeps
+            // plug-in rules out of the pre-aggregator chain, the only other caller. Without an
+            // id the round keeps its model rather than panic in a reducer.
+            Rule::Plugin => plugin::fallback(current, inputs, f),
         };
         debug_assert_eq!(aggregate.weights.len(), current.len());
         debug_assert!(aggregate.used.iter().all(|&i| i < inputs.len()));
