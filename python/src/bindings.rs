@@ -74,9 +74,9 @@ fn resolve(
     Config::resolve(preset, config.as_deref(), overrides).map_err(err)
 }
 
-/// A plug-in attack as the Python side hands it over: (name, what was hashed, its source,
-/// the adapter to call).
-type AttackArg = Option<(String, String, String, Py<PyAny>)>;
+/// A plug-in attack or rule as the Python side hands it over: (name, what was hashed, its
+/// source, the adapter to call).
+type AttackArg = plugins::Arg;
 
 /// Runs `work` on its own thread while this one checks for Ctrl-C ten times a second (Python
 /// handles signals on the main thread only): Ctrl-C sets the flag `work` is given, which stops
@@ -139,7 +139,7 @@ fn check_stop<'a>(
 /// `KeyboardInterrupt` (the log left in `out` is truncated). `attack` is a plug-in attack
 /// (`byzantine.kind = "plugin"`, see `plugins.rs`).
 #[pyfunction]
-#[pyo3(signature = (preset, config, overrides, seed, out, quiet, attack=None))]
+#[pyo3(signature = (preset, config, overrides, seed, out, quiet, attack=None, rule=None))]
 #[allow(clippy::too_many_arguments)]
 fn run(
     py: Python<'_>,
@@ -150,9 +150,10 @@ fn run(
     out: PathBuf,
     quiet: bool,
     attack: AttackArg,
+    rule: AttackArg,
 ) -> PyResult<String> {
     let config = resolve(preset.as_deref(), config, &overrides)?;
-    let (plugins, failure) = plugins::plugins(attack);
+    let (plugins, failure) = plugins::plugins(attack, rule);
     let outcome = on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
         swarmfl_cli::api::run_with_plugins(config, seed, &out, quiet, &plugins, check)
@@ -164,15 +165,16 @@ fn run(
 /// refuses a log whose plug-in is not given or whose source changed, naming it. Returns
 /// `(records, checkpoints, blocks, final_hash)`.
 #[pyfunction]
-#[pyo3(signature = (log, resimulate, attack=None))]
+#[pyo3(signature = (log, resimulate, attack=None, rule=None))]
 fn replay(
     py: Python<'_>,
     log: PathBuf,
     resimulate: bool,
     attack: AttackArg,
+    rule: AttackArg,
 ) -> PyResult<(u64, u64, u64, String)> {
     use swarmfl_core::replay as core_replay;
-    let (plugins, failure) = plugins::plugins(attack);
+    let (plugins, failure) = plugins::plugins(attack, rule);
     let report = on_worker(py, &failure, |_| {
         let name = log.display().to_string();
         let reader =
@@ -196,7 +198,7 @@ fn replay(
 /// Forks the log at `log` at block `at` with `overrides` into `out` (`swarmfl fork`), offered
 /// the plug-in `attack` (the parent's must be given, with the source its header records).
 #[pyfunction]
-#[pyo3(signature = (log, at, overrides, out, quiet, attack=None))]
+#[pyo3(signature = (log, at, overrides, out, quiet, attack=None, rule=None))]
 fn fork(
     py: Python<'_>,
     log: PathBuf,
@@ -205,8 +207,9 @@ fn fork(
     out: PathBuf,
     quiet: bool,
     attack: AttackArg,
+    rule: AttackArg,
 ) -> PyResult<()> {
-    let (plugins, failure) = plugins::plugins(attack);
+    let (plugins, failure) = plugins::plugins(attack, rule);
     on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
         swarmfl_cli::api::fork_with_plugins(&log, at, &overrides, &out, quiet, &plugins, check)
@@ -417,12 +420,31 @@ struct Index {
 #[pymethods]
 impl Index {
     /// Folds the log at `path` (checking every checkpoint).
+    /// A log made with a plug-in rule needs it (`rule`): every fold re-executes the contract.
     #[new]
-    fn new(py: Python<'_>, path: PathBuf) -> PyResult<Self> {
-        let index = py
-            .detach(|| inspect::index_run(&path, None).map_err(anyhow::Error::from))
-            .map_err(err)?;
-        Ok(Index { index })
+    #[pyo3(signature = (path, rule=None))]
+    fn new(py: Python<'_>, path: PathBuf, rule: AttackArg) -> PyResult<Self> {
+        let (plugins, failure) = plugins::plugins(None, rule);
+        let index = py.detach(|| {
+            // A changed rule is refused by name here, before the fold diverges at genesis.
+            let reader = swarmfl_core::log::LogReader::open(&path)?;
+            let rules: Vec<_> = reader
+                .header()
+                .plugins
+                .iter()
+                .filter(|p| p.kind == "rule")
+                .cloned()
+                .collect();
+            plugins.check(&rules).map_err(anyhow::Error::msg)?;
+            drop(reader);
+            inspect::index_run(&path, None).map_err(anyhow::Error::from)
+        });
+        if let Some(e) = plugins::take_failure(&failure) {
+            return Err(e);
+        }
+        Ok(Index {
+            index: index.map_err(err)?,
+        })
     }
 
     /// `chain`, `gossip` or `central`.

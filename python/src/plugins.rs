@@ -1,3 +1,7 @@
+//! Plug-ins written in Python. [`PyRule`] implements the core's `contract::rules::plugin::
+//! RulePlugin` for a Python aggregation rule (integers in, integers out, like the built-in
+//! rules; asked by every node's contract and by every fold of the log).
+//!
 //! Plug-in attacks written in Python: [`PyAttack`] implements the core's
 //! `byzantine::Attack` for a Python callable (the adapter `swarmfl.plugins` builds around the
 //! user's class), so that a Python attack runs through the same interface as the built-in
@@ -15,6 +19,8 @@ use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict, PyList, PyTuple};
 use swarmfl_core::byzantine::plugin::{PluginId, Plugins};
 use swarmfl_core::byzantine::{Action, Attack, View};
+use swarmfl_core::contract::rules::plugin::RulePlugin;
+use swarmfl_core::contract::rules::Input;
 use swarmfl_core::rng::Rng;
 use swarmfl_core::types::Digest;
 
@@ -28,11 +34,83 @@ pub struct PyAttack {
     failure: Failure,
 }
 
-/// The plug-ins of a run offered `attack = (name, what was hashed, source, adapter)`, and the
-/// slot their first error goes to.
-pub fn plugins(attack: Option<(String, String, String, Py<PyAny>)>) -> (Plugins, Failure) {
+/// A plug-in as the Python side hands it over: (name, what was hashed, its source, the
+/// adapter to call).
+pub type Arg = Option<(String, String, String, Py<PyAny>)>;
+
+/// A Python aggregation rule as the core's `RulePlugin`.
+pub struct PyRule {
+    /// `call(current: bytes, models: bytes, n: int, samples: list, f: int) -> bytes`:
+    /// `swarmfl.plugins`' adapter around the user's rule (models as little-endian `i64`).
+    call: Py<PyAny>,
+    failure: Failure,
+}
+
+impl PyRule {
+    fn ask(&self, py: Python<'_>, current: &[i64], inputs: &[Input], f: usize) -> PyResult<Vec<i64>> {
+        let cur: Vec<u8> = current.iter().flat_map(|w| w.to_le_bytes()).collect();
+        let models: Vec<u8> = inputs
+            .iter()
+            .flat_map(|s| s.weights.iter().flat_map(|w| w.to_le_bytes()))
+            .collect();
+        let samples: Vec<u64> = inputs.iter().map(|s| s.samples).collect();
+        let answer = self.call.call1(
+            py,
+            (
+                PyBytes::new(py, &cur),
+                PyBytes::new(py, &models),
+                inputs.len(),
+                PyList::new(py, samples)?,
+                f,
+            ),
+        )?;
+        let bytes: Vec<u8> = answer.bind(py).extract()?;
+        if bytes.len() != 8 * current.len() {
+            return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                "plug-in rule answered {} weights, the model has {}",
+                bytes.len() / 8,
+                current.len()
+            )));
+        }
+        Ok(bytes
+            .chunks_exact(8)
+            .map(|c| i64::from_le_bytes([c[0], c[1], c[2], c[3], c[4], c[5], c[6], c[7]]))
+            .collect())
+    }
+}
+
+impl RulePlugin for PyRule {
+    fn aggregate(&self, current: &[i64], inputs: &[Input], f: usize) -> Result<Vec<i64>, String> {
+        let mut failure = self.failure.lock().unwrap_or_else(|p| p.into_inner());
+        if failure.is_some() {
+            // The run stops before its next record: the answer no longer matters.
+            return Err("the plug-in rule failed earlier".into());
+        }
+        match Python::attach(|py| self.ask(py, current, inputs, f)) {
+            Ok(weights) => Ok(weights),
+            Err(e) => {
+                let text = e.to_string();
+                *failure = Some(e);
+                Err(text)
+            }
+        }
+    }
+}
+
+/// The plug-ins of a run offered `attack` and `rule` (each `(name, what was hashed, source,
+/// adapter)`), and the slot their first error goes to. The rule is registered with the
+/// core's plug-in rules from here on (see `Plugins::add_rule`).
+pub fn plugins(attack: Arg, rule: Arg) -> (Plugins, Failure) {
     let failure: Failure = Arc::new(Mutex::new(None));
     let mut plugins = Plugins::none();
+    if let Some((name, what, source, call)) = rule {
+        let digest = Digest::of(source.as_bytes()).to_hex();
+        let agent = PyRule {
+            call,
+            failure: failure.clone(),
+        };
+        plugins.add_rule(PluginId::rule(&name, &digest, &what), Arc::new(agent));
+    }
     if let Some((name, what, source, call)) = attack {
         let digest = Digest::of(source.as_bytes()).to_hex();
         let agent = PyAttack {

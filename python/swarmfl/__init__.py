@@ -28,10 +28,10 @@ import pandas as pd
 
 from . import _swarmfl
 from ._swarmfl import SwarmflError
-from .plugins import Attack, AttackView, PluginError, plugin_arg
+from .plugins import Attack, AttackView, PluginError, Rule, plugin_arg, rule_arg
 
 __all__ = ["run", "open", "Run", "SwarmflError", "config", "sweep", "results", "report",
-           "replay", "fork", "Attack", "AttackView", "PluginError"]
+           "replay", "fork", "Attack", "AttackView", "PluginError", "Rule"]
 
 PathLike = Union[str, "os.PathLike[str]"]
 
@@ -94,9 +94,23 @@ def _with_attack(overrides: list, plugin: Optional[tuple]) -> list:
     return overrides + ['byzantine.kind="plugin"', f"byzantine.plugin={_toml_value(plugin[0])}"]
 
 
+def _with_rule(overrides: list, plugin: Optional[tuple]) -> list:
+    """The overrides plus ``contract.rule = "plugin"`` and ``contract.rule_plugin = NAME`` for
+    a plug-in rule (a ``set=`` that names another rule is an error)."""
+    if plugin is None:
+        return overrides
+    for o in overrides:
+        key, _, value = o.partition("=")
+        if key.strip() == "contract.rule" and value.strip().strip('"') != "plugin":
+            raise SwarmflError(
+                f"rule= runs a plug-in rule (contract.rule = \"plugin\"), but set= has {o}: "
+                "drop one of them")
+    return overrides + ['contract.rule="plugin"', f"contract.rule_plugin={_toml_value(plugin[0])}"]
+
+
 def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, Any]] = None,
         out: Optional[PathLike] = None, config: Optional[PathLike] = None,
-        quiet: bool = True, attack: Optional[Attack] = None) -> "Run":
+        quiet: bool = True, attack: Optional[Attack] = None, rule: Any = None) -> "Run":
     """Simulates a run, as ``swarmfl run --preset PRESET --seed SEED --set K=V ... --out OUT``.
 
     ``set`` maps configuration keys to values (``{"byzantine.count": 3, "contract.rule":
@@ -106,7 +120,11 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
     and raises ``KeyboardInterrupt`` (``out`` then holds a truncated log and no summary).
     ``attack`` is a plug-in attack (a :class:`swarmfl.Attack` instance) that the Byzantine
     robots run (``byzantine.count`` of them: set it); a plug-in that raises or answers badly
-    raises :class:`PluginError` naming the round and robot. Returns the :class:`Run`.
+    raises :class:`PluginError` naming the round and robot. ``rule`` is a plug-in aggregation
+    rule (a function ``aggregate(models, f, current, samples)`` or a :class:`swarmfl.Rule`
+    instance, see :mod:`swarmfl.plugins`) that the contract runs (``contract.rule =
+    "plugin"``); one that raises or answers badly raises :class:`PluginError` naming it.
+    Returns the :class:`Run`.
     """
     if preset is None and config is None:
         preset = "paper"
@@ -115,10 +133,11 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
     if out is None:
         out = tempfile.mkdtemp(prefix=f"swarmfl-{preset or 'run'}-seed{seed}-")
     plugin = plugin_arg(attack)
-    overrides = _with_attack(_overrides(set), plugin)
+    rplugin = rule_arg(rule)
+    overrides = _with_rule(_with_attack(_overrides(set), plugin), rplugin)
     summary = _swarmfl.run(preset, None if config is None else os.fspath(config), overrides,
-                           seed, os.fspath(out), quiet, plugin)
-    r = Run(Path(out) / "run.swlog")
+                           seed, os.fspath(out), quiet, plugin, rplugin)
+    r = Run(Path(out) / "run.swlog", rule=rule)
     r._summary = json.loads(summary)
     return r
 
@@ -132,25 +151,28 @@ def _log_path(path: PathLike) -> Path:
     return p
 
 
-def replay(log: PathLike, resimulate: bool = False, attack: Optional[Attack] = None) -> dict:
+def replay(log: PathLike, resimulate: bool = False, attack: Optional[Attack] = None,
+           rule: Any = None) -> dict:
     """Replays a log (``swarmfl replay [--resimulate]``): folds its events and checks every
     checkpoint, or re-simulates the run and compares every record. A log made with a plug-in
     attack needs it (``attack=``), with the source its header records: otherwise this raises
-    :class:`SwarmflError` naming the plug-in and both digests. Returns ``records``,
+    :class:`SwarmflError` naming the plug-in and both digests; so does a log made with a plug-in
+    rule without it (``rule=``), or with a changed one. Returns ``records``,
     ``checkpoints``, ``blocks`` and ``final_hash``; a difference raises :class:`SwarmflError`."""
     records, checkpoints, blocks, final_hash = _swarmfl.replay(
-        os.fspath(_log_path(log)), bool(resimulate), plugin_arg(attack))
+        os.fspath(_log_path(log)), bool(resimulate), plugin_arg(attack), rule_arg(rule))
     return {"records": records, "checkpoints": checkpoints, "blocks": blocks,
             "final_hash": final_hash}
 
 
 def fork(log: PathLike, at: int, set: Optional[Mapping[str, Any]] = None,
          out: Optional[PathLike] = None, quiet: bool = True,
-         attack: Optional[Attack] = None) -> "Run":
+         attack: Optional[Attack] = None, rule: Any = None) -> "Run":
     """Forks a chain run at block ``at`` with the overrides ``set`` (``swarmfl fork LOG --at H
     --set K=V``): re-simulates the parent up to the fork point, checking every record, then
     continues under the new configuration. ``attack`` is the parent's plug-in attack (required,
-    with the same source, when the parent has one) or one the overrides switch to. Returns the
+    with the same source, when the parent has one) or one the overrides switch to; ``rule`` the
+    parent's plug-in rule (required, with the same source, when the parent has one). Returns the
     fork's :class:`Run` (in ``out``, default a new temporary directory)."""
     if not isinstance(at, int) or isinstance(at, bool) or at < 0:
         raise SwarmflError(f"at must be a non-negative block height, got {at!r}")
@@ -161,8 +183,11 @@ def fork(log: PathLike, at: int, set: Optional[Mapping[str, Any]] = None,
     overrides = _overrides(set)
     if plugin is not None and any(o.partition("=")[0].strip() == "byzantine.kind" for o in overrides):
         overrides = _with_attack(overrides, plugin)
-    _swarmfl.fork(os.fspath(parent), at, overrides, os.fspath(out), quiet, plugin)
-    return Run(Path(out) / "run.swlog")
+    rplugin = rule_arg(rule)
+    if rplugin is not None and any(o.partition("=")[0].strip() == "contract.rule" for o in overrides):
+        overrides = _with_rule(overrides, rplugin)
+    _swarmfl.fork(os.fspath(parent), at, overrides, os.fspath(out), quiet, plugin, rplugin)
+    return Run(Path(out) / "run.swlog", rule=rule)
 
 
 def _grid_value(value: Any) -> str:
@@ -285,14 +310,16 @@ def report(dir: PathLike, out: PathLike) -> Path:
     return Path(_swarmfl.report(os.fspath(dir), os.fspath(out)))
 
 
-def open(path: PathLike) -> "Run":
-    """Opens an existing run: its directory (holding ``run.swlog``) or the log itself."""
+def open(path: PathLike, rule: Any = None) -> "Run":
+    """Opens an existing run: its directory (holding ``run.swlog``) or the log itself. A run
+    made with a plug-in rule needs it (``rule=``, the same source): its tables re-execute the
+    contract."""
     p = Path(path)
     if p.is_dir():
         p = p / "run.swlog"
     if not p.exists():
         raise SwarmflError(f"cannot open {p}: no such file (give a run directory or its run.swlog)")
-    return Run(p)
+    return Run(p, rule=rule)
 
 
 def _namespace(value: Any) -> Any:
@@ -308,8 +335,9 @@ class Run:
     """A run's log and what is computed from it. Tables are computed on first use, from one
     fold of the log (checking every checkpoint), and cached."""
 
-    def __init__(self, log: PathLike):
+    def __init__(self, log: PathLike, rule: Any = None):
         self.log = Path(log)
+        self._rule = rule
         self.path = self.log.parent
         self._summary: Optional[dict] = None
         self._index = None
@@ -321,8 +349,14 @@ class Run:
     @property
     def index(self):
         if self._index is None:
-            self._index = _swarmfl.Index(os.fspath(self.log))
+            self._index = _swarmfl.Index(os.fspath(self.log), rule_arg(self._rule))
         return self._index
+
+    def _offer_rule(self) -> None:
+        """Registers the run's plug-in rule (if any) for the folds that take no ``rule``: the
+        index's fold registers it and refuses a changed one by name."""
+        if self._rule is not None:
+            self.index
 
     @property
     def aggregation(self) -> str:
@@ -381,6 +415,7 @@ class Run:
 
     def poses(self, every_s: float = 1.0) -> pd.DataFrame:
         """Every robot's pose (time_s, robot, x, y, theta) every ``every_s`` simulated seconds."""
+        self._offer_rule()
         key = ("poses", float(every_s))
         if key not in self._cache:
             self._cache[key] = _frame(_swarmfl.poses(os.fspath(self.log), float(every_s)))
@@ -392,6 +427,7 @@ class Run:
         (``.to_dict`` is not needed: ``vars()`` works; the raw dict is ``.raw``)."""
         if (block is None) == (time_s is None):
             raise SwarmflError("give exactly one of block= (a chain run) or time_s= (a baseline run)")
+        self._offer_rule()
         if block is not None:
             if not isinstance(block, int) or isinstance(block, bool) or block < 0:
                 raise SwarmflError(f"block must be a non-negative integer, got {block!r}")

@@ -29,7 +29,7 @@ import numpy as np
 
 from ._swarmfl import SwarmflError
 
-__all__ = ["Attack", "AttackView", "PluginError"]
+__all__ = ["Attack", "AttackView", "PluginError", "Rule"]
 
 
 class PluginError(SwarmflError):
@@ -209,3 +209,103 @@ def plugin_arg(attack: Any) -> Optional[tuple]:
         return None
     name, what, source = describe(attack)
     return name, what, source, adapter(name, attack)
+
+
+class Rule:
+    """Base class of a plug-in aggregation rule (a plain function works too).
+
+    ``name`` (default: the class's name) is what ``contract.rule_plugin`` records;
+    ``aggregate(models, f, current, samples)`` gets the round's accepted models as an
+    ``(n, d)`` int64 array of fixed-point weights in submission order, the assumed Byzantine
+    count ``f`` (``contract.assumed_f``), the shared model the round was opened on (``(d,)``
+    int64) and the claimed sample counts (``(n,)`` int64), and returns the next shared model:
+    ``d`` integers (any integer dtype), each of magnitude below 2^47. Integers in, integers out,
+    like the built-in rules: round where the rule divides. The contract pays the ``n - f``
+    submissions nearest (L1) to the answer, as for its own median.
+    """
+
+    name: Optional[str] = None
+
+    def aggregate(self, models, f, current, samples):
+        raise NotImplementedError(f"{type(self).__name__}.aggregate(models, f, current, samples) "
+                                  "is not defined")
+
+
+def describe_rule(rule: Any) -> tuple:
+    """``(name, what was hashed, source, callable)`` of a plug-in rule (a function or a
+    :class:`Rule` instance); raises :class:`SwarmflError` for what cannot be one."""
+    if isinstance(rule, type):
+        raise SwarmflError(
+            f"rule= takes a function or an instance, got the class {rule.__name__}: pass "
+            f"{rule.__name__}()")
+    if inspect.isfunction(rule):
+        name, target, fn = rule.__name__, rule, rule
+        what = f"inspect.getsource({rule.__qualname__})"
+    elif callable(getattr(rule, "aggregate", None)):
+        cls = type(rule)
+        name = getattr(rule, "name", None) or cls.__name__
+        target, fn = cls, rule.aggregate
+        what = f"inspect.getsource({cls.__qualname__})"
+    else:
+        raise SwarmflError(
+            "rule= takes a function aggregate(models, f, current, samples) or a swarmfl.Rule "
+            f"instance, got {type(rule).__name__}")
+    if not isinstance(name, str) or not _NAME.fullmatch(name):
+        raise SwarmflError(
+            f"plug-in rule name {name!r}: use 1 to 100 of A-Z a-z 0-9 _ - . (name the function, "
+            "or set the class's name attribute)")
+    try:
+        source = inspect.getsource(target)
+    except (OSError, TypeError) as e:
+        if isinstance(target, type):
+            try:
+                parts = [inspect.getsource(v) for _, v in sorted(vars(target).items())
+                         if inspect.isfunction(v)]
+            except (OSError, TypeError):
+                parts = []
+            if parts:
+                return name, f"inspect.getsource of {target.__qualname__}'s methods", \
+                    "".join(parts), fn
+        raise SwarmflError(
+            f"plug-in rule `{name}`: cannot read its source ({e}); the run records its digest: "
+            "define it in a file or a notebook cell") from None
+    return name, what, source, fn
+
+
+def rule_adapter(name: str, fn: Callable) -> Callable:
+    """The callable the core asks: builds the arrays, calls the rule and checks its answer,
+    raising :class:`PluginError` with the rule's name."""
+
+    def fail(n: int, what: str, detail: str = "") -> PluginError:
+        return PluginError(f"plug-in rule `{name}` {what} (aggregating {n} models){detail}")
+
+    def call(current: bytes, models: bytes, n: int, samples: list, f: int) -> bytes:
+        cur = np.frombuffer(current, dtype="<i8")
+        mods = np.frombuffer(models, dtype="<i8").reshape(n, cur.size)
+        claims = np.array(samples, dtype=np.int64)
+        try:
+            answer = fn(mods, f, cur, claims)
+        except Exception as e:  # the plug-in's own error, whatever it is
+            tb = "".join(traceback.format_exception(type(e), e, e.__traceback__))
+            raise fail(n, f"raised {type(e).__name__}: {e}", f"\n{tb}") from e
+        a = np.asarray(answer)
+        if a.dtype.kind not in "iu":
+            raise fail(n, f"returned dtype {a.dtype} (shape {a.shape}); return integers: the "
+                          "models are fixed point (round where the rule divides)")
+        if a.ndim != 1 or a.size != cur.size:
+            raise fail(n, f"returned shape {a.shape}; the model has {cur.size} weights "
+                          f"(shape ({cur.size},))")
+        big = np.flatnonzero(np.abs(a.astype(object)) >= 2**47)
+        if big.size:
+            raise fail(n, f"returned weight {big[0]} = {a[big[0]]}, beyond int48 (|w| < 2^47)")
+        return a.astype("<i8").tobytes()
+
+    return call
+
+
+def rule_arg(rule: Any) -> Optional[tuple]:
+    """What the extension takes for ``rule=``: ``(name, what, source, adapter)``."""
+    if rule is None:
+        return None
+    name, what, source, fn = describe_rule(rule)
+    return name, what, source, rule_adapter(name, fn)
