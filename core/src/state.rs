@@ -127,8 +127,9 @@ impl State {
         let genesis = genesis_weights(config, seed)?;
         let aggregation = AggregationState::new(config, genesis.clone());
         let params = ContractParams::from_config(config, genesis);
-        // A plug-in rule that is not given is a refusal naming it, not a panic in the ledger.
-        params.check().map_err(SimError::Genesis)?;
+        // A plug-in rule that is not given is a refusal naming it, not a panic in the ledger
+        // (the other checks hold for every validated configuration).
+        params.check().map_err(SimError::Plugin)?;
         let mut digest = blake3::Hasher::new();
         digest.update(&rmp_serde::to_vec(&params).expect("contract parameters encode"));
         let ledger = Ledger::new(config, seed, params);

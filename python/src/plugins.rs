@@ -47,7 +47,13 @@ pub struct PyRule {
 }
 
 impl PyRule {
-    fn ask(&self, py: Python<'_>, current: &[i64], inputs: &[Input], f: usize) -> PyResult<Vec<i64>> {
+    fn ask(
+        &self,
+        py: Python<'_>,
+        current: &[i64],
+        inputs: &[Input],
+        f: usize,
+    ) -> PyResult<Vec<i64>> {
         let cur: Vec<u8> = current.iter().flat_map(|w| w.to_le_bytes()).collect();
         let models: Vec<u8> = inputs
             .iter()

@@ -97,7 +97,7 @@ def test_replay_and_fork_need_the_same_rule(medians, tmp_path):
 def test_the_command_refuses_a_plugin_rule_by_name(medians, tmp_path):
     _, plugin = medians
     for args in (["replay", plugin.log, "--resimulate"],
-                 ["inspect", plugin.log],
+                 ["inspect", "--block", "3", plugin.log],
                  ["run", "--preset", "smoke", "--set", "contract.rule=plugin", "--set",
                   "contract.rule_plugin=x", "--out", tmp_path / "r"]):
         p = subprocess.run([str(BIN), *map(str, args)], capture_output=True, text=True)

@@ -433,6 +433,7 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "contract.clip_radius",
         "byzantine.search_evals",
         "byzantine.plugin",
+        "contract.rule_plugin",
     ] {
         let leaf = key.rsplit('.').next().unwrap();
         assert!(!text.contains(&format!("{leaf} =")), "{key} in {text}");
@@ -511,4 +512,36 @@ fn bad_behaviour_settings_are_refused_naming_the_key() {
     let c = ok(&["world.avoidance=epuck", "world.slide_on_contact=true"]);
     assert!(c.to_toml().contains("avoidance = \"epuck\""));
     assert!(c.to_toml().contains("slide_on_contact = true"));
+}
+
+#[test]
+fn a_plugin_rule_needs_its_name_and_no_preaggregators() {
+    let set = |o: &[&str]| {
+        let o: Vec<String> = o.iter().map(|s| s.to_string()).collect();
+        Config::resolve(Some("smoke"), None, &o)
+            .map(|_| ())
+            .map_err(|e| e.to_string())
+    };
+    assert!(set(&[
+        "contract.rule=\"plugin\"",
+        "contract.rule_plugin=\"np_median\""
+    ])
+    .is_ok());
+    let e = set(&["contract.rule=\"plugin\""]).unwrap_err();
+    assert!(
+        e.contains("contract.rule_plugin") && e.contains("swarmfl.run(..., rule="),
+        "{e}"
+    );
+    let e = set(&["contract.rule_plugin=\"x\""]).unwrap_err();
+    assert!(e.contains("empty unless contract.rule = \"plugin\""), "{e}");
+    let e = set(&[
+        "contract.rule=\"plugin\"",
+        "contract.rule_plugin=\"x\"",
+        "contract.preaggregators=[\"nnm\"]",
+    ])
+    .unwrap_err();
+    assert!(e.contains("contract.preaggregators"), "{e}");
+    // The name is a plain word: it is recorded and matched against the offered rules.
+    let e = set(&["contract.rule=\"plugin\"", "contract.rule_plugin=\"a b\""]).unwrap_err();
+    assert!(e.contains("1 to 100 of"), "{e}");
 }
