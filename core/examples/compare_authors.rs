@@ -205,6 +205,7 @@ fn params(
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     }
 }
 

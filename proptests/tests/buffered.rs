@@ -49,6 +49,7 @@ fn params(rule: Rule, timeout_ms: u64) -> ContractParams {
                 .collect(),
             step_units: 1_000_000,
         }),
+        rule_plugin: None,
     }
 }
 

@@ -34,6 +34,7 @@ fn params(security: bool) -> ContractParams {
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     }
 }
 

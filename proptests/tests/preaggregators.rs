@@ -64,6 +64,7 @@ fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
             clip_radius_units: 30_000_000,
         }),
         buffered: None,
+        rule_plugin: None,
     };
     p.check().ok().map(|()| p)
 }

@@ -42,6 +42,7 @@ fn params(rule: Rule) -> ContractParams {
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         preagg: None,
         buffered: None,
+        rule_plugin: None,
     }
 }
 
