@@ -196,9 +196,11 @@ fn replay(
 }
 
 /// Forks the log at `log` at block `at` with `overrides` into `out` (`swarmfl fork`), offered
-/// the plug-in `attack` (the parent's must be given, with the source its header records).
+/// the plug-ins `attack` and `rule` (the parent's must be given, with the source its header
+/// records).
 #[pyfunction]
 #[pyo3(signature = (log, at, overrides, out, quiet, attack=None, rule=None))]
+#[allow(clippy::too_many_arguments)]
 fn fork(
     py: Python<'_>,
     log: PathBuf,
