@@ -125,3 +125,13 @@ impl ClaimBound {
         !self.explicit
     }
 }
+
+/// The reason text of a claim above the bound `bound` (both engines word it so).
+pub fn over_claim(samples: u64, bound: u64) -> String {
+    if bound == MAX_SAMPLES {
+        // The hard limit's text, as records made before the claim bound have it.
+        format!("samples {samples} exceed the limit {MAX_SAMPLES}")
+    } else {
+        format!("samples {samples} exceed the claim bound {bound} (contract.max_claimed_samples)")
+    }
+}

@@ -69,7 +69,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule, ThresholdRule};
 use crate::types::{Digest, RobotId};
 
-pub use claims::ClaimBound;
+pub use claims::{over_claim, ClaimBound};
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
 pub const MAX_WEIGHT_MAGNITUDE: u64 = 1 << 47;
@@ -969,16 +969,6 @@ fn check_model(params: &ContractParams, weights: &[i64], samples: u64) -> Result
         return Err(format!("weight {i} = {w} is outside int48 (|w| < 2^47)"));
     }
     Ok(())
-}
-
-/// The reason text of a claim above the bound `bound` (both engines word it so).
-pub fn over_claim(samples: u64, bound: u64) -> String {
-    if bound == MAX_SAMPLES {
-        // The hard limit's text, as records made before the claim bound have it.
-        format!("samples {samples} exceed the limit {MAX_SAMPLES}")
-    } else {
-        format!("samples {samples} exceed the claim bound {bound} (contract.max_claimed_samples)")
-    }
 }
 
 /// blake3 of a model's little-endian weights.
