@@ -43,6 +43,9 @@ class Chrome:
         self.from_chrome, from_chrome_w = os.pipe()
 
         def child():
+            # Its own process group, so that close() stops the renderers and helpers too:
+            # killing only the browser left them writing into the profile while it was removed.
+            os.setpgrp()
             os.dup2(to_chrome_r, 3)
             os.dup2(from_chrome_w, 4)
 
@@ -120,13 +123,20 @@ class Chrome:
             f.write(base64.b64decode(data))
 
     def close(self):
-        self.proc.kill()
+        """Stops the browser and every process it started, and waits for the browser."""
+        try:
+            os.killpg(self.proc.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
         self.proc.wait()
+        # The group's other members are not our children; give them a moment to be reaped.
+        time.sleep(0.2)
 
 
 def layout(url, shot):
-    with tempfile.TemporaryDirectory() as profile:
-        c = Chrome(profile)
+    work = tempfile.mkdtemp()
+    try:
+        c = Chrome(os.path.join(work, "profile"))
         try:
             c.open(url, 1024, 768)
             s = c.wait_status(lambda s: True, 20, "the page did not render")
@@ -153,6 +163,8 @@ def layout(url, shot):
                   f"reorg text above the fold at 1400x900 (ends at y = {bottom[0]:.0f})")
         finally:
             c.close()
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
 
 
 def start_run(swarmfl, out, sets):
