@@ -27,6 +27,8 @@ fn an_equivocating_sealer_stops_sealing_once_the_evidence_is_in_a_block() {
     config.world.rab_robot_occlusion = false;
     config.world.random_turn_rate_per_s = 0.1;
     config.data.window_rule = swarmfl_core::config::WindowRule::Contiguous;
+    config.world.avoidance = swarmfl_core::config::Avoidance::Turn;
+    config.world.slide_on_contact = false;
     config.validate().expect("a valid configuration");
     let robots = config.world.robots;
     let byzantine = byzantine_robots(&config, seed);

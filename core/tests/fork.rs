@@ -207,6 +207,8 @@ fn security_switched_on_under_an_open_round_restarts_it_and_conserves_tokens() {
     root.world.rab_robot_occlusion = false;
     root.world.random_turn_rate_per_s = 0.1;
     root.data.window_rule = swarmfl_core::config::WindowRule::Contiguous;
+    root.world.avoidance = swarmfl_core::config::Avoidance::Turn;
+    root.world.slide_on_contact = false;
     let seed = 11;
     // The first tick end after 60 s where the best node's head has an open round.
     let mut state = State::genesis(&root, seed).unwrap();

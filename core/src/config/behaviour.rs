@@ -162,7 +162,7 @@ impl Default for ForagingConfig {
 #[serde(rename_all = "lowercase")]
 pub enum WindowRule {
     /// At its `trajectory_ticks`-th reading; the next window starts at the next reading, and a
-    /// missed tick discards the window (ours until now).
+    /// missed tick discards the window (ours before #38; what records without the key ran).
     #[default]
     Contiguous,
     /// The authors' code (Flow-FL's `trajectory_collection_loop_functions.cpp` and

@@ -221,6 +221,10 @@ impl Preset {
                 c.world.proximity_threshold = 0.0;
                 c.world.rab_robot_occlusion = true;
                 c.data.window_rule = WindowRule::Confirmed;
+                // Flow-FL's Khepera pivots away (our turn rule), not the e-puck's weights; its
+                // measured counts (SPEC) were made with refused moves.
+                c.world.avoidance = Avoidance::Turn;
+                c.world.slide_on_contact = false;
             }
             Preset::E1Expiration => {
                 c.contract.security = false;
@@ -303,20 +307,29 @@ impl Config {
                 proximity_sensors: 8,
                 proximity_range_m: 0.1,
                 proximity_threshold: 0.2,
-                random_turn_rate_per_s: 0.1,
+                // The authors' code makes no random turns (`RandomWalk.step` in
+                // `controllers/movement.py` has `self.random()` commented out): its robots turn
+                // only to avoid. docs/SPEC.md section 1, "Data volume".
+                random_turn_rate_per_s: 0.0,
                 random_turn_max_s: 3.0,
                 rab_range_m: 2.5,
                 rab_noise_std_m: 0.01,
                 rab_occlusion: true,
                 rab_packet_drop: 0.0,
                 peer_refresh_s: 0.5,
-                rab_robot_occlusion: false,
+                // ARGoS' range-and-bearing medium, which the authors' code ran: other robots'
+                // bodies block the line of sight too.
+                rab_robot_occlusion: true,
                 behaviour: Behaviour::Avoidance,
                 mixed: MixedConfig::default(),
                 flocking: FlockingConfig::default(),
                 foraging: ForagingConfig::default(),
-                avoidance: Avoidance::Turn,
-                slide_on_contact: false,
+                // The authors' avoidance on ARGoS's e-puck (`RandomWalk.avoid` in
+                // `controllers/movement.py`, the e-puck proximity ring), and ARGoS's contacts:
+                // a robot pushing against something slides along it. Without both, robots
+                // that make no random turns deadlock. docs/SPEC.md section 1, "Data volume".
+                avoidance: Avoidance::Epuck,
+                slide_on_contact: true,
             },
             data: DataConfig {
                 trajectory_ticks: 100,
@@ -324,7 +337,9 @@ impl Config {
                 target_waypoints: 48,
                 expiration_s: 750.0,
                 heldout_samples: 200,
-                window_rule: WindowRule::Contiguous,
+                // The authors' `controllers/main.py` (ported from Flow-FL): a window is saved
+                // at the next reading after its 100th, and the reading after a gap is dropped.
+                window_rule: WindowRule::Confirmed,
             },
             learn: LearnConfig {
                 lstm_units: 16,

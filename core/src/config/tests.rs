@@ -413,9 +413,25 @@ fn a_value_under_a_table_the_user_set_is_theirs_and_the_message_is_said_once() {
 
 #[test]
 fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
-    // The text of every preset that does not use them is what it was before they existed (so
-    // its log hash chain is too), yet `swarmfl config` shows them and `--set` reaches them.
-    let smoke = Config::resolve(Some("smoke"), None, &[]).unwrap();
+    // A configuration that leaves them at their defaults has the text it had before they
+    // existed (so its log hash chain too), yet `swarmfl config` shows them and `--set` reaches
+    // them. `paper` (hence every preset) now sets two of them, so they are written.
+    let paper = Config::resolve(Some("paper"), None, &[]).unwrap().to_toml();
+    assert!(paper.contains("rab_robot_occlusion = true"), "{paper}");
+    assert!(paper.contains("window_rule = \"confirmed\""), "{paper}");
+    assert!(paper.contains("avoidance = \"epuck\""), "{paper}");
+    assert!(paper.contains("slide_on_contact = true"), "{paper}");
+    let smoke = Config::resolve(
+        Some("smoke"),
+        None,
+        &[
+            "world.rab_robot_occlusion=false".into(),
+            "data.window_rule=contiguous".into(),
+            "world.avoidance=turn".into(),
+            "world.slide_on_contact=false".into(),
+        ],
+    )
+    .unwrap();
     let text = smoke.to_toml();
     let full = smoke.to_toml_full();
     for key in [

@@ -103,10 +103,11 @@ pub struct WorldConfig {
     pub peer_refresh_s: f64,
     /// Whether other robots' bodies block range-and-bearing line of sight, as in ARGoS's
     /// range-and-bearing medium (the authors' and Flow-FL's simulator: a message passes only if
-    /// the first body its ray meets is the receiver's). Off by default; on in `flowfl`
-    /// (docs/SPEC.md section 1, "Data volume"). This key and the four behaviour keys
-    /// below are left out of the recorded configuration at their default, so runs that do not
-    /// use them keep the configuration text, hence the hash chain, they had before the keys.
+    /// the first body its ray meets is the receiver's). On in `paper`, hence in every preset
+    /// (docs/SPEC.md section 1, "Data volume"); a recorded configuration without the key (made
+    /// before it) reads as false, how it ran. This key and the four behaviour keys below are
+    /// left out of the recorded text at their serde default, so a configuration that does not
+    /// use them keeps the text, hence the hash chain, it had before the keys.
     #[serde(default, skip_serializing_if = "is_false")]
     pub rab_robot_occlusion: bool,
     /// The robots' controller: `avoidance` (default), `flocking`, `foraging` or `mixed`.
@@ -121,14 +122,16 @@ pub struct WorldConfig {
     /// The foraging controller's nest, food sources and rest time.
     #[serde(default, skip_serializing_if = "is_default")]
     pub foraging: ForagingConfig,
-    /// How robots sense and avoid obstacles: `turn` (default) or `epuck` (the paper's code on
-    /// ARGoS's e-puck; docs/SPEC.md section 1, "Data volume"). Left out of the recorded
-    /// configuration at its default, like the keys above.
+    /// How robots sense and avoid obstacles: `turn` (serde default, ours before issue #38) or
+    /// `epuck` (the paper's code on ARGoS's e-puck; `paper`, hence every preset but `flowfl`;
+    /// docs/SPEC.md section 1, "Data volume"). A recorded configuration without the key reads
+    /// as `turn`, how it ran.
     #[serde(default, skip_serializing_if = "is_default")]
     pub avoidance: Avoidance,
     /// Whether a robot whose translation would overlap something slides along it (ARGoS's
-    /// dynamics2d, the authors' and Flow-FL's simulator) instead of staying put (default
-    /// false; `world/physics.rs`). Left out of the recorded configuration when false.
+    /// dynamics2d, the authors' and Flow-FL's simulator) instead of staying put
+    /// (`world/physics.rs`). On in `paper`, hence every preset but `flowfl`; a recorded
+    /// configuration without the key reads as false, how it ran.
     #[serde(default, skip_serializing_if = "is_false")]
     pub slide_on_contact: bool,
 }
@@ -147,9 +150,10 @@ pub struct DataConfig {
     pub expiration_s: f64,
     /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
     pub heldout_samples: u32,
-    /// When a window becomes a sample: `contiguous` (default) or `confirmed` (the authors'
-    /// code; docs/SPEC.md section 1, "Data volume"). Left out of the recorded configuration
-    /// at its default, so existing runs keep their hashes.
+    /// When a window becomes a sample: `confirmed` (the authors' code; `paper`, hence every
+    /// preset) or `contiguous` (docs/SPEC.md section 1, "Data volume"). A recorded
+    /// configuration without the key (made before it) reads as `contiguous`, how it ran; the
+    /// key is left out of the recorded text at that value, so such records keep their hashes.
     #[serde(default, skip_serializing_if = "is_default")]
     pub window_rule: WindowRule,
 }

@@ -219,7 +219,10 @@ fn obstacles_occlude_range_and_bearing_when_configured() {
 
 #[test]
 fn standing_neighbours_yield_noisy_trajectories_discarded_on_a_gap() {
-    let mut w = pair(1.0, None, |_| {});
+    // The contiguous rule's timings (the confirmed rule, `paper`'s, has its own test in data.rs).
+    let mut w = pair(1.0, None, |c| {
+        c.data.window_rule = crate::config::WindowRule::Contiguous;
+    });
     for _ in 0..250 {
         w.apply(&STILL());
     }
@@ -248,7 +251,10 @@ fn standing_neighbours_yield_noisy_trajectories_discarded_on_a_gap() {
 
 #[test]
 fn samples_expire_after_the_expiration_time() {
-    let mut w = pair(1.0, None, |c| c.data.expiration_s = 15.0);
+    let mut w = pair(1.0, None, |c| {
+        c.data.expiration_s = 15.0;
+        c.data.window_rule = crate::config::WindowRule::Contiguous;
+    });
     let mut seen = Vec::new();
     for _ in 0..400 {
         w.apply(&STILL());
@@ -388,7 +394,10 @@ fn the_heldout_set_is_fixed_by_the_seed_and_noise_free() {
 
 #[test]
 fn proximity_reads_walls_obstacles_and_robots() {
-    let mut w = pair(0.12, None, |_| {});
+    // Our linear sensors (`paper` has the e-puck's, tested below).
+    let mut w = pair(0.12, None, |c| {
+        c.world.avoidance = crate::config::Avoidance::Turn
+    });
     let mut out = vec![0.0; 8];
     // Robot 0 at (-0.06, 0) faces robot 1 at (0.06, 0): surfaces 0.05 apart.
     w.proximity(0, &mut out);
@@ -416,6 +425,40 @@ fn proximity_reads_walls_obstacles_and_robots() {
     w.proximity(0, &mut out);
     // The sensor at 270 degrees (pointing +y when facing -x) sees the cylinder 0.065 away.
     assert!((out[6] - (1.0 - 0.065 / 0.1)).abs() < 1e-9, "{out:?}");
+}
+
+#[test]
+fn epuck_sensors_start_at_eleven_degrees_off_the_body_and_read_argos_curve() {
+    let mut w = pair(0.12, None, |c| {
+        c.world.avoidance = crate::config::Avoidance::Epuck
+    });
+    let mut out = vec![0.0; 8];
+    // Facing the wall at x = -2 from 0.06 m: sensor 0 (11.25 degrees, from 1 mm off the body)
+    // meets it after (0.06 - 0.036 cos a) / cos a; sensors 0 and 7 (-33.75 degrees) read it.
+    w.poses[0] = Pose {
+        x: -1.94,
+        y: 0.0,
+        theta: std::f64::consts::PI,
+    };
+    w.proximity(0, &mut out);
+    let along = |deg: f64| {
+        let c = deg.to_radians().cos();
+        (0.06 - 0.036 * c) / c
+    };
+    assert!(
+        (out[0] - super::epuck::reading(along(11.25))).abs() < 1e-9,
+        "{out:?}"
+    );
+    assert!(
+        (out[7] - super::epuck::reading(along(33.75))).abs() < 1e-9,
+        "{out:?}"
+    );
+    assert!(out[0] > 0.3 && out[0] < 0.4, "{out:?}");
+    assert_eq!(&out[1..7], &[0.0; 6], "{out:?}");
+    // From 0.1 m the wall is beyond the 5 cm rays.
+    w.poses[0].x = -1.9;
+    w.proximity(0, &mut out);
+    assert_eq!(out, vec![0.0; 8]);
 }
 
 #[test]
