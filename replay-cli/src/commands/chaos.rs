@@ -45,8 +45,9 @@ struct Report {
     blocks_checked: u64,
     liveness_checked: u64,
     /// Runs whose open round's quorum was, after the last heal, out of reach under a contract
-    /// without a deadline (`swarmfl_core::chaos::quorum_out_of_reach`): liveness was owed only
-    /// while it was within reach.
+    /// without a deadline, for want of stakes or of data
+    /// (`swarmfl_core::chaos::quorum_out_of_reach`): liveness was owed only while it was
+    /// within reach.
     liveness_stalled: u64,
     max_deepest_reorg: u64,
     equivocations_detected: u64,
@@ -232,7 +233,7 @@ fn run(
     } else {
         println!(
             "{} runs of {duration_s} s, {} blocks checked, {} equivocations detected, {} sealers \
-             removed, {} stalled by stakes, {} violations, {:.1} s wall",
+             removed, {} stalled (quorum out of reach: stakes or data), {} violations, {:.1} s wall",
             report.runs,
             report.blocks_checked,
             report.equivocations_detected,
