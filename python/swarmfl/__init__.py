@@ -80,32 +80,29 @@ def config(preset: Optional[str] = None, set: Optional[Mapping[str, Any]] = None
     return _swarmfl.config_toml(preset, None if config is None else os.fspath(config), _overrides(set))
 
 
-def _with_attack(overrides: list, plugin: Optional[tuple]) -> list:
-    """The overrides plus ``byzantine.kind = "plugin"`` and ``byzantine.plugin = NAME`` for a
-    plug-in attack (a ``set=`` that names another kind is an error)."""
+def _with_plugin(overrides: list, plugin: Optional[tuple], kind_key: str, name_key: str,
+                 arg: str, what: str) -> list:
+    """The overrides plus ``KIND_KEY = "plugin"`` and ``NAME_KEY = NAME`` for a plug-in passed
+    as ``ARG=`` (a ``set=`` that gives KIND_KEY another value is an error)."""
     if plugin is None:
         return overrides
     for o in overrides:
         key, _, value = o.partition("=")
-        if key.strip() == "byzantine.kind" and value.strip().strip('"') != "plugin":
+        if key.strip() == kind_key and value.strip().strip('"') != "plugin":
             raise SwarmflError(
-                f"attack= runs a plug-in attack (byzantine.kind = \"plugin\"), but set= has {o}: "
+                f"{arg}= runs a plug-in {what} ({kind_key} = \"plugin\"), but set= has {o}: "
                 "drop one of them")
-    return overrides + ['byzantine.kind="plugin"', f"byzantine.plugin={_toml_value(plugin[0])}"]
+    return overrides + [f'{kind_key}="plugin"', f"{name_key}={_toml_value(plugin[0])}"]
+
+
+def _with_attack(overrides: list, plugin: Optional[tuple]) -> list:
+    """The overrides for a plug-in attack: ``byzantine.kind = "plugin"``, ``byzantine.plugin``."""
+    return _with_plugin(overrides, plugin, "byzantine.kind", "byzantine.plugin", "attack", "attack")
 
 
 def _with_rule(overrides: list, plugin: Optional[tuple]) -> list:
-    """The overrides plus ``contract.rule = "plugin"`` and ``contract.rule_plugin = NAME`` for
-    a plug-in rule (a ``set=`` that names another rule is an error)."""
-    if plugin is None:
-        return overrides
-    for o in overrides:
-        key, _, value = o.partition("=")
-        if key.strip() == "contract.rule" and value.strip().strip('"') != "plugin":
-            raise SwarmflError(
-                f"rule= runs a plug-in rule (contract.rule = \"plugin\"), but set= has {o}: "
-                "drop one of them")
-    return overrides + ['contract.rule="plugin"', f"contract.rule_plugin={_toml_value(plugin[0])}"]
+    """The overrides for a plug-in rule: ``contract.rule = "plugin"``, ``contract.rule_plugin``."""
+    return _with_plugin(overrides, plugin, "contract.rule", "contract.rule_plugin", "rule", "rule")
 
 
 def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, Any]] = None,

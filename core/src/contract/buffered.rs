@@ -448,20 +448,7 @@ impl ContractState {
         let update = add_clamped(&vec![0; weights.len()], diff);
         let rebased = add_clamped(&self.weights, update.iter().map(|&u| i128::from(u)));
 
-        self.balances[sender as usize] = balance - stake_units;
-        self.holdings_units = self
-            .holdings_units
-            .checked_add(stake_units)
-            .expect("supply fits u64");
-        self.submissions.push(Submission {
-            sender,
-            samples,
-            distance_units,
-            stake_units,
-            verdict,
-            weights: weights.clone(),
-            weights_digest: model_digest(weights),
-        });
+        self.take_stake_and_record(sender, samples, distance_units, stake_units, verdict, weights);
         let b = Arc::make_mut(self.buffered.as_mut().expect("checked above"));
         b.entries.push(BufferEntry {
             base_round,

@@ -35,7 +35,7 @@
 //! attacker claim the bound, above any honest robot's real count, every round; refusing gives
 //! an inflated claim nothing at all.
 
-use super::MAX_SAMPLES;
+use super::{ContractParams, MAX_SAMPLES, MAX_WEIGHT_MAGNITUDE};
 use crate::config::Config;
 use crate::learn::split_point;
 use crate::types::SimTime;
@@ -134,4 +134,30 @@ pub fn over_claim(samples: u64, bound: u64) -> String {
     } else {
         format!("samples {samples} exceed the claim bound {bound} (contract.max_claimed_samples)")
     }
+}
+
+/// Why a model is malformed, if it is (check 3 of the contract's module doc): no samples, a
+/// claim over the bound, the wrong length or a weight outside int48.
+pub(super) fn check_model(params: &ContractParams, weights: &[i64], samples: u64) -> Result<(), String> {
+    let model_len = params.model_len();
+    if samples == 0 {
+        return Err("samples must be at least 1, got 0".to_string());
+    }
+    if samples > params.claim_bound.max_samples {
+        return Err(over_claim(samples, params.claim_bound.max_samples));
+    }
+    if weights.len() != model_len {
+        return Err(format!(
+            "model has {} weights, the shared model has {model_len}",
+            weights.len()
+        ));
+    }
+    if let Some((i, w)) = weights
+        .iter()
+        .enumerate()
+        .find(|(_, w)| w.unsigned_abs() >= MAX_WEIGHT_MAGNITUDE)
+    {
+        return Err(format!("weight {i} = {w} is outside int48 (|w| < 2^47)"));
+    }
+    Ok(())
 }

@@ -69,6 +69,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule, ThresholdRule};
 use crate::types::{Digest, RobotId};
 
+use claims::check_model;
 pub use claims::{over_claim, ClaimBound};
 
 /// Weights must satisfy `|w_i| < MAX_WEIGHT_MAGNITUDE` (2^47, the reference's int48).
@@ -801,6 +802,34 @@ impl ContractState {
         Outcome::Transferred
     }
 
+    /// Takes `stake_units` from `sender`'s balance (checked by the caller to hold it) into the
+    /// contract's holdings and records the submission: the one place a stake moves in, under
+    /// every protocol, so that conservation has one code path to hold on.
+    fn take_stake_and_record(
+        &mut self,
+        sender: RobotId,
+        samples: u64,
+        distance_units: u64,
+        stake_units: u64,
+        verdict: Verdict,
+        weights: &Arc<[i64]>,
+    ) {
+        self.balances[sender as usize] -= stake_units;
+        self.holdings_units = self
+            .holdings_units
+            .checked_add(stake_units)
+            .expect("supply fits u64");
+        self.submissions.push(Submission {
+            sender,
+            samples,
+            distance_units,
+            stake_units,
+            verdict,
+            weights: weights.clone(),
+            weights_digest: model_digest(weights),
+        });
+    }
+
     fn submit_model(
         &mut self,
         params: &ContractParams,
@@ -853,20 +882,7 @@ impl ContractState {
                 return Outcome::Malformed(reason);
             }
         }
-        self.balances[sender as usize] = balance - stake_units;
-        self.holdings_units = self
-            .holdings_units
-            .checked_add(stake_units)
-            .expect("supply fits u64");
-        self.submissions.push(Submission {
-            sender,
-            samples,
-            distance_units,
-            stake_units,
-            verdict,
-            weights: weights.clone(),
-            weights_digest: model_digest(weights),
-        });
+        self.take_stake_and_record(sender, samples, distance_units, stake_units, verdict, weights);
         let round = self.round;
         if verdict == Verdict::Outlier {
             return Outcome::Outlier {
@@ -944,31 +960,6 @@ impl ContractState {
         self.round_opened_ms = self.block_time_ms;
         payouts
     }
-}
-
-/// Why a model is malformed, if it is (check 3 of the module doc).
-fn check_model(params: &ContractParams, weights: &[i64], samples: u64) -> Result<(), String> {
-    let model_len = params.model_len();
-    if samples == 0 {
-        return Err("samples must be at least 1, got 0".to_string());
-    }
-    if samples > params.claim_bound.max_samples {
-        return Err(over_claim(samples, params.claim_bound.max_samples));
-    }
-    if weights.len() != model_len {
-        return Err(format!(
-            "model has {} weights, the shared model has {model_len}",
-            weights.len()
-        ));
-    }
-    if let Some((i, w)) = weights
-        .iter()
-        .enumerate()
-        .find(|(_, w)| w.unsigned_abs() >= MAX_WEIGHT_MAGNITUDE)
-    {
-        return Err(format!("weight {i} = {w} is outside int48 (|w| < 2^47)"));
-    }
-    Ok(())
 }
 
 /// blake3 of a model's little-endian weights.
