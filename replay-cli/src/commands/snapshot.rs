@@ -34,10 +34,31 @@ pub enum RobotMark {
     Byzantine,
 }
 
-/// The picture: the arena's square chart, and the panel of legend and scale bar right of it.
-const SIZE_PX: (u32, u32) = (1200, 900);
+/// The picture: the arena's square chart, and the panel of legend and scale bar right of it
+/// (wide enough for the legend's longest entry at [`LEGEND_PT`]).
+const SIZE_PX: (u32, u32) = (1350, 900);
 /// Width of the arena's chart (axes included); the panel takes the rest.
 const ARENA_PX: u32 = 900;
+/// The picture is meant to print 7 inches wide (a two-column page's full width, like the
+/// report's figures): pixels per printed point (1/72 inch) at that width.
+const PX_PER_PT: f64 = SIZE_PX.0 as f64 / (7.0 * 72.0);
+/// Printed text sizes, in points: no text under 9 pt.
+const TITLE_PT: f64 = 11.0;
+const AXIS_PT: f64 = 10.0;
+const TICK_PT: f64 = 9.25;
+const LEGEND_PT: f64 = 9.25;
+const ID_PT: f64 = 9.0;
+
+/// A text size's em in pixels.
+fn em(pt: f64) -> f64 {
+    pt * PX_PER_PT
+}
+
+/// The sans-serif font whose em prints at `pt` points. plotters takes a "size" of 1.24 em
+/// (it writes size / 1.24 into an SVG's `font-size` and draws that em into a PNG).
+fn font(pt: f64) -> FontDesc<'static> {
+    ("sans-serif", em(pt) * 1.24).into_font()
+}
 const LINK: RGBColor = RGBColor(0, 190, 210);
 const RAY: RGBColor = RGBColor(120, 200, 255);
 const OBSTACLE: RGBColor = RGBColor(150, 150, 150);
@@ -143,7 +164,7 @@ where
     let h = world.arena().half_side_m;
     let body = match title {
         Some(title) => root
-            .titled(title, ("sans-serif", 24))
+            .titled(title, font(TITLE_PT))
             .map_err(|e| anyhow::anyhow!("{e}"))?,
         None => root.clone(),
     };
@@ -151,7 +172,12 @@ where
     let mut builder = ChartBuilder::on(&left);
     builder.margin(20);
     if title.is_some() {
-        builder.x_label_area_size(50).y_label_area_size(60);
+        // A line of tick labels and the axis title below; four-character tick labels
+        // ("-1.5") and the rotated axis title left.
+        let line = |pt: f64| (em(pt) * 1.25).ceil() as u32;
+        builder
+            .x_label_area_size(line(TICK_PT) + line(AXIS_PT) + 10)
+            .y_label_area_size((em(TICK_PT) * 2.4).ceil() as u32 + line(AXIS_PT) + 12);
     }
     let mut chart = builder
         .build_cartesian_2d(-h..h, -h..h)
@@ -162,8 +188,8 @@ where
             .disable_mesh()
             .x_desc("x (m)")
             .y_desc("y (m)")
-            .label_style(("sans-serif", 15))
-            .axis_desc_style(("sans-serif", 17))
+            .label_style(font(TICK_PT))
+            .axis_desc_style(font(AXIS_PT))
             .x_label_formatter(&|v| format!("{v:.1}"))
             .y_label_formatter(&|v| format!("{v:.1}"))
             .draw()
@@ -403,7 +429,7 @@ where
             .draw_series(std::iter::once(Text::new(
                 i.to_string(),
                 (p.x + 1.3 * r, p.y + 1.3 * r),
-                ("sans-serif", 14).into_font().color(&BLACK),
+                font(ID_PT).color(&BLACK),
             )))
             .map_err(err::<DB>)?;
     }
@@ -459,25 +485,33 @@ where
     let e = |e: DrawingAreaErrorKind<DB::ErrorType>| anyhow::anyhow!("{e}");
     // The panel's own coordinates start at its top left corner; `placed` is in the picture's.
     let (dx, dy) = panel.get_base_pixel();
-    let font = ("sans-serif", 16).into_font().color(&BLACK);
+    let font = font(LEGEND_PT).color(&BLACK);
     let entries = legend_entries(world, marks);
-    let (x0, y0, row) = (10, 60, 26);
+    // Rows a line and a bit apart; a swatch of 0.75 em beside each label.
+    let e_px = em(LEGEND_PT);
+    let row = (e_px * 1.4).round() as i32;
+    let swatch = (e_px * 0.75).round() as i32;
+    let (x0, y0) = (10, 60);
+    let text_x = x0 + 10 + swatch + 10;
     let bottom = y0 + 12 + row * entries.len() as i32;
     let (width, _) = panel.dim_in_pixel();
     let right = width as i32 - 10;
     panel
         .draw(&Rectangle::new([(x0, y0), (right, bottom)], BLACK))
         .map_err(e)?;
+    let mut widest = 0;
     for (k, (label, style)) in entries.into_iter().enumerate() {
         let y = y0 + 12 + row * k as i32;
+        let top = y + (row - swatch) / 2 - 2;
         panel
             .draw(&Rectangle::new(
-                [(x0 + 10, y + 2), (x0 + 26, y + 16)],
+                [(x0 + 10, top), (x0 + 10 + swatch, top + swatch)],
                 style,
             ))
             .map_err(e)?;
+        widest = widest.max(text_width(&font, label));
         panel
-            .draw(&Text::new(label, (x0 + 34, y), font.clone()))
+            .draw(&Text::new(label, (text_x, y), font.clone()))
             .map_err(e)?;
     }
     let h = world.arena().half_side_m;
@@ -486,13 +520,11 @@ where
         bar_m /= 10.0;
     }
     let bar_px = px(bar_m, px_per_m);
-    let (bx, by) = (x0 + 10, bottom + 60);
+    let bar_label = format!("{bar_m} m (scale bar)");
+    let label_w = text_width(&font, &bar_label);
+    let (bx, by) = (x0 + 10, bottom + 2 * row + 10);
     panel
-        .draw(&Text::new(
-            format!("{bar_m} m (scale bar)"),
-            (bx, by - 26),
-            font.clone(),
-        ))
+        .draw(&Text::new(bar_label, (bx, by - row), font.clone()))
         .map_err(e)?;
     panel
         .draw(&PathElement::new(
@@ -501,17 +533,34 @@ where
         ))
         .map_err(e)?;
     Ok(vec![
-        ("legend", (dx + x0, dy + y0, dx + right, dy + bottom)),
+        (
+            "legend",
+            (
+                dx + x0,
+                dy + y0,
+                dx + right.max(text_x + widest),
+                dy + bottom,
+            ),
+        ),
         (
             "scale bar",
             (
                 dx + bx,
-                dy + by - 26,
-                dx + bx + bar_px.max(140),
+                dy + by - row,
+                dx + bx + bar_px.max(label_w),
                 dy + by + 2,
             ),
         ),
     ])
+}
+
+/// The width of `text` in pixels in `style`'s font (0 when no font can be loaded: the picture
+/// is then drawn without text).
+fn text_width(style: &TextStyle, text: &str) -> i32 {
+    style
+        .font
+        .box_size(text)
+        .map_or(0, |(w, _)| i32::try_from(w).unwrap_or(i32::MAX))
 }
 
 /// Runs `swarmfl snapshot`: the world at a block or a time, drawn into `--out`.
@@ -612,6 +661,12 @@ mod tests {
                 placed.arena
             );
             for (what, (l2, t2, r2, b2)) in &placed.overlays {
+                // Inside the picture (the legend's text included), clear of the arena.
+                assert!(
+                    *r2 <= SIZE_PX.0 as i32 && *b2 <= SIZE_PX.1 as i32,
+                    "{name}: the {what} {:?} runs off the picture",
+                    (l2, t2, r2, b2)
+                );
                 let apart = *l2 >= r || *r2 <= l || *t2 >= b || *b2 <= t;
                 assert!(
                     apart,
@@ -625,6 +680,26 @@ mod tests {
         let svg = std::fs::read_to_string(dir.join("swarmfl-snapshot-600s.svg"))
             .unwrap()
             .replace('\n', "");
+        // Printed 7 inches wide, no text is under 9 pt: plotters writes each font's em into
+        // `font-size`.
+        let width: f64 = svg
+            .split("width=\"")
+            .nth(1)
+            .and_then(|t| t.split('"').next()?.parse().ok())
+            .expect("the SVG's width");
+        let px_per_pt = width / (7.0 * 72.0);
+        let ems: Vec<f64> = svg
+            .split("font-size=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next()?.trim_end_matches("px").parse().ok())
+            .collect();
+        assert!(ems.len() > 15, "ids, ticks, legend: {ems:?}");
+        let smallest = ems.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            smallest / px_per_pt >= 9.0 - 1e-6,
+            "smallest em {smallest:.2} px prints at {:.2} pt at 7 in (under 9 pt)",
+            smallest / px_per_pt
+        );
         assert!(svg.contains("t = 600 s"), "the title is drawn");
         for text in [
             ">3<",
@@ -662,7 +737,14 @@ mod tests {
             world.apply(&event);
         }
         let out = std::env::temp_dir().join(format!("swarmfl-mixed-{}.svg", std::process::id()));
-        draw(&world, &[RobotMark::Byzantine], "mixed", &out).unwrap();
+        let placed = draw(&world, &[RobotMark::Byzantine], "mixed", &out).unwrap();
+        // The longest legend entries ("Byzantine robot (red ring)") fit the panel.
+        for (what, rect) in &placed.overlays {
+            assert!(
+                rect.2 <= SIZE_PX.0 as i32,
+                "the {what} {rect:?} runs off the picture"
+            );
+        }
         let svg = std::fs::read_to_string(&out).unwrap().replace('\n', "");
         std::fs::remove_file(&out).unwrap();
         for text in [

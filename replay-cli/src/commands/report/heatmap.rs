@@ -34,17 +34,39 @@ pub(super) struct Heatmap {
     pub(super) diverging: bool,
 }
 
-/// Logical sizes of the layout.
+/// Logical sizes of the layout that do not depend on the text (see [`Layout`] for those).
+/// A cell is at least this wide, wider when a column name or a number needs it.
 const CELL_W: f64 = 78.0;
-const CELL_H: f64 = 30.0;
+const CELL_H: f64 = 32.0;
 const MARGIN: f64 = 14.0;
-const ROW_NAMES: f64 = 140.0;
-const TITLE_H: f64 = 68.0;
-const COL_NAMES: f64 = 44.0;
-const AXIS_TITLE_H: f64 = 26.0;
 const BAR_GAP: f64 = 22.0;
 const BAR_W: f64 = 18.0;
-const BAR_LABELS: f64 = 62.0;
+/// Room a text keeps from the cell border or the next text.
+const PAD: f64 = 8.0;
+/// A line of text's height, in ems (DejaVu Sans' ascent plus descent is 1.17 em).
+const LINE: f64 = 1.25;
+/// The title's line, in its ems: a little more, to set it apart from the subtitle.
+const TITLE_LINE: f64 = 1.45;
+
+/// The sizes of the layout that its text decides, measured at the paper style's font sizes
+/// so that no name, number or title is clipped or runs into its neighbour.
+#[derive(Clone, Copy, Debug)]
+struct Layout {
+    /// A cell's width.
+    cell_w: f64,
+    /// The column of row names left of the grid.
+    row_names: f64,
+    /// From the top margin to the grid: title, subtitle, the rows' title.
+    title_h: f64,
+    /// Below the grid: the column names (one or two lines).
+    col_names: f64,
+    /// Below the column names: the columns' title.
+    axis_title_h: f64,
+    /// Right of the colour bar: its tick labels.
+    bar_labels: f64,
+    /// The canvas' width at least (the title and subtitle fit).
+    min_w: f64,
+}
 
 /// The colour scale: the values' range with its top (or, diverging, its magnitude) clipped at
 /// [`CLIP_PERCENTILE`].
@@ -155,18 +177,104 @@ impl Heatmap {
         }
     }
 
+    /// The colour bar's five tick labels, bottom to top.
+    fn bar_ticks(&self, scale: Scale) -> Vec<String> {
+        (0..=4)
+            .map(|k| {
+                let t = k as f64 / 4.0;
+                let label =
+                    number(self.value_at(scale, if self.diverging { 2.0 * t - 1.0 } else { t }));
+                if scale.clipped && k == 4 {
+                    format!(">= {label}")
+                } else if scale.clipped && k == 0 && self.diverging {
+                    format!("<= {label}")
+                } else {
+                    label
+                }
+            })
+            .collect()
+    }
+
+    /// The subtitle: what the colour shows and where its scale is clipped.
+    fn subtitle(&self, scale: Scale) -> String {
+        let clip = if !scale.clipped {
+            String::new()
+        } else if self.diverging {
+            format!(
+                "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile of |value| ({}): \
+                 cells beyond +-{} take the end colours",
+                number(scale.hi),
+                number(scale.hi)
+            )
+        } else {
+            format!(
+                "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile ({}): cells above \
+                 it take the top colour",
+                number(scale.hi)
+            )
+        };
+        format!("colour: {}{clip}", self.value_title)
+    }
+
+    /// The text-dependent sizes, measured.
+    fn layout(&self) -> Layout {
+        let scale = self.scale();
+        let widest = |em: f64, texts: &mut dyn Iterator<Item = String>| {
+            texts.map(|t| style::text_width(em, &t)).fold(0.0, f64::max)
+        };
+        // The cells are as wide as the widest number, or the widest name once split at
+        // its hyphen if it has one; a name that fits that width then stays on one line.
+        let split = widest(
+            style::TICK,
+            &mut self.cols.iter().flat_map(|c| col_lines(c, CELL_W)),
+        );
+        let numbers = widest(
+            style::CELL,
+            &mut self
+                .values
+                .iter()
+                .flatten()
+                .map(|v| v.map_or_else(|| "n/a".to_string(), number)),
+        );
+        let row_names = widest(style::TICK, &mut self.rows.iter().cloned())
+            .max(style::text_width(style::AXIS, &self.row_title));
+        let title = style::text_width(style::TITLE, &self.title)
+            .max(style::text_width(style::CELL, &self.subtitle(scale)));
+        let cell_w = CELL_W.max(split.max(numbers) + 2.0 * PAD);
+        let col_lines_n = self
+            .cols
+            .iter()
+            .map(|c| col_lines(c, cell_w).len())
+            .max()
+            .unwrap_or(1);
+        Layout {
+            cell_w,
+            row_names: row_names + 2.0 * PAD,
+            title_h: style::TITLE * TITLE_LINE + (style::CELL + style::AXIS) * LINE + 2.0 * PAD,
+            col_names: PAD + col_lines_n as f64 * style::TICK * LINE + PAD,
+            axis_title_h: style::AXIS * LINE,
+            bar_labels: PAD + widest(style::CELL, &mut self.bar_ticks(scale).into_iter()) + PAD,
+            min_w: MARGIN + title + MARGIN,
+        }
+    }
+
     /// The logical canvas size.
     fn canvas(&self) -> (u32, u32) {
+        let l = self.layout();
         let w = MARGIN
-            + ROW_NAMES
-            + CELL_W * self.cols.len() as f64
+            + l.row_names
+            + l.cell_w * self.cols.len() as f64
             + BAR_GAP
             + BAR_W
-            + BAR_LABELS
+            + l.bar_labels
             + MARGIN;
-        let h =
-            MARGIN + TITLE_H + CELL_H * self.rows.len() as f64 + COL_NAMES + AXIS_TITLE_H + MARGIN;
-        (w.ceil() as u32, h.ceil() as u32)
+        let h = MARGIN
+            + l.title_h
+            + CELL_H * self.rows.len() as f64
+            + l.col_names
+            + l.axis_title_h
+            + MARGIN;
+        (w.max(l.min_w).ceil() as u32, h.ceil() as u32)
     }
 }
 
@@ -206,10 +314,9 @@ fn number(v: f64) -> String {
 }
 
 /// A column name in one or two lines: split at the hyphen nearest its middle when it would not
-/// fit the cell.
-fn col_lines(name: &str) -> Vec<String> {
-    // About half an em per character of the sans-serif font.
-    let fits = name.len() as f64 * style::TICK * 0.5 <= CELL_W - 4.0;
+/// fit a cell `cell_w` wide.
+fn col_lines(name: &str, cell_w: f64) -> Vec<String> {
+    let fits = style::text_width(style::TICK, name) <= cell_w - 2.0 * PAD;
     if fits {
         return vec![name.to_string()];
     }
@@ -232,24 +339,26 @@ fn draw_on<DB: DrawingBackend>(
 ) -> DrawResult<DB> {
     root.fill(&WHITE)?;
     let scale = map.scale();
+    let l = map.layout();
+    let cell_w = l.cell_w;
     let (nc, nr) = (map.cols.len() as f64, map.rows.len() as f64);
-    let left = MARGIN + ROW_NAMES;
-    let top = MARGIN + TITLE_H;
+    let left = MARGIN + l.row_names;
+    let top = MARGIN + l.title_h;
     let p = |x: f64, y: f64| (st.px(x), st.px(y));
     let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     for (r, row) in map.values.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
-            let (x, y) = (left + CELL_W * c as f64, top + CELL_H * r as f64);
+            let (x, y) = (left + cell_w * c as f64, top + CELL_H * r as f64);
             let fill = match v {
                 Some(v) if v.is_finite() => map.colour(map.position(scale, *v)),
                 _ => RGBColor(225, 225, 225),
             };
             root.draw(&Rectangle::new(
-                [p(x, y), p(x + CELL_W, y + CELL_H)],
+                [p(x, y), p(x + cell_w, y + CELL_H)],
                 fill.filled(),
             ))?;
             root.draw(&Rectangle::new(
-                [p(x, y), p(x + CELL_W, y + CELL_H)],
+                [p(x, y), p(x + cell_w, y + CELL_H)],
                 BLACK.mix(0.15).stroke_width(st.upx(1.0)),
             ))?;
             if text {
@@ -262,14 +371,14 @@ fn draw_on<DB: DrawingBackend>(
                     .pos(Pos::new(HPos::Center, VPos::Center));
                 root.draw(&Text::new(
                     label,
-                    p(x + CELL_W / 2.0, y + CELL_H / 2.0),
+                    p(x + cell_w / 2.0, y + CELL_H / 2.0),
                     font,
                 ))?;
             }
         }
     }
     // The colour bar, top colour at the top.
-    let bar_x = left + CELL_W * nc + BAR_GAP;
+    let bar_x = left + cell_w * nc + BAR_GAP;
     let bar_h = CELL_H * nr;
     let steps = 64;
     for i in 0..steps {
@@ -290,23 +399,15 @@ fn draw_on<DB: DrawingBackend>(
     if !text {
         return Ok(());
     }
-    for k in 0..=4 {
-        let t = k as f64 / 4.0;
-        let value = map.value_at(scale, if map.diverging { 2.0 * t - 1.0 } else { t });
-        let y = top + bar_h * (1.0 - t);
+    for (k, label) in map.bar_ticks(scale).into_iter().enumerate() {
+        let y = top + bar_h * (1.0 - k as f64 / 4.0);
         root.draw(&PathElement::new(
             vec![p(bar_x + BAR_W, y), p(bar_x + BAR_W + 4.0, y)],
             BLACK.stroke_width(st.upx(1.0)),
         ))?;
-        let mut label = number(value);
-        if scale.clipped && k == 4 {
-            label = format!(">= {label}");
-        } else if scale.clipped && k == 0 && map.diverging {
-            label = format!("<= {label}");
-        }
         root.draw(&Text::new(
             label,
-            p(bar_x + BAR_W + 7.0, y),
+            p(bar_x + BAR_W + PAD, y),
             anchored(style::CELL, HPos::Left, VPos::Center),
         ))?;
     }
@@ -316,60 +417,39 @@ fn draw_on<DB: DrawingBackend>(
         p(MARGIN, MARGIN),
         anchored(style::TITLE, HPos::Left, VPos::Top),
     ))?;
-    let subtitle = format!(
-        "colour: {}{}",
-        map.value_title,
-        if scale.clipped {
-            if map.diverging {
-                format!(
-                    "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile of |value| ({}): \
-                     cells beyond +-{} take the end colours",
-                    number(scale.hi),
-                    number(scale.hi)
-                )
-            } else {
-                format!(
-                    "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile ({}): cells above \
-                     it take the top colour",
-                    number(scale.hi)
-                )
-            }
-        } else {
-            String::new()
-        }
-    );
+    let subtitle = map.subtitle(scale);
     root.draw(&Text::new(
         subtitle,
-        p(MARGIN, MARGIN + 28.0),
+        p(MARGIN, MARGIN + style::TITLE * TITLE_LINE),
         anchored(style::CELL, HPos::Left, VPos::Top).color(&BLACK.mix(0.7)),
     ))?;
     // Row names, right-aligned against the grid; the rows' title above them.
     for (r, name) in map.rows.iter().enumerate() {
         root.draw(&Text::new(
             name.clone(),
-            p(left - 8.0, top + CELL_H * (r as f64 + 0.5)),
+            p(left - PAD, top + CELL_H * (r as f64 + 0.5)),
             anchored(style::TICK, HPos::Right, VPos::Center),
         ))?;
     }
     // Column names under the grid (two lines when long), the columns' title under them.
     for (c, name) in map.cols.iter().enumerate() {
-        let x = left + CELL_W * (c as f64 + 0.5);
-        for (line, part) in col_lines(name).into_iter().enumerate() {
+        let x = left + cell_w * (c as f64 + 0.5);
+        for (line, part) in col_lines(name, cell_w).into_iter().enumerate() {
             root.draw(&Text::new(
                 part,
-                p(x, top + bar_h + 6.0 + line as f64 * (style::TICK + 2.0)),
+                p(x, top + bar_h + PAD + line as f64 * style::TICK * LINE),
                 anchored(style::TICK, HPos::Center, VPos::Top),
             ))?;
         }
     }
     root.draw(&Text::new(
         map.col_title.clone(),
-        p(left + CELL_W * nc / 2.0, top + bar_h + COL_NAMES),
+        p(left + cell_w * nc / 2.0, top + bar_h + l.col_names),
         anchored(style::AXIS, HPos::Center, VPos::Top),
     ))?;
     root.draw(&Text::new(
         map.row_title.clone(),
-        p(left - 8.0, top - 6.0),
+        p(left - PAD, top - PAD / 2.0),
         anchored(style::AXIS, HPos::Right, VPos::Bottom),
     ))?;
     Ok(())
@@ -420,20 +500,30 @@ mod tests {
 
     #[test]
     fn long_column_names_break_at_a_hyphen() {
-        assert_eq!(col_lines("none"), vec!["none"]);
-        assert_eq!(col_lines("inflate-samples"), vec!["inflate-", "samples"]);
-        assert_eq!(col_lines("optimal-alie-x"), vec!["optimal-", "alie-x"]);
+        assert_eq!(col_lines("none", CELL_W), vec!["none"]);
+        assert_eq!(
+            col_lines("inflate-samples", CELL_W),
+            vec!["inflate-", "samples"]
+        );
+        assert_eq!(
+            col_lines("optimal-alie-x", CELL_W),
+            vec!["optimal-", "alie-x"]
+        );
+        // In a cell wide enough for it, a name stays on one line.
+        assert_eq!(col_lines("sign-flip", 200.0), vec!["sign-flip"]);
     }
 
     #[test]
     fn the_canvas_holds_the_grid_and_no_blank_margin() {
         let m = map(vec![vec![Some(1.0); 13]; 9], false);
         let (w, h) = m.canvas();
+        let l = m.layout();
         let grid_h = CELL_H * 9.0;
         // Below the grid only the column names, the axis title and the margin.
         assert!(
-            f64::from(h) - (MARGIN + TITLE_H + grid_h) <= COL_NAMES + AXIS_TITLE_H + MARGIN + 1.0
+            f64::from(h) - (MARGIN + l.title_h + grid_h)
+                <= l.col_names + l.axis_title_h + MARGIN + 1.0
         );
-        assert!(f64::from(w) >= ROW_NAMES + CELL_W * 13.0);
+        assert!(f64::from(w) >= l.row_names + l.cell_w * 13.0);
     }
 }

@@ -162,18 +162,11 @@ mod tests {
         let png = std::fs::read(out.join("e2-faulty-loss.png")).unwrap();
         let width = u32::from_be_bytes(png[16..20].try_into().unwrap());
         assert_eq!(width, 1800, "PNG width");
-        // The SVG is vector text at the layout's sizes: none below the tick labels' 15 px.
-        // plotters writes a font's em, its size / 1.24, into `font-size`.
+        // The SVG is vector text whose printed size, the 900 px layout at 7 inches, is 9 pt
+        // or more: an em of 16.07 px. plotters writes a font's em into `font-size`.
         let svg = std::fs::read_to_string(out.join("e2-faulty-loss.svg")).unwrap();
         assert!(svg.contains("width=\"900\""), "SVG width");
-        let sizes: Vec<f64> = svg
-            .split("font-size=\"")
-            .skip(1)
-            .filter_map(|t| t.split('"').next()?.trim_end_matches("px").parse().ok())
-            .collect();
-        assert!(!sizes.is_empty(), "no text in the SVG");
-        let smallest = sizes.iter().copied().fold(f64::INFINITY, f64::min) * 1.24;
-        assert!(smallest >= style::TICK - 0.01, "font sizes {sizes:?}");
+        assert_prints_at_least_9_pt(&svg, "the loss figure");
         // Confidence bands are filled, translucent polygons, not thin lines.
         let bands = svg
             .split("<polygon")
@@ -184,7 +177,46 @@ mod tests {
             })
             .count();
         assert!(bands >= 1, "no filled translucent band in the loss figure");
+        // A heatmap's names and cell numbers too.
+        let map = heatmap::Heatmap {
+            title: "final loss".into(),
+            row_title: "aggregation rule".into(),
+            col_title: "attack".into(),
+            value_title: "loss".into(),
+            rows: vec!["centered-clipping".into(), "fedavg".into()],
+            cols: vec!["none".into(), "inflate-samples".into(), "malicious".into()],
+            values: vec![
+                vec![Some(2.19), Some(8.77), None],
+                vec![Some(0.0123), Some(-0.5), Some(2.2)],
+            ],
+            diverging: false,
+        };
+        heatmap::draw(&map, &out, "map").unwrap();
+        let svg = std::fs::read_to_string(out.join("map.svg")).unwrap();
+        assert!(
+            svg.contains(">2.19<") || svg.contains("2.19"),
+            "cell numbers drawn"
+        );
+        assert_prints_at_least_9_pt(&svg, "the heatmap");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// Every `font-size` of `svg` (an em, in px of the 900 px = 7 inch layout) prints at 9 pt
+    /// or more.
+    fn assert_prints_at_least_9_pt(svg: &str, what: &str) {
+        let ems: Vec<f64> = svg
+            .split("font-size=\"")
+            .skip(1)
+            .filter_map(|t| t.split('"').next()?.trim_end_matches("px").parse().ok())
+            .collect();
+        assert!(!ems.is_empty(), "no text in {what}");
+        let px_per_pt = 900.0 / (7.0 * 72.0);
+        let smallest = ems.iter().copied().fold(f64::INFINITY, f64::min);
+        assert!(
+            smallest / px_per_pt >= 9.0 - 1e-6,
+            "{what}: smallest em {smallest:.2} px prints at {:.2} pt (under 9 pt); ems {ems:?}",
+            smallest / px_per_pt
+        );
     }
 
     #[test]

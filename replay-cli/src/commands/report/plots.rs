@@ -252,8 +252,12 @@ fn draw_on<DB: DrawingBackend>(
     if text {
         builder
             .caption(&plot.title, st.font(style::TITLE))
-            .x_label_area_size(st.upx(48.0))
-            .y_label_area_size(st.upx(78.0));
+            // Room for a line of tick labels and the axis title at the paper style's ems
+            // (about 1.25 em a line, plus gaps); left, for five-character tick labels.
+            .x_label_area_size(st.upx(style::TICK * 1.25 + style::AXIS * 1.25 + 10.0))
+            .y_label_area_size(st.upx(style::TICK * 3.0 + style::AXIS * 1.25 + 12.0))
+            // Half of the last x tick label ("5000") reaches past the plot's right edge.
+            .margin_right(st.upx(style::TICK * 1.6));
     } else {
         builder
             .x_label_area_size(st.upx(10.0))
