@@ -142,6 +142,8 @@ impl Bound {
 /// build's time), and a last one from the finished log.
 fn build_loop(shared: &Shared, log: &Path) {
     let mut version = 0;
+    // Each successful build's wall time and the log's size it read, for the closing line.
+    let mut updates: Vec<(Duration, u64)> = Vec::new();
     loop {
         // Read before the build: a run that ends during it gets one more build.
         let ended = shared.run_ended.load(Ordering::SeqCst);
@@ -151,6 +153,7 @@ fn build_loop(shared: &Shared, log: &Path) {
             ended,
             poll_ms: POLL_MS,
         };
+        let log_bytes = std::fs::metadata(log).map_or(0, |m| m.len());
         match Page::build(log, Some(live)) {
             Ok(page) => {
                 version += 1;
@@ -160,6 +163,7 @@ fn build_loop(shared: &Shared, log: &Path) {
                     data: page.data,
                 };
                 *lock(&shared.page) = Some(Arc::new(built));
+                updates.push((started.elapsed(), log_bytes));
             }
             // Until the header is on disk the log cannot be read: the page says the run is
             // starting. A run that failed before writing anything leaves nothing to show.
@@ -171,6 +175,9 @@ fn build_loop(shared: &Shared, log: &Path) {
         }
         if ended {
             shared.built_last.store(true, Ordering::SeqCst);
+            if let Some(line) = update_summary(&updates) {
+                eprintln!("{line}");
+            }
             return;
         }
         let wait = Duration::from_millis(POLL_MS).max(started.elapsed() * 2);
@@ -179,6 +186,27 @@ fn build_loop(shared: &Shared, log: &Path) {
             std::thread::sleep(Duration::from_millis(50));
         }
     }
+}
+
+/// The closing line of a live view: how many page updates the run had and what one cost (wall
+/// time, the log's size read), so a long run shows whether an update grows with its log.
+fn update_summary(updates: &[(Duration, u64)]) -> Option<String> {
+    let (first, last) = (updates.first()?, updates.last()?);
+    let mut times: Vec<Duration> = updates.iter().map(|u| u.0).collect();
+    times.sort();
+    let median = times[times.len() / 2];
+    let ms = |d: Duration| d.as_secs_f64() * 1000.0;
+    let mb = |b: u64| b as f64 / 1.0e6;
+    Some(format!(
+        "live view: {} page updates, each from the log so far: first {:.0} ms ({:.1} MB of \
+         log), median {:.0} ms, last {:.0} ms ({:.1} MB)",
+        updates.len(),
+        ms(first.0),
+        mb(first.1),
+        ms(median),
+        ms(last.0),
+        mb(last.1)
+    ))
 }
 
 /// The server: answers until the last build has been published and no page asked for
@@ -257,4 +285,27 @@ fn header(name: &str, value: &str) -> Header {
 /// replaces it in one assignment).
 fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
     m.lock().unwrap_or_else(|poisoned| poisoned.into_inner())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_closing_line_gives_first_median_and_last_update() {
+        assert_eq!(update_summary(&[]), None);
+        let ms = Duration::from_millis;
+        let line = update_summary(&[
+            (ms(40), 1_000_000),
+            (ms(90), 2_000_000),
+            (ms(60), 3_000_000),
+            (ms(300), 12_500_000),
+        ])
+        .unwrap();
+        assert_eq!(
+            line,
+            "live view: 4 page updates, each from the log so far: first 40 ms (1.0 MB of log), \
+             median 90 ms, last 300 ms (12.5 MB)"
+        );
+    }
 }
