@@ -448,7 +448,14 @@ impl ContractState {
         let update = add_clamped(&vec![0; weights.len()], diff);
         let rebased = add_clamped(&self.weights, update.iter().map(|&u| i128::from(u)));
 
-        self.take_stake_and_record(sender, samples, distance_units, stake_units, verdict, weights);
+        self.take_stake_and_record(
+            sender,
+            samples,
+            distance_units,
+            stake_units,
+            verdict,
+            weights,
+        );
         let b = Arc::make_mut(self.buffered.as_mut().expect("checked above"));
         b.entries.push(BufferEntry {
             base_round,

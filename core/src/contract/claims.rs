@@ -138,7 +138,11 @@ pub fn over_claim(samples: u64, bound: u64) -> String {
 
 /// Why a model is malformed, if it is (check 3 of the contract's module doc): no samples, a
 /// claim over the bound, the wrong length or a weight outside int48.
-pub(super) fn check_model(params: &ContractParams, weights: &[i64], samples: u64) -> Result<(), String> {
+pub(super) fn check_model(
+    params: &ContractParams,
+    weights: &[i64],
+    samples: u64,
+) -> Result<(), String> {
     let model_len = params.model_len();
     if samples == 0 {
         return Err("samples must be at least 1, got 0".to_string());

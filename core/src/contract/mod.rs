@@ -882,7 +882,14 @@ impl ContractState {
                 return Outcome::Malformed(reason);
             }
         }
-        self.take_stake_and_record(sender, samples, distance_units, stake_units, verdict, weights);
+        self.take_stake_and_record(
+            sender,
+            samples,
+            distance_units,
+            stake_units,
+            verdict,
+            weights,
+        );
         let round = self.round;
         if verdict == Verdict::Outlier {
             return Outcome::Outlier {
