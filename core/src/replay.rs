@@ -19,12 +19,12 @@ pub enum ReplayError {
     #[error(transparent)]
     Log(#[from] LogError),
     /// The header's configuration is not valid for this build.
-    #[error("{path}: the configuration in the log header is not valid for this swarmfl: {source}")]
+    #[error("{path}: the configuration in the log header is not valid for this swarmfl: {cause}")]
     Config {
         /// The log.
         path: String,
         /// What is wrong.
-        source: ConfigError,
+        cause: ConfigError,
     },
     /// A plug-in the header records is not given, or its source changed
     /// (`byzantine::plugin`).
@@ -36,15 +36,15 @@ pub enum ReplayError {
         message: String,
     },
     /// The run cannot start from the header's configuration.
-    #[error("{path}: cannot start the run of the header: {source}")]
+    #[error("{path}: cannot start the run of the header: {cause}")]
     Start {
         /// The log.
         path: String,
         /// What is wrong.
-        source: SimError,
+        cause: SimError,
     },
     /// An event does not fit the state.
-    #[error("{path}: record {index} ({kind} at t = {time}) cannot be applied: {source}")]
+    #[error("{path}: record {index} ({kind} at t = {time}) cannot be applied: {cause}")]
     Apply {
         /// The log.
         path: String,
@@ -55,7 +55,7 @@ pub enum ReplayError {
         /// Simulated time.
         time: SimTime,
         /// What is wrong.
-        source: ApplyError,
+        cause: ApplyError,
     },
     /// The replayed or re-simulated run differs from the log.
     #[error(
@@ -99,7 +99,7 @@ pub fn header_config<R: Read>(reader: &LogReader<R>, path: &str) -> Result<Confi
     crate::config::parse_config(&reader.header().config_toml, &format!("{path} (header)")).map_err(
         |source| ReplayError::Config {
             path: path.to_string(),
-            source,
+            cause: source,
         },
     )
 }
@@ -132,7 +132,7 @@ pub fn fold_record(
                     index,
                     kind: record.kind(),
                     time: *time,
-                    source,
+                    cause: source,
                 })
         }
         Record::Checkpoint(expected) => match state
@@ -160,7 +160,7 @@ pub fn replay(path: &Path) -> Result<ReplayReport, ReplayError> {
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
-        source,
+        cause: source,
     })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
     let mut config = config;
@@ -229,7 +229,7 @@ pub fn resimulate_with(path: &Path, plugins: &Plugins) -> Result<ReplayReport, R
     let mut sim = Sim::forked_with(config, seed, &reconfigurations, plugins).map_err(|source| {
         ReplayError::Start {
             path: name.clone(),
-            source,
+            cause: source,
         }
     })?;
     let (mut checkpoints, mut blocks) = (0u64, 0u64);
@@ -343,7 +343,7 @@ pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64),
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
-        source,
+        cause: source,
     })?;
     let mut config = config;
     while state.world.time() < time {

@@ -471,3 +471,91 @@ fn view_shows_a_baselines_aggregations_as_summary_and_export_count_them() {
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
+
+/// A log of just a header with `config_toml` (and a footer): what a foreign or older build, or a
+/// hand-edited header, leaves for this one to read.
+fn header_only_log(path: &Path, config_toml: String) {
+    use swarmfl_core::log::{Header, LogWriter};
+    let writer = LogWriter::create(path, &Header::new(7, config_toml)).unwrap();
+    writer.finish().unwrap();
+}
+
+/// How often `needle` stands in `text`.
+fn count(text: &str, needle: &str) -> usize {
+    text.matches(needle).count()
+}
+
+#[test]
+fn a_header_this_build_refuses_is_said_with_its_cause_once() {
+    let dir = scratch("header");
+    // Valid key by key (each within its range), but the robots cannot be placed: the run
+    // cannot start from this header.
+    let out = swarmfl(&[
+        "config",
+        "--preset",
+        "smoke",
+        "--set",
+        "world.robot_radius_m=5",
+        "--set",
+        "world.arena_side_m=4",
+    ]);
+    assert!(out.status.success(), "{}", stderr(&out));
+    let unplaceable = dir.join("unplaceable.swlog");
+    header_only_log(&unplaceable, stdout(&out));
+    let cause = "it is larger than the arena";
+    let log = unplaceable.to_str().unwrap();
+    let (html, csv) = (dir.join("v.html"), dir.join("csv"));
+    let commands: [Vec<&str>; 4] = [
+        vec!["replay", log],
+        vec!["replay", "--resimulate", log],
+        vec!["view", log, "--out", html.to_str().unwrap()],
+        vec!["export", log, "--out", csv.to_str().unwrap()],
+    ];
+    for args in &commands {
+        let out = swarmfl(args);
+        let text = stderr(&out);
+        assert!(!out.status.success(), "{args:?} accepted the log: {text}");
+        assert_eq!(
+            count(&text, cause),
+            1,
+            "{args:?}: the cause not said once: {text}"
+        );
+        assert_eq!(
+            count(&text, "cannot start the run of the header"),
+            1,
+            "{args:?}: {text}"
+        );
+    }
+    // A header whose configuration this build refuses outright (a value out of range).
+    let out = swarmfl(&["config", "--preset", "smoke"]);
+    let toml = stdout(&out).replace("robot_radius_m = ", "robot_radius_m = 100 #");
+    assert!(toml.contains("robot_radius_m = 100"), "{toml}");
+    let refused = dir.join("refused.swlog");
+    header_only_log(&refused, toml);
+    let out = swarmfl(&["replay", refused.to_str().unwrap()]);
+    let text = stderr(&out);
+    assert!(!out.status.success(), "{text}");
+    assert_eq!(
+        count(&text, "out of range"),
+        1,
+        "the cause not said once: {text}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_predicate_that_cannot_be_evaluated_is_said_with_its_cause_once() {
+    let dir = scratch("eval");
+    assert!(short_run(&dir.join("r"), "1").status.success());
+    let log = dir.join("r/run.swlog");
+    let out = swarmfl(&[
+        "bisect",
+        log.to_str().unwrap(),
+        "--until",
+        "balance[99] > 1",
+    ]);
+    let text = stderr(&out);
+    assert!(!out.status.success(), "{text}");
+    assert_eq!(count(&text, "there is no robot 99"), 1, "{text}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -543,7 +543,7 @@ pub fn block_report_indexed(
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
-        source,
+        cause: source,
     })?;
     let mut learned: LastLearning = vec![None; config.world.robots as usize];
     let (_, hash, record) = sidecar.blocks[height as usize];

@@ -34,7 +34,10 @@ pub fn bisect(
         evaluations += 1;
         predicate
             .holds(&values.at(h))
-            .map_err(|source| InspectError::Eval { block: h, source })
+            .map_err(|source| InspectError::Eval {
+                block: h,
+                cause: source,
+            })
     };
     let found = first_holding(values.len() as u64 - 1, monotone, &mut holds)?;
     Ok(found.map(|h| {
@@ -101,7 +104,10 @@ pub fn profile(values: &ChainValues<'_>, predicate: &Expr) -> Result<Profile, In
         truth.push(
             predicate
                 .holds(&values.at(h))
-                .map_err(|source| InspectError::Eval { block: h, source })?,
+                .map_err(|source| InspectError::Eval {
+                    block: h,
+                    cause: source,
+                })?,
         );
     }
     let first = truth.iter().position(|&t| t).map(|h| h as u64);

@@ -37,11 +37,11 @@ pub enum InspectError {
         message: String,
     },
     /// A predicate names a value the state does not have.
-    #[error("cannot evaluate the expression at block {block}: {source}")]
+    #[error("cannot evaluate the expression at block {block}: {cause}")]
     Eval {
         /// The block.
         block: u64,
         /// What is wrong.
-        source: EvalError,
+        cause: EvalError,
     },
 }

@@ -142,7 +142,7 @@ fn fold_side_by_side(
                 index,
                 kind: "tick",
                 time,
-                source,
+                cause: source,
             }));
         }
         Ok(result?.expect("the world's thread stops only on an error"))
@@ -192,7 +192,7 @@ fn read_to_meet(
                         index,
                         kind: event.kind(),
                         time,
-                        source,
+                        cause: source,
                     },
                 )?;
                 note_learning(side.learned, time, event);

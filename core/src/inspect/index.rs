@@ -194,7 +194,7 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
     let seed = reader.header().seed;
     let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
         path: name.clone(),
-        source,
+        cause: source,
     })?;
     let robots = config.world.robots;
     let mut seen = Sealings {

@@ -139,7 +139,7 @@ impl RunIndex {
             heldout.push(values.at(r.block).ident("heldout_loss").map_err(|source| {
                 InspectError::Eval {
                     block: r.block,
-                    source,
+                    cause: source,
                 }
             })?);
         }
@@ -368,7 +368,7 @@ pub fn poses_table(path: &Path, every_s: f64) -> Result<Table, InspectError> {
     let mut world = State::genesis(&config, seed)
         .map_err(|source| ReplayError::Start {
             path: name.clone(),
-            source,
+            cause: source,
         })?
         .world;
     let step_ms = ((every_s * 1000.0).round() as u64).max(1);
@@ -402,7 +402,7 @@ pub fn poses_table(path: &Path, every_s: f64) -> Result<Table, InspectError> {
                     index,
                     kind: "tick",
                     time: *at,
-                    source,
+                    cause: source,
                 }
             })?;
         }

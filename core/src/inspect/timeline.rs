@@ -206,7 +206,7 @@ pub fn bisect_by_time(
     let mut state = State::genesis(&config, seed).map_err(|source| {
         InspectError::Replay(ReplayError::Start {
             path: name.clone(),
-            source,
+            cause: source,
         })
     })?;
     let ctx = context(&config, seed, &state);
@@ -234,7 +234,7 @@ pub fn bisect_by_time(
             })
             .map_err(|source| InspectError::Eval {
                 block: i as u64,
-                source,
+                cause: source,
             })
     };
     if points.is_empty() {

@@ -228,8 +228,12 @@ impl Walk {
             index.chain.iter().map(|r| (r.hash, r.height)).collect();
         let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
         let header_config = replay::header_config(&reader, &name)?;
-        let state = State::genesis(&header_config, index.seed)
-            .map_err(|e| anyhow::anyhow!("{name}: cannot start the run of the header: {e}"))?;
+        let state = State::genesis(&header_config, index.seed).map_err(|cause| {
+            replay::ReplayError::Start {
+                path: name.clone(),
+                cause,
+            }
+        })?;
         let genesis = state.ledger.head(0).0;
         let mut walk = Walk {
             ids: BTreeMap::from([(genesis, 0)]),
