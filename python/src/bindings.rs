@@ -156,7 +156,15 @@ fn run(
     let (plugins, failure) = plugins::plugins(attack, rule);
     let outcome = on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
-        swarmfl_cli::api::run_with_plugins(config, seed, &out, quiet, &plugins, check)
+        swarmfl_cli::api::run_with_plugins(
+            config,
+            seed,
+            &out,
+            quiet,
+            &plugins,
+            swarmfl_cli::api::Flush::WhenFull,
+            check,
+        )
     })?;
     serde_json::to_string(&outcome.summary).map_err(err)
 }

@@ -4,50 +4,14 @@
 use std::path::Path;
 
 use swarmfl_core::byzantine::plugin::Plugins;
-use swarmfl_core::config::Config;
 
 pub use crate::commands::report::{results_frame, Frame};
-pub use crate::commands::run::RunOutcome;
+// The command's own run functions (one definition each, documented there): `run` writes
+// `out/run.swlog` and `out/summary.json` as `swarmfl run` does, `run_until` stops at the next
+// record once its flag is set, `run_with_plugins` offers plug-ins and a check before every
+// record (Python passes `Flush::WhenFull`).
+pub use crate::commands::run::{run, run_until, run_with_plugins, Flush, RunOutcome};
 pub use crate::commands::sweep::{Shard, SweepOptions, SweepOutcome, TaskDone};
-
-/// Runs `config` with `seed` into `out` (`out/run.swlog`, `out/summary.json`), as `swarmfl
-/// run` does; `quiet` hides the progress bar.
-pub fn run(config: Config, seed: u64, out: &Path, quiet: bool) -> anyhow::Result<RunOutcome> {
-    crate::commands::run::run(config, seed, out, quiet)
-}
-
-/// [`run`], interrupted at the next record once `stop` is set (an error saying so; the log
-/// left in `out` is truncated).
-pub fn run_until(
-    config: Config,
-    seed: u64,
-    out: &Path,
-    quiet: bool,
-    stop: &std::sync::atomic::AtomicBool,
-) -> anyhow::Result<RunOutcome> {
-    crate::commands::run::run_until(config, seed, out, quiet, stop)
-}
-
-/// [`run`] offered `plugins` (plug-in attacks); `check` runs before every record is written and
-/// its error stops the run, leaving the log in `out` truncated.
-pub fn run_with_plugins(
-    config: Config,
-    seed: u64,
-    out: &Path,
-    quiet: bool,
-    plugins: &Plugins,
-    check: impl FnMut() -> anyhow::Result<()>,
-) -> anyhow::Result<RunOutcome> {
-    crate::commands::run::run_with_plugins(
-        config,
-        seed,
-        out,
-        quiet,
-        plugins,
-        crate::commands::run::Flush::WhenFull,
-        check,
-    )
-}
 
 /// Forks the log at `parent` at block `height` with `overrides` into `out`, as `swarmfl fork`
 /// does, offered `plugins` (the parent's must be among them, with the recorded sources);
