@@ -92,6 +92,13 @@ fn errors_name_the_key_the_value_and_what_is_allowed() {
     check_err(&["learn.dropout=1.5"], "learn.dropout");
     check_err(&["byzantine.kind=evil"], "byzantine.kind");
     check_err(&["byzantine.kind=faulty"], "byzantine.count");
+    // A plug-in attack with no robots to run it: the Python call and the key, not `--set`.
+    check_err(
+        &["byzantine.kind=plugin", "byzantine.plugin=sign_flip"],
+        "the plug-in attack `sign_flip` (byzantine.plugin) runs on byzantine.count robots and \
+         none is given; give the count with the attack, e.g. swarmfl.run(..., \
+         attack=MyAttack(), set={\"byzantine.count\": 3}) in Python",
+    );
     check_err(&["noequals"], "expected key.path=value");
     check_err(
         &["world.robots.x=1"],

@@ -508,6 +508,20 @@ fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
     if misbehaves == (b.count > 0) {
         return Ok(());
     }
+    if b.kind == ByzantineKind::Plugin && b.count == 0 {
+        // A plug-in attack comes from Python, where the CLI's `--set` hint does not apply.
+        return out_of_range(
+            "byzantine.count",
+            b.count.to_string(),
+            format!(
+                "at least 1 with byzantine.kind = \"plugin\": the plug-in attack `{}` \
+                 (byzantine.plugin) runs on byzantine.count robots and none is given; give the \
+                 count with the attack, e.g. swarmfl.run(..., attack=MyAttack(), \
+                 set={{\"byzantine.count\": 3}}) in Python",
+                b.plugin
+            ),
+        );
+    }
     out_of_range(
         "byzantine.count",
         b.count.to_string(),
