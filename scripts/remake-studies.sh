@@ -9,7 +9,7 @@
 # `--jobs ${JOBS:-2}`, then `swarmfl report` writes its report beside results/. `sweep` resumes:
 # if this script is interrupted, run it again with RESUME=1 and it keeps the finished files.
 # The wall time of every sweep is printed and appended to reproduction/<study>/walltime.txt
-# (one line per sweep: experiment, tasks, seconds), for the study's README.
+# (one line per sitting of a sweep that ran tasks: experiment, tasks run, seconds), for the study's README.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 
@@ -56,12 +56,17 @@ for study in "${studies[@]}"; do
   mkdir -p "$dir/results"
   while read -r line; do
     read -r experiment args <<< "$line"
+    before=$(find "$dir/results/$experiment" -name 'seed*.json' 2>/dev/null | wc -l)
     start=$(date +%s)
     # shellcheck disable=SC2086
     "$bin" sweep "$experiment" $args --jobs "$jobs" --out "$dir/results"
     end=$(date +%s)
     tasks=$(find "$dir/results/$experiment" -name 'seed*.json' | wc -l)
-    echo "$experiment $tasks $((end - start))" | tee -a "$dir/walltime.txt"
+    # A resumed sweep that had nothing left to run adds no line (its time is already there);
+    # one that ran some tasks records how many it ran, so walltime.txt stays a sum of sittings.
+    if [ "$tasks" -gt "$before" ]; then
+      echo "$experiment $((tasks - before)) $((end - start))" | tee -a "$dir/walltime.txt"
+    fi
   done <<< "$recipe"
   "$bin" report "$dir/results" --out "$dir"
   awk '{ s += $3 } END { printf "%s: %d s of sweeps in all\n", FILENAME, s }' "$dir/walltime.txt"
