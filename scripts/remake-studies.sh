@@ -56,7 +56,8 @@ for study in "${studies[@]}"; do
   mkdir -p "$dir/results"
   while read -r line; do
     read -r experiment args <<< "$line"
-    before=$(find "$dir/results/$experiment" -name 'seed*.json' 2>/dev/null | wc -l)
+    # (a fresh study has no directory for the experiment yet: find fails, which is 0 files)
+    before=$({ find "$dir/results/$experiment" -name 'seed*.json' 2>/dev/null || true; } | wc -l)
     start=$(date +%s)
     # shellcheck disable=SC2086
     "$bin" sweep "$experiment" $args --jobs "$jobs" --out "$dir/results"
