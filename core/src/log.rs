@@ -22,7 +22,7 @@
 //! before it stays readable.
 
 use std::fs::File;
-use std::io::{BufReader, BufWriter, Read, Write};
+use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
 use std::path::Path;
 
 use serde::{Deserialize, Serialize};
@@ -724,6 +724,45 @@ impl<R: Read> LogReader<R> {
     }
 }
 
+/// What [`LogReader::next_intact`] found at the reader's place in a log that may still grow.
+#[derive(Debug)]
+pub enum Next {
+    /// The next record, verified.
+    Record(Record),
+    /// The verified footer: the log is complete ([`LogReader::footer`] has it).
+    End,
+    /// The file ends inside the next frame (or before it, without a footer): a writer may be
+    /// writing it. The reader stands at that frame's start, and a later call reads it once
+    /// the file holds it; the error is what a reader of the file as it is now reports.
+    Pending(LogError),
+}
+
+impl<R: Read + Seek> LogReader<R> {
+    /// Reads the next record of a log that may still be growing (`swarmfl run --live` reads
+    /// the log its run is writing): only the bytes after the records already read, and a
+    /// frame the file ends inside is [`Next::Pending`], not an error; a damaged frame still
+    /// is ([`LogError::Corrupt`]). Pending leaves the reader as it was before the call (its
+    /// offset, index, chain and last checkpoint; not [`LogReader::last_payload`]), so the
+    /// records read across any number of calls are those of one read of the finished file.
+    pub fn next_intact(&mut self) -> Result<Next, LogError> {
+        match self.next_record() {
+            Ok(Some(record)) => Ok(Next::Record(record)),
+            Ok(None) => Ok(Next::End),
+            Err(cut @ LogError::Truncated { .. }) => {
+                // A cut frame changes nothing of the reader's but how far its input went.
+                self.input
+                    .seek(SeekFrom::Start(self.offset))
+                    .map_err(|e| LogError::Io {
+                        path: self.path.clone(),
+                        message: e.to_string(),
+                    })?;
+                Ok(Next::Pending(cut))
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -936,5 +975,115 @@ mod tests {
         );
         let err = read_all(&MAGIC[..]).1.unwrap_err().to_string();
         assert!(err.contains("inside the fixed header"), "{err}");
+    }
+
+    /// A file that a writer extends while it is read: the reader sees `visible` bytes of
+    /// `bytes`, and a test shows it more.
+    struct Growing {
+        bytes: std::rc::Rc<std::cell::RefCell<(Vec<u8>, usize)>>,
+        at: u64,
+    }
+
+    impl Read for Growing {
+        fn read(&mut self, buf: &mut [u8]) -> std::io::Result<usize> {
+            let shared = self.bytes.borrow();
+            let (bytes, visible) = (&shared.0, shared.1);
+            let from = (self.at as usize).min(visible);
+            let n = buf.len().min(visible - from);
+            buf[..n].copy_from_slice(&bytes[from..from + n]);
+            self.at += n as u64;
+            Ok(n)
+        }
+    }
+
+    impl Seek for Growing {
+        fn seek(&mut self, to: SeekFrom) -> std::io::Result<u64> {
+            let SeekFrom::Start(at) = to else {
+                unreachable!("the reader seeks from the start only")
+            };
+            self.at = at;
+            Ok(at)
+        }
+    }
+
+    /// Reads a log shown `cuts` bytes at a time (then whole) with [`LogReader::next_intact`]:
+    /// the records, the end, and the pending errors met on the way.
+    fn read_growing(bytes: &[u8], cuts: &[usize]) -> (Vec<Record>, Result<Footer, LogError>) {
+        let shared = std::rc::Rc::new(std::cell::RefCell::new((bytes.to_vec(), cuts[0])));
+        let input = BufReader::with_capacity(
+            16,
+            Growing {
+                bytes: std::rc::Rc::clone(&shared),
+                at: 0,
+            },
+        );
+        let mut reader = LogReader::new(input, "mem").unwrap();
+        let mut records = vec![];
+        for &visible in cuts.iter().chain([&bytes.len()]) {
+            shared.borrow_mut().1 = visible;
+            loop {
+                match reader.next_intact() {
+                    Ok(Next::Record(r)) => records.push(r),
+                    Ok(Next::End) => return (records, Ok(reader.footer().unwrap())),
+                    Ok(Next::Pending(e)) => {
+                        let at = shared.borrow().1;
+                        assert!(at < bytes.len(), "pending only before the end: {e}");
+                        // What a reader of the file as it is now says.
+                        let (_, now) = read_all(&bytes[..at]);
+                        assert_eq!(now.unwrap_err().to_string(), e.to_string());
+                        break;
+                    }
+                    Err(e) => return (records, Err(e)),
+                }
+            }
+        }
+        (
+            records,
+            Err(reader.truncated(reader.offset(), "pending".into())),
+        )
+    }
+
+    #[test]
+    fn a_growing_log_is_read_in_pieces_as_one_read_of_the_whole() {
+        let (bytes, footer) = sample_log(25);
+        let (whole, _) = read_all(&bytes);
+        let header_end = 24 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        // Cuts inside frame headers, payloads, at frame boundaries and inside the footer.
+        let n = bytes.len();
+        for step in [1, 5, 13, 37, 200] {
+            let cuts: Vec<usize> = (header_end + 8..n).step_by(step).collect();
+            let (records, end) = read_growing(&bytes, &cuts);
+            assert_eq!(records, whole, "step {step}");
+            assert_eq!(end.unwrap(), footer, "step {step}");
+        }
+        for cuts in [
+            vec![n - 1],
+            vec![header_end + 8, n - 2],
+            vec![n / 2, n / 2 + 1],
+        ] {
+            let (records, end) = read_growing(&bytes, &cuts);
+            assert_eq!(records, whole, "{cuts:?}");
+            assert_eq!(end.unwrap(), footer, "{cuts:?}");
+        }
+    }
+
+    #[test]
+    fn a_growing_log_with_a_damaged_record_is_still_refused() {
+        let (mut bytes, _) = sample_log(25);
+        let (whole, _) = read_all(&bytes);
+        // A payload byte of a record in the second half: the cut before it is pending, the
+        // damage after it an error at that record.
+        let n = bytes.len();
+        let mut frame = 24 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        while frame < n * 3 / 4 {
+            let len = u32::from_le_bytes(bytes[frame + 1..frame + 5].try_into().unwrap());
+            frame += FRAME_OVERHEAD as usize + len as usize;
+        }
+        bytes[frame + FRAME_OVERHEAD as usize + 1] ^= 0x10;
+        let (records, end) = read_growing(&bytes, &[n / 2, n / 2 + 3]);
+        let err = end.unwrap_err();
+        assert!(matches!(err, LogError::Corrupt { .. }), "{err}");
+        assert_eq!(err.record_index(), Some(records.len() as u64));
+        assert!(records.len() < whole.len() && records[..] == whole[..records.len()]);
     }
 }

@@ -1,7 +1,9 @@
 //! The block index of a log: one fold (checking every checkpoint) that finds the final
-//! canonical chain, each block's sealing record, time and node heights ([`index_run`]).
+//! canonical chain, each block's sealing record, time and node heights ([`index_run`]); the
+//! same fold fed one record at a time ([`Indexer`]) for a log that is still growing.
 
 use std::collections::BTreeMap;
+use std::io::Read;
 use std::path::Path;
 
 use super::error::InspectError;
@@ -87,15 +89,14 @@ struct Sealings {
     want: Option<u64>,
     /// Every sealed block.
     sealed: BTreeMap<BlockHash, Sealed>,
-    /// Chain sizes per node, at every sealing.
-    chain_bytes: Vec<ChainBytesRow>,
     /// The state after each block sealed at height `want` (one per competing fork).
     candidates: BTreeMap<BlockHash, StateAtBlock>,
 }
 
 impl Sealings {
     /// Notes the sealing of `height` by `node` that the checkpoint at record `index` (time
-    /// `time`) announces, after checking that the node's head is that block.
+    /// `time`) announces, after checking that the node's head is that block; returns the
+    /// chain sizes at that sealing.
     fn note(
         &mut self,
         state: &State,
@@ -104,7 +105,7 @@ impl Sealings {
         index: u64,
         time: SimTime,
         (node, height): (RobotId, u64),
-    ) -> Result<(), InspectError> {
+    ) -> Result<ChainBytesRow, InspectError> {
         let robots = self.robots;
         if node >= robots {
             return Err(inconsistent(name, index, "names a node out of the swarm"));
@@ -120,7 +121,7 @@ impl Sealings {
             ));
         }
         let node_heights: Vec<u64> = (0..robots).map(|r| state.ledger.head(r).1).collect();
-        self.chain_bytes.push(ChainBytesRow {
+        let sizes = ChainBytesRow {
             time,
             bytes: (0..robots)
                 .map(|r| {
@@ -128,7 +129,7 @@ impl Sealings {
                     state.ledger.block(&head).map_or(0, |e| e.chain_bytes)
                 })
                 .collect(),
-        });
+        };
         self.sealed.insert(
             hash,
             Sealed {
@@ -141,7 +142,7 @@ impl Sealings {
             self.candidates
                 .insert(hash, (state.clone(), learned.clone()));
         }
-        Ok(())
+        Ok(sizes)
     }
 
     /// Notes a block that the injection at record `index` (time `time`) stored, if `bytes`
@@ -190,22 +191,7 @@ impl Sealings {
 pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectError> {
     let name = path.display().to_string();
     let mut reader = LogReader::open(path).map_err(ReplayError::from)?;
-    let mut config = header_config(&reader, &name)?;
-    let seed = reader.header().seed;
-    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
-        path: name.clone(),
-        cause: source,
-    })?;
-    let robots = config.world.robots;
-    let mut seen = Sealings {
-        robots,
-        want,
-        sealed: BTreeMap::new(),
-        chain_bytes: Vec::new(),
-        candidates: BTreeMap::new(),
-    };
-    let mut learned: LastLearning = vec![None; robots as usize];
-    let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
+    let mut indexer = Indexer::start(&reader, &name, want)?;
     let mut truncated = None;
     loop {
         let record = match reader.next_record() {
@@ -220,65 +206,162 @@ pub fn index_run(path: &Path, want: Option<u64>) -> Result<RunIndex, InspectErro
             }
             Err(e) => return Err(ReplayError::from(e).into()),
         };
-        let index = reader.index() - 1;
-        fold_record(&mut state, &mut learned, &name, index, &record)?;
-        if let Some(next) = replay::reconfigured(&record) {
-            config = next;
+        indexer.feed(reader.index() - 1, &record)?;
+    }
+    indexer.finish(truncated)
+}
+
+/// The fold of [`index_run`], fed one record at a time: a log that is still growing (the live
+/// view) is indexed as far as it has been read, and indexed again after more records, each
+/// record folded once. [`Indexer::index`] gives the index of the records so far at any point.
+pub struct Indexer {
+    /// The index of the records fed so far; its `chain`, `byzantine`, `truncated` and
+    /// `at_block` are brought up to date by [`Indexer::index`], the rest by every record.
+    index: RunIndex,
+    seen: Sealings,
+    learned: LastLearning,
+    genesis_state: Option<StateAtBlock>,
+}
+
+impl Indexer {
+    /// An index of no record yet of the log that `reader` opened (`name` names it in errors);
+    /// `want` as in [`index_run`].
+    pub fn start<R: Read>(
+        reader: &LogReader<R>,
+        name: &str,
+        want: Option<u64>,
+    ) -> Result<Indexer, InspectError> {
+        let config = header_config(reader, name)?;
+        let seed = reader.header().seed;
+        let state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
+            path: name.to_string(),
+            cause: source,
+        })?;
+        let robots = config.world.robots;
+        let learned: LastLearning = vec![None; robots as usize];
+        let genesis_state = (want == Some(0)).then(|| (state.clone(), learned.clone()));
+        Ok(Indexer {
+            index: RunIndex {
+                path: name.to_string(),
+                byzantine: Vec::new(),
+                config,
+                seed,
+                chain: Vec::new(),
+                final_state: state,
+                records: 0,
+                chain_bytes: Vec::new(),
+                truncated: None,
+                at_block: None,
+            },
+            seen: Sealings {
+                robots,
+                want,
+                sealed: BTreeMap::new(),
+                candidates: BTreeMap::new(),
+            },
+            learned,
+            genesis_state,
+        })
+    }
+
+    /// Folds the record at `index` (the next one: records are fed in order, each once).
+    pub fn feed(&mut self, index: u64, record: &Record) -> Result<(), InspectError> {
+        assert_eq!(index, self.index.records, "records are fed in order");
+        let run = &mut self.index;
+        let (state, name) = (&mut run.final_state, &run.path);
+        fold_record(state, &mut self.learned, name, index, record)?;
+        run.records = index + 1;
+        if let Some(next) = replay::reconfigured(record) {
+            run.config = next;
         }
         if let Record::Event {
             time,
             event: Event::Ledger(LedgerEvent::Inject { bytes, .. }),
-        } = &record
+        } = record
         {
-            seen.note_injected(&state, &learned, index, *time, bytes);
+            self.seen
+                .note_injected(&run.final_state, &self.learned, index, *time, bytes);
         }
-        if let Record::Checkpoint(expected) = &record {
+        if let Record::Checkpoint(expected) = record {
             if let CheckpointCause::Block { node, height } = expected.cause {
-                seen.note(
-                    &state,
-                    &learned,
-                    &name,
+                let row = self.seen.note(
+                    &run.final_state,
+                    &self.learned,
+                    &run.path,
                     index,
                     expected.time,
                     (node, height),
                 )?;
+                run.chain_bytes.push(row);
             }
         }
+        Ok(())
     }
-    let records = match reader.footer() {
-        Some(footer) => footer.records,
-        None => reader.index(),
-    };
-    let chain = final_chain(&state, &seen, truncated.is_some(), &name)?;
-    let last = chain.len() as u64 - 1;
-    let at_block = match want {
-        None => None,
-        Some(h) if h > last => {
-            return Err(InspectError::BlockPastEnd {
-                path: name,
-                block: h,
-                last,
-            })
-        }
-        Some(0) => genesis_state,
-        Some(h) => Some(
-            seen.candidates
-                .remove(&chain[h as usize].hash)
-                .expect("every block sealed at the height asked for was kept"),
-        ),
-    };
-    Ok(RunIndex {
-        path: name,
-        byzantine: byzantine::byzantine_robots(&config, seed),
-        config,
-        seed,
-        chain,
-        final_state: state,
-        records,
-        chain_bytes: seen.chain_bytes,
-        at_block,
-        truncated,
-    })
+
+    /// The state after the records fed so far.
+    pub fn state(&self) -> &State {
+        &self.index.final_state
+    }
+
+    /// The run's configuration after the records fed so far (reconfigurations applied).
+    pub fn config(&self) -> &Config {
+        &self.index.config
+    }
+
+    /// Records fed so far.
+    pub fn records(&self) -> u64 {
+        self.index.records
+    }
+
+    /// The index of the records fed so far, as [`index_run`] makes it of a log that holds just
+    /// those records; `truncated` says why the log ends there if it has no footer yet. Costs
+    /// the length of the canonical chain (and, with `want`, a copy of that block's state).
+    pub fn index(&mut self, truncated: Option<String>) -> Result<&RunIndex, InspectError> {
+        let at_block = self.chain_and_block(truncated.is_some(), |seen, hash| {
+            seen.candidates.get(hash).cloned()
+        })?;
+        self.index.at_block = at_block;
+        self.index.truncated = truncated;
+        Ok(&self.index)
+    }
+
+    /// The index of every record fed ([`Indexer::index`] without copying anything).
+    pub fn finish(mut self, truncated: Option<String>) -> Result<RunIndex, InspectError> {
+        let at_block = self.chain_and_block(truncated.is_some(), |seen, hash| {
+            seen.candidates.remove(hash)
+        })?;
+        self.index.at_block = at_block;
+        self.index.truncated = truncated;
+        Ok(self.index)
+    }
+
+    /// Brings the chain and the Byzantine robots up to date and takes the state at the block
+    /// asked for with `take`.
+    fn chain_and_block(
+        &mut self,
+        truncated: bool,
+        take: impl FnOnce(&mut Sealings, &BlockHash) -> Option<StateAtBlock>,
+    ) -> Result<Option<StateAtBlock>, InspectError> {
+        let run = &mut self.index;
+        run.chain = final_chain(&run.final_state, &self.seen, truncated, &run.path)?;
+        run.byzantine = byzantine::byzantine_robots(&run.config, run.seed);
+        let last = run.chain.len() as u64 - 1;
+        Ok(match self.seen.want {
+            None => None,
+            Some(h) if h > last => {
+                return Err(InspectError::BlockPastEnd {
+                    path: run.path.clone(),
+                    block: h,
+                    last,
+                })
+            }
+            Some(0) => self.genesis_state.clone(),
+            Some(h) => Some(
+                take(&mut self.seen, &run.chain[h as usize].hash)
+                    .expect("every block sealed at the height asked for was kept"),
+            ),
+        })
+    }
 }
 
 /// The rows of the final canonical chain (the best node's at the end of the fold) from the

@@ -71,7 +71,7 @@ pub use error::InspectError;
 pub use export::RoundRow;
 pub use expr::{EvalError, Expr, ParseError};
 pub use fold::LastLearning;
-pub use index::{index_run, BlockRow, ChainBytesRow, RunIndex, StateAtBlock};
+pub use index::{index_run, BlockRow, ChainBytesRow, Indexer, RunIndex, StateAtBlock};
 pub use sidecar::{read_sidecar, sidecar_path, Sidecar, SIDECAR_VERSION};
 pub use tables::{poses_table, Column, Table};
 pub use values::{BlockValues, ChainValues};

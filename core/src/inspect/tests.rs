@@ -647,3 +647,71 @@ fn poses_are_sampled_at_the_rate_asked() {
         assert!(e.contains("positive number of seconds"), "{e}");
     }
 }
+
+/// What an index says, as text (its state by the digests of a checkpoint).
+fn index_text(index: &RunIndex) -> String {
+    let digests = index.final_state.checkpoint(
+        crate::types::SimTime(0),
+        crate::event::CheckpointCause::Periodic,
+    );
+    format!(
+        "{:?} {:?} {} {:?} {:?} {:?} {digests:?} {}",
+        index.chain,
+        index.chain_bytes,
+        index.records,
+        index.byzantine,
+        index.truncated,
+        index.at_block.as_ref().map(|(s, l)| (
+            s.checkpoint(
+                crate::types::SimTime(0),
+                crate::event::CheckpointCause::Periodic
+            ),
+            l
+        )),
+        index.config.run.duration_s
+    )
+}
+
+#[test]
+fn an_indexer_fed_in_pieces_gives_the_index_of_each_prefix() {
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../fixtures/logs/short-resim-seed7.swlog");
+    let bytes = std::fs::read(&path).unwrap();
+    let dir = std::env::temp_dir().join(format!("swarmfl-indexer-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let cut_path = dir.join("cut.swlog");
+    let name = path.display().to_string();
+    let mut reader = crate::log::LogReader::open(&path).unwrap();
+    let mut indexer = Indexer::start(&reader, &name, Some(1)).unwrap();
+    let mut taken = 0;
+    while let Some(record) = reader.next_record().unwrap() {
+        indexer.feed(reader.index() - 1, &record).unwrap();
+        // Every 97th record (and the first) a snapshot, compared with the index of a file
+        // holding just the records so far (block 1 asked for, once it exists).
+        let at = reader.index();
+        if at % 97 != 1 {
+            continue;
+        }
+        std::fs::write(&cut_path, &bytes[..reader.offset() as usize]).unwrap();
+        match index_run(&cut_path, Some(1)) {
+            Ok(mut cut) => {
+                let snap = indexer.index(cut.truncated.clone()).unwrap();
+                cut.path = snap.path.clone();
+                assert_eq!(index_text(snap), index_text(&cut), "after record {at}");
+                taken += 1;
+            }
+            Err(InspectError::BlockPastEnd { .. }) => {
+                let snap = indexer.index(Some("cut".into()));
+                assert!(matches!(snap, Err(InspectError::BlockPastEnd { .. })));
+            }
+            Err(e) => panic!("{e}"),
+        }
+    }
+    assert!(taken > 5, "{taken} snapshots");
+    let whole = index_run(&path, Some(1)).unwrap();
+    assert_eq!(
+        index_text(&indexer.finish(None).unwrap()),
+        index_text(&whole)
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

@@ -5,7 +5,9 @@
 //! run flushes every [`super::run::Flush`] interval, so the log and the summary are the bytes of
 //! a run without `--live`.
 //! - The builder folds the log's intact prefix into the viewer's data with the code of
-//!   `swarmfl view` ([`Page::build`]), numbering each build (its version). It builds again
+//!   `swarmfl view` (a [`Fold`] kept between builds: each build reads and folds only the
+//!   records the log gained since the last, then makes the page of all of them, the same
+//!   data as one fold of that prefix), numbering each build (its version). It builds again
 //!   [`POLL_MS`] after the last build, or twice as long as that build took if longer, so the
 //!   view never takes more than a third of one core from the run however long the log grows.
 //!   When the run ends it builds once more from the finished log: that page says the run ended.
@@ -24,7 +26,7 @@ use std::time::{Duration, Instant};
 
 use tiny_http::{Header, Request, Response, Server};
 
-use crate::commands::view::{LiveState, Page};
+use crate::commands::view::{Fold, LiveState, Page};
 
 /// How often the page asks for newer data, and the shortest time between two builds (ms).
 pub const POLL_MS: u64 = 1000;
@@ -144,6 +146,8 @@ fn build_loop(shared: &Shared, log: &Path) {
     let mut version = 0;
     // Each successful build's wall time and the log's size it read, for the closing line.
     let mut updates: Vec<(Duration, u64)> = Vec::new();
+    // The fold of the log so far, kept between updates (opened once the header is on disk).
+    let mut fold: Option<Fold> = None;
     loop {
         // Read before the build: a run that ends during it gets one more build.
         let ended = shared.run_ended.load(Ordering::SeqCst);
@@ -154,7 +158,7 @@ fn build_loop(shared: &Shared, log: &Path) {
             poll_ms: POLL_MS,
         };
         let log_bytes = std::fs::metadata(log).map_or(0, |m| m.len());
-        match Page::build(log, Some(live)) {
+        match update(&mut fold, log, live) {
             Ok(page) => {
                 version += 1;
                 let built = Built {
@@ -167,7 +171,9 @@ fn build_loop(shared: &Shared, log: &Path) {
             }
             // Until the header is on disk the log cannot be read: the page says the run is
             // starting. A run that failed before writing anything leaves nothing to show.
+            // A fold that failed is dropped: the next update starts again from the header.
             Err(e) => {
+                fold = None;
                 if ended {
                     eprintln!("live view: the log cannot be shown: {e:#}");
                 }
@@ -186,6 +192,17 @@ fn build_loop(shared: &Shared, log: &Path) {
             std::thread::sleep(Duration::from_millis(50));
         }
     }
+}
+
+/// One update: folds what the log gained since the last one (opening it first if need be)
+/// and makes the page of everything folded.
+fn update(fold: &mut Option<Fold>, log: &Path, live: LiveState) -> anyhow::Result<Page> {
+    let fold = match fold {
+        Some(fold) => fold,
+        None => fold.insert(Fold::open(log)?),
+    };
+    fold.advance()?;
+    fold.page(Some(live))
 }
 
 /// The closing line of a live view: how many page updates the run had and what one cost (wall

@@ -8,8 +8,10 @@
 //! rows of `export`'s rounds table, as `summary.json` counts them) and every aggregation over
 //! time instead of the chain.
 //!
-//! Two folds of the log: [`inspect::index_run`] for the final canonical chain, its balances
-//! and rounds; then a second fold that samples frames. Thinning: frames every
+//! One pass over the log ([`Fold`]) feeds each record to the index ([`inspect::Indexer`]: the
+//! final canonical chain, its balances and rounds) and to a walk that samples frames from the
+//! index's state; kept between pages, it lets the live view fold only what the log gained.
+//! Thinning: frames every
 //! `duration / 2000` s (a whole number of ticks; every tick for short runs) plus one frame at
 //! the sealing of every block of the final canonical chain, so the picture at a block is the
 //! log's state at that block exactly (what `swarmfl inspect --block H` prints). Positions are
@@ -22,14 +24,16 @@
 
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
-use std::path::Path;
+use std::fs::File;
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use swarmfl_core::config::{Aggregation, Behaviour};
+use swarmfl_core::config::{Aggregation, Behaviour, Config};
 use swarmfl_core::event::{CheckpointCause, Event, Record};
 use swarmfl_core::inspect::{self, expr::Env, Column};
-use swarmfl_core::log::{LogError, LogReader};
+use swarmfl_core::log::{LogReader, Next};
 use swarmfl_core::replay;
 use swarmfl_core::state::State;
 use swarmfl_core::world::{Forager, Obstacle};
@@ -89,8 +93,10 @@ pub struct ViewOutcome {
 
 /// Writes the viewer of `log` into `out`.
 pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
-    let page = Page::build(log, None)?;
-    warn_if_truncated(&page.index);
+    let mut fold = Fold::open(log)?;
+    fold.advance()?;
+    let page = fold.page(None)?;
+    warn_if_truncated(fold.index()?);
     let html = page.html();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -100,7 +106,7 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
     Ok(ViewOutcome {
         frames: page.frames,
         sealings: page.sealings,
-        height: page.index.last_height(),
+        height: page.height,
         bytes: html.len(),
         frame_s: page.frame_ms as f64 / 1000.0,
         aggregations: page.aggregations,
@@ -122,8 +128,6 @@ pub struct LiveState {
 /// The viewer's data for a log (or the intact prefix of a log still being written): what
 /// `swarmfl view` writes into its page and what the live view serves.
 pub struct Page {
-    /// The first fold: the canonical chain, balances and rounds.
-    pub index: inspect::RunIndex,
     /// The page's title.
     pub title: String,
     /// The page's data object as JSON text.
@@ -132,6 +136,8 @@ pub struct Page {
     pub frames: usize,
     /// Blocks sealed by any node on any fork (genesis apart): the log's block checkpoints.
     pub sealings: u64,
+    /// Height of the final canonical chain (of the records folded).
+    pub height: u64,
     /// Milliseconds between uniform frames.
     pub frame_ms: u64,
     /// A baseline run's aggregation and its aggregations in the data; `None` for a chain run.
@@ -139,51 +145,6 @@ pub struct Page {
 }
 
 impl Page {
-    /// Folds `log` (as far as it is intact) into the viewer's data; `live` is `None` for a
-    /// finished run's page.
-    pub fn build(log: &Path, live: Option<LiveState>) -> anyhow::Result<Page> {
-        let index = inspect::index_run(log, None)?;
-        let config = &index.config;
-        // Uniform frames every `every_ticks` ticks.
-        let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
-        let total_ticks = config.ticks().max(1);
-        let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
-        let frame_ms = every_ticks * tick_ms;
-        let walk = Walk::fold(log, &index, tick_ms, frame_ms)?;
-        // The run first (what a reader of a screenshot wants), its file last.
-        let title = format!(
-            "{}preset {}, seed {}, {} robots, {} s — {}",
-            if live.is_some() { "live: " } else { "" },
-            config.preset,
-            index.seed,
-            config.world.robots,
-            config.run.duration_s,
-            log.display()
-        );
-        let upto_ms = walk.frames.t.iter().copied().max().unwrap_or(0);
-        let data = page_data(
-            &index,
-            &walk,
-            &title,
-            total_ticks * tick_ms,
-            frame_ms,
-            live.map(|l| (l, upto_ms)),
-        )?;
-        let kind = config.learn.aggregation;
-        let aggregations = (kind != Aggregation::Chain)
-            .then(|| index.rounds_table().map(|t| (kind.name(), t.rows())))
-            .transpose()?;
-        Ok(Page {
-            aggregations,
-            frames: walk.frames.t.len(),
-            sealings: walk.sealings,
-            index,
-            title,
-            data,
-            frame_ms,
-        })
-    }
-
     /// The self-contained page: the viewer with this data.
     pub fn html(&self) -> String {
         TEMPLATE
@@ -193,15 +154,196 @@ impl Page {
     }
 }
 
-/// The second fold of the log: frames, every node's blocks and the reorgs.
+/// The viewer's fold of a log, kept between pages: each record is read and folded once, so the
+/// live view's page after the log grew costs the new records (and the page's own size), not
+/// the whole log again. One pass feeds both the index of the canonical chain
+/// ([`inspect::Indexer`]) and the [`Walk`] that samples frames from the same state.
+pub struct Fold {
+    path: PathBuf,
+    reader: LogReader<BufReader<File>>,
+    indexer: inspect::Indexer,
+    walk: Walk,
+    /// Why the log ends where the reader stands; `None` once its footer has been read.
+    truncated: Option<String>,
+    /// The held-out loss at each round's closing block, by block (see [`rounds_json`]); emptied
+    /// by a reconfiguration, which may change the model or the held-out set.
+    heldout: BTreeMap<Digest, f64>,
+}
+
+/// Most times [`Fold::page`] folds the log again because its frame grid moved.
+const MAX_REFOLDS: u32 = 8;
+
+impl Fold {
+    /// Opens `log` and reads its header; nothing is folded yet.
+    pub fn open(log: &Path) -> anyhow::Result<Fold> {
+        let reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+        let name = log.display().to_string();
+        let indexer = inspect::Indexer::start(&reader, &name, None)?;
+        let walk = Walk::start(indexer.state(), Grid::of(indexer.config()));
+        Ok(Fold {
+            path: log.to_path_buf(),
+            reader,
+            indexer,
+            walk,
+            truncated: Some("nothing read yet".to_string()),
+            heldout: BTreeMap::new(),
+        })
+    }
+
+    /// Folds every record the file holds past the last one folded, up to its end or to a frame
+    /// still being written. A damaged record is an error (and the fold must not be used again).
+    pub fn advance(&mut self) -> anyhow::Result<()> {
+        loop {
+            match self
+                .reader
+                .next_intact()
+                .map_err(replay::ReplayError::from)?
+            {
+                Next::Record(record) => {
+                    let at = self.reader.index() - 1;
+                    self.indexer.feed(at, &record)?;
+                    self.walk.note(self.indexer.state(), &record);
+                    if replay::reconfigured(&record).is_some() {
+                        self.heldout.clear();
+                    }
+                }
+                Next::End => {
+                    self.truncated = None;
+                    return Ok(());
+                }
+                Next::Pending(cut) => {
+                    self.truncated = Some(cut.to_string());
+                    return Ok(());
+                }
+            }
+        }
+    }
+
+    /// The index of the records folded.
+    pub fn index(&mut self) -> anyhow::Result<&inspect::RunIndex> {
+        Ok(self.indexer.index(self.truncated.clone())?)
+    }
+
+    /// The page of the records folded (`live`: `None` for a finished run's page): the same
+    /// data, byte for byte, as the page of one fold of a file that holds just those records.
+    pub fn page(&mut self, live: Option<LiveState>) -> anyhow::Result<Page> {
+        // The grid comes from the configuration after the last record: a reconfiguration of
+        // the tick or the duration moves it, and the frames are sampled again from the start.
+        let mut refolds = 0;
+        while Grid::of(self.indexer.config()) != self.walk.grid {
+            anyhow::ensure!(
+                refolds < MAX_REFOLDS,
+                "{}: the frame grid of the view moved {MAX_REFOLDS} times (reconfigurations \
+                 of run.tick_s or run.duration_s); view the finished log",
+                self.path.display()
+            );
+            self.refold(Grid::of(self.indexer.config()))?;
+            refolds += 1;
+        }
+        let path = self.path.display().to_string();
+        let truncated = self.truncated.clone();
+        let walk = &self.walk;
+        let index = self.indexer.index(truncated)?;
+        let config = &index.config;
+        let grid = walk.grid;
+        // The run first (what a reader of a screenshot wants), its file last.
+        let title = format!(
+            "{}preset {}, seed {}, {} robots, {} s — {path}",
+            if live.is_some() { "live: " } else { "" },
+            config.preset,
+            index.seed,
+            config.world.robots,
+            config.run.duration_s,
+        );
+        let frames = walk.frames.shown(index);
+        let upto_ms = frames.iter().map(|&k| walk.frames.t[k]).max().unwrap_or(0);
+        let data = page_data(
+            index,
+            walk,
+            &frames,
+            &mut self.heldout,
+            &title,
+            live.map(|l| (l, upto_ms)),
+        )?;
+        let kind = config.learn.aggregation;
+        let aggregations = (kind != Aggregation::Chain)
+            .then(|| index.rounds_table().map(|t| (kind.name(), t.rows())))
+            .transpose()?;
+        Ok(Page {
+            aggregations,
+            frames: frames.len(),
+            sealings: walk.sealings,
+            height: index.last_height(),
+            title,
+            data,
+            frame_ms: grid.frame_ms,
+        })
+    }
+
+    /// Folds the log again from its start on `grid`, as far as the records folded so far.
+    fn refold(&mut self, grid: Grid) -> anyhow::Result<()> {
+        let mut fresh = Fold::open(&self.path)?;
+        fresh.walk = Walk::start(fresh.indexer.state(), grid);
+        let name = self.path.display().to_string();
+        while fresh.indexer.records() < self.indexer.records() {
+            let Next::Record(record) = fresh
+                .reader
+                .next_intact()
+                .map_err(replay::ReplayError::from)?
+            else {
+                anyhow::bail!("{name}: the log became shorter while it was read");
+            };
+            let at = fresh.reader.index() - 1;
+            fresh.indexer.feed(at, &record)?;
+            fresh.walk.note(fresh.indexer.state(), &record);
+        }
+        // The same records and the same end: the footer, or the cut as it was.
+        if self.truncated.is_none() {
+            fresh.advance()?;
+        }
+        fresh.truncated = self.truncated.clone();
+        *self = fresh;
+        Ok(())
+    }
+}
+
+/// Where the uniform frames fall: every `frame_ms`, a whole number of ticks (every tick of a
+/// short run), at most [`MAX_FRAMES`] over the run's duration.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+struct Grid {
+    tick_ms: u64,
+    total_ticks: u64,
+    frame_ms: u64,
+    robots: u32,
+}
+
+impl Grid {
+    /// The grid of a run with `config`.
+    fn of(config: &Config) -> Grid {
+        let tick_ms = (config.run.tick_s * 1000.0).round().max(1.0) as u64;
+        let total_ticks = config.ticks().max(1);
+        let every_ticks = total_ticks.div_ceil(MAX_FRAMES).max(1);
+        Grid {
+            tick_ms,
+            total_ticks,
+            frame_ms: every_ticks * tick_ms,
+            robots: config.world.robots,
+        }
+    }
+}
+
+/// The second fold of the log: frames, every node's blocks and the reorgs, read from the
+/// index's state after each record.
 struct Walk {
-    /// The state at the end of the intact prefix.
-    state: State,
+    /// Where the uniform frames fall.
+    grid: Grid,
+    /// The time of the next uniform frame.
+    next_frame_ms: u64,
     /// Every block seen (any node's), numbered in sealing order; genesis is 0.
     ids: BTreeMap<Digest, u32>,
-    /// JSON: `[id, parent id, height, node, time ms]` per block.
+    /// JSON without its closing bracket: `[id, parent id, height, node, time ms]` per block.
     blocks: String,
-    /// JSON: `[time ms, node, depth]` per reorg.
+    /// JSON without its closing bracket: `[time ms, node, depth]` per reorg.
     reorgs: String,
     /// Reorgs written into `reorgs`.
     reorg_count: usize,
@@ -209,86 +351,63 @@ struct Walk {
     sealings: u64,
     /// Every node's head after the last ledger event.
     heads: Vec<Digest>,
-    /// The sampled frames.
+    /// The sampled frames: every uniform one, and one at every sealing (shown when its block
+    /// is on the final canonical chain of the records folded).
     frames: Frames,
 }
 
 impl Walk {
-    /// Folds the records of the intact prefix of `log` (the `index.records` that
-    /// [`inspect::index_run`] read), sampling a frame every `frame_ms` and at every block of
-    /// the final canonical chain.
-    fn fold(
-        log: &Path,
-        index: &inspect::RunIndex,
-        tick_ms: u64,
-        frame_ms: u64,
-    ) -> anyhow::Result<Walk> {
-        let name = log.display().to_string();
-        let canonical: BTreeMap<Digest, u64> =
-            index.chain.iter().map(|r| (r.hash, r.height)).collect();
-        let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
-        let header_config = replay::header_config(&reader, &name)?;
-        let state = State::genesis(&header_config, index.seed).map_err(|cause| {
-            replay::ReplayError::Start {
-                path: name.clone(),
-                cause,
-            }
-        })?;
+    /// A walk at genesis (`state`) on `grid`, with the frame at time 0.
+    fn start(state: &State, grid: Grid) -> Walk {
         let genesis = state.ledger.head(0).0;
         let mut walk = Walk {
+            grid,
+            next_frame_ms: grid.frame_ms,
             ids: BTreeMap::from([(genesis, 0)]),
             blocks: String::from("[[0,-1,0,-1,0]"),
             reorgs: String::from("["),
             reorg_count: 0,
             sealings: 0,
-            heads: vec![genesis; index.config.world.robots as usize],
+            heads: vec![genesis; grid.robots as usize],
             frames: Frames::default(),
-            state,
         };
-        walk.frames.push(&walk.state, &walk.ids, 0);
-        let mut next_frame_ms = frame_ms;
-        while reader.index() < index.records {
-            let record = match reader.next_record() {
-                Ok(Some(r)) => r,
-                Ok(None) => break,
-                Err(LogError::Truncated { .. }) => break,
-                Err(e) => return Err(replay::ReplayError::from(e).into()),
-            };
-            let at = reader.index() - 1;
-            replay::fold_record(&mut walk.state, &name, at, &record)?;
-            match &record {
-                Record::Event {
-                    event: Event::Ledger(_),
-                    time,
-                } => walk.note_reorgs(time.0),
-                Record::Checkpoint(cp) => {
-                    if let CheckpointCause::Block { node, height } = cp.cause {
-                        walk.sealings += 1;
-                        walk.note_block(node, height, cp.time.0, &canonical);
-                    }
+        walk.frames.push(state, &walk.ids, 0, None);
+        walk
+    }
+
+    /// Notes `record`, which the index has just folded into `state`: a ledger event's reorgs,
+    /// a block checkpoint's block and frame, a tick's uniform frame when one falls due.
+    fn note(&mut self, state: &State, record: &Record) {
+        match record {
+            Record::Event {
+                event: Event::Ledger(_),
+                time,
+            } => self.note_reorgs(state, time.0),
+            Record::Checkpoint(cp) => {
+                if let CheckpointCause::Block { node, height } = cp.cause {
+                    self.sealings += 1;
+                    self.note_block(state, node, height, cp.time.0);
                 }
-                Record::Event {
-                    time,
-                    event: Event::Tick(_),
-                } => {
-                    let now = time.0 + tick_ms;
-                    if now >= next_frame_ms {
-                        walk.frames.push(&walk.state, &walk.ids, now);
-                        next_frame_ms = (now / frame_ms + 1) * frame_ms;
-                    }
-                }
-                Record::Event { .. } => {}
             }
+            Record::Event {
+                time,
+                event: Event::Tick(_),
+            } => {
+                let now = time.0 + self.grid.tick_ms;
+                if now >= self.next_frame_ms {
+                    self.frames.push(state, &self.ids, now, None);
+                    let frame_ms = self.grid.frame_ms;
+                    self.next_frame_ms = (now / frame_ms + 1) * frame_ms;
+                }
+            }
+            Record::Event { .. } => {}
         }
-        walk.blocks.push(']');
-        walk.reorgs.push(']');
-        Ok(walk)
     }
 
     /// After a ledger event at `time_ms`: every node whose new head does not descend from its
     /// old one had a reorg; records it with its depth (blocks of the old branch abandoned).
-    fn note_reorgs(&mut self, time_ms: u64) {
-        let ledger = &self.state.ledger;
+    fn note_reorgs(&mut self, state: &State, time_ms: u64) {
+        let ledger = &state.ledger;
         for (node, old) in self.heads.iter_mut().enumerate() {
             let (new, height) = ledger.head(node as u32);
             if new == *old {
@@ -329,29 +448,21 @@ impl Walk {
     }
 
     /// At the checkpoint of `node` sealing a block at `height`: numbers the block if new, and
-    /// takes a frame if it is a block of the final canonical chain.
-    fn note_block(
-        &mut self,
-        node: u32,
-        height: u64,
-        time_ms: u64,
-        canonical: &BTreeMap<Digest, u64>,
-    ) {
-        let (hash, _) = self.state.ledger.head(node);
+    /// takes its frame (shown if the block is on the final canonical chain).
+    fn note_block(&mut self, state: &State, node: u32, height: u64, time_ms: u64) {
+        let (hash, _) = state.ledger.head(node);
         if !self.ids.contains_key(&hash) {
             let id = self.ids.len() as u32;
             self.ids.insert(hash, id);
-            let parent = self
-                .state
+            let parent = state
                 .ledger
                 .block(&hash)
                 .and_then(|e| self.ids.get(&e.block.header.parent).copied())
                 .map_or(-1, i64::from);
             let _ = write!(self.blocks, ",[{id},{parent},{height},{node},{time_ms}]");
         }
-        if canonical.get(&hash) == Some(&height) {
-            self.frames.push(&self.state, &self.ids, time_ms);
-        }
+        self.frames
+            .push(state, &self.ids, time_ms, Some((hash, height)));
     }
 }
 
@@ -359,15 +470,18 @@ impl Walk {
 fn page_data(
     index: &inspect::RunIndex,
     walk: &Walk,
+    shown: &[usize],
+    heldout: &mut BTreeMap<Digest, f64>,
     title: &str,
-    duration_ms: u64,
-    frame_ms: u64,
     live: Option<(LiveState, u64)>,
 ) -> anyhow::Result<String> {
+    let grid = walk.grid;
+    let (duration_ms, frame_ms) = (grid.total_ticks * grid.tick_ms, grid.frame_ms);
     let config = &index.config;
     let (chain, balances) = chain_json(index, &walk.ids);
-    let rounds = rounds_json(index)?;
-    let arena = walk.state.world.arena();
+    let rounds = rounds_json(index, heldout)?;
+    let state = &index.final_state;
+    let arena = state.world.arena();
     let obstacles: Vec<String> = arena
         .obstacles
         .iter()
@@ -382,7 +496,7 @@ fn page_data(
         .map(|&b| if b { "1" } else { "0" })
         .collect();
     // Behaviours: each robot's name, the nest `[x, y, r]` and food `[x, y]` (empty without).
-    let behaviours = walk.state.world.behaviours();
+    let behaviours = state.world.behaviours();
     let names: Vec<String> = (0..config.world.robots as usize)
         .map(|i| {
             let b = behaviours.map_or(Behaviour::Avoidance, |b| b.of[i]);
@@ -405,7 +519,7 @@ fn page_data(
     let frames = &walk.frames;
     // A block's frame may be taken after the frame of the tick's end: order by time (stable,
     // so a block's frame follows a tick frame of the same time and wins at that time).
-    let mut order: Vec<usize> = (0..frames.t.len()).collect();
+    let mut order = shown.to_vec();
     order.sort_by_key(|&k| frames.t[k]);
     let pick = |v: &[String]| {
         order
@@ -431,7 +545,7 @@ fn page_data(
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
          \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius},\
          \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"versions\":[{}],\
-         \"blocks\":{},\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{},\
+         \"blocks\":{}],\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{}],\
          \"truncated\":{},\"live\":{live}}}",
         serde_json::to_string(title)?,
         config.world.robots,
@@ -489,14 +603,25 @@ fn chain_json(index: &inspect::RunIndex, ids: &BTreeMap<Digest, u32>) -> (String
 /// The closed rounds as JSON: `[round, block, time ms, loss, held-out loss]` each; a baseline's
 /// aggregations (its rounds table: the same rows as `export` and `summary.json`) as
 /// `[aggregation, -1, time ms, loss, held-out loss, robot (-1: the server), models averaged]`.
-fn rounds_json(index: &inspect::RunIndex) -> anyhow::Result<String> {
+///
+/// `heldout` keeps the held-out loss of each round's closing block between pages (the loss of
+/// its shared model on the fixed held-out set: one model evaluation each, most of a page's
+/// cost when computed anew every time).
+fn rounds_json(
+    index: &inspect::RunIndex,
+    heldout: &mut BTreeMap<Digest, f64>,
+) -> anyhow::Result<String> {
     if index.config.learn.aggregation != Aggregation::Chain {
         return baseline_rounds_json(index);
     }
-    let values = index.values();
+    let mut values = None;
     let mut rounds = String::from("[");
     for (k, r) in index.rounds().iter().enumerate() {
-        let heldout = values.at(r.block).ident("heldout_loss").unwrap_or(f64::NAN);
+        let hash = index.chain[r.block as usize].hash;
+        let heldout = *heldout.entry(hash).or_insert_with(|| {
+            let values = values.get_or_insert_with(|| index.values());
+            values.at(r.block).ident("heldout_loss").unwrap_or(f64::NAN)
+        });
         let _ = write!(
             rounds,
             "{}[{},{},{},{},{}]",
@@ -575,6 +700,8 @@ fn html_escape(s: &str) -> String {
 /// The sampled frames, each field already JSON text.
 #[derive(Default)]
 struct Frames {
+    /// The block (and its height) of a frame taken at its sealing; `None` for a uniform one.
+    block: Vec<Option<(Digest, u64)>>,
     t: Vec<u64>,
     pose: Vec<String>,
     links: Vec<String>,
@@ -588,10 +715,31 @@ struct Frames {
 }
 
 impl Frames {
-    /// Adds the frame of `state` at `time_ms`: poses, links and every node's head block.
-    fn push(&mut self, state: &State, ids: &BTreeMap<Digest, u32>, time_ms: u64) {
+    /// The frames the page shows, in the order taken: every uniform one, and those taken at
+    /// the sealing of a block of the final canonical chain of `index`.
+    fn shown(&self, index: &inspect::RunIndex) -> Vec<usize> {
+        let canonical: BTreeMap<Digest, u64> =
+            index.chain.iter().map(|r| (r.hash, r.height)).collect();
+        (0..self.t.len())
+            .filter(|&k| match &self.block[k] {
+                None => true,
+                Some((hash, height)) => canonical.get(hash) == Some(height),
+            })
+            .collect()
+    }
+
+    /// Adds the frame of `state` at `time_ms`: poses, links and every node's head block;
+    /// `block` is the block (and height) whose sealing it shows, if any.
+    fn push(
+        &mut self,
+        state: &State,
+        ids: &BTreeMap<Digest, u32>,
+        time_ms: u64,
+        block: Option<(Digest, u64)>,
+    ) {
         let world = &state.world;
         let n = world.poses().len();
+        self.block.push(block);
         self.t.push(time_ms);
         let mut pose = String::from("[");
         for (i, p) in world.poses().iter().enumerate() {
@@ -661,6 +809,115 @@ const TEMPLATE: &str = include_str!("view.html");
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::Write as _;
+
+    fn fixture(name: &str) -> Vec<u8> {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures/logs")
+            .join(format!("{name}.swlog"));
+        std::fs::read(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+    }
+
+    fn scratch(name: &str) -> PathBuf {
+        let dir = std::env::temp_dir().join(format!("swarmfl-view-{name}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        dir
+    }
+
+    /// A page of one fold of the file at `log` as it is now.
+    fn whole(log: &Path, live: Option<LiveState>) -> Page {
+        let mut fold = Fold::open(log).unwrap();
+        fold.advance().unwrap();
+        fold.page(live).unwrap()
+    }
+
+    /// Grows a copy of `bytes` at `cuts` (byte counts, rising; the last the whole file), one
+    /// fold following it: after each growth its page must be that of one fold of the file as
+    /// it is then. Returns the folds' largest count of frames not shown (taken at a sealing
+    /// of a block that was, or is not yet known to be, off the final chain).
+    fn check_growing(name: &str, bytes: &[u8], cuts: &[usize]) -> usize {
+        let dir = scratch(name);
+        let log = dir.join("run.swlog");
+        let mut file = std::fs::File::create(&log).unwrap();
+        file.write_all(&bytes[..cuts[0]]).unwrap();
+        let mut fold = Fold::open(&log).unwrap();
+        let mut hidden = 0;
+        let mut written = cuts[0];
+        for (k, &cut) in cuts.iter().enumerate() {
+            file.write_all(&bytes[written..cut]).unwrap();
+            written = cut;
+            fold.advance().unwrap();
+            let live = LiveState {
+                version: k as u64 + 1,
+                ended: cut == bytes.len(),
+                poll_ms: 1000,
+            };
+            let page = fold.page(Some(live)).unwrap();
+            let once = whole(&log, Some(live));
+            assert_eq!(
+                page.data,
+                once.data,
+                "{name}: after {cut} of {} bytes",
+                bytes.len()
+            );
+            assert_eq!(
+                (page.frames, page.sealings, page.height),
+                (once.frames, once.sealings, once.height)
+            );
+            hidden = hidden.max(fold.walk.frames.t.len() - page.frames);
+        }
+        // The finished log's page is what `swarmfl view` writes, byte for byte.
+        assert_eq!(cuts.last(), Some(&bytes.len()));
+        let out = dir.join("run.html");
+        view(&log, &out).unwrap();
+        let html = std::fs::read_to_string(&out).unwrap();
+        assert_eq!(
+            fold.page(None).unwrap().html(),
+            html,
+            "{name}: the finished page"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+        hidden
+    }
+
+    /// `count` cut points after the header, spread by a fixed pseudo-random sequence (most fall
+    /// inside a record), then the whole file.
+    fn cuts(bytes: &[u8], count: usize, mut seed: u64) -> Vec<usize> {
+        let header_end = 24 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let mut cuts: Vec<usize> = (0..count)
+            .map(|_| {
+                seed = seed
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                header_end + (seed >> 33) as usize % (bytes.len() - header_end)
+            })
+            .collect();
+        cuts.push(bytes.len());
+        cuts.sort_unstable();
+        cuts
+    }
+
+    #[test]
+    fn a_fold_that_follows_a_growing_log_makes_the_page_of_one_fold() {
+        let bytes = fixture("short-resim-seed7");
+        let header_end = 24 + u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+        let n = bytes.len();
+        // The header alone, a cut one byte into a frame, inside the footer, and the end.
+        check_growing("edges", &bytes, &[header_end, header_end + 1, n - 3, n]);
+        check_growing("random", &bytes, &cuts(&bytes, 7, 35));
+        // One growth: the whole log at once.
+        check_growing("once", &bytes, &[header_end, n]);
+    }
+
+    #[test]
+    fn a_growing_log_with_forks_shows_the_frames_of_its_chain_as_it_stands() {
+        // A run with forks: frames taken at sealings of blocks later abandoned are kept but not
+        // shown, as one fold of that prefix would not have them.
+        let bytes = fixture("smoke-e1-faulty-seed3");
+        let hidden = check_growing("forks", &bytes, &cuts(&bytes, 5, 11));
+        assert!(hidden > 0, "the log has sealings off the final chain");
+    }
 
     #[test]
     fn link_bits_number_the_pairs_in_row_order() {
