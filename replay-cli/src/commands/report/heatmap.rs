@@ -4,6 +4,10 @@
 //!
 //! The layout is computed here in logical pixels (see [`super::style`]) rather than by a
 //! plotters chart: the canvas is exactly as large as the grid, its names and the colour bar.
+//! A map too wide for the paper's 900 px (7 in) layout with its column names written across
+//! (e4's 13 attacks) gets narrow cells, as wide as their numbers, with the column names written
+//! upwards under them, and its subtitle wrapped to the grid's width, so that it prints at full
+//! page width with its text at the style's sizes (9 pt and up) instead of shrunk.
 
 use std::path::Path;
 
@@ -43,6 +47,8 @@ const BAR_GAP: f64 = 22.0;
 const BAR_W: f64 = 18.0;
 /// Room a text keeps from the cell border or the next text.
 const PAD: f64 = 8.0;
+/// Room a cell's number keeps from the cell's borders in a narrow (upright names) layout.
+const NUMBER_PAD: f64 = 4.0;
 /// A line of text's height, in ems (DejaVu Sans' ascent plus descent is 1.17 em).
 const LINE: f64 = 1.25;
 /// The title's line, in its ems: a little more, to set it apart from the subtitle.
@@ -50,7 +56,7 @@ const TITLE_LINE: f64 = 1.45;
 
 /// The sizes of the layout that its text decides, measured at the paper style's font sizes
 /// so that no name, number or title is clipped or runs into its neighbour.
-#[derive(Clone, Copy, Debug)]
+#[derive(Clone, Debug)]
 struct Layout {
     /// A cell's width.
     cell_w: f64,
@@ -58,8 +64,12 @@ struct Layout {
     row_names: f64,
     /// From the top margin to the grid: title, subtitle, the rows' title.
     title_h: f64,
-    /// Below the grid: the column names (one or two lines).
+    /// Below the grid: the column names (one or two lines, or written upwards).
     col_names: f64,
+    /// Whether the column names are written upwards (the narrow layout).
+    upright: bool,
+    /// The subtitle, in lines that fit the canvas.
+    subtitle: Vec<String>,
     /// Below the column names: the columns' title.
     axis_title_h: f64,
     /// Right of the colour bar: its tick labels.
@@ -237,23 +247,49 @@ impl Heatmap {
                 .map(|v| v.map_or_else(|| "n/a".to_string(), number)),
         );
         let row_names = widest(style::TICK, &mut self.rows.iter().cloned())
-            .max(style::text_width(style::AXIS, &self.row_title));
-        let title = style::text_width(style::TITLE, &self.title)
-            .max(style::text_width(style::CELL, &self.subtitle(scale)));
-        let cell_w = CELL_W.max(split.max(numbers) + 2.0 * PAD);
-        let col_lines_n = self
-            .cols
+            .max(style::text_width(style::AXIS, &self.row_title))
+            + 2.0 * PAD;
+        let bar_labels = PAD + widest(style::CELL, &mut self.bar_ticks(scale).into_iter()) + PAD;
+        let around = MARGIN + row_names + BAR_GAP + BAR_W + bar_labels + MARGIN;
+        let n = self.cols.len() as f64;
+        let across = CELL_W.max(split.max(numbers) + 2.0 * PAD);
+        // Names across the columns while the grid fits the paper's width; else narrow cells
+        // and the names written upwards (a name's height is then one line of text).
+        let upright = around + across * n > style::LAYOUT_WIDTH_PX;
+        let (cell_w, col_names) = if upright {
+            let names = widest(style::TICK, &mut self.cols.iter().cloned());
+            (
+                (numbers + 2.0 * NUMBER_PAD).max(style::TICK * LINE + 2.0 * NUMBER_PAD),
+                PAD + names + PAD,
+            )
+        } else {
+            let lines = self
+                .cols
+                .iter()
+                .map(|c| col_lines(c, across).len())
+                .max()
+                .unwrap_or(1);
+            (across, PAD + lines as f64 * style::TICK * LINE + PAD)
+        };
+        // The subtitle wraps at the width the grid and its names take (the paper's width at
+        // least); the title is one line.
+        let width = (around + cell_w * n).max(style::LAYOUT_WIDTH_PX) - 2.0 * MARGIN;
+        let subtitle = wrap(style::CELL, &self.subtitle(scale), width);
+        let title = subtitle
             .iter()
-            .map(|c| col_lines(c, cell_w).len())
-            .max()
-            .unwrap_or(1);
+            .map(|line| style::text_width(style::CELL, line))
+            .fold(style::text_width(style::TITLE, &self.title), f64::max);
         Layout {
             cell_w,
-            row_names: row_names + 2.0 * PAD,
-            title_h: style::TITLE * TITLE_LINE + (style::CELL + style::AXIS) * LINE + 2.0 * PAD,
-            col_names: PAD + col_lines_n as f64 * style::TICK * LINE + PAD,
+            row_names,
+            title_h: style::TITLE * TITLE_LINE
+                + (style::CELL * subtitle.len() as f64 + style::AXIS) * LINE
+                + 2.0 * PAD,
+            col_names,
+            upright,
+            subtitle,
             axis_title_h: style::AXIS * LINE,
-            bar_labels: PAD + widest(style::CELL, &mut self.bar_ticks(scale).into_iter()) + PAD,
+            bar_labels,
             min_w: MARGIN + title + MARGIN,
         }
     }
@@ -311,6 +347,22 @@ fn number(v: f64) -> String {
     }
     let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
     format!("{v:.digits$}")
+}
+
+/// `text` in lines no wider than `width` at an em of `em`, broken at spaces (a word wider
+/// than `width` gets a line of its own).
+fn wrap(em: f64, text: &str, width: f64) -> Vec<String> {
+    let mut lines: Vec<String> = Vec::new();
+    for word in text.split(' ') {
+        match lines.last_mut() {
+            Some(line) if style::text_width(em, &format!("{line} {word}")) <= width => {
+                line.push(' ');
+                line.push_str(word);
+            }
+            _ => lines.push(word.to_string()),
+        }
+    }
+    lines
 }
 
 /// A column name in one or two lines: split at the hyphen nearest its middle when it would not
@@ -417,12 +469,16 @@ fn draw_on<DB: DrawingBackend>(
         p(MARGIN, MARGIN),
         anchored(style::TITLE, HPos::Left, VPos::Top),
     ))?;
-    let subtitle = map.subtitle(scale);
-    root.draw(&Text::new(
-        subtitle,
-        p(MARGIN, MARGIN + style::TITLE * TITLE_LINE),
-        anchored(style::CELL, HPos::Left, VPos::Top).color(&BLACK.mix(0.7)),
-    ))?;
+    for (k, line) in l.subtitle.iter().enumerate() {
+        root.draw(&Text::new(
+            line.clone(),
+            p(
+                MARGIN,
+                MARGIN + style::TITLE * TITLE_LINE + k as f64 * style::CELL * LINE,
+            ),
+            anchored(style::CELL, HPos::Left, VPos::Top).color(&BLACK.mix(0.7)),
+        ))?;
+    }
     // Row names, right-aligned against the grid; the rows' title above them.
     for (r, name) in map.rows.iter().enumerate() {
         root.draw(&Text::new(
@@ -431,9 +487,19 @@ fn draw_on<DB: DrawingBackend>(
             anchored(style::TICK, HPos::Right, VPos::Center),
         ))?;
     }
-    // Column names under the grid (two lines when long), the columns' title under them.
+    // Column names under the grid (two lines when long, or upwards in a narrow layout, ending
+    // at the grid), the columns' title under them.
     for (c, name) in map.cols.iter().enumerate() {
         let x = left + cell_w * (c as f64 + 0.5);
+        if l.upright {
+            let font = st
+                .font(style::TICK)
+                .transform(FontTransform::Rotate270)
+                .color(&BLACK)
+                .pos(Pos::new(HPos::Right, VPos::Center));
+            root.draw(&Text::new(name.clone(), p(x, top + bar_h + PAD), font))?;
+            continue;
+        }
         for (line, part) in col_lines(name, cell_w).into_iter().enumerate() {
             root.draw(&Text::new(
                 part,
@@ -511,6 +577,80 @@ mod tests {
         );
         // In a cell wide enough for it, a name stays on one line.
         assert_eq!(col_lines("sign-flip", 200.0), vec!["sign-flip"]);
+    }
+
+    #[test]
+    fn a_map_of_the_e4_grid_fits_the_paper_width_so_its_text_prints_at_full_size() {
+        // e4's 9 rules x 13 attacks, values like its 300 s losses (one outlier): laid out with
+        // the names across, the map was 1537 px wide, so printed at 7 in its 9 pt text came
+        // out at 5.3 pt.
+        let rules = [
+            "fedavg",
+            "paper",
+            "krum",
+            "multi-krum",
+            "median",
+            "trimmed-mean",
+            "geomed",
+            "centered-clipping",
+            "bulyan",
+        ];
+        let attacks = [
+            "none",
+            "faulty",
+            "malicious",
+            "smart",
+            "sign-flip",
+            "gaussian",
+            "alie",
+            "ipm",
+            "min-max",
+            "mimic",
+            "inflate-samples",
+            "poison-data",
+            "collude",
+        ];
+        let mut m = map(
+            (0..rules.len())
+                .map(|r| {
+                    (0..attacks.len())
+                        .map(|c| Some(2.17 + 0.01 * ((r * 7 + c) % 20) as f64))
+                        .collect()
+                })
+                .collect(),
+            false,
+        );
+        m.values[1][10] = Some(8.77);
+        m.title = "e4-robustness: final held-out loss, 3 Byzantine of 15".into();
+        m.value_title = "final held-out loss, mean over runs (log scale)".into();
+        m.rows = rules.iter().map(|r| r.to_string()).collect();
+        m.cols = attacks.iter().map(|a| a.to_string()).collect();
+        let (w, _) = m.canvas();
+        let l = m.layout();
+        assert!(l.upright);
+        assert!(
+            f64::from(w) <= style::LAYOUT_WIDTH_PX,
+            "{w} px wide: printed at {} in its text shrinks to {:.1} pt",
+            style::PRINT_WIDTH_IN,
+            9.0 * style::LAYOUT_WIDTH_PX / f64::from(w)
+        );
+        // Every number still fits its cell, and the subtitle fits the canvas.
+        assert!(style::text_width(style::CELL, "8.77") + 2.0 * NUMBER_PAD <= l.cell_w + 1e-9);
+        assert!(l.subtitle.len() >= 2, "{:?}", l.subtitle);
+        for line in &l.subtitle {
+            assert!(style::text_width(style::CELL, line) <= f64::from(w) - 2.0 * MARGIN + 1e-9);
+        }
+        // A map that fits with its names across keeps them across.
+        let small = map(vec![vec![Some(1.0); 3]; 2], false);
+        assert!(!small.layout().upright);
+    }
+
+    #[test]
+    fn wrapping_breaks_at_spaces_within_the_width() {
+        let width = style::text_width(style::CELL, "colour: final held-out");
+        let lines = wrap(style::CELL, "colour: final held-out loss, mean", width);
+        assert_eq!(lines, vec!["colour: final held-out", "loss, mean"]);
+        assert_eq!(wrap(style::CELL, "one", 1.0), vec!["one"]);
     }
 
     #[test]
