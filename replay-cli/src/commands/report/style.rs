@@ -3,9 +3,10 @@
 //! A figure is laid out for a 900 px (7 inch, a two-column paper's full width) canvas, so a
 //! printed point is 900 / 504 = 1.79 logical px. Every text size below is a font's em in
 //! logical px, set from the printed size it must have: tick labels, legends, names and cell
-//! numbers 9 pt or more, axis titles 10 pt, the title 11 pt. A wider figure (a heatmap of many
-//! columns) keeps the same scale: its text has these printed sizes when it is printed at
-//! 7 in per 900 px. The SVG is drawn at scale 1 (vector: it prints at any size); the PNG at
+//! numbers 9 pt or more, axis titles 10 pt, the title 11 pt. A heatmap of many columns narrows
+//! its cells and writes its column names upwards to stay within 900 px (`heatmap.rs`); a figure
+//! that is still wider keeps the same scale: its text has these printed sizes when it is printed
+//! at 7 in per 900 px. The SVG is drawn at scale 1 (vector: it prints at any size); the PNG at
 //! scale 2 (1800 px, about 260 dpi at 7 inches), so a PNG in a paper or on a slide is as sharp
 //! as the SVG. Every size below is logical and goes through [`Style::px`].
 
