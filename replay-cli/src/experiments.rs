@@ -374,6 +374,31 @@ pub fn paper_density(robots: u32) -> Vec<String> {
     ]
 }
 
+/// The swarm's training rate in `e6-scale`: at most this many local trainings per simulated
+/// second, the whole swarm together. Each robot trains every `max(100, robots / rate)` s: the
+/// paper's 100 s up to 100 robots, 240 s at 240 and 1000 s at 1000. The paper's period at 1000
+/// robots means 10 submissions a second, about 3x what its chain includes (a 200 s run's
+/// canonical chain held 3.4 a second, the rest waited in full mempools) and 50,000 trainings
+/// in 5000 s; FedBuff (Nguyen et al. 2022) likewise bounds the clients training at once
+/// instead of growing them with the population.
+pub const E6_TRAININGS_PER_S: f64 = 1.0;
+
+/// The training period of an `e6-scale` swarm of `robots` (see [`E6_TRAININGS_PER_S`]).
+pub fn e6_training_period_s(robots: u32) -> f64 {
+    (f64::from(robots) / E6_TRAININGS_PER_S).max(100.0)
+}
+
+/// The overrides of an `e6-scale` swarm of `robots`: the paper's density and the training
+/// period of [`e6_training_period_s`].
+fn e6_swarm(robots: u32) -> Vec<String> {
+    let mut all = paper_density(robots);
+    all.push(format!(
+        "learn.training_period_s={}",
+        e6_training_period_s(robots)
+    ));
+    all
+}
+
 /// The grid of `e6-scale`: every size in `sizes` x [`E6_PROTOCOLS`] (`<protocol>-<robots>`),
 /// then, with `faulty`, rounds and buffered at 240 robots with [`E6_FAULTY`] faulty robots
 /// (`<protocol>-240-faulty-24`). x is the swarm's size.
@@ -381,7 +406,7 @@ fn e6_points(sizes: &[u32], faulty: bool) -> Vec<Point> {
     let mut points = Vec::new();
     for &robots in sizes {
         for (protocol, overrides) in E6_PROTOCOLS {
-            let mut all = paper_density(robots);
+            let mut all = e6_swarm(robots);
             all.extend(overrides.iter().map(|o| o.to_string()));
             points.push(Point {
                 name: format!("{protocol}-{robots}"),
@@ -396,7 +421,7 @@ fn e6_points(sizes: &[u32], faulty: bool) -> Vec<Point> {
     }
     if faulty {
         for (protocol, overrides) in &E6_PROTOCOLS[..2] {
-            let mut all = paper_density(240);
+            let mut all = e6_swarm(240);
             all.extend(overrides.iter().map(|o| o.to_string()));
             all.push("byzantine.kind=faulty".into());
             all.push(format!("byzantine.count={E6_FAULTY}"));
@@ -529,6 +554,10 @@ mod tests {
                     let protocol = point.name.split('-').next().unwrap();
                     let buffered = config.contract.protocol.name() == "buffered";
                     assert_eq!(buffered, protocol == "buffered", "{}", point.name);
+                    // At most one training a second in the swarm, never slower than the paper's.
+                    let period = config.learn.training_period_s;
+                    assert!(period >= 100.0, "{}", point.name);
+                    assert!(point.x / period <= E6_TRAININGS_PER_S, "{}", point.name);
                 } else {
                     assert_eq!(f64::from(config.byzantine.count), point.x);
                 }

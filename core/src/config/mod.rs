@@ -42,8 +42,8 @@ pub use preagg::Preaggregator;
 pub use preset::{Preset, AUTHORS_CONTRACT};
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,
-    LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig, AUTHORS_BLOCK_GAS_LIMIT,
-    DEFAULT_ROUND_TIMEOUT_S,
+    Frame, LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig,
+    AUTHORS_BLOCK_GAS_LIMIT, DEFAULT_ROUND_TIMEOUT_S,
 };
 
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a

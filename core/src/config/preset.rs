@@ -14,8 +14,8 @@ use super::contract::{
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::tree::{
-    Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, LearnConfig, LedgerConfig,
-    OutputConfig, RunConfig, WorldConfig, DEFAULT_ROUND_TIMEOUT_S,
+    Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, Frame, LearnConfig,
+    LedgerConfig, OutputConfig, RunConfig, WorldConfig, DEFAULT_ROUND_TIMEOUT_S,
 };
 use crate::faults::FaultsConfig;
 
@@ -355,6 +355,7 @@ impl Config {
                 min_train_samples: 1,
                 aggregation: Aggregation::Chain,
                 gossip_outlier_filter: false,
+                frame: Frame::World,
             },
             ledger: LedgerConfig {
                 block_period_s: 10.0,

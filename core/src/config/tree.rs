@@ -191,6 +191,35 @@ pub struct LearnConfig {
     /// (Flow-FL has no such filter: off by default).
     #[serde(default)]
     pub gossip_outlier_filter: bool,
+    /// The coordinates the model reads and predicts: `world` (the paper's: world metres) or
+    /// `relative` (every waypoint of a sample minus its last input waypoint, the usual frame of
+    /// trajectory predictors such as Social LSTM). A translation leaves MSE unchanged, so losses
+    /// stay in square metres of position error in both; `relative` makes the task the same in
+    /// every arena, which a 40 m arena needs (issue 32, RESEARCH.md). Left out of the recorded
+    /// configuration at its default, so existing runs keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub frame: Frame,
+}
+
+/// The coordinates of the model's inputs and targets (`learn.frame`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Frame {
+    /// World metres, as recorded (the paper's).
+    #[default]
+    World,
+    /// Each sample's waypoints minus its last input waypoint.
+    Relative,
+}
+
+impl Frame {
+    /// The name used in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            Frame::World => "world",
+            Frame::Relative => "relative",
+        }
+    }
 }
 
 /// How the robots' trained models become their next starting model.

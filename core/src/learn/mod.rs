@@ -35,7 +35,7 @@ use ndarray::{s, Array1, Array2, Array3, ArrayView3, Axis};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, LearnConfig};
+use crate::config::{Config, Frame, LearnConfig};
 use crate::data::Sample;
 use crate::rng::Rng;
 
@@ -57,6 +57,8 @@ pub struct ModelShape {
     pub input_steps: u32,
     /// Predicted waypoints (the Dense layer has 2x this many outputs).
     pub output_steps: u32,
+    /// The coordinates samples are given in (`learn.frame`).
+    pub frame: Frame,
 }
 
 impl ModelShape {
@@ -67,6 +69,7 @@ impl ModelShape {
             units: config.learn.lstm_units,
             input_steps: config.data.input_waypoints,
             output_steps: config.data.target_waypoints,
+            frame: config.learn.frame,
         }
     }
 
@@ -167,7 +170,9 @@ pub struct TrainData {
 }
 
 impl TrainData {
-    /// Builds the data set from samples (oldest first). Waypoints beyond input + target are
+    /// Builds the data set from samples (oldest first), in the shape's frame: world metres, or
+    /// each sample's waypoints minus its last input waypoint (`learn.frame = "relative"`; an
+    /// exact f32 subtraction, the same on every machine). Waypoints beyond input + target are
     /// ignored (docs/SPEC.md: waypoints 80..100 are unused); a shorter sample is an error.
     pub fn new(shape: &ModelShape, samples: &[Sample]) -> Result<TrainData, LearnError> {
         let (n_in, n_out) = (shape.steps_in(), shape.output_steps as usize);
@@ -181,8 +186,19 @@ impl TrainData {
                     needed: n_in + n_out,
                 });
             }
-            inputs.extend(sample.points[..n_in].iter().flatten());
-            targets.extend(sample.points[n_in..n_in + n_out].iter().flatten());
+            let (past, future) = (&sample.points[..n_in], &sample.points[n_in..n_in + n_out]);
+            match shape.frame {
+                Frame::World => {
+                    inputs.extend(past.iter().flatten());
+                    targets.extend(future.iter().flatten());
+                }
+                Frame::Relative => {
+                    let o = past[n_in - 1];
+                    let moved = |p: &[f32; 2]| [p[0] - o[0], p[1] - o[1]];
+                    inputs.extend(past.iter().flat_map(moved));
+                    targets.extend(future.iter().flat_map(moved));
+                }
+            }
         }
         let inputs = Array3::from_shape_vec((samples.len(), n_in, POINT_DIMS), inputs);
         let targets = Array2::from_shape_vec((samples.len(), shape.outputs()), targets);

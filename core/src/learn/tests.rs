@@ -10,6 +10,7 @@ fn paper_shape() -> ModelShape {
         units: 16,
         input_steps: 32,
         output_steps: 48,
+        frame: Frame::World,
     }
 }
 
@@ -508,6 +509,38 @@ fn split_and_degenerate_inputs() {
 }
 
 #[test]
+fn the_relative_frame_subtracts_the_last_input_waypoint_and_ignores_where_the_arena_is() {
+    let shape = ModelShape {
+        units: 2,
+        input_steps: 3,
+        output_steps: 2,
+        frame: Frame::Relative,
+    };
+    let walk = |dx: f32, dy: f32| Sample {
+        time: crate::SimTime(0),
+        points: (0..6)
+            .map(|k| [dx + 0.25 * k as f32, dy - 0.5 * k as f32])
+            .collect(),
+    };
+    // Waypoint 2 (the last input) is the origin: inputs -0.5, -0.25, 0 in x; targets +0.25,
+    // +0.5 in x and -0.5, -1 in y. Waypoint 5 is beyond input + target and unused.
+    let d = TrainData::new(&shape, &[walk(1.0, 2.0)]).unwrap();
+    let inputs: Vec<f32> = d.inputs.iter().copied().collect();
+    assert_eq!(inputs, [-0.5, 1.0, -0.25, 0.5, 0.0, 0.0]);
+    assert_eq!(d.target(0), [0.25, -0.5, 0.5, -1.0]);
+    // The same walk 20 m away is the same data set (the offsets are exact in f32).
+    assert_eq!(TrainData::new(&shape, &[walk(21.0, -18.0)]).unwrap(), d);
+    // The paper's world frame keeps the coordinates and tells the two apart.
+    let world = ModelShape {
+        frame: Frame::World,
+        ..shape
+    };
+    let far = TrainData::new(&world, &[walk(21.0, -18.0)]).unwrap();
+    assert_ne!(far, TrainData::new(&world, &[walk(1.0, 2.0)]).unwrap());
+    assert_eq!(far.target(0), [21.75, -19.5, 22.0, -20.0]);
+}
+
+#[test]
 fn flop_count_is_stated_for_the_paper_model() {
     let shape = paper_shape();
     // Forward ~ 2 * 32 * 19 * 64 for the gates; backward about twice that.
@@ -919,6 +952,7 @@ fn blocked_training_equals_the_per_sample_trainer() {
             units: 1 + rng.below(20) as u32,
             input_steps: 1 + rng.below(6) as u32,
             output_steps: 1 + rng.below(9) as u32,
+            frame: Frame::World,
         };
         let samples = 1 + rng.below(30) as usize;
         let inputs = random_values(&mut rng, samples * shape.input_len(), 1.0);
