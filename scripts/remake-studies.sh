@@ -31,11 +31,13 @@ sweeps_of() {
       printf '%s\n' "e0-baselines --runs 3" ;;
     e5-smart-defence)
       printf '%s\n' "e5-smart-defence --runs 3" ;;
+    e4-robustness-300s)
+      printf '%s\n' "e4-robustness --runs 3 --set run.duration_s=300" ;;
     e6-scale)
       # 15, 60 and 240 robots (3 seeds) first: the 1000-robot runs take half an hour each.
       printf '%s\n' e6-scale e6-scale-1000 ;;
     *)
-      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e5-smart-defence e6-scale)" >&2
+      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e4-robustness-300s e5-smart-defence e6-scale)" >&2
       return 1 ;;
   esac
 }
@@ -46,7 +48,7 @@ if [ "${#studies[@]}" -eq 0 ]; then
   exit 2
 fi
 if [ "${studies[0]}" = all ]; then
-  studies=(full-study reduced-study e0-baselines e5-smart-defence e6-scale)
+  studies=(full-study reduced-study e0-baselines e4-robustness-300s e5-smart-defence e6-scale)
 fi
 
 for study in "${studies[@]}"; do
