@@ -251,7 +251,10 @@ fn cell(sample: &Sample, tick_s: f64) -> Option<usize> {
 /// #38's second session, the mean total-variation distance of each robot's histogram to the
 /// pooled one, grew as robots held fewer samples, so a swarm of stuck robots scored above a
 /// mixed one. It is computed on the data sets robots train on (after expiry), with sums in a
-/// fixed order, so it is a deterministic function of the state.
+/// fixed order, so it is a deterministic function of the state. docs/SPEC.md section 1 ("Is a
+/// mixed swarm more heterogeneous?") gives the measurements behind keeping it: a mixed swarm is
+/// not more heterogeneous per robot under this or any other measure of the data tried, since
+/// robots record their neighbours and the behaviours barely differ over one window.
 pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_s: f64) -> f64 {
     const CELLS: usize = SPEED_BINS * TURN_BINS;
     let hists: Vec<[u64; CELLS]> = sets
@@ -512,5 +515,48 @@ mod tests {
         // (the mean total-variation distance used before gave 0.5 here).
         let one_each: Vec<VecDeque<Sample>> = vec![vec![slow].into(), vec![fast].into()];
         assert_eq!(heterogeneity(one_each.iter(), 0.1), 0.0);
+    }
+
+    /// A straight sample of 10 waypoints at `speed` m/s along x (ticks of 0.1 s): turn 0, so
+    /// its cell is its speed bin times `TURN_BINS`.
+    fn straight(speed: f32) -> Sample {
+        Sample {
+            time: SimTime(0),
+            points: (0..10).map(|k| [k as f32 * speed * 0.1, 0.0]).collect(),
+        }
+    }
+
+    /// A data set of `slow` samples at 0.005 m/s (speed bin 0) and `fast` at 0.025 (bin 2).
+    fn slow_fast(slow: usize, fast: usize) -> VecDeque<Sample> {
+        let mut v = vec![straight(0.005); slow];
+        v.extend(vec![straight(0.025); fast]);
+        v.into()
+    }
+
+    /// Robot 0 holds `a` slow and `b` fast samples, robot 1 `c` slow and `d` fast.
+    fn two_by_two(a: usize, b: usize, c: usize, d: usize) -> f64 {
+        heterogeneity([slow_fast(a, b), slow_fast(c, d)].iter(), 0.1)
+    }
+
+    #[test]
+    fn heterogeneity_matches_hand_computed_tables() {
+        assert_eq!(cell(&straight(0.005), 0.1), Some(0));
+        assert_eq!(cell(&straight(0.025), 0.1), Some(2 * TURN_BINS));
+        // [[10, 0], [5, 5]]: n = 20, expected counts 7.5 / 2.5 in both rows, chi2 = 2 (2.5^2 /
+        // 7.5 + 2.5^2 / 2.5) = 20/3, phi2 = 1/3 - 1/19 = 16/57, each corrected dimension
+        // 2 - 1/19, so V^2 = (16/57) / (18/19) = 8/27.
+        let v = two_by_two(10, 0, 5, 5);
+        assert!((v - (8.0f64 / 27.0).sqrt()).abs() < 1e-12, "{v}");
+        // [[6, 4], [4, 6]]: n = 20, expected 5 everywhere, chi2 = 4 (1/5) = 0.8, phi2 = 0.04 -
+        // 1/19 < 0: a difference this small is what 20 samples of one distribution show, so 0.
+        assert_eq!(two_by_two(6, 4, 4, 6), 0.0);
+        // [[30, 10], [10, 30]]: n = 80, chi2 = 4 (10^2 / 20) = 20, phi2 = 1/4 - 1/79 = 75/316,
+        // dimension 1 - 1/79 = 78/79, so V^2 = 75/312.
+        let v = two_by_two(30, 10, 10, 30);
+        assert!((v - (75.0f64 / 312.0).sqrt()).abs() < 1e-12, "{v}");
+        // Robots in the other order, or a robot without data: the same value.
+        assert_eq!(two_by_two(10, 30, 30, 10), v);
+        let with_empty = [VecDeque::new(), slow_fast(30, 10), slow_fast(10, 30)];
+        assert_eq!(heterogeneity(with_empty.iter(), 0.1), v);
     }
 }

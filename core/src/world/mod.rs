@@ -92,8 +92,8 @@ pub struct WorldStats {
     pub messages_dropped: u64,
     /// Samples in the held-out set.
     pub heldout_samples: u64,
-    /// Data heterogeneity between robots' current data sets (`data::heterogeneity`: mean
-    /// total-variation distance of each robot's speed x turn histogram to the pooled one).
+    /// Data heterogeneity between robots' current data sets (`data::heterogeneity`: the
+    /// bias-corrected Cramer's V of the robots x (speed x turn cell) table).
     #[serde(default)]
     pub data_heterogeneity: f64,
     /// Items delivered to the nest by foragers (0 without foraging).
