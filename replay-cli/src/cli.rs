@@ -278,7 +278,8 @@ pub struct ExportArgs {
 #[derive(Args, Debug)]
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
-    /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors or e3-smart-authors.
+    /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
+    /// e6-scale or e6-scale-1000.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
@@ -517,6 +518,8 @@ Experiments, points and default runs (seeds 1..=runs):
                  (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
   e2-malicious-authors, e3-smart-authors  e2-malicious and e3-smart under the authors'
                  contract (preset authors: docs/CONTRACT.md's options at their values)  20, 18 runs
+  e6-scale       {rounds,buffered,gossip}-{15,60,240}, {rounds,buffered}-240-faulty-24 3 runs
+  e6-scale-1000  {rounds,buffered,gossip}-1000 (paper density, one training a second)  2 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,
@@ -548,6 +551,31 @@ mod tests {
                 "`run --help` does not list the rule {}",
                 rule.name()
             );
+        }
+    }
+
+    /// `sweep --help` lists every experiment, each at the start of a line of its table, and
+    /// the argument's own help names each one.
+    #[test]
+    fn the_sweep_help_lists_every_experiment() {
+        use clap::CommandFactory;
+        let mut cmd = super::Cli::command();
+        let sweep = cmd
+            .find_subcommand_mut("sweep")
+            .expect("a sweep subcommand");
+        let help = sweep.render_long_help().to_string();
+        for name in crate::experiments::EXPERIMENTS {
+            let in_table = super::SWEEP_HELP.lines().any(|line| {
+                let line = line.trim_start();
+                line.starts_with(&format!("{name} "))
+                    || line.starts_with(&format!("{name}, "))
+                    || line.contains(&format!(", {name} "))
+            });
+            assert!(in_table, "`sweep --help`'s table has no line for {name}");
+            let words: Vec<&str> = help
+                .split(|c: char| !(c.is_alphanumeric() || c == '-'))
+                .collect();
+            assert!(words.contains(&name), "`sweep --help` does not name {name}");
         }
     }
 

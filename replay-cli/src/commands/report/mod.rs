@@ -4,8 +4,9 @@
 //!
 //! The steps, one module each: `load` (read and sort the result files), `stats` (means and
 //! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
-//! standard figures of each experiment), `robustness` (e4's heatmaps) and `defence` (e5's
-//! figures), and `tables` (the CSV files and `report.md`).
+//! standard figures of each experiment), `robustness` (e4's heatmaps), `defence` (e5's
+//! figures) and `scale` (e6's figures and tables), and `tables` (the CSV files and
+//! `report.md`).
 //!
 //! Results are sorted by experiment, point (in the grid's order) and seed before any sum, so
 //! the numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
@@ -19,6 +20,7 @@ mod heatmap;
 mod load;
 mod plots;
 mod robustness;
+mod scale;
 mod stats;
 mod style;
 mod tables;
@@ -48,22 +50,31 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
         "no result files found under {} (expected <experiment>/<point>/seed<N>.json)",
         dir.display()
     );
-    let stats = stats::aggregate(&results);
+    let mut stats = stats::aggregate(&results);
+    let scale_rows = scale::study(&results);
+    scale::extend(&mut stats, &scale_rows);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let (numbers, series) = tables::numbers_csv(&stats);
     std::fs::write(out.join("numbers.csv"), numbers)?;
     std::fs::write(out.join("series.csv"), series)?;
     std::fs::write(out.join("timing.csv"), tables::timing_csv(&stats))?;
     // e4-robustness has 225 points: its figures are heatmaps; e5's 39 points are drawn per
-    // defence. The standard figures are for the others.
-    let own_figures = [robustness::EXPERIMENT, defence::EXPERIMENT];
+    // defence; e6's per protocol against the swarm's size. The standard figures are for the
+    // others.
+    let own_figures = [
+        robustness::EXPERIMENT,
+        defence::EXPERIMENT,
+        scale::EXPERIMENTS[0],
+        scale::EXPERIMENTS[1],
+    ];
     let mut figures = figures::draw_all(&stats, &own_figures, out, &mut notes)?;
     figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
     figures.extend(defence::draw_all(&stats, out, &mut notes)?);
+    figures.extend(scale::draw_all(&stats, &scale_rows, out, &mut notes)?);
     if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
         std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
     }
-    let md = tables::markdown(&stats, &figures, &notes, results.len());
+    let md = tables::markdown(&stats, &figures, &scale_rows, &notes, results.len());
     let path = out.join("report.md");
     std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(path)
@@ -85,7 +96,8 @@ mod tests {
     fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> Value {
         let mut r = rng::stream(seed * 1000 + x as u64, Purpose::Dropout, 0);
         let sim_time_s = 5000.0;
-        let byzantine = if experiment == "e1-expiration" {
+        // e1-expiration's x is the expiration time, e6's the swarm's size.
+        let byzantine = if experiment == "e1-expiration" || experiment.starts_with("e6-scale") {
             0
         } else {
             x as u32
@@ -380,6 +392,12 @@ mod tests {
             "e5-smart-defence-smart-heldout",
             "e5-smart-defence-switch-tokens",
             "e5-smart-defence-switch-heldout",
+            "e6-scale-heldout-15",
+            "e6-scale-heldout-240",
+            "e6-scale-heldout-1000",
+            "e6-scale-final-heldout",
+            "e6-scale-versions",
+            "e6-scale-wall",
         ] {
             for ext in ["svg", "png"] {
                 let f = out.join(format!("{stem}.{ext}"));
@@ -395,6 +413,17 @@ mod tests {
             md.contains("| agreement--smart-then-collude--7 | 3 | 3 | 10"),
             "the control table of e5"
         );
+        // e6's table, once, in e6-scale's section; the standard loss figure is not drawn.
+        assert_eq!(
+            md.matches("| point | robots | faulty | runs | versions |")
+                .count(),
+            1
+        );
+        assert!(
+            md.contains("| buffered-1000 | 1000 |"),
+            "e6-scale-1000 in the table"
+        );
+        assert!(!out.join("e6-scale-loss.png").exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 }

@@ -48,6 +48,19 @@ pub(super) enum Kind {
     Time { log_y: bool },
     /// Points with error bars versus the grid value.
     Versus,
+    /// Points with error bars versus a positive grid value that spans decades (a swarm's
+    /// size), on a log x axis with a key point at every value; log-scale y when `log_y`.
+    Scaling { log_y: bool },
+}
+
+impl Kind {
+    /// Whether the y axis is logarithmic.
+    fn log_y(self) -> bool {
+        matches!(
+            self,
+            Kind::Time { log_y: true } | Kind::Scaling { log_y: true }
+        )
+    }
 }
 
 pub(super) struct Plot<'a> {
@@ -94,9 +107,10 @@ pub(super) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> 
 /// where the legend goes, preferring upper right, upper left, lower right, lower left.
 fn legend_corner(plot: &Plot, log_y: bool) -> SeriesLabelPosition {
     let (x0, x1, y0, y1) = bounds(plot);
-    let (x0, x1) = match plot.kind {
-        Kind::Versus => (x0 - 0.5, x1 + 0.5),
-        Kind::Time { .. } => (x0, x1),
+    let (x0, x1) = x_range(plot.kind, x0, x1);
+    let scale_x = |x: f64| match plot.kind {
+        Kind::Scaling { .. } => (x.ln() - x0.ln()) / (x1.ln() - x0.ln()),
+        _ => (x - x0) / (x1 - x0),
     };
     let scale_y = |y: f64| {
         if log_y {
@@ -113,7 +127,7 @@ fn legend_corner(plot: &Plot, log_y: bool) -> SeriesLabelPosition {
                 if !y.is_finite() {
                     continue;
                 }
-                let (u, v) = ((x - x0) / (x1 - x0), scale_y(y));
+                let (u, v) = (scale_x(*x), scale_y(y));
                 let (left, right, top, bottom) = (u < 0.35, u > 0.65, v > 0.7, v < 0.3);
                 for (i, hit) in [right && top, left && top, right && bottom, left && bottom]
                     .into_iter()
@@ -134,14 +148,41 @@ fn legend_corner(plot: &Plot, log_y: bool) -> SeriesLabelPosition {
         .clone()
 }
 
+/// The x axis' range around the data's `[x0, x1]`: a point plot keeps half a grid step
+/// beside its outer points, a log axis a quarter of its factor; a time axis is the data's.
+fn x_range(kind: Kind, x0: f64, x1: f64) -> (f64, f64) {
+    match kind {
+        Kind::Versus => (x0 - 0.5, x1 + 0.5),
+        Kind::Scaling { .. } => (x0 / 1.25, x1 * 1.25),
+        Kind::Time { .. } => (x0, x1),
+    }
+}
+
+/// The key points of a [`Kind::Scaling`] x axis: every x value of the plot, ascending.
+fn grid_ticks(plot: &Plot) -> Vec<f64> {
+    let mut xs: Vec<f64> = plot
+        .series
+        .iter()
+        .flat_map(|s| s.points.iter().map(|(x, _)| *x))
+        .filter(|x| x.is_finite() && *x > 0.0)
+        .collect();
+    xs.sort_by(f64::total_cmp);
+    xs.dedup();
+    xs
+}
+
 type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
     let mut xs = (f64::INFINITY, f64::NEG_INFINITY);
     let mut ys = (f64::INFINITY, f64::NEG_INFINITY);
-    let positive = matches!(plot.kind, Kind::Time { log_y: true });
+    let positive = plot.kind.log_y();
+    let positive_x = matches!(plot.kind, Kind::Scaling { .. });
     for s in &plot.series {
         for (x, st) in &s.points {
+            if positive_x && *x <= 0.0 {
+                continue;
+            }
             xs = (xs.0.min(*x), xs.1.max(*x));
             let ci = st.ci.unwrap_or(0.0);
             for y in [st.mean - ci, st.mean + ci, st.mean] {
@@ -152,7 +193,7 @@ fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
         }
     }
     if !xs.0.is_finite() {
-        xs = (0.0, 1.0);
+        xs = if positive_x { (1.0, 10.0) } else { (0.0, 1.0) };
     }
     if !ys.0.is_finite() {
         ys = (if positive { 1e-3 } else { 0.0 }, 1.0);
@@ -273,13 +314,24 @@ fn draw_on<DB: DrawingBackend>(
             draw_series(&mut chart, plot, text, y0, st)?;
         }
         Kind::Time { log_y: false } | Kind::Versus => {
-            let (x0, x1) = match plot.kind {
-                Kind::Versus => (x0 - 0.5, x1 + 0.5),
-                _ => (x0, x1),
-            };
+            let (x0, x1) = x_range(plot.kind, x0, x1);
             let mut chart = builder.build_cartesian_2d(x0..x1, y0..y1)?;
             draw_mesh!(chart, plot, text, st);
             draw_series(&mut chart, plot, text, y0, st)?;
+        }
+        Kind::Scaling { log_y } => {
+            let (x0, x1) = x_range(plot.kind, x0, x1);
+            let x_axis = (x0..x1).log_scale().with_key_points(grid_ticks(plot));
+            if log_y {
+                let y_axis = (y0..y1).log_scale().with_key_points(log_ticks(y0, y1));
+                let mut chart = builder.build_cartesian_2d(x_axis, y_axis)?;
+                draw_mesh!(chart, plot, text, st);
+                draw_series(&mut chart, plot, text, y0, st)?;
+            } else {
+                let mut chart = builder.build_cartesian_2d(x_axis, y0..y1)?;
+                draw_mesh!(chart, plot, text, st);
+                draw_series(&mut chart, plot, text, y0, st)?;
+            }
         }
     }
     Ok(())
@@ -307,7 +359,7 @@ where
     X: plotters::coord::ranged1d::Ranged<ValueType = f64>,
     Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
 {
-    let log_y = matches!(plot.kind, Kind::Time { log_y: true });
+    let log_y = plot.kind.log_y();
     let line_w = st.upx(2.0);
     let dot = st.px(4.0);
     for (i, s) in plot.series.iter().enumerate() {
@@ -366,24 +418,47 @@ where
                     )))?;
                 }
             }
-            Kind::Versus => {
-                let offset = (i as f64 - 0.5) * 0.08;
-                for (x, st) in &s.points {
+            Kind::Versus | Kind::Scaling { .. } => {
+                // Series side by side, so that their error bars do not hide each other: by a
+                // step of the grid, or on a log axis by a factor.
+                let shift = |x: f64| match plot.kind {
+                    Kind::Scaling { .. } => x * (1.0 + (i as f64 - 0.5) * 0.04),
+                    _ => x + (i as f64 - 0.5) * 0.08,
+                };
+                // A log axis shows no value at or below 0: such a point is left out and an
+                // interval's lower end stops at the axis.
+                let shown: Vec<(f64, Stat)> = s
+                    .points
+                    .iter()
+                    .filter(|(x, st)| match plot.kind {
+                        Kind::Scaling { .. } => *x > 0.0 && (!log_y || st.mean > 0.0),
+                        _ => true,
+                    })
+                    .map(|(x, st)| (shift(*x), *st))
+                    .collect();
+                let low = |v: f64| {
+                    if matches!(plot.kind, Kind::Scaling { .. }) && (log_y || plot.nonnegative) {
+                        v.max(y_floor)
+                    } else {
+                        v
+                    }
+                };
+                for (x, st) in &shown {
                     if let Some(ci) = st.ci {
                         chart.draw_series(std::iter::once(PathElement::new(
-                            vec![(x + offset, st.mean - ci), (x + offset, st.mean + ci)],
+                            vec![(*x, low(st.mean - ci)), (*x, st.mean + ci)],
                             colour.stroke_width(line_w),
                         )))?;
                     }
                 }
                 chart.draw_series(LineSeries::new(
-                    s.points.iter().map(|(x, st)| (x + offset, st.mean)),
+                    shown.iter().map(|(x, st)| (*x, st.mean)),
                     colour.mix(0.5).stroke_width(st.upx(1.0)),
                 ))?;
                 let dots = chart.draw_series(
-                    s.points
+                    shown
                         .iter()
-                        .map(|(x, st)| Circle::new((x + offset, st.mean), dot, colour.filled())),
+                        .map(|(x, st)| Circle::new((*x, st.mean), dot, colour.filled())),
                 )?;
                 if text {
                     dots.label(s.label.clone())
@@ -483,6 +558,49 @@ mod tests {
             with > without + 100,
             "{with} vs {without} pixels of the series' colour"
         );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_scaling_plot_has_log_axes_keyed_at_its_grid() {
+        let plot = Plot {
+            title: "wall".into(),
+            x_label: "robots",
+            y_label: "s",
+            kind: Kind::Scaling { log_y: true },
+            series: vec![
+                Series {
+                    label: "a".into(),
+                    points: vec![(60.0, stat(3.0, 5.0)), (15.0, stat(1.0, 0.1))],
+                },
+                Series {
+                    label: "b".into(),
+                    points: vec![(1000.0, stat(80.0, 1.0)), (0.0, stat(2.0, 0.1))],
+                },
+            ],
+            nonnegative: true,
+        };
+        // A log axis has no 0: that point is left out of the ticks and the bounds.
+        assert_eq!(grid_ticks(&plot), [15.0, 60.0, 1000.0]);
+        let (x0, x1, y0, y1) = bounds(&plot);
+        assert_eq!((x0, x1), (15.0, 1000.0));
+        assert_eq!(x_range(plot.kind, x0, x1), (12.0, 1250.0));
+        // The y axis spans the positive values only (3 - 5 < 0 is not one), with a margin.
+        assert!(
+            (y0 - 0.9 / 1.2).abs() < 1e-12 && (y1 - 81.0 * 1.2).abs() < 1e-9,
+            "{y0} {y1}"
+        );
+        let dir = std::env::temp_dir().join(format!("swarmfl-scaling-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        assert!(draw(&plot, &dir, "scaling").unwrap(), "drawn with text");
+        let svg = std::fs::read_to_string(dir.join("scaling.svg")).unwrap();
+        // plotters writes a text's content on a line of its own.
+        for label in ["15", "60", "1000"] {
+            assert!(
+                svg.contains(&format!(">\n{label}\n</text>")),
+                "x tick {label} in the SVG"
+            );
+        }
         let _ = std::fs::remove_dir_all(&dir);
     }
 

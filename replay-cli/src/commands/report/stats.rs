@@ -127,7 +127,7 @@ pub struct ExperimentStats {
 }
 
 /// The loss of a run at time `t`: the last round closed at or before `t`.
-fn loss_at(times: &[f64], losses: &[f64], t: f64) -> Option<f64> {
+pub(super) fn loss_at(times: &[f64], losses: &[f64], t: f64) -> Option<f64> {
     let closed = times.iter().take_while(|&&rt| rt <= t).count();
     closed
         .checked_sub(1)
@@ -142,7 +142,7 @@ fn f64s(v: Option<&Value>) -> Option<Vec<f64>> {
 
 /// The curve over [`BIN_S`] bins of `per_run` values at each bin's end (runs without a value
 /// there do not count).
-fn curve(sim_time_s: f64, per_run: &[Box<dyn Fn(f64) -> Option<f64> + '_>]) -> Curve {
+pub(super) fn curve(sim_time_s: f64, per_run: &[Box<dyn Fn(f64) -> Option<f64> + '_>]) -> Curve {
     if per_run.is_empty() {
         return Vec::new();
     }

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use super::plots::Figure;
 use super::stats::{ExperimentStats, PointStats, Stat, BIN_S};
-use super::{defence, robustness};
+use super::{defence, robustness, scale};
 
 /// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a line break.
 fn csv_field(text: &str) -> String {
@@ -92,11 +92,13 @@ pub fn timing_csv(stats: &[ExperimentStats]) -> String {
     timing
 }
 
-/// `report.md`: per experiment its figures, its own tables (e4, e5) and the table of every
-/// point's numbers, then the notes.
+/// `report.md`: per experiment its figures, its own tables (e4, e5; e6's study, from
+/// `scale_rows`, in the first of its experiments) and the table of every point's numbers, then
+/// the notes.
 pub fn markdown(
     stats: &[ExperimentStats],
     figures: &[Figure],
+    scale_rows: &[scale::Row],
     notes: &[String],
     files: usize,
 ) -> String {
@@ -140,6 +142,9 @@ pub fn markdown(
                  switches then):\n\n{}",
                 defence::control_table(e)
             );
+        }
+        if scale::is_home(scale_rows, &e.name) {
+            let _ = writeln!(md, "{}", scale::section(scale_rows));
         }
         let _ = writeln!(
             md,

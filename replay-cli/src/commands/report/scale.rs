@@ -1,0 +1,891 @@
+//! `e6-scale` and `e6-scale-1000` (issue 32): the paper's rounds, the buffered protocol and the
+//! gossip baseline at 15 to 1000 robots. Per swarm size, the held-out loss over time of each
+//! protocol; versus the size, the final held-out loss, the model versions, the bytes a node
+//! sends and stores, and the wall time of a run; and one table of every point, with the
+//! 240-robot points with faulty robots set against their protocol's clean run of that size.
+//!
+//! Every number is read from one run's `summary.json` ([`RunNumbers`]), then summarised over
+//! the point's runs. The table gives mean ± sample standard deviation: with two or three seeds a
+//! 95 % interval (t = 12.7 at two) is wider than the spread it describes. The figures and
+//! `numbers.csv` keep the report's 95 % intervals: [`extend`] adds the study's numbers to its
+//! points' metrics and starts their held-out curves at the genesis model, so a protocol that
+//! makes no version by a time shows the loss the swarm then holds instead of no value.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::load::RunResult;
+use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::stats::{self, ExperimentStats, PointStats, Stat};
+use crate::experiments::{self, E6_PROTOCOLS};
+
+/// The experiments this module draws: the sizes with three seeds, and 1000 robots with two.
+pub const EXPERIMENTS: [&str; 2] = ["e6-scale", "e6-scale-1000"];
+
+/// Submission outcomes with a column of their own; every other outcome is a refusal.
+const OWN_COLUMNS: [&str; 4] = ["accepted", "aggregated", "outlier", "stale"];
+
+/// What one run measured, read from its summary (`None`: the summary lacks it).
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunNumbers {
+    /// The seed.
+    pub seed: u64,
+    /// Held-out loss of the shared model at the end (`final_heldout_loss`, else the last
+    /// version's); the genesis model's when no version was made (gossip: the mean over honest
+    /// robots of their own models').
+    pub heldout: Option<f64>,
+    /// The genesis model's held-out loss (the arena's size sets it: targets are in world
+    /// metres, so losses of different sizes compare through it).
+    pub genesis: Option<f64>,
+    /// Model versions made (`contract.rounds`: rounds closed, buffers aggregated; gossip:
+    /// merges of honest robots).
+    pub versions: Option<f64>,
+    /// Submissions accepted, the one that closed a round or buffer included.
+    pub accepted: Option<f64>,
+    /// Submissions rejected as outliers.
+    pub outlier: Option<f64>,
+    /// Submissions refused as stale (a base more than `contract.max_staleness` behind).
+    pub stale: Option<f64>,
+    /// Every other refusal (unknown, future or duplicate base, duplicate, stake, malformed).
+    pub refused: Option<f64>,
+    /// Models in the aggregations, honest and Byzantine.
+    pub aggregated: Option<f64>,
+    /// Byzantine (here faulty) models in the aggregations.
+    pub faulty_aggregated: Option<f64>,
+    /// Mean token change of the Byzantine robots (`tokens.byzantine_mean_gain`).
+    pub faulty_gain: Option<f64>,
+    /// MB a node sent for aggregation (lost ones included), mean over nodes.
+    pub sent_mb: Option<f64>,
+    /// MB a node stores for aggregation at the end, mean over nodes.
+    pub stored_mb: Option<f64>,
+    /// Wall-clock seconds of the run.
+    pub wall_s: Option<f64>,
+    /// The held-out loss over time: the genesis model's at 0 s (when the summary has it), then
+    /// each version's.
+    pub heldout_times_s: Vec<f64>,
+    /// The losses of [`RunNumbers::heldout_times_s`].
+    pub heldout_losses: Vec<f64>,
+}
+
+impl RunNumbers {
+    /// The numbers of `summary`, the result of `seed`.
+    pub fn of(seed: u64, summary: &Value) -> RunNumbers {
+        let contract = summary.get("contract").filter(|c| c.is_object());
+        let get = |section: Option<&Value>, key: &str| section?.get(key)?.as_f64();
+        let initial = get(contract, "heldout_loss_initial");
+        let submissions = contract
+            .and_then(|c| c.get("submissions"))
+            .and_then(Value::as_object);
+        // Folded from +0: `sum` of no values is -0, which the table would print as "-0.0".
+        let outcomes = |names: &[&str]| {
+            submissions.map(|m| {
+                names
+                    .iter()
+                    .filter_map(|n| m.get(*n).and_then(Value::as_f64))
+                    .fold(0.0, |a, b| a + b)
+            })
+        };
+        let refused = submissions.map(|m| {
+            m.iter()
+                .filter(|(k, _)| !OWN_COLUMNS.contains(&k.as_str()))
+                .filter_map(|(_, v)| v.as_f64())
+                .fold(0.0, |a, b| a + b)
+        });
+        let honest = get(contract, "aggregated_honest");
+        let faulty = get(contract, "aggregated_byzantine");
+        let aggregation = summary.get("aggregation").filter(|a| a.is_object());
+        let mb = |key: &str| get(aggregation, key).map(|b| b / 1e6);
+        let array = |key: &str| -> Option<Vec<f64>> {
+            contract?
+                .get(key)?
+                .as_array()?
+                .iter()
+                .map(Value::as_f64)
+                .collect()
+        };
+        let by_version = array("heldout_loss_by_round").unwrap_or_default();
+        // A summary without the genesis model's loss has its versions' alone.
+        let (mut heldout_times_s, mut heldout_losses) = (Vec::new(), Vec::new());
+        if let (Some(times), Some(losses)) =
+            (array("round_times_s"), array("heldout_loss_by_round"))
+        {
+            if let Some(first) = initial {
+                heldout_times_s.push(0.0);
+                heldout_losses.push(first);
+            }
+            heldout_times_s.extend(times);
+            heldout_losses.extend(losses);
+        }
+        let is_byzantine = summary["byzantine"]["kind"]
+            .as_str()
+            .is_some_and(|k| k != "none");
+        RunNumbers {
+            seed,
+            heldout: get(contract, "final_heldout_loss")
+                .or_else(|| by_version.last().copied())
+                .or(initial),
+            genesis: initial,
+            versions: get(contract, "rounds"),
+            accepted: outcomes(&["accepted", "aggregated"]),
+            outlier: outcomes(&["outlier"]),
+            stale: outcomes(&["stale"]),
+            refused,
+            aggregated: honest.zip(faulty).map(|(h, f)| h + f),
+            faulty_aggregated: faulty.filter(|_| is_byzantine),
+            faulty_gain: summary["tokens"]["byzantine_mean_gain"].as_f64(),
+            sent_mb: mb("bytes_sent_per_robot_mean"),
+            stored_mb: mb("bytes_stored_per_robot_mean"),
+            wall_s: summary.get("wall_s").and_then(Value::as_f64),
+            heldout_times_s,
+            heldout_losses,
+        }
+    }
+}
+
+/// One point of the study and its runs.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Row {
+    /// The experiment (`e6-scale` or `e6-scale-1000`).
+    pub experiment: String,
+    /// The point's name (`<protocol>-<robots>`, `<protocol>-240-faulty-24`).
+    pub point: String,
+    /// `rounds`, `buffered` or `gossip` (the point's `protocol` tag).
+    pub protocol: String,
+    /// The swarm's size (the point's x).
+    pub robots: f64,
+    /// Faulty robots (0 for a clean point).
+    pub faulty: u32,
+    /// Its runs, in seed order.
+    pub runs: Vec<RunNumbers>,
+    /// Points with faulty robots: per seed that the clean point of the same protocol and size
+    /// also has, the final held-out loss divided by the clean run's (seed order).
+    pub ratio_to_clean: Vec<f64>,
+}
+
+impl RunNumbers {
+    /// The final held-out loss as a fraction of the genesis model's.
+    pub fn of_genesis(&self) -> Option<f64> {
+        let fraction = self.heldout? / self.genesis?;
+        fraction.is_finite().then_some(fraction)
+    }
+}
+
+impl Row {
+    /// The spread over the runs of what `f` reads (runs without it do not count).
+    pub fn spread(&self, f: impl Fn(&RunNumbers) -> Option<f64>) -> Option<Spread> {
+        Spread::of(&self.runs.iter().filter_map(f).collect::<Vec<_>>())
+    }
+
+    /// The 95 % statistic of the same, for the figures and `numbers.csv`.
+    fn stat(&self, f: impl Fn(&RunNumbers) -> Option<f64>) -> Option<Stat> {
+        Stat::of(&self.runs.iter().filter_map(f).collect::<Vec<_>>())
+    }
+}
+
+/// A mean with the sample standard deviation of `n` values.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Spread {
+    /// Number of values.
+    pub n: usize,
+    /// Their mean.
+    pub mean: f64,
+    /// Their sample standard deviation (None for a single value).
+    pub sd: Option<f64>,
+}
+
+impl Spread {
+    /// The spread of `values` (None without any); sums run in the order given.
+    pub fn of(values: &[f64]) -> Option<Spread> {
+        let n = values.len();
+        if n == 0 {
+            return None;
+        }
+        let mean = values.iter().sum::<f64>() / n as f64;
+        let sd = (n >= 2).then(|| {
+            let var = values.iter().map(|v| (v - mean) * (v - mean)).sum::<f64>() / (n - 1) as f64;
+            var.sqrt()
+        });
+        Some(Spread { n, mean, sd })
+    }
+
+    /// `mean ± sd` as text (the mean alone for one value).
+    pub fn text(self, digits: usize) -> String {
+        match self.sd {
+            Some(sd) => format!("{:.digits$} ± {:.digits$}", self.mean, sd),
+            None => format!("{:.digits$}", self.mean),
+        }
+    }
+}
+
+/// `spread` as text, `n/a` without values.
+fn text(spread: Option<Spread>, digits: usize) -> String {
+    spread.map_or_else(|| "n/a".to_string(), |s| s.text(digits))
+}
+
+/// The study's points from sorted results (grid order), with each faulty point's ratios to its
+/// clean point.
+pub fn study(results: &[RunResult]) -> Vec<Row> {
+    let mut rows: Vec<Row> = Vec::new();
+    for r in results
+        .iter()
+        .filter(|r| EXPERIMENTS.contains(&r.experiment.as_str()))
+    {
+        let same = |row: &Row| row.experiment == r.experiment && row.point == r.point;
+        if !rows.last().is_some_and(same) {
+            rows.push(new_row(r));
+        }
+        if let Some(row) = rows.last_mut() {
+            row.runs.push(RunNumbers::of(r.seed, &r.summary));
+        }
+    }
+    let ratios: Vec<Vec<f64>> = rows.iter().map(|row| ratios_to_clean(row, &rows)).collect();
+    for (row, ratio) in rows.iter_mut().zip(ratios) {
+        row.ratio_to_clean = ratio;
+    }
+    rows
+}
+
+/// An empty row for `r`'s point: its protocol and size from the grid (else from the point's
+/// name and the summary), its faulty robots from the summary.
+fn new_row(r: &RunResult) -> Row {
+    let point = experiments::experiment(&r.experiment)
+        .ok()
+        .and_then(|e| e.points.into_iter().find(|p| p.name == r.point));
+    let protocol = point
+        .as_ref()
+        .and_then(|p| p.tags.iter().find(|(k, _)| *k == "protocol"))
+        .map(|(_, v)| v.clone())
+        .unwrap_or_else(|| r.point.split('-').next().unwrap_or("").to_string());
+    let robots = point
+        .as_ref()
+        .map(|p| p.x)
+        .or_else(|| r.summary["robots"].as_f64())
+        .unwrap_or(f64::NAN);
+    let faulty = if r.summary["byzantine"]["kind"]
+        .as_str()
+        .is_some_and(|k| k != "none")
+    {
+        r.summary["byzantine"]["count"]
+            .as_u64()
+            .map_or(0, |c| c as u32)
+    } else {
+        0
+    };
+    Row {
+        experiment: r.experiment.clone(),
+        point: r.point.clone(),
+        protocol,
+        robots,
+        faulty,
+        runs: Vec::new(),
+        ratio_to_clean: Vec::new(),
+    }
+}
+
+/// The clean point of `row`'s protocol and size in its experiment.
+fn clean_of<'a>(row: &Row, rows: &'a [Row]) -> Option<&'a Row> {
+    rows.iter().find(|c| {
+        c.faulty == 0
+            && c.experiment == row.experiment
+            && c.protocol == row.protocol
+            && c.robots == row.robots
+    })
+}
+
+/// Per seed that both have, `row`'s final held-out loss over its clean point's (empty for a
+/// clean point).
+fn ratios_to_clean(row: &Row, rows: &[Row]) -> Vec<f64> {
+    if row.faulty == 0 {
+        return Vec::new();
+    }
+    let Some(clean) = clean_of(row, rows) else {
+        return Vec::new();
+    };
+    row.runs
+        .iter()
+        .filter_map(|run| {
+            let base = clean.runs.iter().find(|c| c.seed == run.seed)?.heldout?;
+            let ratio = run.heldout? / base;
+            ratio.is_finite().then_some(ratio)
+        })
+        .collect()
+}
+
+/// The point's statistics among `stats`.
+fn point_mut<'a>(stats: &'a mut [ExperimentStats], row: &Row) -> Option<&'a mut PointStats> {
+    stats
+        .iter_mut()
+        .find(|e| e.name == row.experiment)?
+        .points
+        .iter_mut()
+        .find(|p| p.point == row.point)
+}
+
+/// Adds the study's numbers to its points' metrics (so `numbers.csv` holds them) and makes
+/// their held-out curves start at the genesis model (so `series.csv` holds what the figures
+/// draw). Other experiments' statistics are left as they are.
+pub fn extend(stats: &mut [ExperimentStats], rows: &[Row]) {
+    type Reader = fn(&RunNumbers) -> Option<f64>;
+    let metrics: [(&'static str, Reader); 8] = [
+        ("heldout_loss_end", |r| r.heldout),
+        ("heldout_of_genesis", RunNumbers::of_genesis),
+        ("submissions_accepted", |r| r.accepted),
+        ("submissions_stale", |r| r.stale),
+        ("submissions_refused", |r| r.refused),
+        ("models_aggregated", |r| r.aggregated),
+        ("faulty_models_aggregated", |r| r.faulty_aggregated),
+        ("outlier", |r| r.outlier),
+    ];
+    for row in rows {
+        let Some(p) = point_mut(stats, row) else {
+            continue;
+        };
+        for (name, read) in metrics {
+            if let Some(s) = row.stat(read) {
+                p.metrics.insert(name, s);
+            }
+        }
+        if let Some(s) = Stat::of(&row.ratio_to_clean) {
+            p.metrics.insert("heldout_ratio_to_clean", s);
+        }
+        let curves: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = row
+            .runs
+            .iter()
+            .filter(|r| !r.heldout_times_s.is_empty())
+            .map(|r| {
+                Box::new(move |t: f64| stats::loss_at(&r.heldout_times_s, &r.heldout_losses, t))
+                    as Box<dyn Fn(f64) -> Option<f64>>
+            })
+            .collect();
+        if let Some(duration) = p.duration_s {
+            p.heldout = stats::curve(duration, &curves);
+        }
+    }
+}
+
+/// The experiment whose section holds the study's figures and table: the first of
+/// [`EXPERIMENTS`] in the results.
+fn home(rows: &[Row]) -> Option<&str> {
+    rows.first().map(|r| r.experiment.as_str())
+}
+
+/// A row's legend label.
+fn label(row: &Row) -> String {
+    if row.faulty == 0 {
+        row.protocol.clone()
+    } else {
+        format!("{}, {} faulty", row.protocol, row.faulty)
+    }
+}
+
+/// The study's rows with their points' statistics.
+fn with_stats<'a>(stats: &'a [ExperimentStats], rows: &'a [Row]) -> Vec<(&'a Row, &'a PointStats)> {
+    rows.iter()
+        .filter_map(|row| {
+            let e = stats.iter().find(|e| e.name == row.experiment)?;
+            Some((row, e.points.iter().find(|p| p.point == row.point)?))
+        })
+        .collect()
+}
+
+/// A figure to draw: file stem, caption and the plot.
+type Planned = (String, String, Plot<'static>);
+
+/// Per swarm size, the held-out loss over time of each of its points.
+fn heldout_over_time(points: &[(&Row, &PointStats)]) -> Vec<Planned> {
+    let mut sizes: Vec<f64> = Vec::new();
+    for (row, _) in points {
+        if !sizes.contains(&row.robots) {
+            sizes.push(row.robots);
+        }
+    }
+    sizes
+        .into_iter()
+        .map(|robots| {
+            let series = points
+                .iter()
+                .filter(|(row, _)| row.robots == robots)
+                .map(|(row, p)| Series {
+                    label: label(row),
+                    points: p.heldout.clone(),
+                })
+                .collect();
+            (
+                format!("e6-scale-heldout-{robots}"),
+                format!(
+                    "e6-scale: held-out loss of the shared model over simulated time with {robots} \
+                     robots, per protocol, from the genesis model's (mean, 95 % CI band, log \
+                     scale; gossip: the robot that merged last)"
+                ),
+                Plot {
+                    title: format!("e6-scale: held-out loss, {robots} robots"),
+                    x_label: "time (s)",
+                    y_label: "held-out loss",
+                    kind: Kind::Time { log_y: true },
+                    series,
+                    nonnegative: true,
+                },
+            )
+        })
+        .collect()
+}
+
+/// A figure of one number versus the swarm's size, a series per protocol in `protocols`, over
+/// the clean points.
+struct Versus {
+    stem: &'static str,
+    caption: &'static str,
+    title: &'static str,
+    y_label: &'static str,
+    log_y: bool,
+    protocols: &'static [&'static str],
+    read: fn(&PointStats) -> Option<Stat>,
+}
+
+/// The figures versus the swarm's size.
+const VERSUS: [Versus; 6] = [
+    Versus {
+        stem: "e6-scale-final-heldout",
+        caption: "e6-scale: final held-out loss of the shared model versus the swarm's size, per \
+                  protocol (the genesis model's when no version was made; gossip: mean over \
+                  honest robots; mean, 95 % CI, log axes)",
+        title: "e6-scale: final held-out loss",
+        y_label: "held-out loss",
+        log_y: true,
+        protocols: &["rounds", "buffered", "gossip"],
+        read: |p| p.metrics.get("heldout_loss_end").copied(),
+    },
+    Versus {
+        stem: "e6-scale-final-heldout-of-genesis",
+        caption: "e6-scale: final held-out loss as a fraction of the genesis model's versus the \
+                  swarm's size, per protocol (the targets are in world metres, so a larger \
+                  arena starts from a larger loss; mean, 95 % CI, log axes)",
+        title: "e6-scale: final held-out loss / genesis model's",
+        y_label: "held-out loss / genesis",
+        log_y: true,
+        protocols: &["rounds", "buffered", "gossip"],
+        read: |p| p.metrics.get("heldout_of_genesis").copied(),
+    },
+    Versus {
+        stem: "e6-scale-versions",
+        caption:
+            "e6-scale: model versions made in the run versus the swarm's size (rounds: rounds \
+                  closed; buffered: buffers aggregated; mean, 95 % CI, log x axis)",
+        title: "e6-scale: model versions",
+        y_label: "model versions",
+        log_y: false,
+        protocols: &["rounds", "buffered"],
+        read: |p| p.metrics.get("rounds").copied(),
+    },
+    Versus {
+        stem: "e6-scale-sent",
+        caption: "e6-scale: bytes a node sends for aggregation (chain: gossip of blocks and \
+                  transactions; gossip: its messages; lost ones included) versus the swarm's \
+                  size (mean over nodes, then runs; 95 % CI, log axes)",
+        title: "e6-scale: bytes sent per node",
+        y_label: "sent per node (MB)",
+        log_y: true,
+        protocols: &["rounds", "buffered", "gossip"],
+        read: |p| p.metrics.get("sent_mb_per_robot").copied(),
+    },
+    Versus {
+        stem: "e6-scale-stored",
+        caption: "e6-scale: bytes a node stores for aggregation at the end (chain: every block it \
+                  holds; gossip: its replica) versus the swarm's size (mean over nodes, then \
+                  runs; 95 % CI, log axes)",
+        title: "e6-scale: bytes stored per node",
+        y_label: "stored per node (MB)",
+        log_y: true,
+        protocols: &["rounds", "buffered", "gossip"],
+        read: |p| p.metrics.get("stored_mb_per_robot").copied(),
+    },
+    Versus {
+        stem: "e6-scale-wall",
+        caption: "e6-scale: wall-clock time of a run versus the swarm's size (mean, 95 % CI, log \
+                  axes; the machine's, not a deterministic number: timing.csv)",
+        title: "e6-scale: wall time per run",
+        y_label: "wall time per run (s)",
+        log_y: true,
+        protocols: &["rounds", "buffered", "gossip"],
+        read: |p| p.wall_s,
+    },
+];
+
+/// The figure of `v` over the clean points.
+fn versus(v: &Versus, points: &[(&Row, &PointStats)]) -> Planned {
+    let series = v
+        .protocols
+        .iter()
+        .map(|protocol| Series {
+            label: protocol.to_string(),
+            points: points
+                .iter()
+                .filter(|(row, _)| row.faulty == 0 && row.protocol == *protocol)
+                .filter_map(|(row, p)| (v.read)(p).map(|s| (row.robots, s)))
+                .collect(),
+        })
+        .collect();
+    (
+        v.stem.to_string(),
+        v.caption.to_string(),
+        Plot {
+            title: v.title.to_string(),
+            x_label: "robots",
+            y_label: v.y_label,
+            kind: Kind::Scaling { log_y: v.log_y },
+            series,
+            nonnegative: true,
+        },
+    )
+}
+
+/// Draws the study's figures into `out` (after [`extend`]) and returns them, under the
+/// first of [`EXPERIMENTS`] present.
+pub fn draw_all(
+    stats: &[ExperimentStats],
+    rows: &[Row],
+    out: &Path,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<Figure>> {
+    let mut figures = Vec::new();
+    let Some(home) = home(rows) else {
+        return Ok(figures);
+    };
+    let points = with_stats(stats, rows);
+    let mut planned = heldout_over_time(&points);
+    planned.extend(VERSUS.iter().map(|v| versus(v, &points)));
+    let mut textless = Vec::new();
+    for (stem, caption, plot) in planned {
+        if plot.series.iter().all(|s| s.points.is_empty()) {
+            continue;
+        }
+        if !draw(&plot, out, &stem)? {
+            textless.push(stem.clone());
+        }
+        figures.push(Figure {
+            experiment: home.to_string(),
+            stem,
+            caption,
+        });
+    }
+    if !textless.is_empty() {
+        notes.push(format!(
+            "no font could be loaded: {} drawn without titles, labels or legends",
+            textless.join(", ")
+        ));
+    }
+    Ok(figures)
+}
+
+/// Whether `experiment`'s section holds the study's table.
+pub fn is_home(rows: &[Row], experiment: &str) -> bool {
+    home(rows) == Some(experiment)
+}
+
+/// The study's tables (markdown): every point, then the points with faulty robots against
+/// their clean point.
+pub fn section(rows: &[Row]) -> String {
+    let mut md = String::new();
+    let protocols: Vec<&str> = E6_PROTOCOLS.iter().map(|(p, _)| *p).collect();
+    let _ = writeln!(
+        md,
+        "The scale study ({}): protocols {} per swarm size at the paper's density. Per point, over \
+         its runs: mean ± sample standard deviation (none for one run). Final held-out loss: the \
+         shared model's at the end, the genesis model's when no version was made (gossip: the \
+         mean over honest robots of their own models'); of genesis: that loss over the genesis \
+         model's, per run (the targets are in world metres, so a larger arena starts from a \
+         larger loss). Versions: rounds closed (rounds), buffers aggregated (buffered), merges of honest robots (gossip, which has no shared model). \
+         Submissions on the final canonical chain by outcome: accepted (with the one that closed \
+         a round or buffer), outlier, stale (a base more than `contract.max_staleness` versions \
+         behind) and every other refusal (unknown, future or duplicate base, duplicate, \
+         insufficient stake, malformed); gossip counts the models written. Bytes per node, in \
+         MB: sent for aggregation (lost ones included) and stored at the end. Wall time: seconds \
+         per run on the machine that ran it.\n",
+        EXPERIMENTS.join(", "),
+        protocols.join(", ")
+    );
+    let _ = writeln!(
+        md,
+        "| point | robots | faulty | runs | versions | final held-out loss | of genesis | accepted | outlier | stale | other refused | sent MB/node | stored MB/node | wall s/run |\n|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for row in rows {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            row.point,
+            row.robots,
+            row.faulty,
+            row.runs.len(),
+            text(row.spread(|r| r.versions), 1),
+            text(row.spread(|r| r.heldout), 5),
+            text(row.spread(RunNumbers::of_genesis), 4),
+            text(row.spread(|r| r.accepted), 1),
+            text(row.spread(|r| r.outlier), 1),
+            text(row.spread(|r| r.stale), 1),
+            text(row.spread(|r| r.refused), 1),
+            text(row.spread(|r| r.sent_mb), 2),
+            text(row.spread(|r| r.stored_mb), 2),
+            text(row.spread(|r| r.wall_s), 1),
+        );
+    }
+    let faulty: Vec<&Row> = rows.iter().filter(|r| r.faulty > 0).collect();
+    if faulty.is_empty() {
+        return md;
+    }
+    let _ = writeln!(
+        md,
+        "\nThe points with faulty robots against the clean point of their protocol and size. \
+         `summary.json` counts submissions by outcome over all senders, not per robot: a faulty \
+         robot's model counts as aggregated when it passed the contract's check and went into \
+         an aggregation, so 0 faulty models aggregated means that every faulty submission on \
+         the chain was rejected or refused (save any still in an open round or buffer at the \
+         end). Token change: the faulty robots' mean, in tokens (stakes of rejected submissions \
+         are kept by the pool). Held-out ratio: per seed, the final held-out loss over that of \
+         the clean run of the same seed; worst: the largest.\n"
+    );
+    let _ = writeln!(
+        md,
+        "| point | runs | faulty models aggregated | models aggregated | faulty token change | final held-out loss | clean point | clean final held-out loss | held-out ratio | worst seed ratio |\n|---|---|---|---|---|---|---|---|---|---|"
+    );
+    for row in faulty {
+        let clean = clean_of(row, rows);
+        let worst = row
+            .ratio_to_clean
+            .iter()
+            .copied()
+            .fold(None::<f64>, |m, r| Some(m.map_or(r, |m| m.max(r))));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            row.point,
+            row.runs.len(),
+            text(row.spread(|r| r.faulty_aggregated), 1),
+            text(row.spread(|r| r.aggregated), 1),
+            text(row.spread(|r| r.faulty_gain), 2),
+            text(row.spread(|r| r.heldout), 5),
+            clean.map_or("n/a", |c| c.point.as_str()),
+            text(clean.and_then(|c| c.spread(|r| r.heldout)), 5),
+            text(Spread::of(&row.ratio_to_clean), 2),
+            worst.map_or_else(|| "n/a".to_string(), |w| format!("{w:.2}")),
+        );
+    }
+    md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::load::sort;
+    use super::super::tables::numbers_csv;
+    use super::*;
+    use serde_json::json;
+
+    /// A run's summary with the fields the study reads (every other one left out): `rounds`
+    /// versions at 150 s steps whose held-out losses fall to `heldout` (`None`: no version),
+    /// from the genesis model's 3.0.
+    fn run(
+        point: &str,
+        seed: u64,
+        faulty: u32,
+        heldout: Option<f64>,
+        submissions: Value,
+    ) -> RunResult {
+        let rounds = if heldout.is_some() { 2u64 } else { 0 };
+        let times: Vec<f64> = (1..=rounds).map(|k| k as f64 * 150.0).collect();
+        let losses: Vec<f64> = (0..rounds)
+            .map(|k| heldout.unwrap_or(0.0) * (rounds - k) as f64)
+            .collect();
+        RunResult {
+            experiment: "e6-scale".into(),
+            point: point.into(),
+            seed,
+            summary: json!({
+                "seed": seed, "sim_time_s": 300.0, "robots": 240, "wall_s": 10.0 * seed as f64,
+                "byzantine": {"kind": if faulty > 0 {"faulty"} else {"none"}, "count": faulty},
+                "contract": {"rounds": rounds, "round_times_s": times,
+                             "heldout_loss_by_round": losses, "heldout_loss_initial": 3.0,
+                             "final_heldout_loss": heldout, "submissions": submissions,
+                             "aggregated_honest": 14, "aggregated_byzantine": 0},
+                "tokens": {"byzantine_mean_gain": if faulty > 0 { json!(-5.0) } else { Value::Null }},
+                "aggregation": {"bytes_sent_per_robot_mean": 2.0e6 * seed as f64,
+                                "bytes_stored_per_robot_mean": 1.0e6 * seed as f64},
+            }),
+        }
+    }
+
+    /// rounds-240 (one seed that made no version), buffered-240 (seeds 1 to 3) and
+    /// buffered-240-faulty-24 (seeds 1 and 2, one faulty model aggregated in seed 2), in
+    /// file order, not grid order.
+    fn results() -> Vec<RunResult> {
+        let clean = json!({"accepted": 10, "aggregated": 2, "stale": 1});
+        let hostile = json!({"accepted": 10, "aggregated": 2, "outlier": 6, "stale": 4,
+                             "unknown_base": 1, "duplicate_base": 2});
+        let mut faulty = run("buffered-240-faulty-24", 2, 24, Some(0.02), hostile.clone());
+        faulty.summary["contract"]["aggregated_honest"] = json!(13);
+        faulty.summary["contract"]["aggregated_byzantine"] = json!(1);
+        let mut results = vec![
+            faulty,
+            run("buffered-240", 1, 0, Some(0.02), clean.clone()),
+            run("buffered-240", 2, 0, Some(0.04), clean.clone()),
+            run("buffered-240", 3, 0, Some(0.09), clean),
+            run("buffered-240-faulty-24", 1, 24, Some(0.03), hostile),
+            run(
+                "rounds-240",
+                1,
+                0,
+                None,
+                json!({"accepted": 200, "outlier": 50}),
+            ),
+        ];
+        sort(&mut results);
+        results
+    }
+
+    #[test]
+    fn the_tables_hold_the_hand_computed_numbers() {
+        let rows = study(&results());
+        let names: Vec<&str> = rows.iter().map(|r| r.point.as_str()).collect();
+        assert_eq!(
+            names,
+            ["rounds-240", "buffered-240", "buffered-240-faulty-24"]
+        );
+        let faulty = &rows[2];
+        assert_eq!(
+            (faulty.protocol.as_str(), faulty.robots, faulty.faulty),
+            ("buffered", 240.0, 24)
+        );
+        // Paired by seed: 0.03 / 0.02 and 0.02 / 0.04 (a ratio of means would be 0.83).
+        let ratio = &faulty.ratio_to_clean;
+        assert_eq!(ratio.len(), 2);
+        assert!(
+            (ratio[0] - 1.5).abs() < 1e-12 && (ratio[1] - 0.5).abs() < 1e-12,
+            "{ratio:?}"
+        );
+        let r = faulty.runs[0].clone();
+        // accepted 10 + aggregated 2; unknown_base 1 + duplicate_base 2 are the other refusals.
+        assert_eq!(
+            (
+                r.accepted,
+                r.outlier,
+                r.stale,
+                r.refused,
+                r.aggregated,
+                r.faulty_aggregated
+            ),
+            (
+                Some(12.0),
+                Some(6.0),
+                Some(4.0),
+                Some(3.0),
+                Some(14.0),
+                Some(0.0)
+            )
+        );
+        let md = section(&rows);
+        // A run without a version keeps the genesis model's loss, 3.0.
+        assert!(
+            md.contains("| rounds-240 | 240 | 0 | 1 | 0.0 | 3.00000 | 1.0000 | 200.0 | 50.0 | 0.0 | 0.0 | 2.00 | 1.00 | 10.0 |"),
+            "{md}"
+        );
+        // Held-out 0.02, 0.04, 0.09: mean 0.05, sd sqrt(0.0013) = 0.03606. Sent 2, 4, 6 MB;
+        // stored 1, 2, 3; wall 10, 20, 30 s. Of the genesis model's 3.0: 0.05 / 3 = 0.0167,
+        // sd 0.03606 / 3 = 0.0120.
+        assert!(
+            md.contains("| buffered-240 | 240 | 0 | 3 | 2.0 ± 0.0 | 0.05000 ± 0.03606 | 0.0167 ± 0.0120 | 12.0 ± 0.0 | 0.0 ± 0.0 | 1.0 ± 0.0 | 0.0 ± 0.0 | 4.00 ± 2.00 | 2.00 ± 1.00 | 20.0 ± 10.0 |"),
+            "{md}"
+        );
+        // Faulty models aggregated 0 and 1: mean 0.5, sd 0.71; held-out 0.03, 0.02: 0.025 ±
+        // 0.00707; ratios 1.5 and 0.5: 1.00 ± 0.71, worst 1.50.
+        assert!(
+            md.contains("| buffered-240-faulty-24 | 2 | 0.5 ± 0.7 | 14.0 ± 0.0 | -5.00 ± 0.00 | 0.02500 ± 0.00707 | buffered-240 | 0.05000 ± 0.03606 | 1.00 ± 0.71 | 1.50 |"),
+            "{md}"
+        );
+    }
+
+    #[test]
+    fn the_study_numbers_reach_the_csv_files_and_curves_start_at_genesis() {
+        let results = results();
+        let rows = study(&results);
+        let mut stats = stats::aggregate(&results);
+        extend(&mut stats, &rows);
+        let points = &stats[0].points;
+        let curve = |point: &str| -> Vec<(f64, usize, f64)> {
+            let p = points.iter().find(|p| p.point == point).unwrap();
+            p.heldout.iter().map(|(t, s)| (*t, s.n, s.mean)).collect()
+        };
+        // At 100 s no run has a version: the genesis model's 3.0 in every run. At 200 s the
+        // first versions, 2 x (0.02, 0.04, 0.09); at 300 s the last.
+        let buffered = curve("buffered-240");
+        assert_eq!(buffered.len(), 3);
+        assert_eq!(
+            (buffered[0].0, buffered[0].1, buffered[0].2),
+            (100.0, 3, 3.0)
+        );
+        assert!((buffered[1].2 - 0.1).abs() < 1e-12, "{buffered:?}");
+        assert!((buffered[2].2 - 0.05).abs() < 1e-12, "{buffered:?}");
+        assert_eq!(
+            curve("rounds-240"),
+            [(100.0, 1, 3.0), (200.0, 1, 3.0), (300.0, 1, 3.0)]
+        );
+        let (numbers, series) = numbers_csv(&stats);
+        let row = |metric: &str, point: &str| {
+            numbers
+                .lines()
+                .find(|l| {
+                    l.starts_with(&format!("e6-scale,{point},240,"))
+                        && l.contains(&format!(",{metric},"))
+                })
+                .map(str::to_string)
+        };
+        let ratio = row("heldout_ratio_to_clean", "buffered-240-faulty-24").expect("ratio row");
+        // (1.5 + 0.5) / 2, with its 95 % half-width: t(1) x sd / sqrt(2) = 12.706 x 0.5.
+        assert!(
+            ratio.contains(",2,heldout_ratio_to_clean,1e0,6.353e0,"),
+            "{ratio}"
+        );
+        assert!(row("heldout_loss_end", "rounds-240")
+            .is_some_and(|l| l.contains(",1,heldout_loss_end,3e0,")));
+        assert!(row("submissions_refused", "buffered-240-faulty-24")
+            .is_some_and(|l| l.contains(",3e0,")));
+        // Faulty models are counted only where there are faulty robots.
+        assert!(row("faulty_models_aggregated", "buffered-240").is_none());
+        assert!(
+            series.contains("e6-scale,rounds-240,heldout_loss,100,1,3e0,"),
+            "{series}"
+        );
+    }
+
+    #[test]
+    fn the_figures_are_drawn_under_the_first_experiment_of_the_study() {
+        let dir = std::env::temp_dir().join(format!("swarmfl-scale-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let results = results();
+        let rows = study(&results);
+        let mut stats = stats::aggregate(&results);
+        extend(&mut stats, &rows);
+        let mut notes = Vec::new();
+        let figures = draw_all(&stats, &rows, &dir, &mut notes).unwrap();
+        let stems: Vec<&str> = figures.iter().map(|f| f.stem.as_str()).collect();
+        assert_eq!(
+            stems,
+            [
+                "e6-scale-heldout-240",
+                "e6-scale-final-heldout",
+                "e6-scale-final-heldout-of-genesis",
+                "e6-scale-versions",
+                "e6-scale-sent",
+                "e6-scale-stored",
+                "e6-scale-wall"
+            ]
+        );
+        assert!(figures.iter().all(|f| f.experiment == "e6-scale"));
+        assert!(is_home(&rows, "e6-scale") && !is_home(&rows, "e6-scale-1000"));
+        for stem in stems {
+            let len = std::fs::metadata(dir.join(format!("{stem}.png"))).map_or(0, |m| m.len());
+            assert!(len > 1000, "{stem}.png");
+        }
+        assert!(study(&[]).is_empty());
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}
