@@ -33,11 +33,15 @@ sweeps_of() {
       printf '%s\n' "e5-smart-defence --runs 3" ;;
     e4-robustness-300s)
       printf '%s\n' "e4-robustness --runs 3 --set run.duration_s=300" ;;
+    authors-study)
+      # Issue 36: e2-malicious and e3-smart at the paper's run counts under the authors'
+      # contract (preset `authors`), then the comment's reward weights at 5 runs.
+      printf '%s\n' e2-malicious-authors e3-smart-authors ;;
     e6-scale)
       # 15, 60 and 240 robots (3 seeds) first: the 1000-robot runs take half an hour each.
       printf '%s\n' e6-scale e6-scale-1000 ;;
     *)
-      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e4-robustness-300s e5-smart-defence e6-scale)" >&2
+      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e4-robustness-300s e5-smart-defence e6-scale authors-study)" >&2
       return 1 ;;
   esac
 }
