@@ -87,6 +87,12 @@ pub enum Command {
     /// samples of every robot's data set at the end of the run). A baseline run has no blocks
     /// or tokens: rounds.csv and trajectories.csv only.
     Export(ExportArgs),
+    /// Where the Byzantine and the honest submissions sat in their rounds' rankings, over many
+    /// runs (logs, or a sweep's results made with --keep-logs): per round, run and point
+    /// (ranking x Byzantine kind x count) the distance to the shared model over the round's
+    /// median distance, the rank, the share penalised, the tokens gained; rounds.csv, runs.csv,
+    /// points.csv, points.json and figures (SVG, PNG).
+    Ranking(RankingArgs),
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]
     Sweep(SweepArgs),
@@ -272,6 +278,21 @@ pub struct ExportArgs {
     /// Output directory (created).
     #[arg(long)]
     pub out: PathBuf,
+}
+
+/// The arguments of `swarmfl ranking`.
+#[derive(Args, Debug)]
+pub struct RankingArgs {
+    /// Logs (run.swlog), or directories searched for them recursively (e.g. a sweep's results
+    /// made with --keep-logs).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// Output directory (created).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write submissions.csv: every counted submission of every run (large).
+    #[arg(long)]
+    pub submissions: bool,
 }
 
 /// The arguments of `swarmfl sweep`.
@@ -492,7 +513,7 @@ and its stakes refunded). Keys a fork may change:
   learn.* (not lstm_units)           the next trainings' hyper-parameters and schedule
   contract.security, stake_tokens, quorum_fraction, outlier_threshold, penalised_ranks,
   rule, assumed_f, reward_weights, median, fedavg_rounding, int48_products, threshold,
-  rank_key, rank_ties, payout_rounding, pool, defence, defence_refund_percent
+  rank_key, rank_ties, rank_order, payout_rounding, pool, defence, defence_refund_percent
   byzantine.*                        which robots misbehave, and how
   output.*
 

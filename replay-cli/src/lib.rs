@@ -53,6 +53,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Bisect(args) => bisect::command(args),
         Command::Fork(args) => fork::command(args),
         Command::Export(args) => export::command(args),
+        Command::Ranking(args) => ranking::command(args),
         Command::Sweep(args) => sweep::command(args),
         Command::Report(args) => report::command(args),
         Command::Chaos(args) => chaos::command(args),

@@ -32,7 +32,7 @@ pub use behaviour::{
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,
-    PayoutRounding, PoolRule, RankKey, RankTies, RoundProtocol, Rule, ThresholdRule,
+    PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
     MDA_MAX_SUBSETS,
 };
 pub use error::ConfigError;

@@ -232,6 +232,7 @@ pub const RECONFIGURABLE: &[&str] = &[
     "contract.threshold",
     "contract.rank_key",
     "contract.rank_ties",
+    "contract.rank_order",
     "contract.payout_rounding",
     "contract.pool",
     "contract.defence",

@@ -9,7 +9,7 @@ use super::behaviour::{
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey,
-    RankTies, RoundProtocol, Rule, ThresholdRule,
+    RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
 };
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
@@ -385,6 +385,7 @@ impl Config {
                 threshold: ThresholdRule::Inclusive,
                 rank_key: RankKey::Distance,
                 rank_ties: RankTies::Stable,
+                rank_order: RankOrder::Median,
                 payout_rounding: PayoutRounding::Exact,
                 pool: PoolRule::Carry,
                 defence: Defence::None,

@@ -457,6 +457,7 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "byzantine.search_evals",
         "byzantine.plugin",
         "contract.rule_plugin",
+        "contract.rank_order",
     ] {
         let leaf = key.rsplit('.').next().unwrap();
         assert!(!text.contains(&format!("{leaf} =")), "{key} in {text}");
@@ -567,4 +568,58 @@ fn a_plugin_rule_needs_its_name_and_no_preaggregators() {
     // The name is a plain word: it is recorded and matched against the offered rules.
     let e = set(&["contract.rule=\"plugin\"", "contract.rule_plugin=\"a b\""]).unwrap_err();
     assert!(e.contains("1 to 100 of"), "{e}");
+}
+
+#[test]
+fn rank_order_is_left_out_of_the_options_encoding_at_its_default() {
+    // The authors' options are encoded in their genesis parameters: the new key must not
+    // change those bytes, and `nearest` must show.
+    let authors = rmp_serde::to_vec(&ContractOptions::authors()).unwrap();
+    let toml = toml::to_string(&ContractOptions::authors()).unwrap();
+    assert!(!toml.contains("rank_order"), "{toml}");
+    let nearest = ContractOptions {
+        rank_order: RankOrder::Nearest,
+        ..ContractOptions::authors()
+    };
+    let encoded = rmp_serde::to_vec(&nearest).unwrap();
+    assert!(encoded.len() > authors.len());
+    assert_ne!(nearest, ContractOptions::authors());
+    let back: ContractOptions = rmp_serde::from_slice(&authors).unwrap();
+    assert_eq!(back, ContractOptions::authors());
+    let back: ContractOptions = rmp_serde::from_slice(&encoded).unwrap();
+    assert_eq!(back.rank_order, RankOrder::Nearest);
+    // Set through `--set`, and refused with a robust rule like the other options.
+    let c = Config::resolve(
+        Some("e3-smart"),
+        None,
+        &["contract.rank_order=nearest".into()],
+    )
+    .unwrap();
+    assert_eq!(c.contract.options().rank_order, RankOrder::Nearest);
+    assert!(c.to_toml().contains("rank_order = \"nearest\""));
+    let err = Config::resolve(
+        Some("smoke"),
+        None,
+        &[
+            "contract.rule=median".into(),
+            "contract.rank_order=nearest".into(),
+        ],
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("contract.rank_order"), "{err}");
+}
+
+#[cfg(feature = "evm")]
+#[test]
+fn the_evm_engine_refuses_the_nearest_rank_order() {
+    let err = Config::resolve(
+        Some("smoke"),
+        None,
+        &[
+            "contract.engine=evm".into(),
+            "contract.rank_order=nearest".into(),
+        ],
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("ranks around"), "{err}");
 }

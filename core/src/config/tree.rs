@@ -12,7 +12,7 @@ use super::behaviour::{
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule,
-    RankKey, RankTies, RoundProtocol, Rule, ThresholdRule,
+    RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};
@@ -355,6 +355,13 @@ pub struct ContractConfig {
     /// Ranking ties: `stable` submission order (swarmfl) or the authors' `quicksort`.
     #[serde(default)]
     pub rank_ties: RankTies,
+    /// Ranking order of the paper's rule (beyond the paper; issue #36, the counterfactual of
+    /// claim 12): `median`, closest to the median distance first (the paper's), or `nearest`,
+    /// closest to the shared model first, so that no rank depends on where the round's other
+    /// models put the median (`contract/rank_order.rs`). Native engine only. Left out of the
+    /// recorded configuration at its default, so existing runs keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub rank_order: RankOrder,
     /// Payout shares: `exact` to one unit (swarmfl) or `ratio_1e9`, normalised to 1e9 and
     /// floored (authors).
     #[serde(default)]
@@ -520,6 +527,7 @@ impl ContractConfig {
             threshold: self.threshold,
             rank_key: self.rank_key,
             rank_ties: self.rank_ties,
+            rank_order: self.rank_order,
             payout_rounding: self.payout_rounding,
             pool: self.pool,
         }

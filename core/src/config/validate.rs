@@ -724,7 +724,7 @@ fn engine_supports(config: &Config) -> Result<(), ConfigError> {
 /// Checks that the EVM contract implements the configured rules. `contracts/SwarmFL.sol` is
 /// the paper's contract, with security on (`contract.rule = paper`) or off (`fedavg`), every
 /// variant option included, with the round deadline and the claim bound. It has no robust
-/// aggregation rule and no defence: such a configuration is refused, naming the key, rather than run on a contract
+/// aggregation rule, no defence and no ranking order but the median's: such a configuration is refused, naming the key, rather than run on a contract
 /// that would not do what it says.
 #[cfg(feature = "evm")]
 fn evm_supports(config: &Config) -> Result<(), ConfigError> {
@@ -740,6 +740,16 @@ fn evm_supports(config: &Config) -> Result<(), ConfigError> {
                  contract.engine = native to run {}, or contract.rule = paper",
                 rule.name()
             ),
+        });
+    }
+    if !c.rank_order.is_median() {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.rank_order".to_string(),
+            value: c.rank_order.name().to_string(),
+            allowed: "median with contract.engine = evm: contracts/SwarmFL.sol ranks around \
+                      the median distance only; set contract.engine = native to rank by \
+                      another order"
+                .to_string(),
         });
     }
     if c.defence != Defence::None {

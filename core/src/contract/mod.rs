@@ -56,6 +56,7 @@ pub mod evm;
 pub mod options;
 pub mod payout;
 pub mod preagg;
+pub mod rank_order;
 mod rewards;
 pub mod rules;
 

@@ -4,8 +4,8 @@
 //! The option types are defined in [`crate::config`]; here is what the contract makes of them.
 
 use crate::config::{
-    ContractOptions, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankTies,
-    ThresholdRule,
+    ContractOptions, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey, RankOrder,
+    RankTies, ThresholdRule,
 };
 
 impl ContractOptions {
@@ -14,7 +14,9 @@ impl ContractOptions {
         *self == ContractOptions::default()
     }
 
-    /// The option bits of `contracts/SwarmFL.sol` (its `flags`).
+    /// The option bits of `contracts/SwarmFL.sol` (its `flags`). `rank_order` has none: the
+    /// Solidity contract ranks around the median only, and validation refuses
+    /// `contract.engine = "evm"` with another order.
     pub fn flags(&self) -> u64 {
         let mut f = 0;
         let mut set = |on: bool, bit: u64| {
@@ -44,6 +46,8 @@ impl ContractOptions {
             rank_ties: RankTies::Quicksort,
             payout_rounding: PayoutRounding::Ratio1e9,
             pool: PoolRule::Round,
+            // Not one of the authors' variants: their contract ranks around the median too.
+            rank_order: RankOrder::Median,
         }
     }
 }

@@ -58,29 +58,43 @@ pub fn div_round_half_away(num: i128, den: i128) -> i128 {
 }
 
 /// The ranking: indices of `distances` (in submission order), best first. The key is
-/// `|d_k - median(d)|`, the median being the middle of the sorted distances (for an even count
-/// the lower middle, `sorted[(q - 1) / 2]`, or with [`MedianRule::Mean`] the floored mean of
-/// the two middles); ties keep submission order (stable sort), or with [`RankTies::Quicksort`]
-/// the order the authors' quicksort leaves. So the median model is ranked first, as in the
-/// paper.
+/// `|d_k - median(d)|` ([`median`]); ties keep submission order (stable sort), or with
+/// [`RankTies::Quicksort`] the order the authors' quicksort leaves ([`order_by`]). So the
+/// median model is ranked first, as in the paper.
 pub fn rank(distances: &[u64], median_rule: MedianRule, ties: RankTies) -> Vec<usize> {
     assert!(!distances.is_empty(), "ranking of no models");
+    let centre = median(distances, median_rule);
+    let keys: Vec<u64> = distances.iter().map(|d| d.abs_diff(centre)).collect();
+    order_by(&keys, ties)
+}
+
+/// The median of `distances` (non-empty): the middle of the sorted distances, for an even
+/// count the lower middle `sorted[(q - 1) / 2]`, or with [`MedianRule::Mean`] the floored
+/// mean of the two middles.
+pub fn median(distances: &[u64], median_rule: MedianRule) -> u64 {
+    assert!(!distances.is_empty(), "median of no distances");
     let mut sorted = distances.to_vec();
     sorted.sort_unstable();
     let q = sorted.len();
-    let median = match median_rule {
+    match median_rule {
         MedianRule::Lower => sorted[(q - 1) / 2],
         // Both middles are below 2^64, so their sum fits u128.
         MedianRule::Mean => {
             ((u128::from(sorted[q - 1 - q / 2]) + u128::from(sorted[q / 2])) / 2) as u64
         }
-    };
-    let mut order: Vec<usize> = (0..distances.len()).collect();
+    }
+}
+
+/// Indices of `keys` sorted by ascending key: ties in submission order (stable), or with
+/// [`RankTies::Quicksort`] in whatever order the authors' quicksort leaves.
+pub fn order_by(keys: &[u64], ties: RankTies) -> Vec<usize> {
+    let mut order: Vec<usize> = (0..keys.len()).collect();
     match ties {
-        RankTies::Stable => order.sort_by_key(|&i| distances[i].abs_diff(median)),
+        RankTies::Stable => order.sort_by_key(|&i| keys[i]),
         RankTies::Quicksort => {
-            let mut keys: Vec<u64> = distances.iter().map(|d| d.abs_diff(median)).collect();
-            quicksort(&mut keys, &mut order, 0, q as i64 - 1);
+            let last = keys.len() as i64 - 1;
+            let mut keys = keys.to_vec();
+            quicksort(&mut keys, &mut order, 0, last);
         }
     }
     order

@@ -790,3 +790,63 @@ fn paper_parameters_encode_without_the_rule() {
     let back: ContractParams = rmp_serde::from_slice(&b).unwrap();
     assert_eq!(back, q);
 }
+
+/// `contract.rank_order`: one model close to the shared model (robot 6 at 5e6 units, an
+/// extrapolation's place) among six at 40e6..90e6, 100 samples each. Pool 7 stakes = 35e9,
+/// floor(P / 7) = 5e9; the five rewarded get 5e9 + 5e9 * 100 / 500 = 6e9, the two penalised
+/// 5e9 - ceil(5e9 * 100 / 200) = 2.5e9. Around the median (60e6; keys 20, 10, 0, 10, 20, 30,
+/// 55 in 10^6) the lone model ranks last and is penalised; nearest first, it ranks first.
+#[test]
+fn rank_order_nearest_pays_the_lone_near_model_that_the_median_order_penalises() {
+    const M: i64 = 1_000_000;
+    let distances = [40, 50, 60, 70, 80, 90, 5];
+    let run = |order: crate::config::RankOrder| {
+        let mut p = params(true);
+        p.options.rank_order = order;
+        let mut state = ContractState::genesis(&p);
+        for (robot, &d) in distances.iter().enumerate().take(6) {
+            check(
+                &mut state,
+                &p,
+                robot as RobotId,
+                STAKE,
+                submit([d * M, 0, 0, 0], 100),
+                accepted(0, d as u64 * M as u64),
+            );
+        }
+        let outcome = state.execute(&p, 6, STAKE, &submit([5 * M, 0, 0, 0], 100));
+        let Outcome::Aggregated { payouts, .. } = outcome else {
+            panic!("the seventh model closes the round: {outcome:?}");
+        };
+        assert_eq!(state.holdings_units, 0, "the pool is paid exactly");
+        payouts
+            .iter()
+            .map(|p| (p.robot, p.units))
+            .collect::<Vec<_>>()
+    };
+    let (win, lose) = (6 * TOKEN, 2 * TOKEN + TOKEN / 2);
+    assert_eq!(
+        run(crate::config::RankOrder::Median),
+        [
+            (2, win),
+            (1, win),
+            (3, win),
+            (0, win),
+            (4, win),
+            (5, lose),
+            (6, lose)
+        ]
+    );
+    assert_eq!(
+        run(crate::config::RankOrder::Nearest),
+        [
+            (6, win),
+            (0, win),
+            (1, win),
+            (2, win),
+            (3, win),
+            (4, lose),
+            (5, lose)
+        ]
+    );
+}

@@ -43,7 +43,8 @@
 //! `sidecar.rs` (`LOG.idx`), `at_block.rs` (the state at a block, [`block_report`]),
 //! `values.rs` (per-block values for predicates), `bisect.rs` (the first block where a
 //! predicate holds), `export.rs` (the closed rounds), `tables.rs` (every table `swarmfl export`
-//! writes and the Python package loads, as typed columns) and `error.rs`.
+//! writes and the Python package loads, as typed columns), `ranking.rs` (where each
+//! submission sat in its round's ranking, `swarmfl ranking`) and `error.rs`.
 //! A baseline run (no blocks) is looked into by time instead, in [`timeline`]. The predicate
 //! language of `bisect` is in [`expr`] (grammar in its module docs).
 
@@ -54,6 +55,7 @@ mod export;
 pub mod expr;
 mod fold;
 mod index;
+mod ranking;
 mod sidecar;
 mod tables;
 pub mod timeline;
@@ -72,6 +74,7 @@ pub use export::RoundRow;
 pub use expr::{EvalError, Expr, ParseError};
 pub use fold::LastLearning;
 pub use index::{index_run, BlockRow, ChainBytesRow, Indexer, RunIndex, StateAtBlock};
+pub use ranking::{rank_round, RankedSubmission};
 pub use sidecar::{read_sidecar, sidecar_path, Sidecar, SIDECAR_VERSION};
 pub use tables::{poses_table, Column, Table};
 pub use values::{BlockValues, ChainValues};

@@ -96,7 +96,7 @@ impl Table {
         self.columns.iter().map(|(n, _)| *n).collect()
     }
 
-    fn push(&mut self, name: &'static str, column: Column) {
+    pub(super) fn push(&mut self, name: &'static str, column: Column) {
         debug_assert!(
             self.columns.is_empty() || column.len() == self.rows(),
             "columns of one table have one length"

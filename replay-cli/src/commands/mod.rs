@@ -15,6 +15,7 @@ pub mod fork;
 pub mod inspect;
 pub mod live;
 pub mod presets;
+pub mod ranking;
 pub mod recheck;
 pub mod replay;
 pub mod report;

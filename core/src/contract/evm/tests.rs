@@ -69,6 +69,8 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
             } else {
                 PoolRule::Carry
             },
+            // SwarmFL.sol ranks around the median only (validation refuses the other order).
+            rank_order: RankOrder::Median,
         }
     };
     let genesis: Vec<i64> = (0..len)

@@ -9,10 +9,12 @@
 //! The authors' variants (`contract.fedavg_rounding`, `rank_key`, `median`, `rank_ties`;
 //! docs/CONTRACT.md) change the FedAvg rounding and the ranking here; the others act on
 //! arrival (`threshold`, `int48_products`) and in the payouts (`payout_rounding`, `pool`).
+//! `contract.rank_order = "nearest"` (issue #36, beyond the paper) ranks by the distance
+//! itself instead of around the median ([`crate::contract::rank_order`]).
 
 use super::{Aggregate, Input};
 use crate::config::{ContractOptions, RankKey};
-use crate::contract::payout;
+use crate::contract::{payout, rank_order};
 
 /// FedAvg of the accepted inputs; all used, in the paper's rank order.
 pub fn aggregate(inputs: &[Input], options: &ContractOptions) -> Aggregate {
@@ -28,7 +30,7 @@ pub fn aggregate(inputs: &[Input], options: &ContractOptions) -> Aggregate {
         .collect();
     Aggregate {
         weights: payout::fedavg(&models, options.fedavg_rounding),
-        used: payout::rank(&keys, options.median, options.rank_ties),
+        used: rank_order::rank(options.rank_order, &keys, options.median, options.rank_ties),
     }
 }
 

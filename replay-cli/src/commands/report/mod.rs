@@ -18,10 +18,10 @@ mod figures;
 mod frame;
 mod heatmap;
 mod load;
-mod plots;
+pub(crate) mod plots;
 mod robustness;
 mod scale;
-mod stats;
+pub(crate) mod stats;
 mod style;
 mod tables;
 

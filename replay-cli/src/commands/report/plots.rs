@@ -24,9 +24,9 @@ pub struct Figure {
 }
 
 /// One labelled series of (x, statistic) points.
-pub(super) struct Series {
-    pub(super) label: String,
-    pub(super) points: Vec<(f64, Stat)>,
+pub(crate) struct Series {
+    pub(crate) label: String,
+    pub(crate) points: Vec<(f64, Stat)>,
 }
 
 /// Distinct colours, in series order.
@@ -43,7 +43,7 @@ const COLOURS: [RGBColor; 8] = [
 
 /// What kind of plot.
 #[derive(Clone, Copy)]
-pub(super) enum Kind {
+pub(crate) enum Kind {
     /// Lines over time with confidence bands; log-scale y when `log_y`.
     Time { log_y: bool },
     /// Points with error bars versus the grid value.
@@ -63,21 +63,21 @@ impl Kind {
     }
 }
 
-pub(super) struct Plot<'a> {
-    pub(super) title: String,
-    pub(super) x_label: &'a str,
-    pub(super) y_label: &'a str,
-    pub(super) kind: Kind,
-    pub(super) series: Vec<Series>,
+pub(crate) struct Plot<'a> {
+    pub(crate) title: String,
+    pub(crate) x_label: &'a str,
+    pub(crate) y_label: &'a str,
+    pub(crate) kind: Kind,
+    pub(crate) series: Vec<Series>,
     /// The quantity cannot be negative (a size, a loss): the axis and the intervals stop at 0.
-    pub(super) nonnegative: bool,
+    pub(crate) nonnegative: bool,
 }
 
 /// The logical canvas (see [`super::style`]): the SVG is this size, the PNG twice it.
 const CANVAS: (u32, u32) = (900, 560);
 
 /// Draws `plot` as `stem.svg` and `stem.png`; returns whether the text could be drawn.
-pub(super) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
+pub(crate) fn draw(plot: &Plot, out: &Path, stem: &str) -> anyhow::Result<bool> {
     let svg = out.join(format!("{stem}.svg"));
     let png = out.join(format!("{stem}.png"));
     let mut with_text = true;

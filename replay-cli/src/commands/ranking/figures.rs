@@ -1,0 +1,129 @@
+//! The figures of `swarmfl ranking`, in the report's style (`report::plots`: points with 95 %
+//! error bars versus the Byzantine count, SVG and PNG). One set per Byzantine kind, one
+//! series per ranking (and group): `<kind>-gain` (Byzantine minus honest tokens gained, the
+//! claim's quantity), `<kind>-tokens` (both groups' gains), `<kind>-rank` (mean rank of their
+//! accepted submissions), `<kind>-position` (mean distance to the shared model over the
+//! round's median distance) and `<kind>-median` (share of rounds whose median model is
+//! Byzantine, and of rounds where every Byzantine model is closer to the shared model than
+//! every honest one). Series at one count are spread by a small x offset so that their bars
+//! do not hide each other.
+
+use std::path::Path;
+
+use super::measure::PointStats;
+use crate::commands::report::plots::{self, Kind, Plot, Series};
+
+/// The x offset between neighbouring series at one count.
+const SPREAD: f64 = 0.08;
+
+/// Draws every figure into `out`; returns whether their text could be drawn.
+pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
+    let mut kinds: Vec<&str> = points.iter().map(|(p, _)| p.kind.as_str()).collect();
+    kinds.dedup();
+    let mut with_text = true;
+    for kind in kinds {
+        let mut rankings: Vec<&str> = points
+            .iter()
+            .filter(|(p, _)| p.kind == kind)
+            .map(|(p, _)| p.ranking.as_str())
+            .collect();
+        rankings.sort_unstable();
+        rankings.dedup();
+        // One series per (ranking, metric); `label` names the group and the ranking.
+        let series = |metrics: &[(&str, &str)]| -> Vec<Series> {
+            let total = (rankings.len() * metrics.len()) as f64;
+            let mut out = Vec::new();
+            for ranking in &rankings {
+                for (metric, label) in metrics {
+                    let offset = (out.len() as f64 - (total - 1.0) / 2.0) * SPREAD;
+                    let pts = points
+                        .iter()
+                        .filter(|(p, _)| p.kind == kind && p.ranking == *ranking)
+                        .filter_map(|(p, stats)| {
+                            let s = stats.iter().find(|(n, _)| n == metric)?.1?;
+                            Some((f64::from(p.count) + offset, s))
+                        })
+                        .collect();
+                    out.push(Series {
+                        label: format!("{label}, {ranking} ranking"),
+                        points: pts,
+                    });
+                }
+            }
+            out
+        };
+        let x_label = format!("{kind} robots");
+        let plots = [
+            (
+                "gain",
+                Plot {
+                    title: format!("{kind} minus honest tokens gained, per robot"),
+                    x_label: &x_label,
+                    y_label: "tokens (mean gain of a Byzantine robot - of an honest one)",
+                    kind: Kind::Versus,
+                    series: series(&[("gain_difference", &format!("{kind} - honest"))]),
+                    nonnegative: false,
+                },
+            ),
+            (
+                "tokens",
+                Plot {
+                    title: format!("tokens gained per robot, {kind} and honest"),
+                    x_label: &x_label,
+                    y_label: "tokens gained per robot",
+                    kind: Kind::Versus,
+                    series: series(&[("byzantine_gain", kind), ("honest_gain", "honest")]),
+                    nonnegative: false,
+                },
+            ),
+            (
+                "rank",
+                Plot {
+                    title: format!("mean rank of the accepted submissions, {kind} and honest"),
+                    x_label: &x_label,
+                    y_label: "rank (1 = paid best)",
+                    kind: Kind::Versus,
+                    series: series(&[("byzantine_rank", kind), ("honest_rank", "honest")]),
+                    nonnegative: true,
+                },
+            ),
+            (
+                "position",
+                Plot {
+                    title: format!(
+                        "distance to the shared model over the round's median, {kind} and honest"
+                    ),
+                    x_label: &x_label,
+                    y_label: "distance / median distance (1 = on the median)",
+                    kind: Kind::Versus,
+                    series: series(&[
+                        ("byzantine_distance_ratio", kind),
+                        ("honest_distance_ratio", "honest"),
+                    ]),
+                    nonnegative: true,
+                },
+            ),
+            (
+                "median",
+                Plot {
+                    title: format!("who holds the median distance ({kind} robots)"),
+                    x_label: &x_label,
+                    y_label: "share of rounds",
+                    kind: Kind::Versus,
+                    series: series(&[
+                        ("median_byzantine", &format!("median model is {kind}")),
+                        (
+                            "byzantine_below_honest",
+                            &format!("every {kind} model nearer than every honest one"),
+                        ),
+                    ]),
+                    nonnegative: true,
+                },
+            ),
+        ];
+        for (name, plot) in &plots {
+            with_text &= plots::draw(plot, out, &format!("{kind}-{name}"))?;
+        }
+    }
+    Ok(with_text)
+}

@@ -1,0 +1,415 @@
+//! `swarmfl ranking`: where the Byzantine and the honest submissions sat in their rounds'
+//! rankings, over many runs (issue #36, claim 12). Each log is folded once
+//! (`inspect::index_run`); the contract's own record of every closed round of the final
+//! canonical chain gives each submission's distance to the shared model, the round's median
+//! distance, the rank it was given and what it was paid (`inspect::RankedSubmission`). The runs
+//! are grouped by point, the ranking they ran under (`contract.rank_order`) x
+//! `byzantine.kind` x `byzantine.count`, and summarised with the report's 95 % intervals.
+//!
+//! Files written into the output directory: `rounds.csv` (per run and closed round: the
+//! median distance, whether a Byzantine model held it, and each group's mean position),
+//! `runs.csv` (per run), `points.csv` and `points.json` (per point: n, mean and 95 %
+//! half-width of every run metric), with `--submissions` also `submissions.csv` (every counted
+//! submission, large), and the figures `<kind>-gain`, `-tokens`, `-rank`, `-position` and
+//! `-median` (SVG and PNG, the report's style). `measure` defines every number; `figures`
+//! draws them. Logs are read in path order and runs sorted by point and seed before any sum, so
+//! the files do not depend on discovery order.
+
+mod figures;
+mod measure;
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use anyhow::Context;
+use swarmfl_core::config::RankKey;
+use swarmfl_core::inspect::{self, RankedSubmission, Table};
+
+use crate::cli::RankingArgs;
+use crate::commands::inspect::warn_if_truncated;
+use measure::{Group, Point, PointStats, RoundMeasure, RunMeasure};
+
+/// Runs `swarmfl ranking`.
+pub fn command(args: RankingArgs) -> anyhow::Result<ExitCode> {
+    let summary = ranking(&args.inputs, &args.out, args.submissions)?;
+    print!("{summary}");
+    Ok(ExitCode::SUCCESS)
+}
+
+/// One measured run.
+struct Run {
+    point: Point,
+    seed: u64,
+    /// The log's path relative to the input it was found under.
+    log: String,
+    rounds: Vec<RoundMeasure>,
+    measure: RunMeasure,
+    /// Its submissions' table (kept only for `--submissions`).
+    submissions: Option<Table>,
+}
+
+/// Measures every log found under `inputs` and writes the files into `out`; returns the table
+/// printed on stdout (per point: runs, Byzantine and honest token gains and their difference).
+pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Result<String> {
+    let logs = find_logs(inputs)?;
+    anyhow::ensure!(
+        !logs.is_empty(),
+        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
+        inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let mut runs = Vec::with_capacity(logs.len());
+    for (path, name) in &logs {
+        runs.push(measure_log(path, name, submissions)?);
+    }
+    runs.sort_by(|a, b| (&a.point, a.seed).cmp(&(&b.point, b.seed)));
+    for pair in runs.windows(2) {
+        anyhow::ensure!(
+            (&pair[0].point, pair[0].seed) != (&pair[1].point, pair[1].seed),
+            "{} and {} are the same run (ranking {}, {} x {}, seed {}): give each run once",
+            pair[0].log,
+            pair[1].log,
+            pair[0].point.ranking,
+            pair[0].point.count,
+            pair[0].point.kind,
+            pair[0].seed
+        );
+    }
+    std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    write_rounds(&out.join("rounds.csv"), &runs)?;
+    write_runs(&out.join("runs.csv"), &runs)?;
+    let mut by_point: BTreeMap<Point, Vec<RunMeasure>> = BTreeMap::new();
+    for r in &runs {
+        by_point
+            .entry(r.point.clone())
+            .or_default()
+            .push(r.measure.clone());
+    }
+    let points = measure::points(&by_point);
+    write_points_csv(&out.join("points.csv"), &points)?;
+    write_points_json(&out.join("points.json"), &by_point, &points)?;
+    if submissions {
+        write_submissions(&out.join("submissions.csv"), &runs)?;
+    }
+    let with_text = figures::draw_all(&points, out)?;
+    let mut text = format!(
+        "wrote {}: {} runs, {} points{}\n",
+        out.display(),
+        runs.len(),
+        points.len(),
+        if with_text {
+            ""
+        } else {
+            " (figures without text: no font could be loaded)"
+        }
+    );
+    text.push_str(&summary_table(&points));
+    Ok(text)
+}
+
+/// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
+/// path order, each with its path relative to its input.
+fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
+    let mut out = Vec::new();
+    for input in inputs {
+        if input.is_file() {
+            out.push((input.clone(), input.display().to_string()));
+            continue;
+        }
+        anyhow::ensure!(
+            input.is_dir(),
+            "{} is neither a log nor a directory",
+            input.display()
+        );
+        let mut stack = vec![input.clone()];
+        let mut found = Vec::new();
+        while let Some(dir) = stack.pop() {
+            let entries = std::fs::read_dir(&dir)
+                .with_context(|| format!("cannot read {}", dir.display()))?;
+            for entry in entries {
+                let path = entry?.path();
+                if path.is_dir() {
+                    stack.push(path);
+                } else if path.file_name().is_some_and(|n| n == "run.swlog") {
+                    found.push(path);
+                }
+            }
+        }
+        found.sort();
+        for path in found {
+            let name = path
+                .strip_prefix(input)
+                .unwrap_or(&path)
+                .display()
+                .to_string();
+            out.push((path, name));
+        }
+    }
+    Ok(out)
+}
+
+/// Folds one log and measures it.
+fn measure_log(path: &Path, name: &str, submissions: bool) -> anyhow::Result<Run> {
+    let index = inspect::index_run(path, None)?;
+    warn_if_truncated(&index);
+    let rows: Vec<RankedSubmission> = index.ranked_submissions()?;
+    let config = &index.config;
+    let params = index.final_state.ledger.params();
+    let scale = config.contract.weight_scale;
+    let token_units = config.contract.token_units;
+    let rounds = measure::rounds(&rows, token_units, |u| params.distance_per_weight(u, scale));
+    let initial = config.contract.initial_tokens * token_units;
+    let gains: Vec<f64> = index
+        .contract_at(index.last_height())
+        .balances
+        .iter()
+        .map(|&b| (b as f64 - initial as f64) / token_units as f64)
+        .collect();
+    let measure = measure::run(&rows, &rounds, token_units, &gains, &index.byzantine);
+    let ranking = match config.contract.rank_key {
+        RankKey::Distance => config.contract.rank_order.name().to_string(),
+        RankKey::Mae => format!("{}+mae", config.contract.rank_order.name()),
+    };
+    Ok(Run {
+        point: Point {
+            ranking,
+            kind: config.byzantine.kind.name().to_string(),
+            count: config.byzantine.count,
+        },
+        seed: index.seed,
+        log: name.to_string(),
+        rounds,
+        measure,
+        submissions: if submissions {
+            Some(index.ranking_table()?)
+        } else {
+            None
+        },
+    })
+}
+
+/// A float as CSV text: Rust's shortest round-trip form (`NaN` where undefined).
+fn num(v: f64) -> String {
+    v.to_string()
+}
+
+/// The leading columns naming a run.
+fn run_columns(r: &Run) -> Vec<String> {
+    vec![
+        r.point.ranking.clone(),
+        r.point.kind.clone(),
+        r.point.count.to_string(),
+        r.seed.to_string(),
+    ]
+}
+
+const RUN_HEADER: [&str; 4] = ["ranking", "kind", "count", "seed"];
+
+fn writer(path: &Path) -> anyhow::Result<csv::Writer<std::fs::File>> {
+    csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn write_rounds(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+    let mut w = writer(path)?;
+    let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+    header.extend(
+        [
+            "round",
+            "accepted",
+            "byzantine_accepted",
+            "median_distance",
+            "median_byzantine",
+            "byzantine_below_honest",
+        ]
+        .map(String::from),
+    );
+    for g in Group::BOTH {
+        for m in [
+            "submissions",
+            "distance_ratio",
+            "off_median_ratio",
+            "rank",
+            "penalised",
+            "submission_gain",
+        ] {
+            header.push(format!("{}_{m}", g.name()));
+        }
+    }
+    w.write_record(&header)?;
+    for r in runs {
+        for m in &r.rounds {
+            let mut row = run_columns(r);
+            row.extend([
+                m.round.to_string(),
+                m.accepted.to_string(),
+                m.byzantine_accepted.to_string(),
+                num(m.median_distance),
+                m.median_byzantine.to_string(),
+                m.byzantine_below_honest.to_string(),
+            ]);
+            for p in &m.groups {
+                row.extend([
+                    p.submissions.to_string(),
+                    num(p.distance_ratio),
+                    num(p.off_median_ratio),
+                    num(p.rank),
+                    num(p.penalised),
+                    num(p.gain_tokens),
+                ]);
+            }
+            w.write_record(&row)?;
+        }
+    }
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn write_runs(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+    let mut w = writer(path)?;
+    let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+    header.push("log".into());
+    if let Some(first) = runs.first() {
+        header.extend(measure::metrics(&first.measure).into_iter().map(|(n, _)| n));
+    }
+    w.write_record(&header)?;
+    for r in runs {
+        let mut row = run_columns(r);
+        row.push(r.log.clone());
+        row.extend(
+            measure::metrics(&r.measure)
+                .into_iter()
+                .map(|(_, v)| num(v)),
+        );
+        w.write_record(&row)?;
+    }
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn write_points_csv(path: &Path, points: &[PointStats]) -> anyhow::Result<()> {
+    let mut w = writer(path)?;
+    let mut header: Vec<String> = ["ranking", "kind", "count"].map(String::from).to_vec();
+    if let Some((_, stats)) = points.first() {
+        for (name, _) in stats {
+            header.extend([
+                format!("{name}_n"),
+                format!("{name}_mean"),
+                format!("{name}_ci95"),
+            ]);
+        }
+    }
+    w.write_record(&header)?;
+    for (p, stats) in points {
+        let mut row = vec![p.ranking.clone(), p.kind.clone(), p.count.to_string()];
+        for (_, s) in stats {
+            match s {
+                Some(s) => row.extend([
+                    s.n.to_string(),
+                    num(s.mean),
+                    s.ci.map_or(String::new(), num),
+                ]),
+                None => row.extend(["0".to_string(), String::new(), String::new()]),
+            }
+        }
+        w.write_record(&row)?;
+    }
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+fn write_points_json(
+    path: &Path,
+    runs: &BTreeMap<Point, Vec<RunMeasure>>,
+    points: &[PointStats],
+) -> anyhow::Result<()> {
+    let value: Vec<serde_json::Value> = points
+        .iter()
+        .map(|(p, stats)| {
+            let metrics: serde_json::Map<String, serde_json::Value> = stats
+                .iter()
+                .map(|(name, s)| {
+                    let v = match s {
+                        Some(s) => serde_json::json!({"n": s.n, "mean": finite(s.mean), "ci95": s.ci.and_then(finite)}),
+                        None => serde_json::json!({"n": 0, "mean": null, "ci95": null}),
+                    };
+                    (name.clone(), v)
+                })
+                .collect();
+            serde_json::json!({
+                "ranking": p.ranking,
+                "kind": p.kind,
+                "count": p.count,
+                "runs": runs.get(p).map_or(0, Vec::len),
+                "metrics": metrics,
+            })
+        })
+        .collect();
+    let text = serde_json::to_string_pretty(&value)? + "\n";
+    std::fs::write(path, text).with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// A finite float, or `None` (JSON has no NaN).
+fn finite(v: f64) -> Option<f64> {
+    v.is_finite().then_some(v)
+}
+
+fn write_submissions(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+    let mut w = writer(path)?;
+    let mut wrote_header = false;
+    for r in runs {
+        let Some(table) = &r.submissions else {
+            continue;
+        };
+        if !wrote_header {
+            let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+            header.extend(table.names().into_iter().map(String::from));
+            w.write_record(&header)?;
+            wrote_header = true;
+        }
+        for i in 0..table.rows() {
+            let mut row = run_columns(r);
+            row.extend(table.columns.iter().map(|(_, c)| c.cell(i)));
+            w.write_record(&row)?;
+        }
+    }
+    w.flush()
+        .with_context(|| format!("cannot write {}", path.display()))
+}
+
+/// The stdout table: per point, runs and the token gains with their 95 % half-widths.
+fn summary_table(points: &[PointStats]) -> String {
+    let mut text = String::from(
+        "ranking  kind  count  runs  byzantine gain  honest gain  byzantine - honest\n",
+    );
+    for (p, stats) in points {
+        let get = |name: &str| {
+            stats
+                .iter()
+                .find(|(n, _)| n == name)
+                .and_then(|(_, s)| *s)
+                .map_or("-".to_string(), |s| s.text(2))
+        };
+        let runs = stats
+            .iter()
+            .find(|(n, _)| n == "rounds")
+            .and_then(|(_, s)| *s)
+            .map_or(0, |s| s.n);
+        let _ = writeln!(
+            text,
+            "{}  {}  {}  {}  {}  {}  {}",
+            p.ranking,
+            p.kind,
+            p.count,
+            runs,
+            get("byzantine_gain"),
+            get("honest_gain"),
+            get("gain_difference")
+        );
+    }
+    text
+}
