@@ -10,7 +10,7 @@ use super::error::InspectError;
 use super::fold::{fold_record, LastLearning};
 use crate::byzantine;
 use crate::config::Config;
-use crate::contract::ContractState;
+use crate::contract::{ContractState, RoundSummary};
 use crate::event::{CheckpointCause, Event, Record};
 use crate::ledger::{BlockHash, LedgerEvent, WireItem};
 use crate::log::LogReader;
@@ -434,6 +434,25 @@ impl RunIndex {
     /// The last height of the final canonical chain.
     pub fn last_height(&self) -> u64 {
         self.chain.len() as u64 - 1
+    }
+
+    /// Every round that closed on the final canonical chain, oldest first: the height of the
+    /// block that closed it and the contract's summary of it. Each round comes once, though
+    /// every block after the closing one carries the same summary until the next close.
+    pub fn closed_rounds(&self) -> Vec<(u64, &RoundSummary)> {
+        let mut out = Vec::new();
+        let mut last = None;
+        for row in &self.chain {
+            let Some(summary) = self.contract_at(row.height).last_round.as_deref() else {
+                continue;
+            };
+            if last == Some(summary.round) {
+                continue;
+            }
+            last = Some(summary.round);
+            out.push((row.height, summary));
+        }
+        out
     }
 
     /// The contract state right after block `height` of the final canonical chain.

@@ -108,21 +108,11 @@ impl RunIndex {
         }
         let median_rule = self.final_state.ledger.params().options.median;
         let mut out = Vec::new();
-        let mut last = None;
-        for row in &self.chain {
-            let state = self.contract_at(row.height);
-            let Some(summary) = state.last_round.as_deref() else {
-                continue;
-            };
-            // Every block after the closing one carries the same summary until the next close.
-            if last == Some(summary.round) {
-                continue;
-            }
-            last = Some(summary.round);
+        for (height, summary) in self.closed_rounds() {
             out.extend(rank_round(
                 summary,
                 summary.round + 1,
-                row.height,
+                height,
                 median_rule,
                 &self.byzantine,
             ));

@@ -228,21 +228,11 @@ impl RunIndex {
             (Vec::new(), Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let (mut distance, mut samples, mut stake, mut reward) =
             (Vec::new(), Vec::new(), Vec::new(), Vec::new());
-        let mut last = None;
-        for row in &self.chain {
-            let state = self.contract_at(row.height);
-            let Some(summary) = state.last_round.as_deref() else {
-                continue;
-            };
-            // Every block after the closing one carries the same summary until the next close.
-            if last == Some(summary.round) {
-                continue;
-            }
-            last = Some(summary.round);
+        for (height, summary) in self.closed_rounds() {
             for s in &summary.submissions {
                 let paid = summary.payouts.iter().find(|p| p.robot == s.sender);
                 round.push(summary.round + 1);
-                block.push(row.height);
+                block.push(height);
                 robot.push(u64::from(s.sender));
                 byz.push(is_byzantine(&self.byzantine, s.sender));
                 outcome.push(
