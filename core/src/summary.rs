@@ -3,10 +3,11 @@
 use crate::aggregation::{self, AggregationSummary};
 use crate::byzantine;
 use crate::config::{Aggregation, ByzantineKind, Config, LedgerBehaviour};
-use crate::ledger::LedgerStats;
+use crate::ledger::geth::{self, GethEquivalent};
+use crate::ledger::{Ledger, LedgerStats};
 use crate::metrics::{self, ContractSummary, TokenSummary};
 use crate::state::State;
-use crate::types::{Digest, RobotId};
+use crate::types::{Digest, RobotId, SimTime};
 use crate::world::WorldStats;
 
 /// The ledger section of `summary.json`: the headline figures, then every detail.
@@ -30,6 +31,11 @@ pub struct LedgerSummary {
     pub chain_bytes: Vec<ChainBytesPoint>,
     /// Everything the ledger measured.
     pub details: LedgerStats,
+    /// With `contract.engine = "evm"` only: the bytes a geth node would hold for the same
+    /// chain (`ledger/geth.rs`; docs/CONTRACT.md, "What a geth node would store"). Absent
+    /// otherwise, so native summaries are unchanged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub geth_equivalent: Option<GethEquivalent>,
 }
 
 /// One point of the chain-size series.
@@ -50,8 +56,10 @@ pub struct ChainBytesPoint {
 }
 
 impl LedgerSummary {
-    fn new(stats: LedgerStats) -> LedgerSummary {
+    fn new(ledger: &Ledger, end: SimTime) -> LedgerSummary {
+        let stats = ledger.stats();
         LedgerSummary {
+            geth_equivalent: geth::geth_equivalent(ledger, metrics::best_node(ledger), end),
             canonical_height: stats.canonical_height,
             forks: stats.forks_seen,
             reorgs: stats.reorgs,
@@ -177,7 +185,7 @@ impl RunSummary {
                 ledger: config.byzantine.ledger,
             },
             world: state.world.stats(),
-            ledger: LedgerSummary::new(state.ledger.stats()),
+            ledger: LedgerSummary::new(&state.ledger, state.world.time()),
             contract,
             tokens,
             aggregation,

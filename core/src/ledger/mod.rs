@@ -28,6 +28,7 @@ mod audit;
 pub mod block;
 pub mod evidence;
 mod fork_choice;
+pub mod geth;
 mod intake;
 mod journal;
 pub mod keys;

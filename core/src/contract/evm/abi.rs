@@ -71,6 +71,11 @@ impl Encoder {
             .push(Arg::Array(xs.iter().map(|&x| int_word(x)).collect()));
     }
 
+    /// A fixed-size `int<N>[len]` (N <= 64): its words in place, no offset or length.
+    pub fn int_words(&mut self, xs: &[i64]) {
+        self.args.extend(xs.iter().map(|&x| Arg::Word(int_word(x))));
+    }
+
     /// An `address[]`.
     pub fn address_array(&mut self, xs: &[Address]) {
         self.args

@@ -20,6 +20,7 @@
 //! and closes a round that is `round_timeout_ms` old ([`enter_block`]).
 
 mod abi;
+pub mod geth;
 #[cfg(test)]
 mod tests;
 
@@ -137,6 +138,21 @@ pub struct EvmState {
     /// Gas by call kind along this chain: outcome names (`accepted`, `aggregated`, `outlier`,
     /// ...) and `deploy`, `configure`, `restart_round`.
     pub gas: BTreeMap<String, GasStat>,
+    /// The robots' calls of the block last entered ([`enter_block`] empties it), in block
+    /// order: what their Ethereum receipts hold ([`geth`]). A measurement, like `gas`.
+    pub block_calls: Vec<CallTrace>,
+}
+
+/// One robot call as an Ethereum receipt records it.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CallTrace {
+    /// Gas used, as the receipt reports it (0 for a call the EVM never ran).
+    pub gas: u64,
+    /// Whether a block could hold it: false for a call over the block gas limit (a real
+    /// chain's pool refuses it, so no receipt would exist).
+    pub included: bool,
+    /// The events it emitted, in order.
+    pub logs: Vec<Log>,
 }
 
 impl PartialEq for EvmState {
@@ -191,6 +207,7 @@ impl EvmState {
             contract: Address::ZERO,
             rules: Rules::of(params),
             gas: BTreeMap::new(),
+            block_calls: Vec::new(),
         };
         let result = state
             .transact(OWNER, TxKind::Create, data.into(), GAS_LIMIT)
@@ -335,6 +352,40 @@ impl EvmState {
     }
 }
 
+impl EvmState {
+    /// The contract's address.
+    pub fn contract(&self) -> Address {
+        self.contract
+    }
+
+    /// The contract's non-zero storage slots, by slot (what an Ethereum state trie holds: a
+    /// slot written to zero is deleted).
+    pub fn storage(&self) -> BTreeMap<U256, U256> {
+        self.db
+            .cache
+            .accounts
+            .get(&self.contract)
+            .map(|a| {
+                a.storage
+                    .iter()
+                    .filter(|(_, v)| !v.is_zero())
+                    .map(|(k, v)| (*k, *v))
+                    .collect()
+            })
+            .unwrap_or_default()
+    }
+
+    /// The deployed (runtime) code's length in bytes.
+    pub fn code_bytes(&self) -> u64 {
+        self.db
+            .cache
+            .accounts
+            .get(&self.contract)
+            .and_then(|a| a.info.code.as_ref())
+            .map_or(0, |c| c.original_byte_slice().len() as u64)
+    }
+}
+
 fn push_rules(args: &mut Encoder, rules: &Rules) {
     args.uint(u128::from(rules.stake_units));
     args.uint(u128::from(rules.security));
@@ -364,21 +415,27 @@ pub fn execute(
     value_units: u64,
     call: &Call,
 ) -> Outcome {
-    if matches!(call, Call::SubmitUpdate { .. }) {
-        // Validation refuses the buffered protocol with this engine; a foreign transaction
-        // can still carry the call.
-        return Outcome::Malformed(
-            "submitUpdate is the buffered protocol's; contracts/SwarmFL.sol implements the \
-             paper's rounds only"
-                .to_string(),
-        );
-    }
     let evm = Arc::make_mut(
         state
             .evm
             .as_mut()
             .expect("a state made under contract.engine = evm holds its EVM"),
     );
+    if matches!(call, Call::SubmitUpdate { .. }) {
+        // Validation refuses the buffered protocol with this engine; a foreign transaction
+        // can still carry the call. It never reaches the EVM (on a chain it would revert: no
+        // such function), so its receipt has no gas and no events.
+        evm.block_calls.push(CallTrace {
+            gas: 0,
+            included: true,
+            logs: Vec::new(),
+        });
+        return Outcome::Malformed(
+            "submitUpdate is the buffered protocol's; contracts/SwarmFL.sol implements the \
+             paper's rounds only"
+                .to_string(),
+        );
+    }
     if evm.rules != Rules::of(params) {
         evm.configure(params);
     }
@@ -411,6 +468,11 @@ pub fn execute(
             .entry(Outcome::OverGasLimit { gas_limit }.name().to_string())
             .or_default()
             .add(gas_limit);
+        evm.block_calls.push(CallTrace {
+            gas: gas_limit,
+            included: false,
+            logs: Vec::new(),
+        });
         return Outcome::OverGasLimit { gas_limit };
     };
     let d = Decoder::new(&result.output);
@@ -452,6 +514,11 @@ pub fn execute(
         .entry(outcome.name().to_string())
         .or_default()
         .add(result.gas);
+    evm.block_calls.push(CallTrace {
+        gas: result.gas,
+        included: true,
+        logs: result.logs.clone(),
+    });
 
     // Read the state back from the contract's storage.
     let (balances, holdings, new_round) = evm.read_state();
@@ -553,6 +620,7 @@ pub fn enter_block(state: &mut ContractState, params: &ContractParams, timestamp
     data.extend_from_slice(&args.finish());
     let r = evm.call(OWNER, data);
     evm.gas.entry("enter_block".into()).or_default().add(r.gas);
+    evm.block_calls.clear();
     let [block_time, opened, timed_out, refunded] = evm.read_deadline();
     state.block_time_ms = block_time;
     state.round_opened_ms = opened;
