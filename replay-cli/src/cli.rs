@@ -356,6 +356,12 @@ pub struct RecheckArgs {
     /// Re-runs in parallel; default the number of cores.
     #[arg(long)]
     pub jobs: Option<usize>,
+    /// Re-run only tasks whose recorded wall time is at most this many seconds (CI's bound, so
+    /// a study of 1000-robot runs can be committed and still have its configurations and
+    /// report checked). An experiment with no task under it is named in the output as not
+    /// re-run, never skipped silently.
+    #[arg(long, value_name = "S")]
+    pub max_task_s: Option<f64>,
 }
 
 /// The arguments of `swarmfl chaos`.

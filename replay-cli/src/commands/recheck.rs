@@ -15,7 +15,8 @@
 //!    time, ties by path, so the choice is fixed and CI stays short) are simulated again; the
 //!    new summary must equal the committed file in every field but the wall-clock ones
 //!    (`wall_s` and `timing`). The summary carries the final hash of the records, so one moved
-//!    record anywhere in the run fails it.
+//!    record anywhere in the run fails it. With `--max-task-s S`, only tasks recorded at most
+//!    S seconds are candidates; an experiment with none is listed as not re-run.
 //!
 //! A study whose README.md has a line starting with `Stale:` is not checked: the line says why
 //! its results are not from the current build (a change that moved records and the re-make
@@ -75,6 +76,8 @@ struct Findings {
     files: usize,
     /// Tasks re-run.
     reran: usize,
+    /// Experiments with no task under `--max-task-s`, with their fastest recorded wall time.
+    not_rerun: Vec<(String, f64)>,
     /// The problems, one line each, naming the file.
     problems: Vec<String>,
 }
@@ -98,7 +101,15 @@ pub fn command(args: RecheckArgs) -> anyhow::Result<ExitCode> {
             );
             continue;
         }
-        let findings = check_study(dir, args.tasks, jobs)?;
+        let findings = check_study(dir, args.tasks, args.max_task_s, jobs)?;
+        for (experiment, fastest) in &findings.not_rerun {
+            println!(
+                "{}: experiment {experiment} not re-run: its fastest task took {fastest:.0} s, \
+                 over --max-task-s (configurations and report still checked; recheck without \
+                 --max-task-s to re-run it)",
+                dir.display()
+            );
+        }
         if findings.problems.is_empty() {
             println!(
                 "{}: ok ({} result files match today's configurations, the report matches, \
@@ -146,7 +157,12 @@ fn stale_reason(dir: &Path) -> anyhow::Result<Option<String>> {
 }
 
 /// The three checks of one study.
-fn check_study(dir: &Path, tasks: usize, jobs: usize) -> anyhow::Result<Findings> {
+fn check_study(
+    dir: &Path,
+    tasks: usize,
+    max_task_s: Option<f64>,
+    jobs: usize,
+) -> anyhow::Result<Findings> {
     let results = dir.join("results");
     anyhow::ensure!(
         results.is_dir(),
@@ -165,8 +181,9 @@ fn check_study(dir: &Path, tasks: usize, jobs: usize) -> anyhow::Result<Findings
     };
     check_configurations(&committed, &mut findings);
     check_report(dir, &results, &mut findings)?;
-    let chosen = choose(&committed, tasks);
+    let (chosen, not_rerun) = choose(&committed, tasks, max_task_s);
     findings.reran = chosen.len();
+    findings.not_rerun = not_rerun;
     findings.problems.extend(rerun(&chosen, jobs));
     Ok(findings)
 }
@@ -342,19 +359,33 @@ fn clip(s: &str) -> String {
 }
 
 /// Check 3's tasks: per experiment, the `per_experiment` files with the smallest recorded wall
-/// time (ties by path), in path order.
-fn choose(committed: &[Committed], per_experiment: usize) -> Vec<Committed> {
+/// time (ties by path), in path order, leaving out tasks recorded over `max_task_s`; and the
+/// experiments (with `per_experiment` > 0) left with no task that way, with their fastest time.
+fn choose(
+    committed: &[Committed],
+    per_experiment: usize,
+    max_task_s: Option<f64>,
+) -> (Vec<Committed>, Vec<(String, f64)>) {
     let mut experiments: Vec<&str> = committed.iter().map(|c| c.experiment.as_str()).collect();
     experiments.sort_unstable();
     experiments.dedup();
     let mut chosen = Vec::new();
+    let mut not_rerun = Vec::new();
     for e in experiments {
         let mut of: Vec<&Committed> = committed.iter().filter(|c| c.experiment == e).collect();
         of.sort_by(|a, b| a.wall_s.total_cmp(&b.wall_s).then(a.path.cmp(&b.path)));
-        chosen.extend(of.into_iter().take(per_experiment).cloned());
+        let fastest = of.first().map_or(f64::INFINITY, |c| c.wall_s);
+        let under = of
+            .into_iter()
+            .filter(|c| max_task_s.is_none_or(|bound| c.wall_s <= bound));
+        let before = chosen.len();
+        chosen.extend(under.take(per_experiment).cloned());
+        if per_experiment > 0 && chosen.len() == before {
+            not_rerun.push((e.to_string(), fastest));
+        }
     }
     chosen.sort_by(|a, b| a.path.cmp(&b.path));
-    chosen
+    (chosen, not_rerun)
 }
 
 /// Check 3: re-runs `chosen` on `jobs` threads; one problem line per task that differs.
@@ -539,14 +570,24 @@ mod tests {
             file("a/q/seed1.json", "a", 1.0),
             file("b/p/seed1.json", "b", 5.0),
         ];
-        let paths: Vec<String> = choose(&all, 2)
-            .iter()
-            .map(|c| c.path.display().to_string())
-            .collect();
+        let paths = |chosen: &[Committed]| -> Vec<String> {
+            chosen
+                .iter()
+                .map(|c| c.path.display().to_string())
+                .collect()
+        };
+        let (chosen, not_rerun) = choose(&all, 2, None);
         assert_eq!(
-            paths,
+            paths(&chosen),
             ["a/p/seed2.json", "a/q/seed1.json", "b/p/seed1.json"]
         );
+        assert!(not_rerun.is_empty());
+        // A bound leaves out the slow tasks and names the experiment left with none.
+        let (chosen, not_rerun) = choose(&all, 2, Some(2.0));
+        assert_eq!(paths(&chosen), ["a/p/seed2.json", "a/q/seed1.json"]);
+        assert_eq!(not_rerun, [("b".to_string(), 5.0)]);
+        let (chosen, _) = choose(&all, 3, Some(3.0));
+        assert_eq!(paths(&chosen).len(), 3);
     }
 
     /// A tiny study passes; editing one committed number, the report or the configuration each
@@ -573,7 +614,7 @@ mod tests {
         .unwrap();
         assert_eq!((outcome.ran, outcome.failed.len()), (1, 0));
         report::report(&results, &dir).unwrap();
-        let clean = check_study(&dir, 1, 1).unwrap();
+        let clean = check_study(&dir, 1, None, 1).unwrap();
         assert_eq!(clean.problems, Vec::<String>::new());
         assert_eq!((clean.files, clean.reran), (1, 1));
 
@@ -583,7 +624,7 @@ mod tests {
         let mut edited: serde_json::Value = serde_json::from_str(&original).unwrap();
         edited["world"]["collisions"] = json!(12345);
         std::fs::write(&file, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
-        let found = check_study(&dir, 1, 1).unwrap().problems;
+        let found = check_study(&dir, 1, None, 1).unwrap().problems;
         assert!(
             found
                 .iter()
@@ -596,14 +637,14 @@ mod tests {
         std::fs::write(&file, serde_json::to_string_pretty(&timed).unwrap()).unwrap();
         report::report(&results, &dir).unwrap();
         assert_eq!(
-            check_study(&dir, 1, 1).unwrap().problems,
+            check_study(&dir, 1, None, 1).unwrap().problems,
             Vec::<String>::new()
         );
         // Another configuration hash: named without a re-run.
         let mut other: serde_json::Value = serde_json::from_str(&original).unwrap();
         other["config_hash"] = json!("00112233445566778899");
         std::fs::write(&file, serde_json::to_string_pretty(&other).unwrap()).unwrap();
-        let found = check_study(&dir, 0, 1).unwrap().problems;
+        let found = check_study(&dir, 0, None, 1).unwrap().problems;
         assert!(
             found
                 .iter()
@@ -616,7 +657,7 @@ mod tests {
         let numbers = dir.join("numbers.csv");
         let text = std::fs::read_to_string(&numbers).unwrap();
         std::fs::write(&numbers, text.replacen('1', "2", 1)).unwrap();
-        let found = check_study(&dir, 0, 1).unwrap().problems;
+        let found = check_study(&dir, 0, None, 1).unwrap().problems;
         assert!(
             found
                 .iter()
