@@ -7,10 +7,10 @@
 //! The task list of an experiment with points `p = 0..P` (in the order [`experiment`] lists
 //! them) and `R` runs is point-major: task `i = p * R + (seed - 1)`, seeds `1..=R`.
 
-use swarmfl_core::config::{ByzantineKind, Defence, Rule};
+use swarmfl_core::config::{Behaviour, ByzantineKind, Defence, Rule};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 12] = [
+pub const EXPERIMENTS: [&str; 13] = [
     "e0-baselines",
     "e1-expiration",
     "e1-faulty",
@@ -18,6 +18,7 @@ pub const EXPERIMENTS: [&str; 12] = [
     "e2-malicious",
     "e3-smart",
     "e4-robustness",
+    "e4-benchmark",
     "e5-smart-defence",
     "e2-malicious-authors",
     "e3-smart-authors",
@@ -46,6 +47,62 @@ pub const E4_RULES: [Rule; 9] = [
     Rule::CenteredClipping,
     Rule::Bulyan,
 ];
+
+/// The swarms of `e4-benchmark`, its heterogeneity axis (issue #33 on issue #38's behaviours):
+/// a flock (the least heterogeneous data measured, `world.data_heterogeneity` about 0.01), a
+/// mixed swarm (a third of each behaviour) and the paper's avoidance walk (the most). The
+/// report orders them by the heterogeneity its runs measured.
+pub const BENCH_BEHAVIOURS: [Behaviour; 3] =
+    [Behaviour::Flocking, Behaviour::Mixed, Behaviour::Avoidance];
+
+/// The rules of `e4-benchmark`, each alone and, where marked, behind the NNM pre-aggregator
+/// (ByzFL's recommended composition): the paper's rule and FedAvg as references, and every
+/// robust rule but multi-krum (krum's selection averaged; close to krum at quorum 7) and bulyan
+/// (at quorum 7 it tolerates one Byzantine model only).
+pub const BENCH_RULES: [(Rule, bool); 18] = [
+    (Rule::Paper, false),
+    (Rule::Fedavg, false),
+    (Rule::Median, false),
+    (Rule::TrimmedMean, false),
+    (Rule::Krum, false),
+    (Rule::Geomed, false),
+    (Rule::CenteredClipping, false),
+    (Rule::Mda, false),
+    (Rule::Meamed, false),
+    (Rule::Monna, false),
+    (Rule::Signguard, false),
+    (Rule::Dnc, false),
+    (Rule::Median, true),
+    (Rule::TrimmedMean, true),
+    (Rule::Krum, true),
+    (Rule::Geomed, true),
+    (Rule::CenteredClipping, true),
+    (Rule::Meamed, true),
+];
+
+/// The attacks of `e4-benchmark`: the strongest of a 5000 s pilot (all 17 attacks against
+/// median and krum, 5 of 15 Byzantine, seed 1; RESEARCH.md, "The robustness benchmark") and
+/// the two adaptive attacks that line-search against the rule the contract runs.
+pub const BENCH_ATTACKS: [ByzantineKind; 3] = [
+    ByzantineKind::Collude,
+    ByzantineKind::OptimalAlie,
+    ByzantineKind::OptimalIpm,
+];
+
+/// Byzantine counts of `e4-benchmark`: none (each cell's clean reference), 3 of 15 (about 1.4
+/// per 7-model round, within the rules' assumed f = 2) and 5 (about 2.3 per round, at and
+/// beyond it).
+pub const BENCH_COUNTS: [u32; 3] = [0, 3, 5];
+
+/// The name of a rule of [`BENCH_RULES`] in point names and figures: `median`, or
+/// `nnm+median` behind NNM.
+pub fn bench_rule_name(rule: Rule, nnm: bool) -> String {
+    if nnm {
+        format!("nnm+{}", rule.name())
+    } else {
+        rule.name().to_string()
+    }
+}
 
 /// The assumed Byzantine count `e4-robustness` gives each rule: 2 (a rule built for the
 /// expected 1.4 and a margin), except bulyan, whose maximum at quorum 7 is 1.
@@ -163,6 +220,13 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             preset: "e4-robustness".into(),
             axis: "Byzantine robots".into(),
             points: e4_points(),
+            runs: 3,
+        },
+        "e4-benchmark" => Experiment {
+            name: "e4-benchmark".into(),
+            preset: "e4-robustness".into(),
+            axis: "Byzantine robots".into(),
+            points: bench_points(),
             runs: 3,
         },
         "e5-smart-defence" => Experiment {
@@ -299,6 +363,51 @@ fn e4_points() -> Vec<Point> {
                         ("attack", kind.name().to_string()),
                     ],
                 });
+            }
+        }
+    }
+    points
+}
+
+/// The grid of `e4-benchmark`, behaviour-major, then rule-major: per behaviour and rule its
+/// clean point, then every attack of [`BENCH_ATTACKS`] at every non-zero count of
+/// [`BENCH_COUNTS`]; full-length runs (5000 s, the paper's). Point names are
+/// `<behaviour>--<rule>--<attack>--<count>` (`mixed--nnm+krum--optimal-alie--3`).
+fn bench_points() -> Vec<Point> {
+    let mut points = Vec::new();
+    for behaviour in BENCH_BEHAVIOURS {
+        for (rule, nnm) in BENCH_RULES {
+            let name = bench_rule_name(rule, nnm);
+            let mut base = vec![
+                "run.duration_s=5000.0".to_string(),
+                format!("world.behaviour={}", behaviour.name()),
+                format!("contract.rule={}", rule.name()),
+                format!("contract.assumed_f={}", e4_assumed_f(rule)),
+            ];
+            if nnm {
+                base.push("contract.preaggregators=[\"nnm\"]".to_string());
+            }
+            for &count in &BENCH_COUNTS {
+                let kinds: &[ByzantineKind] = if count == 0 {
+                    &[ByzantineKind::None]
+                } else {
+                    &BENCH_ATTACKS
+                };
+                for &kind in kinds {
+                    let mut overrides = base.clone();
+                    overrides.push(format!("byzantine.kind={}", kind.name()));
+                    overrides.push(format!("byzantine.count={count}"));
+                    points.push(Point {
+                        name: format!("{}--{name}--{}--{count}", behaviour.name(), kind.name()),
+                        x: f64::from(count),
+                        overrides,
+                        tags: vec![
+                            ("behaviour", behaviour.name().to_string()),
+                            ("rule", name.clone()),
+                            ("attack", kind.name().to_string()),
+                        ],
+                    });
+                }
             }
         }
     }
@@ -505,6 +614,7 @@ mod tests {
         check("e2-faulty", 8, 20);
         check("e2-malicious", 8, 20);
         check("e3-smart", 8, 18);
+        check("e4-benchmark", 3 * 18 * 7, 3);
         check("e5-smart-defence", 39, 3);
         check("e2-malicious-authors", 8, 20);
         check("e3-smart-authors", 8, 18);

@@ -9,8 +9,9 @@
 //!    configuration hash the file records. A preset or default that changed shows here,
 //!    without running anything.
 //! 2. **The report.** `swarmfl report` over the committed results must give the committed
-//!    `numbers.csv`, `series.csv`, `timing.csv`, `report.md` and `e4-worst-case.csv` byte for
-//!    byte (the figures are drawn from the same numbers and are not compared).
+//!    `numbers.csv`, `series.csv`, `timing.csv`, `report.md`, `e4-worst-case.csv` and
+//!    `e4-benchmark-worst-case.csv` byte for byte (the figures are drawn from the same
+//!    numbers and are not compared).
 //! 3. **Re-runs.** A few tasks per experiment (the `--tasks` with the smallest recorded wall
 //!    time, ties by path, so the choice is fixed and CI stays short) are simulated again; the
 //!    new summary must equal the committed file in every field but the wall-clock ones
@@ -35,12 +36,13 @@ use crate::commands::{report, run};
 use crate::exit::EXIT_DIVERGED;
 
 /// The report's files that hold numbers (the figures are drawn from them).
-const REPORT_FILES: [&str; 5] = [
+const REPORT_FILES: [&str; 6] = [
     "numbers.csv",
     "series.csv",
     "timing.csv",
     "report.md",
     "e4-worst-case.csv",
+    "e4-benchmark-worst-case.csv",
 ];
 
 /// Problems printed per study (the count says how many more there are).

@@ -36,6 +36,12 @@ pub(super) struct Heatmap {
     /// Diverging colours around 0 (blue positive, red negative); else white (low) to red
     /// (high) on a log scale.
     pub(super) diverging: bool,
+    /// A name written above each cell's number (`labels[row][col]`; the best rule of an
+    /// aggregated map), or empty for numbers only.
+    pub(super) labels: Vec<Vec<String>>,
+    /// A colour scale shared with other maps (see [`Scale::of`]), so that maps drawn side by
+    /// side compare by colour; `None`: this map's own values decide it.
+    pub(super) shared_scale: Option<Scale>,
 }
 
 /// Logical sizes of the layout that do not depend on the text (see [`Layout`] for those).
@@ -86,6 +92,8 @@ pub(super) struct Scale {
     pub(super) hi: f64,
     /// Whether any value lies beyond the clip.
     pub(super) clipped: bool,
+    /// What the top was clipped at, for the subtitle; `None`: [`CLIP_PERCENTILE`].
+    pub(super) clipped_at: Option<&'static str>,
 }
 
 /// The `p`-th percentile of `sorted` (nearest rank), `None` when empty.
@@ -97,25 +105,20 @@ fn percentile(sorted: &[f64], p: f64) -> Option<f64> {
     Some(sorted[rank.clamp(1, sorted.len()) - 1])
 }
 
-impl Heatmap {
-    /// The colour scale of this map's values.
-    pub(super) fn scale(&self) -> Scale {
-        let mut values: Vec<f64> = self
-            .values
-            .iter()
-            .flatten()
-            .flatten()
-            .copied()
-            .filter(|v| v.is_finite())
-            .collect();
+impl Scale {
+    /// The scale of `values` (non-finite ones ignored): their range, the top (or, diverging,
+    /// the magnitude) clipped at [`CLIP_PERCENTILE`].
+    pub(super) fn of(values: impl IntoIterator<Item = f64>, diverging: bool) -> Scale {
+        let mut values: Vec<f64> = values.into_iter().filter(|v| v.is_finite()).collect();
         if values.is_empty() {
             return Scale {
                 lo: 0.0,
                 hi: 1.0,
                 clipped: false,
+                clipped_at: None,
             };
         }
-        if self.diverging {
+        if diverging {
             let mut magnitudes: Vec<f64> = values.iter().map(|v| v.abs()).collect();
             magnitudes.sort_by(f64::total_cmp);
             let max = *magnitudes.last().expect("not empty");
@@ -126,6 +129,7 @@ impl Heatmap {
                 lo: -m,
                 hi: m,
                 clipped: max > m,
+                clipped_at: None,
             }
         } else {
             values.sort_by(f64::total_cmp);
@@ -135,8 +139,38 @@ impl Heatmap {
                 lo: values[0],
                 hi,
                 clipped: max > hi,
+                clipped_at: None,
             }
         }
+    }
+}
+
+impl Heatmap {
+    /// The colour scale: the shared one if set, else that of this map's values.
+    pub(super) fn scale(&self) -> Scale {
+        self.shared_scale.unwrap_or_else(|| {
+            Scale::of(
+                self.values.iter().flatten().flatten().copied(),
+                self.diverging,
+            )
+        })
+    }
+
+    /// A row's height: one line of text, two with labels.
+    fn cell_h(&self) -> f64 {
+        if self.labels.is_empty() {
+            CELL_H
+        } else {
+            CELL_H + style::CELL * LINE
+        }
+    }
+
+    /// The label of a cell, if the map has labels.
+    fn label(&self, row: usize, col: usize) -> Option<&str> {
+        self.labels
+            .get(row)
+            .and_then(|r| r.get(col))
+            .map(String::as_str)
     }
 
     /// Where `v` sits on the colour scale, 0 (lowest colour) to 1 (top), clipped; for a
@@ -216,6 +250,11 @@ impl Heatmap {
                 number(scale.hi),
                 number(scale.hi)
             )
+        } else if let Some(at) = scale.clipped_at {
+            format!(
+                "; scale clipped at {at} ({}): cells above it take the top colour",
+                number(scale.hi)
+            )
         } else {
             format!(
                 "; scale clipped at the {CLIP_PERCENTILE:.0}th percentile ({}): cells above \
@@ -244,7 +283,8 @@ impl Heatmap {
                 .values
                 .iter()
                 .flatten()
-                .map(|v| v.map_or_else(|| "n/a".to_string(), number)),
+                .map(|v| v.map_or_else(|| "n/a".to_string(), number))
+                .chain(self.labels.iter().flatten().cloned()),
         );
         let row_names = widest(style::TICK, &mut self.rows.iter().cloned())
             .max(style::text_width(style::AXIS, &self.row_title))
@@ -306,7 +346,7 @@ impl Heatmap {
             + MARGIN;
         let h = MARGIN
             + l.title_h
-            + CELL_H * self.rows.len() as f64
+            + self.cell_h() * self.rows.len() as f64
             + l.col_names
             + l.axis_title_h
             + MARGIN;
@@ -344,6 +384,10 @@ type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::Er
 fn number(v: f64) -> String {
     if v == 0.0 {
         return "0".to_string();
+    }
+    // A model an attack blew up (1e11) in three digits, not twelve.
+    if v.abs() >= 1e5 {
+        return format!("{v:.2e}");
     }
     let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
     format!("{v:.digits$}")
@@ -393,6 +437,7 @@ fn draw_on<DB: DrawingBackend>(
     let scale = map.scale();
     let l = map.layout();
     let cell_w = l.cell_w;
+    let cell_h = map.cell_h();
     let (nc, nr) = (map.cols.len() as f64, map.rows.len() as f64);
     let left = MARGIN + l.row_names;
     let top = MARGIN + l.title_h;
@@ -400,17 +445,17 @@ fn draw_on<DB: DrawingBackend>(
     let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     for (r, row) in map.values.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
-            let (x, y) = (left + cell_w * c as f64, top + CELL_H * r as f64);
+            let (x, y) = (left + cell_w * c as f64, top + cell_h * r as f64);
             let fill = match v {
                 Some(v) if v.is_finite() => map.colour(map.position(scale, *v)),
                 _ => RGBColor(225, 225, 225),
             };
             root.draw(&Rectangle::new(
-                [p(x, y), p(x + cell_w, y + CELL_H)],
+                [p(x, y), p(x + cell_w, y + cell_h)],
                 fill.filled(),
             ))?;
             root.draw(&Rectangle::new(
-                [p(x, y), p(x + cell_w, y + CELL_H)],
+                [p(x, y), p(x + cell_w, y + cell_h)],
                 BLACK.mix(0.15).stroke_width(st.upx(1.0)),
             ))?;
             if text {
@@ -421,17 +466,26 @@ fn draw_on<DB: DrawingBackend>(
                     .font(style::CELL)
                     .color(if dark { &WHITE } else { &BLACK })
                     .pos(Pos::new(HPos::Center, VPos::Center));
-                root.draw(&Text::new(
-                    label,
-                    p(x + cell_w / 2.0, y + CELL_H / 2.0),
-                    font,
-                ))?;
+                // With a name, the name on the upper line and the number under it.
+                let line = style::CELL * LINE / 2.0;
+                let number_y = match map.label(r, c) {
+                    Some(name) => {
+                        root.draw(&Text::new(
+                            name.to_string(),
+                            p(x + cell_w / 2.0, y + cell_h / 2.0 - line),
+                            font.clone(),
+                        ))?;
+                        y + cell_h / 2.0 + line
+                    }
+                    None => y + cell_h / 2.0,
+                };
+                root.draw(&Text::new(label, p(x + cell_w / 2.0, number_y), font))?;
             }
         }
     }
     // The colour bar, top colour at the top.
     let bar_x = left + cell_w * nc + BAR_GAP;
-    let bar_h = CELL_H * nr;
+    let bar_h = cell_h * nr;
     let steps = 64;
     for i in 0..steps {
         let t0 = i as f64 / steps as f64;
@@ -483,7 +537,7 @@ fn draw_on<DB: DrawingBackend>(
     for (r, name) in map.rows.iter().enumerate() {
         root.draw(&Text::new(
             name.clone(),
-            p(left - PAD, top + CELL_H * (r as f64 + 0.5)),
+            p(left - PAD, top + cell_h * (r as f64 + 0.5)),
             anchored(style::TICK, HPos::Right, VPos::Center),
         ))?;
     }
@@ -535,6 +589,8 @@ mod tests {
             cols: (0..values[0].len()).map(|c| format!("c{c}")).collect(),
             values,
             diverging,
+            labels: Vec::new(),
+            shared_scale: None,
         }
     }
 

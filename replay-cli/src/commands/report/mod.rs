@@ -4,7 +4,8 @@
 //!
 //! The steps, one module each: `load` (read and sort the result files), `stats` (means and
 //! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
-//! standard figures of each experiment), `robustness` (e4's heatmaps), `defence` (e5's
+//! standard figures of each experiment), `robustness` (e4's heatmaps), `benchmark` (the
+//! robustness benchmark's heatmaps on a heterogeneity axis), `defence` (e5's
 //! figures) and `scale` (e6's figures and tables), and `tables` (the CSV files and
 //! `report.md`).
 //!
@@ -13,6 +14,7 @@
 //! deterministic number (shards merged or one local sweep give identical files); wall-clock
 //! times are kept apart in `timing.csv`.
 
+mod benchmark;
 mod defence;
 mod figures;
 mod frame;
@@ -52,6 +54,7 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
     );
     let mut stats = stats::aggregate(&results);
     let scale_rows = scale::study(&results);
+    let bench = benchmark::study(&results);
     scale::extend(&mut stats, &scale_rows);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let (numbers, series) = tables::numbers_csv(&stats);
@@ -63,18 +66,33 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
     // others.
     let own_figures = [
         robustness::EXPERIMENT,
+        benchmark::EXPERIMENT,
         defence::EXPERIMENT,
         scale::EXPERIMENTS[0],
         scale::EXPERIMENTS[1],
     ];
     let mut figures = figures::draw_all(&stats, &own_figures, out, &mut notes)?;
     figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
+    figures.extend(benchmark::draw_all(bench.as_ref(), out, &mut notes)?);
     figures.extend(defence::draw_all(&stats, out, &mut notes)?);
     figures.extend(scale::draw_all(&stats, &scale_rows, out, &mut notes)?);
     if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
         std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
     }
-    let md = tables::markdown(&stats, &figures, &scale_rows, &notes, results.len());
+    if let Some(b) = &bench {
+        std::fs::write(
+            out.join(format!("{}-worst-case.csv", benchmark::EXPERIMENT)),
+            benchmark::tables(b).1,
+        )?;
+    }
+    let md = tables::markdown(
+        &stats,
+        &figures,
+        &scale_rows,
+        bench.as_ref(),
+        &notes,
+        results.len(),
+    );
     let path = out.join("report.md");
     std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
     Ok(path)
@@ -202,6 +220,8 @@ mod tests {
                 vec![Some(0.0123), Some(-0.5), Some(2.2)],
             ],
             diverging: false,
+            labels: Vec::new(),
+            shared_scale: None,
         };
         heatmap::draw(&map, &out, "map").unwrap();
         let svg = std::fs::read_to_string(out.join("map.svg")).unwrap();

@@ -117,6 +117,8 @@ pub fn draw_all(
                 .map(|r| attacks.iter().map(|a| value(r, a, &|c| c.loss)).collect())
                 .collect(),
             diverging: false,
+            labels: Vec::new(),
+            shared_scale: None,
         };
         let gap_cols: Vec<String> = attacks.iter().filter(|a| *a != "none").cloned().collect();
         let gap = Heatmap {
@@ -134,6 +136,8 @@ pub fn draw_all(
                 .map(|r| gap_cols.iter().map(|a| value(r, a, &|c| c.gap)).collect())
                 .collect(),
             diverging: true,
+            labels: Vec::new(),
+            shared_scale: None,
         };
         for (stem, caption, map) in [
             (

@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use super::plots::Figure;
 use super::stats::{ExperimentStats, PointStats, Stat, BIN_S};
-use super::{defence, robustness, scale};
+use super::{benchmark, defence, robustness, scale};
 
 /// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a line break.
 fn csv_field(text: &str) -> String {
@@ -93,12 +93,13 @@ pub fn timing_csv(stats: &[ExperimentStats]) -> String {
 }
 
 /// `report.md`: per experiment its figures, its own tables (e4, e5; e6's study, from
-/// `scale_rows`, in the first of its experiments) and the table of every point's numbers, then
-/// the notes.
+/// `scale_rows`, in the first of its experiments; the benchmark's, from `bench`) and the table
+/// of every point's numbers, then the notes.
 pub fn markdown(
     stats: &[ExperimentStats],
     figures: &[Figure],
     scale_rows: &[scale::Row],
+    bench: Option<&benchmark::Bench>,
     notes: &[String],
     files: usize,
 ) -> String {
@@ -133,6 +134,9 @@ pub fn markdown(
                  run (`e4-worst-case.csv`).\n\n{}",
                 robustness::worst_case(e).0
             );
+        }
+        if let (true, Some(b)) = (e.name == benchmark::EXPERIMENT, bench) {
+            let _ = writeln!(md, "{}", benchmark::tables(b).0);
         }
         if e.name == defence::EXPERIMENT {
             let _ = writeln!(

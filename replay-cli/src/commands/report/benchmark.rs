@@ -1,0 +1,565 @@
+//! `e4-benchmark` (issue #33): the robustness benchmark in the form ByzFL reports it. Per rule
+//! a heatmap of the worst-case final held-out loss over the attacks, Byzantine count against
+//! data heterogeneity (the swarm's behaviour, ordered by the `world.data_heterogeneity` its clean
+//! runs measured); an aggregated heatmap of the best rule per cell; and the worst-case table.
+//!
+//! Worst case, per rule, behaviour and count: the attack whose mean final held-out loss over
+//! the runs is highest (ties to the earlier attack in grid order); at count 0 the clean run's.
+//! Best rule per cell: the lowest worst case (ties to the earlier rule in grid order). Every
+//! rule's map shares one colour scale, so the maps compare by colour. Its top is the 95th
+//! percentile of all their cells (see `heatmap`) or the genesis model's held-out loss, the
+//! lower: a model at or above the untrained one learned nothing, and a rule the attack blew
+//! up (a loss of 1e10) would otherwise wash every other cell out to white.
+
+use std::collections::BTreeMap;
+use std::fmt::Write as _;
+use std::path::Path;
+
+use serde_json::Value;
+
+use super::heatmap::{draw, Heatmap, Scale};
+use super::load::RunResult;
+use super::plots::Figure;
+use crate::experiments;
+
+/// The experiment this module reads.
+pub const EXPERIMENT: &str = "e4-benchmark";
+
+/// One point's runs.
+#[derive(Clone, Debug)]
+struct Cell {
+    behaviour: String,
+    rule: String,
+    attack: String,
+    count: u32,
+    /// Final held-out loss per run, in seed order.
+    losses: Vec<f64>,
+}
+
+impl Cell {
+    fn loss(&self) -> Option<f64> {
+        (!self.losses.is_empty())
+            .then(|| self.losses.iter().sum::<f64>() / self.losses.len() as f64)
+    }
+}
+
+/// A behaviour of the heterogeneity axis and what its clean runs measured.
+#[derive(Clone, Debug)]
+pub struct Level {
+    /// The behaviour.
+    pub behaviour: String,
+    /// Mean `world.data_heterogeneity` over its clean runs.
+    pub heterogeneity: Option<f64>,
+    /// Those runs.
+    pub runs: usize,
+}
+
+/// One cell of the worst-case table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Worst {
+    /// The rule (`nnm+` when behind NNM).
+    pub rule: String,
+    /// The behaviour.
+    pub behaviour: String,
+    /// Byzantine robots.
+    pub count: u32,
+    /// The rule's clean loss in that swarm.
+    pub clean: Option<f64>,
+    /// The worst attack (`none` at count 0) and its mean loss.
+    pub attack: String,
+    /// Its mean final held-out loss.
+    pub loss: f64,
+    /// The fewest runs among the cell's attacks.
+    pub runs: usize,
+}
+
+/// The benchmark read from the results.
+#[derive(Clone, Debug, Default)]
+pub struct Bench {
+    /// The heterogeneity axis, least heterogeneous first.
+    pub levels: Vec<Level>,
+    /// The rules in grid order.
+    pub rules: Vec<String>,
+    /// The Byzantine counts, ascending (0 first).
+    pub counts: Vec<u32>,
+    /// Per rule, behaviour and count, the worst case.
+    pub worst: Vec<Worst>,
+    /// Mean held-out loss of the genesis model over the runs (`heldout_loss_initial`).
+    pub genesis: Option<f64>,
+}
+
+/// The final held-out loss of a run: the summary's own, else the last aggregation's.
+fn final_heldout(summary: &Value) -> Option<f64> {
+    let c = summary.get("contract")?;
+    c.get("final_heldout_loss")
+        .and_then(Value::as_f64)
+        .or_else(|| c.get("heldout_loss_by_round")?.as_array()?.last()?.as_f64())
+        .filter(|v| v.is_finite())
+}
+
+/// Reads the benchmark's results (`None` when there are none).
+pub fn study(results: &[RunResult]) -> Option<Bench> {
+    let grid = experiments::experiment(EXPERIMENT).ok()?;
+    let mut cells: Vec<Cell> = Vec::new();
+    // Heterogeneity per behaviour over its clean runs.
+    let mut measured: BTreeMap<String, Vec<f64>> = BTreeMap::new();
+    let mut genesis: Vec<f64> = Vec::new();
+    for r in results.iter().filter(|r| r.experiment == EXPERIMENT) {
+        let Some(point) = grid.points.iter().find(|p| p.name == r.point) else {
+            continue;
+        };
+        let tag = |k: &str| {
+            point
+                .tags
+                .iter()
+                .find(|(t, _)| *t == k)
+                .map(|(_, v)| v.clone())
+        };
+        let (Some(behaviour), Some(rule), Some(attack)) =
+            (tag("behaviour"), tag("rule"), tag("attack"))
+        else {
+            continue;
+        };
+        let count = point.x as u32;
+        if let Some(g) = r
+            .summary
+            .get("contract")
+            .and_then(|c| c.get("heldout_loss_initial"))
+            .and_then(Value::as_f64)
+            .filter(|g| g.is_finite())
+        {
+            genesis.push(g);
+        }
+        if count == 0 {
+            if let Some(h) = r
+                .summary
+                .get("world")
+                .and_then(|w| w.get("data_heterogeneity"))
+                .and_then(Value::as_f64)
+            {
+                measured.entry(behaviour.clone()).or_default().push(h);
+            }
+        }
+        // Results come sorted by point and seed (`load`); found by key all the same, so the
+        // cells do not depend on that order.
+        let same = |c: &&mut Cell| {
+            c.behaviour == behaviour && c.rule == rule && c.attack == attack && c.count == count
+        };
+        let at = match cells.iter_mut().position(|c| same(&c)) {
+            Some(at) => at,
+            None => {
+                cells.push(Cell {
+                    behaviour,
+                    rule,
+                    attack,
+                    count,
+                    losses: Vec::new(),
+                });
+                cells.len() - 1
+            }
+        };
+        if let Some(loss) = final_heldout(&r.summary) {
+            cells[at].losses.push(loss);
+        }
+    }
+    if cells.is_empty() {
+        return None;
+    }
+    // Axes in grid order; the levels then sorted by what they measured.
+    let mut bench = Bench {
+        genesis: (!genesis.is_empty()).then(|| genesis.iter().sum::<f64>() / genesis.len() as f64),
+        ..Bench::default()
+    };
+    for c in &cells {
+        if !bench.levels.iter().any(|l| l.behaviour == c.behaviour) {
+            let runs = measured.get(&c.behaviour).map_or(0, Vec::len);
+            bench.levels.push(Level {
+                behaviour: c.behaviour.clone(),
+                heterogeneity: measured
+                    .get(&c.behaviour)
+                    .filter(|v| !v.is_empty())
+                    .map(|v| v.iter().sum::<f64>() / v.len() as f64),
+                runs,
+            });
+        }
+        if !bench.rules.contains(&c.rule) {
+            bench.rules.push(c.rule.clone());
+        }
+        if !bench.counts.contains(&c.count) {
+            bench.counts.push(c.count);
+        }
+    }
+    bench.counts.sort_unstable();
+    bench.levels.sort_by(|a, b| {
+        a.heterogeneity
+            .unwrap_or(f64::INFINITY)
+            .total_cmp(&b.heterogeneity.unwrap_or(f64::INFINITY))
+    });
+    for rule in &bench.rules {
+        for level in &bench.levels {
+            let of = |count: u32| {
+                cells.iter().filter(move |c| {
+                    &c.rule == rule && c.behaviour == level.behaviour && c.count == count
+                })
+            };
+            let clean = of(0).find_map(Cell::loss);
+            for &count in &bench.counts {
+                let runs = of(count).map(|c| c.losses.len()).min().unwrap_or(0);
+                let worst = of(count).filter_map(|c| c.loss().map(|l| (c, l))).fold(
+                    None::<(&Cell, f64)>,
+                    |best, (c, l)| match best {
+                        Some((_, b)) if b >= l => best,
+                        _ => Some((c, l)),
+                    },
+                );
+                if let Some((c, loss)) = worst {
+                    bench.worst.push(Worst {
+                        rule: rule.clone(),
+                        behaviour: level.behaviour.clone(),
+                        count,
+                        clean,
+                        attack: c.attack.clone(),
+                        loss,
+                        runs,
+                    });
+                }
+            }
+        }
+    }
+    Some(bench)
+}
+
+impl Bench {
+    /// The colour scale every map shares: the worst cases' range, its top clipped at the
+    /// 95th percentile or the genesis model's loss, the lower.
+    fn scale(&self) -> Scale {
+        let mut scale = Scale::of(self.worst.iter().map(|w| w.loss), false);
+        if let Some(g) = self.genesis.filter(|&g| g > scale.lo && g < scale.hi) {
+            scale.hi = g;
+            scale.clipped = true;
+            scale.clipped_at =
+                Some("the genesis model's held-out loss (a model that learned nothing)");
+        }
+        scale
+    }
+
+    fn worst_of(&self, rule: &str, behaviour: &str, count: u32) -> Option<&Worst> {
+        self.worst
+            .iter()
+            .find(|w| w.rule == rule && w.behaviour == behaviour && w.count == count)
+    }
+
+    /// The rule with the lowest worst case in a cell (ties to the earlier rule).
+    fn best(&self, behaviour: &str, count: u32) -> Option<&Worst> {
+        self.rules
+            .iter()
+            .filter_map(|r| self.worst_of(r, behaviour, count))
+            .fold(None::<&Worst>, |best, w| match best {
+                Some(b) if b.loss <= w.loss => Some(b),
+                _ => Some(w),
+            })
+    }
+
+    /// A column name: the behaviour and its measured heterogeneity.
+    fn column(level: &Level) -> String {
+        match level.heterogeneity {
+            Some(h) => format!("{} (V {h:.3})", level.behaviour),
+            None => level.behaviour.clone(),
+        }
+    }
+
+    fn row(count: u32) -> String {
+        if count == 0 {
+            "0 (clean)".to_string()
+        } else {
+            count.to_string()
+        }
+    }
+}
+
+/// Draws the per-rule and the aggregated heatmaps into `out` and returns them.
+pub fn draw_all(
+    bench: Option<&Bench>,
+    out: &Path,
+    notes: &mut Vec<String>,
+) -> anyhow::Result<Vec<Figure>> {
+    let mut figures = Vec::new();
+    let Some(b) = bench else {
+        return Ok(figures);
+    };
+    let cols: Vec<String> = b.levels.iter().map(Bench::column).collect();
+    let rows: Vec<String> = b.counts.iter().map(|&c| Bench::row(c)).collect();
+    let shared = b.scale();
+    let col_title = "swarm behaviour (V: its data heterogeneity)";
+    let value_title = "worst-case final held-out loss over the attacks (log scale)";
+    let mut maps: Vec<(String, String, Heatmap)> = Vec::new();
+    for rule in &b.rules {
+        maps.push((
+            format!("{EXPERIMENT}-{rule}"),
+            format!(
+                "{EXPERIMENT}: {rule}, worst-case final held-out loss over the attacks per \
+                 Byzantine count (rows) and swarm behaviour (columns); row 0 is the clean run \
+                 (mean over runs; one colour scale for every rule)"
+            ),
+            Heatmap {
+                title: format!("{EXPERIMENT}: {rule}, worst case over attacks"),
+                row_title: "Byzantine robots of 15".to_string(),
+                col_title: col_title.to_string(),
+                value_title: value_title.to_string(),
+                rows: rows.clone(),
+                cols: cols.clone(),
+                values: b
+                    .counts
+                    .iter()
+                    .map(|&c| {
+                        b.levels
+                            .iter()
+                            .map(|l| b.worst_of(rule, &l.behaviour, c).map(|w| w.loss))
+                            .collect()
+                    })
+                    .collect(),
+                diverging: false,
+                labels: Vec::new(),
+                shared_scale: Some(shared),
+            },
+        ));
+    }
+    let best: Vec<Vec<Option<&Worst>>> = b
+        .counts
+        .iter()
+        .map(|&c| b.levels.iter().map(|l| b.best(&l.behaviour, c)).collect())
+        .collect();
+    maps.push((
+        format!("{EXPERIMENT}-best"),
+        format!(
+            "{EXPERIMENT}: the best rule per cell (lowest worst-case final held-out loss over \
+             the attacks) and that loss, per Byzantine count and swarm behaviour"
+        ),
+        Heatmap {
+            title: format!("{EXPERIMENT}: best rule per cell"),
+            row_title: "Byzantine robots of 15".to_string(),
+            col_title: col_title.to_string(),
+            value_title: "the best rule's worst-case final held-out loss (log scale)".to_string(),
+            rows,
+            cols,
+            values: best
+                .iter()
+                .map(|r| r.iter().map(|w| w.map(|w| w.loss)).collect())
+                .collect(),
+            diverging: false,
+            labels: best
+                .iter()
+                .map(|r| {
+                    r.iter()
+                        .map(|w| w.map_or_else(String::new, |w| w.rule.clone()))
+                        .collect()
+                })
+                .collect(),
+            shared_scale: Some(shared),
+        },
+    ));
+    for (stem, caption, map) in maps {
+        if map.values.iter().flatten().all(Option::is_none) {
+            continue;
+        }
+        if !draw(&map, out, &stem)? {
+            notes.push(format!(
+                "no font could be loaded: {stem} drawn without text"
+            ));
+        }
+        figures.push(Figure {
+            experiment: EXPERIMENT.to_string(),
+            stem,
+            caption,
+        });
+    }
+    Ok(figures)
+}
+
+/// The report's section: the axis, the best rule per cell and the worst-case table (markdown),
+/// and `e4-benchmark-worst-case.csv`.
+pub fn tables(b: &Bench) -> (String, String) {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "Heterogeneity axis (mean `world.data_heterogeneity` of the clean runs, runs):"
+    );
+    for l in &b.levels {
+        let _ = writeln!(
+            md,
+            "- {}: {} ({} runs)",
+            l.behaviour,
+            l.heterogeneity
+                .map_or_else(|| "n/a".to_string(), |h| format!("{h:.4}")),
+            l.runs
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nBest rule per cell (lowest worst-case final held-out loss over the attacks):\n"
+    );
+    let _ = write!(md, "| Byzantine robots |");
+    for l in &b.levels {
+        let _ = write!(md, " {} |", Bench::column(l));
+    }
+    let _ = write!(md, "\n|---|");
+    for _ in &b.levels {
+        let _ = write!(md, "---|");
+    }
+    let _ = writeln!(md);
+    for &count in &b.counts {
+        let _ = write!(md, "| {} |", Bench::row(count));
+        for l in &b.levels {
+            match b.best(&l.behaviour, count) {
+                Some(w) => {
+                    let _ = write!(md, " {} ({:.5}) |", w.rule, w.loss);
+                }
+                None => {
+                    let _ = write!(md, " n/a |");
+                }
+            }
+        }
+        let _ = writeln!(md);
+    }
+    let attacked: Vec<u32> = b.counts.iter().copied().filter(|&c| c > 0).collect();
+    let _ = writeln!(
+        md,
+        "\nWorst case per rule and swarm: the attack with the highest mean final held-out loss \
+         at each Byzantine count, its loss and that loss as a multiple of the rule's clean run \
+         in the same swarm (`{EXPERIMENT}-worst-case.csv`).\n"
+    );
+    let _ = write!(md, "| rule | swarm | clean loss |");
+    for c in &attacked {
+        let _ = write!(md, " worst attack, {c} Byzantine (loss, x clean) |");
+    }
+    let _ = write!(md, "\n|---|---|---|");
+    for _ in &attacked {
+        let _ = write!(md, "---|");
+    }
+    let _ = writeln!(md);
+    let mut csv = String::from(
+        "rule,behaviour,heterogeneity,count,clean_loss,worst_attack,worst_loss,ratio,runs\n",
+    );
+    let number = |v: Option<f64>| v.map_or_else(String::new, |v| format!("{v:e}"));
+    for rule in &b.rules {
+        for l in &b.levels {
+            let clean = b.worst_of(rule, &l.behaviour, 0).map(|w| w.loss);
+            let _ = write!(
+                md,
+                "| {rule} | {} | {} |",
+                l.behaviour,
+                clean.map_or_else(|| "n/a".to_string(), |c| format!("{c:.5}"))
+            );
+            for &count in &b.counts {
+                let Some(w) = b.worst_of(rule, &l.behaviour, count) else {
+                    if count > 0 {
+                        let _ = write!(md, " n/a |");
+                    }
+                    continue;
+                };
+                let ratio = w.clean.filter(|&c| c > 0.0).map(|c| w.loss / c);
+                let _ = writeln!(
+                    csv,
+                    "{rule},{},{},{count},{},{},{:e},{},{}",
+                    l.behaviour,
+                    number(l.heterogeneity),
+                    number(w.clean),
+                    w.attack,
+                    w.loss,
+                    number(ratio),
+                    w.runs
+                );
+                if count > 0 {
+                    let _ = write!(
+                        md,
+                        " {} ({:.5}, {}) |",
+                        w.attack,
+                        w.loss,
+                        ratio.map_or_else(|| "n/a".to_string(), |r| format!("{r:.2}x"))
+                    );
+                }
+            }
+            let _ = writeln!(md);
+        }
+    }
+    (md, csv)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use serde_json::json;
+
+    fn result(point: &str, seed: u64, loss: f64, heterogeneity: f64) -> RunResult {
+        RunResult {
+            experiment: EXPERIMENT.to_string(),
+            point: point.to_string(),
+            seed,
+            summary: json!({"contract": {"final_heldout_loss": loss},
+                            "world": {"data_heterogeneity": heterogeneity}}),
+        }
+    }
+
+    /// Worst case over attacks, best rule per cell and the axis order, by hand (values chosen
+    /// exact in binary, so the sums are too).
+    #[test]
+    fn worst_cases_best_rules_and_the_axis_order_match_hand_computed_cells() {
+        // Two behaviours x two rules; the mixed swarm measures less heterogeneity here, so it
+        // comes first whatever the grid order.
+        let mut results = Vec::new();
+        for (behaviour, h) in [("flocking", 0.375), ("mixed", 0.125)] {
+            for (rule, clean, alie, ipm) in
+                [("median", 0.125, 0.5, 0.25), ("krum", 0.25, 0.375, 0.75)]
+            {
+                for seed in [1, 2] {
+                    // Seed 2 doubles every loss: the means are 1.5x seed 1's.
+                    let k = seed as f64;
+                    let point = |attack: &str, count: u32| {
+                        format!("{behaviour}--{rule}--{attack}--{count}")
+                    };
+                    results.push(result(&point("none", 0), seed, clean * k, h));
+                    results.push(result(&point("optimal-alie", 3), seed, alie * k, h));
+                    results.push(result(&point("optimal-ipm", 3), seed, ipm * k, h));
+                }
+            }
+        }
+        let b = study(&results).unwrap();
+        assert_eq!(
+            b.levels
+                .iter()
+                .map(|l| l.behaviour.as_str())
+                .collect::<Vec<_>>(),
+            ["mixed", "flocking"]
+        );
+        assert_eq!(b.levels[0].heterogeneity, Some(0.125));
+        assert_eq!(b.levels[0].runs, 4);
+        assert_eq!(b.rules, ["median", "krum"]);
+        assert_eq!(b.counts, [0, 3]);
+        let w = b.worst_of("median", "mixed", 3).unwrap();
+        assert_eq!(
+            (w.attack.as_str(), w.loss, w.clean, w.runs),
+            ("optimal-alie", 0.75, Some(0.1875), 2)
+        );
+        assert_eq!(
+            b.worst_of("krum", "mixed", 3).unwrap().attack,
+            "optimal-ipm"
+        );
+        // Best per cell: clean, median (0.1875 < 0.375); attacked, median (0.75 < 1.125).
+        assert_eq!(b.best("mixed", 0).unwrap().rule, "median");
+        assert_eq!(b.best("mixed", 3).unwrap().rule, "median");
+        let (md, csv) = tables(&b);
+        assert!(
+            md.contains("| 3 | median (0.75000) | median (0.75000) |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| krum | mixed | 0.37500 | optimal-ipm (1.12500, 3.00x) |"),
+            "{md}"
+        );
+        assert_eq!(csv.lines().count(), 1 + 2 * 2 * 2);
+        assert!(
+            csv.contains("median,mixed,1.25e-1,3,1.875e-1,optimal-alie,7.5e-1,4e0,2"),
+            "{csv}"
+        );
+    }
+}
