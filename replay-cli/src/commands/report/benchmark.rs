@@ -20,6 +20,7 @@ use serde_json::Value;
 use super::heatmap::{draw, Heatmap, Scale};
 use super::load::RunResult;
 use super::plots::Figure;
+use super::tables;
 use crate::experiments;
 
 /// The experiment this module reads.
@@ -398,15 +399,9 @@ pub fn tables(b: &Bench) -> (String, String) {
         md,
         "\nBest rule per cell (lowest worst-case final held-out loss over the attacks):\n"
     );
-    let _ = write!(md, "| Byzantine robots |");
-    for l in &b.levels {
-        let _ = write!(md, " {} |", Bench::column(l));
-    }
-    let _ = write!(md, "\n|---|");
-    for _ in &b.levels {
-        let _ = write!(md, "---|");
-    }
-    let _ = writeln!(md);
+    let mut columns = vec!["Byzantine robots".to_string()];
+    columns.extend(b.levels.iter().map(Bench::column));
+    tables::header(&mut md, &columns);
     for &count in &b.counts {
         let _ = write!(md, "| {} |", Bench::row(count));
         for l in &b.levels {
@@ -428,15 +423,13 @@ pub fn tables(b: &Bench) -> (String, String) {
          at each Byzantine count, its loss and that loss as a multiple of the rule's clean run \
          in the same swarm (`{EXPERIMENT}-worst-case.csv`).\n"
     );
-    let _ = write!(md, "| rule | swarm | clean loss |");
-    for c in &attacked {
-        let _ = write!(md, " worst attack, {c} Byzantine (loss, x clean) |");
-    }
-    let _ = write!(md, "\n|---|---|---|");
-    for _ in &attacked {
-        let _ = write!(md, "---|");
-    }
-    let _ = writeln!(md);
+    let mut columns: Vec<String> = ["rule", "swarm", "clean loss"].map(String::from).into();
+    columns.extend(
+        attacked
+            .iter()
+            .map(|c| format!("worst attack, {c} Byzantine (loss, x clean)")),
+    );
+    tables::header(&mut md, &columns);
     let mut csv = String::from(
         "rule,behaviour,heterogeneity,count,clean_loss,worst_attack,worst_loss,ratio,runs\n",
     );

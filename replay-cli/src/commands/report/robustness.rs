@@ -183,15 +183,13 @@ pub fn worst_case(e: &ExperimentStats) -> (String, String) {
     counts.dedup();
     let mut md = String::new();
     let mut csv = String::from("rule,count,clean_loss,worst_attack,worst_loss,ratio,runs\n");
-    let _ = write!(md, "| rule | clean loss |");
-    for c in &counts {
-        let _ = write!(md, " worst attack, {c} Byzantine (loss, x clean) |");
-    }
-    let _ = write!(md, "\n|---|---|");
-    for _ in &counts {
-        let _ = write!(md, "---|");
-    }
-    let _ = writeln!(md);
+    let mut columns: Vec<String> = ["rule", "clean loss"].map(String::from).into();
+    columns.extend(
+        counts
+            .iter()
+            .map(|c| format!("worst attack, {c} Byzantine (loss, x clean)")),
+    );
+    super::tables::header(&mut md, &columns);
     for rule in &rules {
         let clean = cells
             .iter()
