@@ -197,6 +197,12 @@ pub enum Avoidance {
     /// its weight times its reading to one wheel and takes it from the other, around half the
     /// cruise speed, saturated at the cruise speed. Needs `world.proximity_sensors = 8`.
     Epuck,
+    /// Flow-FL's robots (`world/khepera.rs`): ARGoS's Khepera IV proximity ring (8 sensors
+    /// from the heading, rays from the body surface, its calibrated curve, 0 from 11.8 cm)
+    /// and Flow-FL's `khepera_obstacleavoidance` controller: when the largest of the readings
+    /// at 0, 45, -45 and -90 degrees is above the threshold, the robot pivots on one wheel
+    /// away from it. Needs `world.proximity_sensors = 8`.
+    Khepera,
 }
 
 impl Avoidance {
@@ -205,6 +211,7 @@ impl Avoidance {
         match self {
             Avoidance::Turn => "turn",
             Avoidance::Epuck => "epuck",
+            Avoidance::Khepera => "khepera",
         }
     }
 }

@@ -51,9 +51,10 @@ pub enum Preset {
     /// The paper's system under the authors' contract: every variant option of
     /// docs/CONTRACT.md at the authors' value and their script's reward weights (issue #36).
     Authors,
-    /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots in a
-    /// 4 x 4 m arena, 2 m range, robots occlude): matches its dataset's sample counts (issue
-    /// #38; docs/SPEC.md section 1, "Data volume").
+    /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots and
+    /// their avoidance in a 4 x 4 m arena, 2 m range, robots occlude); with the per-behaviour
+    /// arena overrides of docs/SPEC.md section 1 ("Data volume") it matches its dataset's
+    /// sample counts (issue #38).
     Flowfl,
     /// Experiment 1: no security, no Byzantine robots; sweep `data.expiration_s`.
     E1Expiration,
@@ -138,7 +139,7 @@ impl Preset {
             }
             Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
             Preset::Flowfl => {
-                "Flow-FL's data collection: Khepera IV, 4 x 4 m, 2.0 m range, 5 cm/s, robots occlude"
+                "Flow-FL's data collection: Khepera IV and its pivot avoidance, 4 x 4 m, 2.0 m range, 5 cm/s"
             }
             Preset::E1Expiration => {
                 "Exp. 1: security off, no Byzantine robots; sweep data.expiration_s 250..1250"
@@ -211,20 +212,35 @@ impl Preset {
             Preset::Flowfl => {
                 // NESTLab/TrajectoryCollection, argos-scripts/experiments/*_batch.argos and
                 // controllers/: the values and their sources are in docs/SPEC.md section 1.
-                c.world.arena_side_m = 4.0;
+                // Walls 0.1 m thick centered at +-2 m: 3.9 m between their faces.
+                c.world.arena_side_m = 3.9;
                 c.world.obstacle_spread_half_m = 0.0;
                 c.world.rab_range_m = 2.0;
                 c.world.robot_radius_m = 0.0704;
                 c.world.wheel_base_m = 0.1054;
                 c.world.cruise_speed_mps = 0.05;
                 c.world.random_turn_rate_per_s = 0.0;
-                c.world.proximity_threshold = 0.0;
                 c.world.rab_robot_occlusion = true;
                 c.data.window_rule = WindowRule::Confirmed;
-                // Flow-FL's Khepera pivots away (our turn rule), not the e-puck's weights; its
-                // measured counts (SPEC) were made with refused moves.
-                c.world.avoidance = Avoidance::Turn;
-                c.world.slide_on_contact = false;
+                // Flow-FL's `khepera_obstacleavoidance` on ARGoS's Khepera IV ring: a pivot on
+                // one wheel while a front reading is above 0 (`world/khepera.rs`), and
+                // ARGoS's dynamics2d contacts (robots slide along what they push).
+                c.world.avoidance = Avoidance::Khepera;
+                c.world.proximity_range_m = 0.12;
+                c.world.proximity_threshold = 0.0;
+                c.world.slide_on_contact = true;
+                // Flow-FL's flocking (`flocking_batch.argos`, `khepera_flocking.cpp`): one
+                // fixed light at (-2, -1.5) on the west wall, no alignment term, and the
+                // Lennard-Jones interaction capped at 0.2 against the light's 2.5 (0.08).
+                c.world.flocking.goal_x_m = -1.95;
+                c.world.flocking.goal_y_m = -1.5;
+                c.world.flocking.goal_swap_s = 0.0;
+                c.world.flocking.alignment_weight = 0.0;
+                c.world.flocking.cohesion_weight = 0.08;
+                // Flow-FL's foraging (`foraging_batch.argos`): items of radius 0.1 m, and a
+                // rest of at least 2 ticks left with probability 0.1 a tick (about 1 s).
+                c.world.foraging.food_radius_m = 0.1;
+                c.world.foraging.rest_s = 1.0;
             }
             Preset::E1Expiration => {
                 c.contract.security = false;

@@ -536,6 +536,15 @@ fn bad_behaviour_settings_are_refused_naming_the_key() {
     let c = ok(&["world.avoidance=epuck", "world.slide_on_contact=true"]);
     assert!(c.to_toml().contains("avoidance = \"epuck\""));
     assert!(c.to_toml().contains("slide_on_contact = true"));
+    // Flow-FL's Khepera rule reads four of eight sensors by index.
+    let e = err(&["world.avoidance=khepera", "world.proximity_sensors=6"]);
+    assert!(
+        e.contains("world.proximity_sensors") && e.contains("khepera"),
+        "{e}"
+    );
+    let flowfl = Preset::Flowfl.config().to_toml();
+    assert!(flowfl.contains("avoidance = \"khepera\""), "{flowfl}");
+    assert!(flowfl.contains("slide_on_contact = true"), "{flowfl}");
 }
 
 #[test]

@@ -122,16 +122,17 @@ pub struct WorldConfig {
     /// The foraging controller's nest, food sources and rest time.
     #[serde(default, skip_serializing_if = "is_default")]
     pub foraging: ForagingConfig,
-    /// How robots sense and avoid obstacles: `turn` (serde default, ours before issue #38) or
-    /// `epuck` (the paper's code on ARGoS's e-puck; `paper`, hence every preset but `flowfl`;
-    /// docs/SPEC.md section 1, "Data volume"). A recorded configuration without the key reads
-    /// as `turn`, how it ran.
+    /// How robots sense and avoid obstacles: `turn` (serde default, ours before issue #38),
+    /// `epuck` (the paper's code on ARGoS's e-puck; `paper`, hence every preset but `flowfl`)
+    /// or `khepera` (Flow-FL's controller on ARGoS's Khepera IV; `flowfl`); docs/SPEC.md
+    /// section 1, "Data volume". A recorded configuration without the key reads as `turn`,
+    /// how it ran.
     #[serde(default, skip_serializing_if = "is_default")]
     pub avoidance: Avoidance,
     /// Whether a robot whose translation would overlap something slides along it (ARGoS's
     /// dynamics2d, the authors' and Flow-FL's simulator) instead of staying put
-    /// (`world/physics.rs`). On in `paper`, hence every preset but `flowfl`; a recorded
-    /// configuration without the key reads as false, how it ran.
+    /// (`world/physics.rs`). On in `paper`, hence in every preset; a recorded configuration
+    /// without the key reads as false, how it ran.
     #[serde(default, skip_serializing_if = "is_false")]
     pub slide_on_contact: bool,
 }

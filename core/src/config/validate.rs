@@ -72,7 +72,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("world.proximity_sensors", w.proximity_sensors.into(), 1, 64),
         Number("world.proximity_range_m", w.proximity_range_m, 0.001, 10.0),
         Number("world.proximity_threshold", w.proximity_threshold, 0.0, 1.0),
-        Across(epuck_avoidance_has_the_epuck_ring),
+        Across(ring_rules_have_eight_sensors),
         Number("world.random_turn_rate_per_s", w.random_turn_rate_per_s, 0.0, 100.0),
         Number("world.random_turn_max_s", w.random_turn_max_s, 0.0, 1000.0),
         Number("world.rab_range_m", w.rab_range_m, 0.0, 10_000.0),
@@ -192,14 +192,18 @@ fn preset_is_known(c: &Config) -> Result<(), ConfigError> {
     )
 }
 
-/// `world.avoidance = "epuck"` weighs the e-puck's eight sensors one by one.
-fn epuck_avoidance_has_the_epuck_ring(c: &Config) -> Result<(), ConfigError> {
+/// `world.avoidance = "epuck"` weighs the e-puck's eight sensors one by one, and `"khepera"`
+/// reads four of the Khepera IV's eight by index.
+fn ring_rules_have_eight_sensors(c: &Config) -> Result<(), ConfigError> {
     let w = &c.world;
-    if w.avoidance == Avoidance::Epuck && w.proximity_sensors != 8 {
+    if w.avoidance != Avoidance::Turn && w.proximity_sensors != 8 {
         return out_of_range(
             "world.proximity_sensors",
             w.proximity_sensors.to_string(),
-            "8 with world.avoidance = \"epuck\" (the e-puck's ring and its weights); set world.proximity_sensors=8 or world.avoidance=turn".to_string(),
+            format!(
+                "8 with world.avoidance = \"{}\" (the robot's ring and its rule); set world.proximity_sensors=8 or world.avoidance=turn",
+                w.avoidance.name()
+            ),
         );
     }
     Ok(())

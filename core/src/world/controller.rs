@@ -18,13 +18,14 @@
 //!
 //! With `world.avoidance = "epuck"`, step 1 is the paper's code instead (`epuck.rs`): when any
 //! sensor reads above the threshold, the wheel speeds its weighted readings give (any random
-//! turn is cancelled); steps 2 and 3 stay. The steering behaviours (flocking, foraging) keep
-//! their turn on the e-puck's readings.
+//! turn is cancelled); steps 2 and 3 stay. With `"khepera"` (the `flowfl` preset), step 1 is
+//! Flow-FL's pivot on one wheel (`khepera.rs`) the same way. The steering behaviours
+//! (flocking, foraging) keep their turn, on the readings of the chosen ring.
 
 use serde::{Deserialize, Serialize};
 
 use super::steering::{avoid, override_walk, walk, RobotController, Steer, Walk, WheelCommand};
-use super::{behaviour, epuck, flocking, foraging, sensor_angle, World};
+use super::{behaviour, epuck, flocking, foraging, khepera, sensor_angle, World};
 use crate::config::{Avoidance, Behaviour, Config, FlockingConfig};
 use crate::rng::{self, Purpose};
 
@@ -39,8 +40,8 @@ pub struct TickEvent {
 #[derive(Clone, Debug)]
 pub struct Controllers {
     cruise_mmps: i16,
-    /// `world.avoidance = "epuck"`: the avoidance behaviour uses the paper's rule.
-    epuck: bool,
+    /// `world.avoidance`: `epuck` and `khepera` replace the avoidance turn by their rule.
+    rule: Avoidance,
     threshold: f64,
     walk: Walk,
     /// For each sensor, whether it faces forward and the sine of its angle.
@@ -70,7 +71,7 @@ impl Controllers {
             .collect();
         Controllers {
             cruise_mmps: WheelCommand::from_mps(w.cruise_speed_mps, 0.0).left_mmps,
-            epuck: w.avoidance == Avoidance::Epuck,
+            rule: w.avoidance,
             threshold: w.proximity_threshold,
             walk: Walk {
                 turn_probability: (w.random_turn_rate_per_s * config.run.tick_s).min(1.0),
@@ -115,14 +116,16 @@ impl Controllers {
                 cruise_mmps: v,
             };
             let walk_params = self.walk;
-            let paper = if self.epuck {
-                epuck::avoid(&self.readings, self.threshold, f64::from(v) / 1000.0)
-            } else {
-                None
+            let cruise_mps = f64::from(v) / 1000.0;
+            let ruled = match self.rule {
+                Avoidance::Turn => None,
+                Avoidance::Epuck => epuck::avoid(&self.readings, self.threshold, cruise_mps),
+                Avoidance::Khepera => khepera::avoid(&self.readings, self.threshold, cruise_mps),
             };
-            let avoidance = |c: &mut RobotController| match paper {
+            let turn = self.rule == Avoidance::Turn;
+            let avoidance = |c: &mut RobotController| match ruled {
                 Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
-                None if blocked && !self.epuck => avoid(c, lean, v),
+                None if blocked && turn => avoid(c, lean, v),
                 None => walk(c, &walk_params, v),
             };
             let pose = world.poses()[i];

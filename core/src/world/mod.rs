@@ -19,6 +19,7 @@ pub mod controller;
 mod epuck;
 pub mod flocking;
 pub mod foraging;
+mod khepera;
 pub mod physics;
 pub mod sensors;
 pub mod steering;
@@ -197,11 +198,12 @@ fn is_false(b: &bool) -> bool {
 }
 
 /// Angle of proximity sensor `k` from the heading, counter-clockwise: evenly spaced from the
-/// heading, or the e-puck's ring from 11.25 degrees (`world.avoidance = "epuck"`).
+/// heading (also the Khepera IV's ring, `"khepera"`), or the e-puck's ring from 11.25 degrees
+/// (`world.avoidance = "epuck"`).
 /// `n` is the number of sensors.
 pub(crate) fn sensor_angle(avoidance: Avoidance, k: u32, n: u32) -> f64 {
     let start = match avoidance {
-        Avoidance::Turn => 0.0,
+        Avoidance::Turn | Avoidance::Khepera => 0.0,
         Avoidance::Epuck => epuck::START_ANGLE,
     };
     start + 2.0 * std::f64::consts::PI * f64::from(k) / f64::from(n)

@@ -5,7 +5,8 @@
 //! `1 - distance / range` to the nearest wall, obstacle or robot (1 at contact, 0 at range or
 //! with nothing in range). With `world.avoidance = "epuck"`, ARGoS's e-puck ring instead
 //! (`epuck.rs`): the first ray at 11.25 degrees, rays from 1 mm off the body, at most 5 cm
-//! long, and ARGoS's reading curve.
+//! long, and ARGoS's reading curve; with `"khepera"`, ARGoS's Khepera IV ring (`khepera.rs`):
+//! rays from the body surface, at most 12 cm long, and its reading curve.
 //!
 //! Range-and-bearing: robot `i` is in contact with `j` when their centers are at most
 //! `rab_range_m` apart and, with `rab_occlusion`, no obstacle crosses the segment between them
@@ -19,7 +20,7 @@ use parry2d_f64::na::{Point2, Vector2};
 use parry2d_f64::query::{Ray, RayCast};
 use parry2d_f64::shape::Ball;
 
-use super::{epuck, World};
+use super::{epuck, khepera, World};
 use crate::config::Avoidance;
 use crate::types::RobotId;
 
@@ -44,14 +45,17 @@ impl World {
         out.fill(0.0);
         let p = self.poses[robot as usize];
         let r = self.params.body.radius_m;
-        let epuck = self.extra.avoidance == Avoidance::Epuck;
-        let (offset, range) = if epuck {
-            (
+        let model = self.extra.avoidance;
+        let (offset, range) = match model {
+            Avoidance::Epuck => (
                 r + epuck::RING_OFFSET_M,
                 self.params.proximity_range_m.min(epuck::RANGE_M),
-            )
-        } else {
-            (r, self.params.proximity_range_m)
+            ),
+            Avoidance::Khepera => (
+                r + khepera::RING_OFFSET_M,
+                self.params.proximity_range_m.min(khepera::RANGE_M),
+            ),
+            Avoidance::Turn => (r, self.params.proximity_range_m),
         };
         let reach = offset + range;
         // Only cast rays when something is within reach.
@@ -112,10 +116,10 @@ impl World {
                 robots[..robot_count].iter().for_each(|&j| cast(j));
             }
             if best <= range {
-                out[k] = if epuck {
-                    epuck::reading(best)
-                } else {
-                    1.0 - best / range
+                out[k] = match model {
+                    Avoidance::Epuck => epuck::reading(best),
+                    Avoidance::Khepera => khepera::reading(best),
+                    Avoidance::Turn => 1.0 - best / range,
                 };
             }
         }

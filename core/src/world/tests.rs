@@ -462,6 +462,56 @@ fn epuck_sensors_start_at_eleven_degrees_off_the_body_and_read_argos_curve() {
 }
 
 #[test]
+fn khepera_sensors_start_at_the_heading_from_the_body_and_read_argos_curve() {
+    let mut w = pair(0.5, None, |c| {
+        c.world.avoidance = crate::config::Avoidance::Khepera;
+        c.world.robot_radius_m = 0.0704;
+        c.world.proximity_range_m = 0.12;
+    });
+    let mut out = vec![0.0; 8];
+    // Facing the wall at x = -2 from 0.15 m: sensor 0 meets it 0.15 - 0.0704 along its ray,
+    // sensors 1 and 7 (45 degrees) at (0.15 - 0.0704 cos 45) / cos 45.
+    w.poses[0] = Pose {
+        x: -1.85,
+        y: 0.0,
+        theta: std::f64::consts::PI,
+    };
+    w.proximity(0, &mut out);
+    let along = |deg: f64| {
+        let c = deg.to_radians().cos();
+        (0.15 - 0.0704 * c) / c
+    };
+    assert!(
+        (out[0] - super::khepera::reading(along(0.0))).abs() < 1e-9,
+        "{out:?}"
+    );
+    assert!(out[0] > 0.2 && out[0] < 0.4, "{out:?}");
+    assert!(
+        (out[1] - super::khepera::reading(along(45.0))).abs() < 1e-9,
+        "{out:?}"
+    );
+    assert_eq!(out[1], out[7], "{out:?}");
+    assert_eq!(&out[2..7], &[0.0; 5], "{out:?}");
+    // From 0.2 m sensor 0's ray would need 12.96 cm: beyond its 12 cm.
+    w.poses[0].x = -1.8;
+    w.proximity(0, &mut out);
+    assert_eq!(out, vec![0.0; 8]);
+}
+
+#[test]
+fn a_flowfl_world_moves_its_robots_instead_of_refusing_them() {
+    // Under the turn rule with refused moves, `flowfl`'s robots had 86 % of their moves
+    // refused (docs/SPEC.md section 1, "Data volume"); Flow-FL's pivot and sliding contacts
+    // keep them moving.
+    let w = run(&Preset::Flowfl.config(), 1, 3000);
+    let s = w.stats();
+    assert_eq!(s.collisions, 0);
+    let robot_ticks = 15.0 * 3000.0;
+    assert!((s.blocked_moves as f64) < 0.1 * robot_ticks, "{s:?}");
+    assert!(s.samples_per_robot_per_600s > 20.0, "{s:?}");
+}
+
+#[test]
 fn a_paper_world_collects_data_and_reports_stats() {
     let w = run(&Preset::Paper.config(), 7, 6000);
     let s = w.stats();
