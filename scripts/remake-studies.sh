@@ -41,6 +41,9 @@ sweeps_of() {
       # Issue 36: the same under the reward weights of the authors' comment, at 5 runs.
       printf '%s\n' "e2-malicious-authors --runs 5 --set contract.reward_weights=[5,4,3,2,1,-1,-2]" \
         "e3-smart-authors --runs 5 --set contract.reward_weights=[5,4,3,2,1,-1,-2]" ;;
+    e4-benchmark)
+      # 1296 runs of 5000 s (16 rules x 9 points x 3 behaviours x 3 seeds): hours; resumable.
+      printf '%s\n' e4-benchmark ;;
     e6-scale)
       # 15, 60 and 240 robots (3 seeds) first: a 1000-robot buffered run takes about 10 min
       # on a quiet 2-core machine, gossip at 1000 robots far longer.
