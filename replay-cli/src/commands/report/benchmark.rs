@@ -19,8 +19,8 @@ use serde_json::Value;
 
 use super::heatmap::{draw, Heatmap, Scale};
 use super::load::RunResult;
+use super::markdown;
 use super::plots::Figure;
-use super::tables;
 use crate::experiments;
 
 /// The experiment this module reads.
@@ -401,7 +401,7 @@ pub fn tables(b: &Bench) -> (String, String) {
     );
     let mut columns = vec!["Byzantine robots".to_string()];
     columns.extend(b.levels.iter().map(Bench::column));
-    tables::header(&mut md, &columns);
+    markdown::header(&mut md, &columns);
     for &count in &b.counts {
         let _ = write!(md, "| {} |", Bench::row(count));
         for l in &b.levels {
@@ -429,7 +429,7 @@ pub fn tables(b: &Bench) -> (String, String) {
             .iter()
             .map(|c| format!("worst attack, {c} Byzantine (loss, x clean)")),
     );
-    tables::header(&mut md, &columns);
+    markdown::header(&mut md, &columns);
     let mut csv = String::from(
         "rule,behaviour,heterogeneity,count,clean_loss,worst_attack,worst_loss,ratio,runs\n",
     );

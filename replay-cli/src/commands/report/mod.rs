@@ -20,6 +20,7 @@ mod figures;
 mod frame;
 mod heatmap;
 mod load;
+mod markdown;
 pub(crate) mod plots;
 mod robustness;
 mod scale;

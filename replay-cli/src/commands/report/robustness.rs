@@ -189,7 +189,7 @@ pub fn worst_case(e: &ExperimentStats) -> (String, String) {
             .iter()
             .map(|c| format!("worst attack, {c} Byzantine (loss, x clean)")),
     );
-    super::tables::header(&mut md, &columns);
+    super::markdown::header(&mut md, &columns);
     for rule in &rules {
         let clean = cells
             .iter()

@@ -17,12 +17,6 @@ fn csv_field(text: &str) -> String {
     }
 }
 
-/// Writes a markdown table's header and its rule line: `| a | b |` then `|---|---|`.
-pub fn header(md: &mut String, columns: &[String]) {
-    let _ = writeln!(md, "| {} |", columns.join(" | "));
-    let _ = writeln!(md, "|{}", "---|".repeat(columns.len()));
-}
-
 /// A point's overrides as one text: `key=value` separated by spaces, as `--set` takes them.
 pub fn overrides_text(p: &PointStats) -> String {
     p.overrides.join(" ")
