@@ -93,7 +93,7 @@ pub fn hypothetical_round(view: &View, need: usize) -> Option<Round> {
 }
 
 /// The objective of one forged model: `None` when the contract would not aggregate it
-/// (outside int48, or an outlier under the paper's threshold).
+/// (outside int48, or an outlier under the bound in force, `ContractState::outlier_bound_units`).
 pub fn objective(view: &View, round: &Round, forged: &[f32]) -> Option<u128> {
     let params: &ContractParams = view.params;
     let current = &view.chain.weights[..];

@@ -1,7 +1,8 @@
 //! The checks of `contract.protocol = "buffered"` and its keys (issue 32): the buffer size
 //! against the swarm, the staleness bound, the exponent and the server step, the relative
-//! outlier rule's keys, and what the buffered protocol cannot run with. They read several keys, so they sit apart from the
-//! single-key rows of `validate.rs`; every error names the key, the value and the fix.
+//! outlier rule's keys, and what the buffered protocol cannot run with. They read several
+//! keys, so they sit apart from the single-key rows of `validate.rs`; every error names the
+//! key, the value and the fix.
 
 use super::contract::{ContractEngine, OutlierRule, RoundProtocol, Rule};
 use super::error::ConfigError;
