@@ -39,13 +39,14 @@
 //!   the rule is the paper's (at 15 robots the mean honest distance is about 0.003 and the
 //!   bound never leaves the floor) and where honest updates grow the bound grows with them
 //!   (at 240 robots, in the first few hundred seconds, when the updates from a model still
-//!   far off are largest, it rises to about 0.12, then returns to the floor; RESEARCH.md).
+//!   far off are largest, it rises to 0.12-0.14, then returns to the floor; RESEARCH.md).
 //!   k is not fitted to a run: it is the paper's ratio, and `5 m` is below the 0.25 of a
 //!   random model as long as the honest median is below 0.05.
 //! - `W = 8` buffers (56 updates at K = 7): a coalition must hold more than half of 56
 //!   accepted updates to choose the median (below), and the median of 56 draws moves little
-//!   from window to window; 8 versions are a few seconds to a minute of a run, short beside
-//!   the hundreds of versions over which learning shrinks the honest updates.
+//!   from window to window; 8 versions are about a minute of a 240- or 1000-robot run (7
+//!   minutes at 15 robots), short beside the hundreds of versions over which learning shrinks
+//!   the honest updates.
 //! - Floor `= contract.outlier_threshold`: the rule is never stricter than the paper's. For
 //!   the same chain it accepts every submission the absolute rule accepts.
 //! - Cap `= 0.2`: the rule is never looser than an absolute threshold of 0.2, below the 0.25
@@ -73,16 +74,16 @@
 //!   are what keep a minority from reaching it.
 //! - **Flooding.** The buffered protocol counts a robot once per base, and bases move forward
 //!   with every version, so a robot may submit once per version, far more often than an
-//!   honest robot trains (once per `learn.training_period_s`). A coalition of `K / 2` robots
-//!   submitting every version can hold half of every buffer's entries; the cap, not the median,
+//!   honest robot trains (once per `learn.training_period_s`). A coalition of 4 robots (K = 7)
+//!   submitting every version can hold more than half of every buffer's entries; the cap, not the median,
 //!   then bounds `B`. This is a property of the protocol (such a coalition also takes half of
 //!   every aggregate under the paper's rule), not of this rule, which makes it no worse than an
 //!   absolute threshold at the cap.
 //! - **Deflation** (submit models very close to their base, so that the median falls and
 //!   honest updates become outliers): `B` never goes below the floor, the paper's threshold;
 //!   what the absolute rule accepts stays accepted.
-//! - **Timing.** `B` is fixed while a buffer is open and moves only when one closes, so an
-//!   attacker gains nothing by reading the open buffer; the window holds the distances of
+//! - **Timing.** `B` is fixed while a buffer is open and moves only when one closes, so the
+//!   open buffer's submissions, which an attacker reads, do not move it; the window holds the distances of
 //!   closed buffers only, and a buffer refunded by the deadline or a restart adds none.
 //!
 //! The native engine only: `contracts/SwarmFL.sol` has a fixed threshold, and validation
