@@ -206,6 +206,7 @@ fn params(
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 

@@ -182,6 +182,17 @@ pub struct ContractSummary {
     /// round that aggregated Byzantine models only.
     #[serde(default)]
     pub mean_honest_distance_by_round: Vec<f64>,
+    /// Under the relative outlier rule (`contract.outlier_rule = "relative"`,
+    /// `contract/outlier.rs`): the bound in force, as a mean absolute distance per weight, at
+    /// the end of the block that closed version r (index r - 1). Empty under the absolute
+    /// rule, and then left out.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub outlier_bound_by_round: Vec<f64>,
+    /// Under the relative outlier rule: the honest robots' submissions judged outliers on the
+    /// final canonical chain (`submissions.outlier` counts everyone's). `None` under the
+    /// absolute rule, and then left out.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub honest_outliers: Option<u64>,
     /// The claim bound the contract enforced: the most samples a submission could claim
     /// (`contract.max_claimed_samples`, derived from the data window when 0; a larger claim is
     /// counted under `submissions.malformed`). `None` without a contract (baselines).
@@ -322,6 +333,8 @@ pub fn summarise(
         mean_honest_distance: None,
         outlier_threshold: config.contract.outlier_threshold,
         mean_honest_distance_by_round: vec![],
+        outlier_bound_by_round: vec![],
+        honest_outliers: ledger.params().outlier.map(|_| 0),
         max_claimed_samples: Some(ledger.params().claim_bound.max_samples),
         rounds_timed_out: ledger.head_state(best).rounds_timed_out,
         submissions: BTreeMap::new(),
@@ -368,6 +381,11 @@ pub fn summarise(
                 .get(submitted.tx.sender as usize)
                 .copied()
                 .unwrap_or(false);
+            if let (true, Outcome::Outlier { .. }, Some(n)) =
+                (honest, outcome, s.honest_outliers.as_mut())
+            {
+                *n += 1;
+            }
             if let (true, Outcome::Accepted { distance_units, .. })
             | (true, Outcome::Aggregated { distance_units, .. }) = (honest, outcome)
             {
@@ -407,6 +425,10 @@ pub fn summarise(
                     f64::NAN
                 });
                 (round_distance_sum, round_honest) = (0.0, 0);
+                if ledger.params().outlier.is_some() {
+                    s.outlier_bound_by_round
+                        .push(entry.state.outlier_bound(ledger.params(), scale));
+                }
             }
         }
     }

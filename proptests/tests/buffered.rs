@@ -4,13 +4,17 @@
 //! senders), deadlines and restarts. After every call: tokens are conserved exactly, no
 //! balance leaves the supply (no underflow), a refused or failed call moves no token, a
 //! refusal names a base that deserves it, a valid base within the bound is never refused,
-//! the buffer never exceeds K and the version moves exactly when a buffer closes.
+//! the buffer never exceeds K and the version moves exactly when a buffer closes. Under the
+//! relative outlier rule (`contract.outlier_rule = "relative"`, random factor, window and
+//! cap): the bound stays between the floor and the cap, an accepted model is within the bound
+//! in force when it arrived and an outlier beyond it, and the window never exceeds W x K.
 
 use std::sync::Arc;
 
 use proptest::prelude::*;
 use swarmfl_core::config::Rule;
 use swarmfl_core::contract::buffered::{staleness_weight, BufferedParams, Refusal};
+use swarmfl_core::contract::outlier::RelativeOutlier;
 use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, RobustRule};
 use swarmfl_core::types::Digest;
 use swarmfl_core::RobotId;
@@ -21,7 +25,7 @@ const ROBOTS: u32 = 6;
 const INT48: i64 = 1 << 47;
 const MAX_STALENESS: u32 = 3;
 
-fn params(rule: Rule, timeout_ms: u64) -> ContractParams {
+fn params(rule: Rule, timeout_ms: u64, outlier: Option<RelativeOutlier>) -> ContractParams {
     ContractParams {
         robots: ROBOTS,
         initial_units: 21 * TOKEN,
@@ -50,6 +54,7 @@ fn params(rule: Rule, timeout_ms: u64) -> ContractParams {
             step_units: 1_000_000,
         }),
         rule_plugin: None,
+        outlier,
     }
 }
 
@@ -135,8 +140,14 @@ fn version(s: &ContractState, base: u64) -> Option<(Digest, Arc<[i64]>)> {
     history.get(i as usize).map(|(d, w)| (*d, w.clone()))
 }
 
-fn run(rule: Rule, timeout_ms: u64, steps: &[Step]) -> Result<(), TestCaseError> {
-    let p = params(rule, timeout_ms);
+fn run(
+    rule: Rule,
+    timeout_ms: u64,
+    outlier: Option<RelativeOutlier>,
+    steps: &[Step],
+) -> Result<(), TestCaseError> {
+    let p = params(rule, timeout_ms, outlier);
+    let floor = u128::from(p.outlier_threshold_units as u64) * p.model_len() as u128;
     let mut s = ContractState::genesis(&p);
     let total = p.total_units();
     let mut now_ms = 0;
@@ -191,7 +202,23 @@ fn run(rule: Rule, timeout_ms: u64, steps: &[Step]) -> Result<(), TestCaseError>
                     base_round,
                     base_digest,
                 };
+                let bound = s.outlier_bound_units(&p);
+                let cap = outlier.map_or(floor, |o| u128::from(o.cap_units as u64) * 3);
+                prop_assert!(floor <= bound && bound <= cap.max(floor), "{bound}");
                 let out = s.execute(&p, *sender, *value_units, &call);
+                // Only the paper's rule checks the bound on arrival.
+                match &out {
+                    Outcome::Accepted { distance_units, .. }
+                    | Outcome::Aggregated { distance_units, .. }
+                        if p.rule().uses_threshold() =>
+                    {
+                        prop_assert!(u128::from(*distance_units) <= bound)
+                    }
+                    Outcome::Outlier { distance_units, .. } => {
+                        prop_assert!(u128::from(*distance_units) > bound)
+                    }
+                    _ => {}
+                }
                 let last_base = before
                     .buffered
                     .as_ref()
@@ -246,6 +273,8 @@ fn run(rule: Rule, timeout_ms: u64, steps: &[Step]) -> Result<(), TestCaseError>
         let b = s.buffered.as_ref().unwrap();
         prop_assert_eq!(b.entries.len(), s.submissions.len());
         prop_assert!(b.history.len() <= MAX_STALENESS as usize);
+        let window = outlier.map_or(0, |o| o.window_len(p.quorum));
+        prop_assert!(b.outlier_window.len() <= window);
         prop_assert!(s.weights.iter().all(|w| w.unsigned_abs() < INT48 as u64));
     }
     Ok(())
@@ -259,7 +288,19 @@ proptest! {
         steps in proptest::collection::vec(step(), 1..200),
         timeout in prop_oneof![Just(0u64), 500u64..3000],
     ) {
-        run(Rule::Paper, timeout, &steps)?;
+        run(Rule::Paper, timeout, None, &steps)?;
+    }
+
+    #[test]
+    fn relative_outlier_rule_conserves_tokens_and_keeps_its_bound(
+        steps in proptest::collection::vec(step(), 1..200),
+        timeout in prop_oneof![Just(0u64), 500u64..3000],
+        factor_micro in prop_oneof![500_000u64..10_000_000, 1u64..=u64::from(u32::MAX)],
+        window_buffers in 1u32..=4,
+        cap_units in 50_000_000i64..200_000_000,
+    ) {
+        let outlier = RelativeOutlier { factor_micro, window_buffers, cap_units };
+        run(Rule::Paper, timeout, Some(outlier), &steps)?;
     }
 
     #[test]
@@ -267,6 +308,6 @@ proptest! {
         steps in proptest::collection::vec(step(), 1..120),
         rule in prop_oneof![Just(Rule::Fedavg), Just(Rule::Median), Just(Rule::TrimmedMean), Just(Rule::CenteredClipping), Just(Rule::Monna)],
     ) {
-        run(rule, 0, &steps)?;
+        run(rule, 0, None, &steps)?;
     }
 }

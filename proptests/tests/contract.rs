@@ -35,6 +35,7 @@ fn params(security: bool) -> ContractParams {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 

@@ -47,6 +47,7 @@ fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
         block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 

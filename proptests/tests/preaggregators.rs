@@ -65,6 +65,7 @@ fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
         }),
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     };
     p.check().ok().map(|()| p)
 }

@@ -43,6 +43,7 @@ fn params(rule: Rule) -> ContractParams {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 

@@ -129,6 +129,8 @@ pub fn summarise(
         mean_honest_distance: None,
         outlier_threshold: config.contract.outlier_threshold,
         mean_honest_distance_by_round: Vec::new(),
+        outlier_bound_by_round: Vec::new(),
+        honest_outliers: None,
         max_claimed_samples: None,
         rounds_timed_out: 0,
         submissions: BTreeMap::new(),

@@ -93,13 +93,15 @@ pub fn hypothetical_round(view: &View, need: usize) -> Option<Round> {
 }
 
 /// The objective of one forged model: `None` when the contract would not aggregate it
-/// (outside int48, or an outlier under the paper's threshold).
+/// (outside int48, or an outlier under the bound in force, `ContractState::outlier_bound_units`).
 pub fn objective(view: &View, round: &Round, forged: &[f32]) -> Option<u128> {
     let params: &ContractParams = view.params;
     let current = &view.chain.weights[..];
     let fixed = learn::to_fixed(forged, view.weight_scale).ok()?;
     let distance = payout::distance_units(&fixed, current);
-    if params.rule().uses_threshold() && u128::from(distance) > params.max_distance_units() {
+    if params.rule().uses_threshold()
+        && u128::from(distance) > view.chain.outlier_bound_units(params)
+    {
         return None;
     }
     let samples = u64::from(view.config.claimed_samples);

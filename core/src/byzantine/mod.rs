@@ -124,9 +124,11 @@ impl View<'_> {
         self.coalition.get(robot as usize).copied().unwrap_or(false)
     }
 
-    /// The outlier threshold as a mean absolute distance per weight (public contract rule).
+    /// The outlier bound in force as a mean absolute distance per weight (public contract
+    /// rule and state): `contract.outlier_threshold`, or under the relative rule the bound
+    /// its chain's window sets now (`contract/outlier.rs`).
     pub fn threshold(&self) -> f64 {
-        self.params.outlier_threshold_units as f64 / self.weight_scale as f64
+        self.chain.outlier_bound(self.params, self.weight_scale)
     }
 
     /// The robot's own current trajectories.

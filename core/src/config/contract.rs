@@ -193,6 +193,30 @@ impl RoundProtocol {
     }
 }
 
+/// How the buffered protocol's outlier check sets its bound (`contract.outlier_rule`; beyond
+/// the paper, issue #32; `contract/outlier.rs` has the rule and its analysis).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum OutlierRule {
+    /// The paper's: a fixed bound, `contract.outlier_threshold`.
+    #[default]
+    Absolute,
+    /// `contract.outlier_factor` times the median distance of the accepted updates of the
+    /// last `contract.outlier_window` closed buffers, never below `contract.outlier_threshold`
+    /// nor above `contract.outlier_cap`.
+    Relative,
+}
+
+impl OutlierRule {
+    /// The rule's name as written in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            OutlierRule::Absolute => "absolute",
+            OutlierRule::Relative => "relative",
+        }
+    }
+}
+
 /// Which machine executes the contract.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -31,7 +31,7 @@ pub use behaviour::{
 };
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
-    mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule,
+    mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, OutlierRule,
     PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
     MDA_MAX_SUBSETS,
 };

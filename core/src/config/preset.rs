@@ -8,8 +8,8 @@ use super::behaviour::{
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
-    ContractEngine, Defence, FedAvgRounding, MedianRule, PayoutRounding, PoolRule, RankKey,
-    RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
+    ContractEngine, Defence, FedAvgRounding, MedianRule, OutlierRule, PayoutRounding, PoolRule,
+    RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
 };
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
@@ -415,6 +415,10 @@ impl Config {
                 max_staleness: super::tree::default_max_staleness(),
                 staleness_exponent: super::tree::default_staleness_exponent(),
                 server_step: super::tree::default_server_step(),
+                outlier_rule: OutlierRule::Absolute,
+                outlier_factor: super::tree::default_outlier_factor(),
+                outlier_window: super::tree::default_outlier_window(),
+                outlier_cap: super::tree::default_outlier_cap(),
             },
             byzantine: ByzantineConfig {
                 kind: ByzantineKind::None,

@@ -1,9 +1,10 @@
 //! The checks of `contract.protocol = "buffered"` and its keys (issue 32): the buffer size
-//! against the swarm, the staleness bound, the exponent and the server step, and what the
-//! buffered protocol cannot run with. They read several keys, so they sit apart from the
-//! single-key rows of `validate.rs`; every error names the key, the value and the fix.
+//! against the swarm, the staleness bound, the exponent and the server step, the relative
+//! outlier rule's keys, and what the buffered protocol cannot run with. They read several
+//! keys, so they sit apart from the single-key rows of `validate.rs`; every error names the
+//! key, the value and the fix.
 
-use super::contract::{ContractEngine, RoundProtocol};
+use super::contract::{ContractEngine, OutlierRule, RoundProtocol, Rule};
 use super::error::ConfigError;
 use super::tree::{Aggregation, Config};
 
@@ -18,6 +19,17 @@ pub const MAX_SERVER_STEP: f64 = 10.0;
 /// The largest `contract.staleness_exponent`: `(1 + 1)^-10` already weighs an update one
 /// version old at 1/1024.
 pub const MAX_STALENESS_EXPONENT: f64 = 10.0;
+
+/// The largest `contract.outlier_factor`: beyond 1000 times the median honest distance the
+/// bound is the cap whatever the swarm does.
+pub const MAX_OUTLIER_FACTOR: f64 = 1000.0;
+
+/// The largest `contract.outlier_window`, in closed buffers: every node keeps `window x K`
+/// distances and sorts a copy for every submission it judges.
+pub const MAX_OUTLIER_WINDOW: u32 = 1024;
+
+/// The largest `contract.outlier_cap`, as `contract.outlier_threshold`'s range.
+pub const MAX_OUTLIER_CAP: f64 = 1.0e6;
 
 fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
     Err(ConfigError::OutOfRange {
@@ -111,6 +123,96 @@ pub(super) fn buffered_fits(config: &Config) -> Result<(), ConfigError> {
             "false with contract.protocol = buffered: the authors' int48 accumulator sums \
              models, the buffered contract sums updates; set contract.int48_products = false"
                 .to_string(),
+        );
+    }
+    Ok(())
+}
+
+/// The relative outlier rule's keys are in range (checked whatever the rule, so that a typo is
+/// caught before it is switched on), and the rule runs only where it means something: the
+/// buffered protocol (the rounds judge against the newest model, and no window of closed
+/// buffers exists there), the paper's rule (the only one that checks the bound on arrival),
+/// the native engine (`contracts/SwarmFL.sol` has a fixed threshold only). Runs before
+/// [`buffered_fits`], so that the engine's refusal names `contract.outlier_rule`.
+pub(super) fn outlier_rule_fits(config: &Config) -> Result<(), ConfigError> {
+    let k = &config.contract;
+    let factor = k.outlier_factor;
+    if !(factor.is_finite() && factor > 0.0 && factor <= MAX_OUTLIER_FACTOR) {
+        return refuse(
+            "contract.outlier_factor",
+            factor.to_string(),
+            format!(
+                "a number in (0, {MAX_OUTLIER_FACTOR}] (k: the bound is k times the median \
+                 accepted distance; 5 by default)"
+            ),
+        );
+    }
+    if !(1..=MAX_OUTLIER_WINDOW).contains(&k.outlier_window) {
+        return refuse(
+            "contract.outlier_window",
+            k.outlier_window.to_string(),
+            format!(
+                "an integer in [1, {MAX_OUTLIER_WINDOW}] (closed buffers whose accepted \
+                 distances the median is taken over; 8 by default)"
+            ),
+        );
+    }
+    let cap = k.outlier_cap;
+    if !(cap.is_finite() && cap > 0.0 && cap <= MAX_OUTLIER_CAP) {
+        return refuse(
+            "contract.outlier_cap",
+            cap.to_string(),
+            format!(
+                "a number in (0, {MAX_OUTLIER_CAP}] (the largest bound, a mean absolute \
+                 distance; 0.2 by default)"
+            ),
+        );
+    }
+    if k.outlier_rule != OutlierRule::Relative {
+        return Ok(());
+    }
+    if cap < k.outlier_threshold {
+        return refuse(
+            "contract.outlier_cap",
+            cap.to_string(),
+            format!(
+                "at least contract.outlier_threshold = {} with contract.outlier_rule = \
+                 relative (the bound lies between the two); raise contract.outlier_cap or \
+                 lower contract.outlier_threshold",
+                k.outlier_threshold
+            ),
+        );
+    }
+    let relative = || "relative".to_string();
+    if k.engine == ContractEngine::Evm {
+        return refuse(
+            "contract.outlier_rule",
+            relative(),
+            "absolute with contract.engine = evm: contracts/SwarmFL.sol checks a fixed \
+             threshold only; set contract.engine = native to run the relative rule"
+                .to_string(),
+        );
+    }
+    if k.protocol != RoundProtocol::Buffered {
+        return refuse(
+            "contract.outlier_rule",
+            relative(),
+            "absolute with contract.protocol = rounds: the relative bound is taken over the \
+             closed buffers of the buffered protocol; set contract.protocol = buffered"
+                .to_string(),
+        );
+    }
+    if config.rule() != Rule::Paper {
+        return refuse(
+            "contract.outlier_rule",
+            relative(),
+            format!(
+                "absolute with contract.rule = {} (security {}): only the paper's rule checks \
+                 the outlier bound on arrival; set contract.rule = paper and \
+                 contract.security = true",
+                config.rule().name(),
+                if k.security { "on" } else { "off" }
+            ),
         );
     }
     Ok(())

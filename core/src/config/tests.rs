@@ -458,6 +458,10 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "byzantine.plugin",
         "contract.rule_plugin",
         "contract.rank_order",
+        "contract.outlier_rule",
+        "contract.outlier_factor",
+        "contract.outlier_window",
+        "contract.outlier_cap",
     ] {
         let leaf = key.rsplit('.').next().unwrap();
         assert!(!text.contains(&format!("{leaf} =")), "{key} in {text}");

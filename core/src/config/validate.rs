@@ -106,6 +106,7 @@ fn table(c: &Config) -> Vec<Step> {
         Number("contract.quorum_fraction", k.quorum_fraction, 0.0, 1.0),
         Number("contract.outlier_threshold", k.outlier_threshold, 0.0, 1.0e6),
         // Before the rows that read the quorum, which is the buffer size under `buffered`.
+        Across(super::protocol_fit::outlier_rule_fits),
         Across(super::protocol_fit::buffered_fits),
         Integer("contract.penalised_ranks", k.penalised_ranks.into(), 0, (c.quorum() - 1).into()),
         Across(robust_rules_need_security),

@@ -26,8 +26,10 @@
 //! 4. The stake, exactly as `submitModel`'s.
 //!
 //! Then the distance `d = sum_i |w_i - b_i|` to the base `b` decides, with the paper's threshold
-//! (`d <= threshold_units * N` accepted, else an outlier whose stake stays in the pool); only
-//! the paper's rule checks it on arrival, as under rounds. A counted submission (accepted or
+//! (`d <= threshold_units * N` accepted, else an outlier whose stake stays in the pool), or
+//! under `contract.outlier_rule = "relative"` the bound that follows the accepted distances of
+//! the last closed buffers ([`outlier`]); only the paper's rule checks it on arrival, as under
+//! rounds. A counted submission (accepted or
 //! outlier) records its base as the sender's last. An accepted one joins the buffer as the
 //! update `u = w - b`, each weight clamped to int48.
 //!
@@ -79,8 +81,8 @@ use serde::{Deserialize, Serialize};
 
 use super::payout::{self, div_round_half_away};
 use super::{
-    check_model, model_digest, preagg, rules, ContractParams, ContractState, Outcome, Payout,
-    RoundSummary, Submission, Verdict, MAX_WEIGHT_MAGNITUDE,
+    check_model, model_digest, outlier, preagg, rules, ContractParams, ContractState, Outcome,
+    Payout, RoundSummary, Submission, Verdict, MAX_WEIGHT_MAGNITUDE,
 };
 use crate::config::{Config, RoundProtocol, Rule, ThresholdRule};
 use crate::types::{Digest, RobotId};
@@ -264,6 +266,10 @@ pub struct BufferState {
     pub last_base: Vec<u64>,
     /// Refusals by reason: unknown base, future base, stale, duplicate base.
     pub refused: [u64; 4],
+    /// The relative outlier rule's window of accepted distances ([`outlier`]); always empty
+    /// under the absolute rule, and then in neither the encoding nor the digest.
+    #[serde(default, skip_serializing_if = "outlier::Window::is_empty")]
+    pub outlier_window: outlier::Window,
 }
 
 impl BufferState {
@@ -303,6 +309,9 @@ impl BufferState {
         }
         for r in &self.refused {
             h.update(&r.to_le_bytes());
+        }
+        if !self.outlier_window.is_empty() {
+            self.outlier_window.hash(h);
         }
     }
 
@@ -431,7 +440,7 @@ impl ContractState {
 
         let distance_units = payout::distance_units(weights, &base);
         let distance = u128::from(distance_units);
-        let max = params.max_distance_units();
+        let max = self.outlier_bound_units(params);
         let beyond = match params.options.threshold {
             ThresholdRule::Inclusive => distance > max,
             ThresholdRule::Strict => distance >= max,
@@ -549,6 +558,11 @@ impl ContractState {
         );
 
         let b = Arc::make_mut(&mut buffer);
+        if let Some(rule) = &params.outlier {
+            let distances = accepted_subs.iter().map(|s| s.distance_units);
+            b.outlier_window
+                .record(distances, rule.window_len(params.quorum));
+        }
         b.history
             .push_back((self.weights_digest, self.weights.clone()));
         while b.history.len() > bp.max_staleness as usize {

@@ -45,6 +45,7 @@ fn params(k: u32, max_staleness: u32, step_units: u64) -> ContractParams {
             step_units,
         }),
         rule_plugin: None,
+        outlier: None,
     }
 }
 
@@ -239,6 +240,7 @@ fn a_submission_is_judged_against_its_base_and_bad_bases_are_refused_without_a_s
     let rounds = ContractParams {
         buffered: None,
         rule_plugin: None,
+        outlier: None,
         ..p.clone()
     };
     let mut r = ContractState::genesis(&rounds);

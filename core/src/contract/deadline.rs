@@ -119,6 +119,7 @@ mod tests {
             preagg: None,
             buffered: None,
             rule_plugin: None,
+            outlier: None,
         }
     }
 

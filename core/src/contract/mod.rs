@@ -54,6 +54,7 @@ pub mod evm;
 #[path = "evm_absent.rs"]
 pub mod evm;
 pub mod options;
+pub mod outlier;
 pub mod payout;
 pub mod preagg;
 pub mod rank_order;
@@ -156,6 +157,11 @@ pub struct ContractParams {
     /// the one they had before plug-in rules existed.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub rule_plugin: Option<rules::plugin::RuleId>,
+    /// The relative outlier rule (`contract.outlier_rule = "relative"`, see [`outlier`]);
+    /// `None` under the paper's absolute threshold, and then left out of the encoding, so the
+    /// parameters' digest of every run without it is the one it had before the rule existed.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub outlier: Option<outlier::RelativeOutlier>,
 }
 
 /// A robust rule of [`ContractParams`].
@@ -213,6 +219,7 @@ impl ContractParams {
             engine: c.engine,
             block_gas_limit: c.block_gas_limit,
             buffered: buffered::BufferedParams::from_config(config),
+            outlier: outlier::RelativeOutlier::from_config(config),
             rule_plugin: (rule == Rule::Plugin).then(|| {
                 // The source registered last under the name; an unknown digest when none is,
                 // which `check` refuses by name.
@@ -364,6 +371,20 @@ impl ContractParams {
             b.check()?;
             if self.engine == ContractEngine::Evm {
                 return Err("the buffered protocol needs the native engine".into());
+            }
+        }
+        if let Some(r) = &self.outlier {
+            r.check(self.outlier_threshold_units)?;
+            if self.buffered.is_none()
+                || !self.security
+                || !self.rule().uses_threshold()
+                || self.engine == ContractEngine::Evm
+            {
+                return Err(
+                    "the relative outlier rule needs the buffered protocol, the paper's rule \
+                     and the native engine"
+                        .into(),
+                );
             }
         }
         if !self.reward_weights.iter().any(|&k| k > 0) {

@@ -33,6 +33,7 @@ fn params(security: bool) -> ContractParams {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 

@@ -110,6 +110,7 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     }
 }
 
@@ -326,6 +327,7 @@ fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     };
     let pe = ContractParams {
         engine: ContractEngine::Evm,
@@ -514,6 +516,7 @@ fn a_submission_over_the_block_gas_limit_is_refused_and_changes_nothing() {
         preagg: None,
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     };
     let submit = |weights: &Arc<[i64]>| Call::SubmitModel {
         weights: weights.clone(),

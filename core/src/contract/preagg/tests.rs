@@ -171,6 +171,7 @@ fn a_contract_round_with_nnm_conserves_tokens_and_pays_the_nearest() {
         preagg: Some(chain(&[Preaggregator::Nnm], 2)),
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     };
     p.check().unwrap();
     let mut s = ContractState::genesis(&p);
@@ -225,6 +226,7 @@ fn parameters_without_a_chain_encode_as_before() {
         claim_bound: Default::default(),
         buffered: None,
         rule_plugin: None,
+        outlier: None,
     };
     let q = ContractParams {
         block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
