@@ -130,6 +130,16 @@ pub struct Point {
     pub tags: Vec<(&'static str, String)>,
 }
 
+impl Point {
+    /// The value of the point's tag `key`, if it has one.
+    pub fn tag(&self, key: &str) -> Option<String> {
+        self.tags
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|(_, v)| v.clone())
+    }
+}
+
 /// One experiment: a preset, its grid of points and the paper's number of runs per point.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Experiment {

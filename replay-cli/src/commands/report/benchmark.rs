@@ -109,16 +109,11 @@ pub fn study(results: &[RunResult]) -> Option<Bench> {
         let Some(point) = grid.points.iter().find(|p| p.name == r.point) else {
             continue;
         };
-        let tag = |k: &str| {
-            point
-                .tags
-                .iter()
-                .find(|(t, _)| *t == k)
-                .map(|(_, v)| v.clone())
-        };
-        let (Some(behaviour), Some(rule), Some(attack)) =
-            (tag("behaviour"), tag("rule"), tag("attack"))
-        else {
+        let (Some(behaviour), Some(rule), Some(attack)) = (
+            point.tag("behaviour"),
+            point.tag("rule"),
+            point.tag("attack"),
+        ) else {
             continue;
         };
         let count = point.x as u32;

@@ -40,13 +40,7 @@ pub fn cells(e: &ExperimentStats) -> Vec<Cell> {
         .iter()
         .filter_map(|p| {
             let point = grid.points.iter().find(|g| g.name == p.point)?;
-            let tag = |k: &str| {
-                point
-                    .tags
-                    .iter()
-                    .find(|(t, _)| *t == k)
-                    .map(|(_, v)| v.clone())
-            };
+            let tag = |k: &str| point.tag(k);
             let mean = |k: &str| p.metrics.get(k).map(|s| s.mean);
             Some(Cell {
                 rule: tag("rule")?,

@@ -255,8 +255,7 @@ fn new_row(r: &RunResult) -> Row {
         .and_then(|e| e.points.into_iter().find(|p| p.name == r.point));
     let protocol = point
         .as_ref()
-        .and_then(|p| p.tags.iter().find(|(k, _)| *k == "protocol"))
-        .map(|(_, v)| v.clone())
+        .and_then(|p| p.tag("protocol"))
         .unwrap_or_else(|| r.point.split('-').next().unwrap_or("").to_string());
     let robots = point
         .as_ref()
