@@ -93,6 +93,16 @@ pub enum Command {
     /// median distance, the rank, the share penalised, the tokens gained; rounds.csv, runs.csv,
     /// points.csv, points.json and figures (SVG, PNG).
     Ranking(RankingArgs),
+    /// Bytes sent and stored per node over time, from logs (or a sweep's results made with
+    /// --keep-logs): every --every simulated seconds and at the end, the mean and the min,
+    /// median and max over nodes of the summary's `bytes_sent_per_robot_mean` (chain: ledger
+    /// gossip; gossip: stigmergy messages; central: uploads; lost ones included) and
+    /// `bytes_stored_per_robot_mean` (chain: every block a node holds; gossip: its replica;
+    /// central: its model). The last row is the summary's end values, bit for bit. Prints a
+    /// table per run (MB), or CSV (bytes) with --csv; --out DIR writes DIR/traffic.csv and
+    /// figures per swarm size (SVG, PNG).
+    #[command(after_long_help = TRAFFIC_HELP)]
+    Traffic(TrafficArgs),
     /// Run one of the paper's experiments (or a shard of it): every configuration point x seed.
     #[command(long_about = SWEEP_HELP)]
     Sweep(SweepArgs),
@@ -295,6 +305,28 @@ pub struct RankingArgs {
     pub submissions: bool,
 }
 
+/// The arguments of `swarmfl traffic`.
+#[derive(Args, Debug)]
+pub struct TrafficArgs {
+    /// Logs (run.swlog), or directories searched for them recursively (e.g. a sweep's results
+    /// made with --keep-logs).
+    #[arg(required = true)]
+    pub inputs: Vec<PathBuf>,
+    /// The period of the rows, simulated seconds (0.001 to 1000000); the end of the run is
+    /// always the last row.
+    #[arg(long, default_value_t = 100.0, value_name = "SECONDS", allow_negative_numbers = true, value_parser = period_s)]
+    pub every: f64,
+    /// Print every run's rows as one CSV (bytes per node) instead of tables.
+    #[arg(long, conflicts_with = "out")]
+    pub csv: bool,
+    /// Write DIR/traffic.csv (the --csv text) and the figures traffic-sent-<N>,
+    /// traffic-stored-<N> (per swarm size N: a line per aggregation over time),
+    /// traffic-sent-rate and traffic-stored-rate (growth per node over the run's second half
+    /// versus the size), SVG and PNG; print per run the end values and growth.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+}
+
 /// The arguments of `swarmfl sweep`.
 #[derive(Args, Debug)]
 pub struct SweepArgs {
@@ -450,6 +482,40 @@ fn duration_s(text: &str) -> Result<f64, String> {
         _ => Ok(value),
     }
 }
+
+/// A `--every` in simulated seconds: a positive whole number of milliseconds up to
+/// `inspect::MAX_PERIOD_MS`.
+fn period_s(text: &str) -> Result<f64, String> {
+    let value: f64 = text
+        .parse()
+        .map_err(|_| format!("`{text}` is not a number of seconds (e.g. --every 100)"))?;
+    let max_s = swarmfl_core::inspect::MAX_PERIOD_MS as f64 / 1000.0;
+    let ms = value * 1000.0;
+    if !(value.is_finite() && (0.001..=max_s).contains(&value)) {
+        return Err(format!(
+            "{text} seconds cannot sample a run: give a period from 0.001 to {max_s} s (e.g. --every 100)"
+        ));
+    }
+    if (ms - ms.round()).abs() > 1e-6 {
+        return Err(format!(
+            "{text} seconds is not a whole number of milliseconds, the log's clock: e.g. --every {}",
+            ms.round() / 1000.0
+        ));
+    }
+    Ok(value)
+}
+
+/// The long help of `swarmfl traffic`, after the options.
+const TRAFFIC_HELP: &str = "\
+The row at time t holds every record before t (as summary.json's ledger.chain_bytes samples):
+the first, at 0, is genesis; the last, at the run's end, holds every record. Each log is folded
+once, checking every checkpoint; a truncated or altered log is an error that names the file.
+
+Examples:
+  swarmfl traffic runs/paper-seed1/run.swlog --every 500
+  swarmfl traffic runs/paper-seed1/run.swlog --csv > traffic.csv
+  swarmfl sweep e6-scale --runs 1 --keep-logs --out results
+  swarmfl traffic results/e6-scale --out bytes-over-time";
 
 /// The long help of `swarmfl bisect`, after the options: the predicate language.
 const BISECT_HELP: &str = "\

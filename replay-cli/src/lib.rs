@@ -54,6 +54,7 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Fork(args) => fork::command(args),
         Command::Export(args) => export::command(args),
         Command::Ranking(args) => ranking::command(args),
+        Command::Traffic(args) => traffic::command(args),
         Command::Sweep(args) => sweep::command(args),
         Command::Report(args) => report::command(args),
         Command::Chaos(args) => chaos::command(args),

@@ -55,7 +55,9 @@ impl Default for AggregationSummary {
     }
 }
 
-fn mean(v: &[u64]) -> f64 {
+/// The mean over robots of one count per robot (robot order, summed as floats in that order):
+/// the summary's bytes per robot, and `swarmfl traffic`'s at every moment.
+pub(crate) fn per_robot_mean(v: &[u64]) -> f64 {
     if v.is_empty() {
         0.0
     } else {
@@ -182,9 +184,9 @@ pub fn summarise(
             "not applicable: the {} aggregation has no tokens",
             kind.name()
         ),
-        bytes_sent_per_robot_mean: mean(&state.bytes_sent),
-        bytes_stored_per_robot_mean: mean(&state.stored_bytes()),
-        bytes_downloaded_per_robot_mean: mean(&state.bytes_downloaded),
+        bytes_sent_per_robot_mean: per_robot_mean(&state.bytes_sent),
+        bytes_stored_per_robot_mean: per_robot_mean(&state.stored_bytes()),
+        bytes_downloaded_per_robot_mean: per_robot_mean(&state.bytes_downloaded),
         messages_sent: state.stigmergy.messages_sent(),
         messages_lost: state.stigmergy.messages_lost,
         final_heldout_loss_per_robot: per_robot,

@@ -2,7 +2,7 @@
 
 use super::expr::EvalError;
 use crate::replay::ReplayError;
-use crate::types::RobotId;
+use crate::types::{RobotId, SimTime};
 
 /// Why a look into a run failed.
 #[derive(Debug, thiserror::Error)]
@@ -35,6 +35,14 @@ pub enum InspectError {
         path: String,
         /// What does not fit.
         message: String,
+    },
+    /// A sampling period that is zero or longer than any run.
+    #[error("a period of {period} cannot sample a run: give one from 0.001 s to {max}")]
+    Period {
+        /// The period asked for.
+        period: SimTime,
+        /// The longest accepted.
+        max: SimTime,
     },
     /// A predicate names a value the state does not have.
     #[error("cannot evaluate the expression at block {block}: {cause}")]

@@ -44,7 +44,8 @@
 //! `values.rs` (per-block values for predicates), `bisect.rs` (the first block where a
 //! predicate holds), `export.rs` (the closed rounds), `tables.rs` (every table `swarmfl export`
 //! writes and the Python package loads, as typed columns), `ranking.rs` (where each
-//! submission sat in its round's ranking, `swarmfl ranking`) and `error.rs`.
+//! submission sat in its round's ranking, `swarmfl ranking`), `traffic.rs` (bytes sent and
+//! stored per node over time, `swarmfl traffic`) and `error.rs`.
 //! A baseline run (no blocks) is looked into by time instead, in [`timeline`]. The predicate
 //! language of `bisect` is in [`expr`] (grammar in its module docs).
 
@@ -59,6 +60,7 @@ mod ranking;
 mod sidecar;
 mod tables;
 pub mod timeline;
+mod traffic;
 mod values;
 
 #[cfg(test)]
@@ -77,4 +79,5 @@ pub use index::{index_run, BlockRow, ChainBytesRow, Indexer, RunIndex, StateAtBl
 pub use ranking::{rank_round, RankedSubmission};
 pub use sidecar::{read_sidecar, sidecar_path, Sidecar, SIDECAR_VERSION};
 pub use tables::{poses_table, Column, Table};
+pub use traffic::{traffic, Spread, Traffic, TrafficRow, MAX_PERIOD_MS};
 pub use values::{BlockValues, ChainValues};

@@ -1,7 +1,8 @@
 //! One module per subcommand, each with a `command` function that takes the subcommand's
 //! arguments (see `cli`) and returns its exit code. Modules shared by several commands: `run`
-//! (a run into a directory: `fork`, `sweep`, `fixtures` and `bench` make runs too) and
-//! `inspect` (the warning for a truncated log).
+//! (a run into a directory: `fork`, `sweep`, `fixtures` and `bench` make runs too),
+//! `inspect` (the warning for a truncated log) and `ranking` (the logs under a sweep's results,
+//! which `traffic` reads too).
 
 pub mod bench;
 pub mod bisect;
@@ -22,4 +23,5 @@ pub mod report;
 pub mod run;
 pub mod snapshot;
 pub mod sweep;
+pub mod traffic;
 pub mod view;

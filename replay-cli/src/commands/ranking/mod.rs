@@ -114,7 +114,7 @@ pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Res
 
 /// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
 /// path order, each with its path relative to its input.
-fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
+pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
     let mut out = Vec::new();
     for input in inputs {
         if input.is_file() {
