@@ -48,6 +48,9 @@ pub enum Purpose {
     /// Packet loss on the virtual-stigmergy gossip links from a robot (`learn.aggregation =
     /// "gossip"`).
     Stigmergy = 16,
+    /// Flow-FL's foraging rule (`world/foraging_flowfl.rs`): a forager's rest and exploration
+    /// draws (its robot id), and the food items' placements (robot id `u32::MAX`).
+    Foraging = 17,
 }
 
 /// A deterministic random number generator (PCG 128/64, "Pcg64") with portable float draws.

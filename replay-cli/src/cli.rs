@@ -454,6 +454,11 @@ pub struct DataVolumeArgs {
     /// Print machine-readable JSON.
     #[arg(long)]
     pub json: bool,
+    /// Measure each behaviour under its own Flow-FL experiment's preset (`flowfl` for
+    /// avoidance, `flowfl-flocking`, `flowfl-foraging`, `flowfl-mixed`) instead of --preset
+    /// with `world.behaviour` set; --config and --set apply on top of each.
+    #[arg(long, conflicts_with = "preset")]
+    pub experiments: bool,
 }
 
 /// The arguments of `swarmfl bench-scale-one`.

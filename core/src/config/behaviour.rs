@@ -140,8 +140,66 @@ pub struct ForagingConfig {
     pub food_sources: u32,
     /// Radius of a food source in metres (Flow-FL's items: 0.1 m).
     pub food_radius_m: f64,
-    /// Seconds a robot rests in the nest after delivering an item before exploring again.
+    /// Seconds a robot rests in the nest after delivering an item before exploring again
+    /// (`simple` rule only).
     pub rest_s: f64,
+    /// The foraging controller: `simple` (ours, `world/foraging.rs`) or `flowfl` (Flow-FL's
+    /// `khepera_foraging` and its arena, `world/foraging_flowfl.rs`: the nest is the strip
+    /// x < -1 m lit by four lights on the west wall, items are picked up where they lie and
+    /// re-placed when delivered, rest and exploration end with probabilities; the nest keys
+    /// and `rest_s` are not read). Left out of the recorded text at its default.
+    #[serde(default, skip_serializing_if = "is_simple")]
+    pub rule: ForagingRule,
+    /// Food sources per robot: when above 0, the arena holds `food_per_robot x world.robots`
+    /// sources in place of `food_sources` (Flow-FL: 2, its `FOOD_FACTOR`). Left out of the
+    /// recorded text at 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub food_per_robot: u32,
+}
+
+impl ForagingConfig {
+    /// The number of food sources in a swarm of `robots`.
+    pub fn food_count(&self, robots: u32) -> u32 {
+        if self.food_per_robot > 0 {
+            self.food_per_robot.saturating_mul(robots)
+        } else {
+            self.food_sources
+        }
+    }
+}
+
+/// How far from the arena's center Flow-FL's foraging layout reaches, in metres: its items
+/// lie in [-0.9, 1.7] x [-1.7, 1.7] (`foraging_loop_functions.cpp`), so `rule = "flowfl"` needs
+/// an arena of at least 2 x (1.7 m + a robot's radius).
+pub const FLOWFL_LAYOUT_HALF_M: f64 = 1.7;
+
+/// Which foraging controller the foragers run (`world.foraging.rule`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ForagingRule {
+    /// Ours (`world/foraging.rs`): a nest disk, fixed sources, a fixed rest.
+    #[default]
+    Simple,
+    /// Flow-FL's (`world/foraging_flowfl.rs`, the `flowfl-foraging` preset).
+    Flowfl,
+}
+
+impl ForagingRule {
+    /// The name used in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            ForagingRule::Simple => "simple",
+            ForagingRule::Flowfl => "flowfl",
+        }
+    }
+}
+
+fn is_simple(rule: &ForagingRule) -> bool {
+    super::skip::omit(*rule == ForagingRule::Simple)
+}
+
+fn is_zero(n: &u32) -> bool {
+    super::skip::omit(*n == 0)
 }
 
 impl Default for ForagingConfig {
@@ -153,6 +211,8 @@ impl Default for ForagingConfig {
             food_sources: 4,
             food_radius_m: 0.15,
             rest_s: 10.0,
+            rule: ForagingRule::Simple,
+            food_per_robot: 0,
         }
     }
 }

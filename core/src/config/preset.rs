@@ -4,7 +4,7 @@
 use std::fmt;
 
 use super::behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedConfig, WindowRule,
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
@@ -52,10 +52,21 @@ pub enum Preset {
     /// docs/CONTRACT.md at the authors' value and their script's reward weights (issue #36).
     Authors,
     /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots and
-    /// their avoidance in a 4 x 4 m arena, 2 m range, robots occlude); with the per-behaviour
-    /// arena overrides of docs/SPEC.md section 1 ("Data volume") it matches its dataset's
-    /// sample counts (issue #38).
+    /// their avoidance in a 4 x 4 m arena, 2 m range, robots occlude): its obstacle-avoidance
+    /// experiment. The other three experiments are the `flowfl-*` presets (issue #38;
+    /// docs/SPEC.md section 1, "The `flowfl` presets").
     Flowfl,
+    /// Flow-FL's flocking experiment: `flowfl` with every robot flocking to the light, no
+    /// obstacles, 2.5 cm/s (`flocking_batch.argos`).
+    FlowflFlocking,
+    /// Flow-FL's foraging experiment: `flowfl` with every robot running Flow-FL's foraging
+    /// (`world.foraging.rule = "flowfl"`: nest strip, moving items, probabilistic rest), no
+    /// obstacles, 10 cm/s, 2 items per robot (`foraging_batch.argos`, `automate.sh`).
+    FlowflForaging,
+    /// Flow-FL's mixed experiment as ours builds it: `flowfl` with a third of the swarm per
+    /// behaviour (by index; Flow-FL's is by place), no obstacles, its 5.9 m arena, 2 food
+    /// sources per robot (`mixed_by_location_batch.argos`).
+    FlowflMixed,
     /// Experiment 1: no security, no Byzantine robots; sweep `data.expiration_s`.
     E1Expiration,
     /// Experiment 1: no security, one faulty robot.
@@ -82,13 +93,16 @@ pub enum Preset {
 
 impl Preset {
     /// Every variant, in documentation order (the order `swarmfl presets` lists them).
-    pub const ALL: [Preset; 15] = [
+    pub const ALL: [Preset; 18] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
         Preset::Authors,
         Preset::Smoke,
         Preset::Flowfl,
+        Preset::FlowflFlocking,
+        Preset::FlowflForaging,
+        Preset::FlowflMixed,
         Preset::E1Expiration,
         Preset::E1Faulty,
         Preset::E2Faulty,
@@ -109,6 +123,9 @@ impl Preset {
             Preset::Authors => "authors",
             Preset::Smoke => "smoke",
             Preset::Flowfl => "flowfl",
+            Preset::FlowflFlocking => "flowfl-flocking",
+            Preset::FlowflForaging => "flowfl-foraging",
+            Preset::FlowflMixed => "flowfl-mixed",
             Preset::E1Expiration => "e1-expiration",
             Preset::E1Faulty => "e1-faulty",
             Preset::E2Faulty => "e2-faulty",
@@ -139,7 +156,20 @@ impl Preset {
             }
             Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
             Preset::Flowfl => {
-                "Flow-FL's data collection: Khepera IV and its pivot avoidance, 4 x 4 m, 2.0 m range, 5 cm/s"
+                "Flow-FL's data collection, its avoidance experiment: Khepera IV and its pivot \
+                 avoidance, 4 x 4 m, 5 + 5 obstacles, 2.0 m range, 5 cm/s"
+            }
+            Preset::FlowflFlocking => {
+                "Flow-FL's flocking experiment: `flowfl`, all flocking to one light, no \
+                 obstacles, 2.5 cm/s"
+            }
+            Preset::FlowflForaging => {
+                "Flow-FL's foraging experiment: `flowfl`, Flow-FL's foraging (nest strip, \
+                 moving items, probabilistic rest), no obstacles, 10 cm/s, 2 items per robot"
+            }
+            Preset::FlowflMixed => {
+                "Flow-FL's mixed experiment (ours by index): `flowfl`, a third per behaviour, \
+                 no obstacles, 5.9 x 5.9 m, 2 food sources per robot"
             }
             Preset::E1Expiration => {
                 "Exp. 1: security off, no Byzantine robots; sweep data.expiration_s 250..1250"
@@ -242,6 +272,11 @@ impl Preset {
                 c.world.foraging.food_radius_m = 0.1;
                 c.world.foraging.rest_s = 1.0;
             }
+            Preset::FlowflFlocking | Preset::FlowflForaging | Preset::FlowflMixed => {
+                c = Preset::Flowfl.config();
+                c.preset = self.name().to_string();
+                flowfl_experiment(&mut c, self);
+            }
             Preset::E1Expiration => {
                 c.contract.security = false;
             }
@@ -285,6 +320,51 @@ impl Preset {
             }
         }
         c
+    }
+}
+
+/// The arena of Flow-FL's flocking, foraging and mixed experiments over `flowfl`'s (its
+/// avoidance experiment): `flocking_batch.argos`, `foraging_batch.argos`,
+/// `mixed_by_location_batch.argos` and `bash-scripts/automate.sh` of NESTLab/TrajectoryCollection;
+/// docs/SPEC.md section 1 has each value beside Flow-FL's.
+fn flowfl_experiment(c: &mut Config, experiment: Preset) {
+    // No obstacles in any of the three arenas.
+    c.world.cylinders = 0;
+    c.world.boxes = 0;
+    match experiment {
+        Preset::FlowflFlocking => {
+            c.world.behaviour = Behaviour::Flocking;
+            // The light vector is 0.25 x max_speed: 2.5 cm/s (`khepera_flocking.cpp`).
+            c.world.cruise_speed_mps = 0.025;
+        }
+        Preset::FlowflForaging => {
+            c.world.behaviour = Behaviour::Foraging;
+            c.world.foraging.rule = ForagingRule::Flowfl;
+            // `max_speed="10"` cm/s; `FOOD_ITEMS = NBROBOTS x FOOD_FACTOR`, FOOD_FACTOR = 2.
+            c.world.cruise_speed_mps = 0.1;
+            c.world.foraging.food_per_robot = 2;
+        }
+        Preset::FlowflMixed => {
+            c.world.behaviour = Behaviour::Mixed;
+            // Walls at +-3 m, 0.1 m thick: 5.9 m between their faces.
+            c.world.arena_side_m = 5.9;
+            c.world.foraging.food_per_robot = 2;
+        }
+        _ => unreachable!("flowfl_experiment is called for the three flowfl-* experiments"),
+    }
+}
+
+impl Preset {
+    /// The preset of Flow-FL's experiment for `behaviour`: `flowfl` (avoidance),
+    /// `flowfl-flocking`, `flowfl-foraging` or `flowfl-mixed`; `swarmfl data-volume
+    /// --experiments` measures each behaviour under it.
+    pub fn flowfl_experiment(behaviour: Behaviour) -> Preset {
+        match behaviour {
+            Behaviour::Avoidance => Preset::Flowfl,
+            Behaviour::Flocking => Preset::FlowflFlocking,
+            Behaviour::Foraging => Preset::FlowflForaging,
+            Behaviour::Mixed => Preset::FlowflMixed,
+        }
     }
 }
 

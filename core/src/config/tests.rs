@@ -636,3 +636,64 @@ fn the_evm_engine_refuses_the_nearest_rank_order() {
     .unwrap_err();
     assert!(err.to_string().contains("ranks around"), "{err}");
 }
+
+#[test]
+fn the_flowfl_experiments_are_presets_and_bad_foraging_input_names_its_key() {
+    // Every preset made before the flowfl-* experiments keeps its recorded text: the new
+    // foraging keys stay out of it at their defaults.
+    for preset in Preset::ALL {
+        let text = preset.config().to_toml();
+        let counts_per_robot = matches!(preset, Preset::FlowflForaging | Preset::FlowflMixed);
+        assert_eq!(
+            text.contains("food_per_robot"),
+            counts_per_robot,
+            "{preset}: {text}"
+        );
+        assert_eq!(
+            text.contains("rule = \"flowfl\""),
+            preset == Preset::FlowflForaging,
+            "{preset}"
+        );
+    }
+    let foraging = Preset::FlowflForaging.config();
+    assert_eq!(foraging.world.foraging.rule, ForagingRule::Flowfl);
+    assert_eq!(foraging.world.foraging.food_count(60), 120);
+    assert_eq!((foraging.world.cylinders, foraging.world.boxes), (0, 0));
+    assert!(foraging.to_toml().contains("rule = \"flowfl\""));
+    assert_eq!(Preset::FlowflMixed.config().world.arena_side_m, 5.9);
+    assert_eq!(
+        Preset::FlowflFlocking.config().world.cruise_speed_mps,
+        0.025
+    );
+    for b in Behaviour::ALL {
+        let p = Preset::flowfl_experiment(b);
+        let c = p.config();
+        assert!(p == Preset::Flowfl || c.world.behaviour == b, "{p}");
+        c.validate().unwrap();
+    }
+    let err = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        Config::resolve(Some("flowfl-foraging"), None, &sets)
+            .unwrap_err()
+            .to_string()
+    };
+    let e = err(&["world.arena_side_m=3"]);
+    assert!(
+        e.contains("world.arena_side_m") && e.contains("flowfl"),
+        "{e}"
+    );
+    let e = err(&["run.tick_s=0.05"]);
+    assert!(e.contains("run.tick_s") && e.contains("0.1"), "{e}");
+    let e = err(&["world.foraging.food_per_robot=1000"]);
+    assert!(e.contains("world.foraging.food_per_robot"), "{e}");
+    let e = err(&["world.foraging.rule=greedy"]);
+    assert!(
+        e.contains("world.foraging.rule") && e.contains("simple"),
+        "{e}"
+    );
+    let e = err(&[
+        "world.foraging.food_per_robot=0",
+        "world.foraging.food_sources=0",
+    ]);
+    assert!(e.contains("world.foraging.food_sources"), "{e}");
+}

@@ -4,7 +4,7 @@
 //! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
 //! engine) read only configuration fields, so they live here too.
 
-use super::behaviour::{Avoidance, Behaviour};
+use super::behaviour::{Avoidance, Behaviour, ForagingRule};
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
@@ -323,6 +323,15 @@ fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
         return Ok(());
     }
     let f = &c.world.foraging;
+    integer(
+        "world.foraging.food_per_robot",
+        f.food_per_robot.into(),
+        0,
+        100,
+    )?;
+    if f.rule == ForagingRule::Flowfl {
+        return flowfl_foraging_fits_the_arena(c);
+    }
     positive("world.foraging.nest_radius_m", f.nest_radius_m, 100.0)?;
     number(
         "world.foraging.nest_radius_m",
@@ -332,12 +341,7 @@ fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
     )?;
     inside(c, "world.foraging.nest_x_m", f.nest_x_m, f.nest_radius_m)?;
     inside(c, "world.foraging.nest_y_m", f.nest_y_m, f.nest_radius_m)?;
-    integer(
-        "world.foraging.food_sources",
-        f.food_sources.into(),
-        1,
-        10_000,
-    )?;
+    food_sources_are_counted(c)?;
     positive("world.foraging.food_radius_m", f.food_radius_m, 100.0)?;
     number(
         "world.foraging.food_radius_m",
@@ -346,6 +350,60 @@ fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
         c.world.arena_side_m / 4.0,
     )?;
     number("world.foraging.rest_s", f.rest_s, 0.0, 1.0e7)
+}
+
+/// The number of food sources, from `food_sources` or `food_per_robot x world.robots`.
+fn food_sources_are_counted(c: &Config) -> Result<(), ConfigError> {
+    let f = &c.world.foraging;
+    let (key, value) = if f.food_per_robot > 0 {
+        ("world.foraging.food_per_robot", f.food_per_robot)
+    } else {
+        ("world.foraging.food_sources", f.food_sources)
+    };
+    let count = f.food_count(c.world.robots);
+    if (1..=10_000).contains(&count) {
+        return Ok(());
+    }
+    out_of_range(
+        key,
+        value.to_string(),
+        format!(
+            "a food count in [1, 10000] (food_per_robot x world.robots = {} x {}, or \
+             food_sources when food_per_robot = 0)",
+            f.food_per_robot, c.world.robots
+        ),
+    )
+}
+
+/// Flow-FL's foraging arena (`world/foraging_flowfl.rs`) is laid out in metres from the
+/// center: the nest strip west of x = -1 m, items in [-0.9, 1.7] x [-1.7, 1.7], lights on the
+/// west wall; the arena must hold it with a robot's body to spare.
+fn flowfl_foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
+    let f = &c.world.foraging;
+    food_sources_are_counted(c)?;
+    positive("world.foraging.food_radius_m", f.food_radius_m, 1.0)?;
+    // Its probabilities and times are per tick of ARGoS's 10 ticks a second.
+    if (c.run.tick_s - 0.1).abs() > 1e-12 {
+        return out_of_range(
+            "run.tick_s",
+            c.run.tick_s.to_string(),
+            "0.1 with world.foraging.rule = \"flowfl\" (Flow-FL's probabilities are per tick \
+             of 0.1 s); set run.tick_s=0.1 or use rule \"simple\""
+                .to_string(),
+        );
+    }
+    let need = 2.0 * (super::behaviour::FLOWFL_LAYOUT_HALF_M + c.world.robot_radius_m);
+    if c.world.arena_side_m >= need {
+        return Ok(());
+    }
+    out_of_range(
+        "world.arena_side_m",
+        c.world.arena_side_m.to_string(),
+        format!(
+            "at least {need} m with world.foraging.rule = \"flowfl\" (Flow-FL's foraging arena: \
+             nest strip, items to +-1.7 m); enlarge the arena or use rule \"simple\""
+        ),
+    )
 }
 
 fn waypoints_fit_the_trajectory(c: &Config) -> Result<(), ConfigError> {

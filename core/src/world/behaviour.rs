@@ -13,8 +13,9 @@
 use serde::{Deserialize, Serialize};
 
 use super::arena::{Arena, PLACEMENT_ATTEMPTS};
+use super::foraging_flowfl::FlowflForaging;
 use super::WorldError;
-use crate::config::{Behaviour, Config};
+use crate::config::{Behaviour, Config, ForagingRule};
 use crate::rng::{self, Purpose};
 
 /// Each robot's behaviour (never `Mixed`), in robot order.
@@ -97,6 +98,11 @@ pub struct Behaviours {
     pub foragers: Vec<Forager>,
     /// Items ever delivered to the nest, all robots.
     pub deliveries: u64,
+    /// Flow-FL's foraging (`world.foraging.rule = "flowfl"`, `foraging_flowfl.rs`): its
+    /// foragers' states and its items; then `nest` is `None` and `food` empty. Left out of the
+    /// serialized state under the `simple` rule.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flowfl: Option<FlowflForaging>,
 }
 
 impl Behaviours {
@@ -113,6 +119,25 @@ impl Behaviours {
         }
         let f = &config.world.foraging;
         let foraging = of.contains(&Behaviour::Foraging);
+        if foraging && f.rule == ForagingRule::Flowfl {
+            let forages = of.iter().map(|&b| b == Behaviour::Foraging).collect();
+            return Ok(Some(Behaviours {
+                foragers: of
+                    .iter()
+                    .map(|&b| match b {
+                        Behaviour::Foraging => Forager::Rest { until: 0 },
+                        _ => Forager::Explore,
+                    })
+                    .collect(),
+                of,
+                nest: None,
+                food: Vec::new(),
+                food_radius_m: f.food_radius_m,
+                rest_ticks: 0,
+                deliveries: 0,
+                flowfl: Some(FlowflForaging::new(config, seed, forages)),
+            }));
+        }
         let nest = foraging.then_some(Nest {
             x: f.nest_x_m,
             y: f.nest_y_m,
@@ -130,6 +155,7 @@ impl Behaviours {
             food_radius_m: f.food_radius_m,
             rest_ticks: (f.rest_s / config.run.tick_s).round() as u64,
             deliveries: 0,
+            flowfl: None,
         }))
     }
 
@@ -155,8 +181,9 @@ fn place_food(
     let fr = f.food_radius_m;
     let lim = arena.half_side_m - fr - 2.0 * r;
     let mut rng = rng::stream(seed, Purpose::Obstacles, 1);
-    let mut food: Vec<Food> = Vec::with_capacity(f.food_sources as usize);
-    for k in 0..f.food_sources {
+    let count = f.food_count(config.world.robots);
+    let mut food: Vec<Food> = Vec::with_capacity(count as usize);
+    for k in 0..count {
         let mut placed = None;
         for _ in 0..PLACEMENT_ATTEMPTS {
             if lim <= 0.0 {
@@ -182,10 +209,11 @@ fn place_food(
                 what: format!("food source {k}"),
                 why: format!(
                     "no spot clear of the nest, the obstacles and the other sources after \
-                     {PLACEMENT_ATTEMPTS} attempts: world.foraging.food_sources = {} of \
+                     {PLACEMENT_ATTEMPTS} attempts: {count} sources (world.foraging.food_sources, \
+                     or world.foraging.food_per_robot x world.robots) of \
                      world.foraging.food_radius_m = {} do not fit in world.arena_side_m = {}; \
                      use fewer or smaller sources, a smaller nest or a larger arena",
-                    f.food_sources, fr, config.world.arena_side_m
+                    fr, config.world.arena_side_m
                 ),
             });
         };

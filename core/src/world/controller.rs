@@ -1,9 +1,10 @@
 //! The robots' controllers. This file holds the default behaviour, the avoidance walk: a random
 //! walk at cruise speed with Braitenberg-style obstacle avoidance on the IR proximity sensors
 //! (docs/SPEC.md section 1; its moves are in `steering.rs`, shared with the other behaviours),
-//! and [`Controllers`], which runs each robot's behaviour (`flocking.rs`, `foraging.rs`;
-//! `behaviour.rs` says which robot runs which). It runs on the driver side: its decisions become [`TickEvent`]s
-//! that the physics reducer folds; its state is not part of the [`World`].
+//! and [`Controllers`], which runs each robot's behaviour (`flocking.rs`, `foraging.rs`,
+//! `foraging_flowfl.rs`; `behaviour.rs` says which robot runs which). It runs on the driver
+//! side: its decisions become [`TickEvent`]s that the physics reducer folds; its state is not
+//! part of the [`World`].
 //!
 //! Per robot and tick, in this order:
 //! 1. If a front sensor (one pointing less than 90 degrees off the heading) reads above
@@ -25,7 +26,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::steering::{avoid, override_walk, walk, RobotController, Steer, Walk, WheelCommand};
-use super::{behaviour, epuck, flocking, foraging, khepera, sensor_angle, World};
+use super::{behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, sensor_angle, World};
 use crate::config::{Avoidance, Behaviour, Config, FlockingConfig};
 use crate::rng::{self, Purpose};
 
@@ -53,6 +54,8 @@ pub struct Controllers {
     flocking: FlockingConfig,
     /// Reused buffer: the range-and-bearing contacts flockers read.
     contacts: Vec<Vec<crate::types::RobotId>>,
+    /// Flow-FL's foragers' turning states and last commands (`foraging_flowfl.rs`).
+    flowfl: Vec<foraging_flowfl::Wheels>,
 }
 
 impl Controllers {
@@ -84,6 +87,7 @@ impl Controllers {
             behaviours: behaviour::assignment(config),
             flocking: w.flocking.clone(),
             contacts: Vec::new(),
+            flowfl: vec![foraging_flowfl::Wheels::default(); w.robots as usize],
         }
     }
 
@@ -138,6 +142,19 @@ impl Controllers {
                     &self.contacts[i],
                     &self.flocking,
                     world.time().secs(),
+                ),
+                (
+                    Behaviour::Foraging,
+                    Some(behaviour::Behaviours {
+                        flowfl: Some(f), ..
+                    }),
+                ) => foraging_flowfl::command(
+                    &mut self.flowfl[i],
+                    f.robots[i].drive,
+                    pose,
+                    self.rule,
+                    &self.readings,
+                    cruise_mps,
                 ),
                 (Behaviour::Foraging, Some(b)) => {
                     foraging::command(c, b.foragers[i], pose, b, &steer, avoidance)

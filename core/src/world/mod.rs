@@ -19,6 +19,7 @@ pub mod controller;
 mod epuck;
 pub mod flocking;
 pub mod foraging;
+pub mod foraging_flowfl;
 mod khepera;
 pub mod physics;
 pub mod sensors;
@@ -26,7 +27,7 @@ pub mod steering;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Avoidance, Config, ConfigError, WindowRule};
+use crate::config::{Avoidance, Behaviour, Config, ConfigError, ForagingRule, WindowRule};
 use crate::data::{HeldoutObserver, Recorder, Recording, Sample};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
@@ -365,9 +366,42 @@ impl World {
         }
         self.scratch.grid = grid;
         self.scratch.grid_tick = Some(self.tick);
+        self.advance_flowfl_foragers();
         if self.params.sensing {
             self.sense();
         }
+    }
+
+    /// Flow-FL's foragers (`foraging_flowfl.rs`), if any: their step after this tick's physics,
+    /// reading the proximity sensors and range-and-bearing contacts of the new positions; the
+    /// shared forager states (`Behaviours::foragers`) follow their phases.
+    fn advance_flowfl_foragers(&mut self) {
+        let Some(mut f) = self.extra.behaviours.as_mut().and_then(|b| b.flowfl.take()) else {
+            return;
+        };
+        let sensors = self.params.sensor_dirs.len();
+        f.advance(
+            &self.poses,
+            |i, out| self.proximity(i as RobotId, out),
+            sensors,
+            |adj| self.contacts(adj),
+        );
+        let b = self
+            .extra
+            .behaviours
+            .as_mut()
+            .expect("the flowfl state was taken from the behaviours");
+        for ((shown, &of), r) in b.foragers.iter_mut().zip(&b.of).zip(&f.robots) {
+            if of == Behaviour::Foraging {
+                *shown = match r.phase {
+                    foraging_flowfl::Phase::Rest => Forager::Rest { until: 0 },
+                    foraging_flowfl::Phase::Explore => Forager::Explore,
+                    foraging_flowfl::Phase::Return => Forager::Return,
+                };
+            }
+        }
+        b.deliveries = f.deliveries;
+        b.flowfl = Some(f);
     }
 
     /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick.
@@ -588,6 +622,9 @@ impl World {
         h.update(&self.sample_chain.0);
         if let Some(b) = &self.extra.behaviours {
             h.update(&rmp_serde::to_vec(&(&b.foragers, b.deliveries)).expect("states serialise"));
+            if let Some(f) = &b.flowfl {
+                h.update(&rmp_serde::to_vec(f).expect("flowfl foraging state serialises"));
+            }
         }
         h.finalize().into()
     }
@@ -617,6 +654,15 @@ fn place_robots(
 ) -> Result<(Vec<Pose>, RobotGrid), WorldError> {
     let r = w.robot_radius_m;
     let lim = arena.half_side_m - r;
+    // Flow-FL's foragers start in their nest (`foraging_batch.argos`, `<distribute>`).
+    let starts_in_nest = |i: u32| {
+        w.foraging.rule == ForagingRule::Flowfl
+            && match w.behaviour {
+                Behaviour::Foraging => true,
+                Behaviour::Mixed => w.mixed.behaviour_of(i, w.robots) == Behaviour::Foraging,
+                Behaviour::Avoidance | Behaviour::Flocking => false,
+            }
+    };
     let mut poses: Vec<Pose> = Vec::with_capacity(w.robots as usize);
     let mut grid = RobotGrid::default();
     grid.rebuild(&arena.grid, &poses);
@@ -631,9 +677,14 @@ fn place_robots(
                 ),
             });
         }
+        let x_max = if starts_in_nest(i) {
+            foraging_flowfl::NEST_EDGE_X_M.min(lim)
+        } else {
+            lim
+        };
         let mut placed = None;
         for _ in 0..arena::PLACEMENT_ATTEMPTS {
-            let (x, y) = (rng.range(-lim, lim), rng.range(-lim, lim));
+            let (x, y) = (rng.range(-lim, x_max), rng.range(-lim, lim));
             if !physics::blocked(arena, &grid, &poses, r, u32::MAX, x, y) {
                 placed = Some((x, y));
                 break;

@@ -590,3 +590,58 @@ fn every_behaviour_runs_collision_free_and_replays_identically() {
         assert_eq!(b.nest.is_some(), behaviour != "flocking", "{behaviour}");
     }
 }
+
+#[test]
+fn flowfl_foraging_starts_in_the_nest_delivers_and_replays_identically() {
+    let c = Config::resolve(
+        Some("flowfl-foraging"),
+        None,
+        &["run.duration_s=300".to_string()],
+    )
+    .unwrap();
+    let world0 = World::new(&c, 4).unwrap();
+    assert!(
+        world0
+            .poses()
+            .iter()
+            .all(|p| p.x <= foraging_flowfl::NEST_EDGE_X_M),
+        "Flow-FL's foragers start in the nest strip"
+    );
+    let run = || {
+        let mut world = World::new(&c, 4).unwrap();
+        let mut controllers = Controllers::new(&c, 4);
+        let mut events = Vec::new();
+        for _ in 0..3000 {
+            let e = controllers.decide(&world);
+            world.apply(&e);
+            events.push(e);
+        }
+        (world, events)
+    };
+    let (a, events) = run();
+    let (b, _) = run();
+    assert_eq!(a.digest(), b.digest(), "same seed, same world");
+    assert_eq!(a.stats().collisions, 0);
+    let mut folded = World::new(&c, 4).unwrap();
+    for e in &events {
+        folded.apply(e);
+    }
+    assert_eq!(
+        folded.digest(),
+        a.digest(),
+        "the log's events alone rebuild the states"
+    );
+    assert_eq!(folded, a);
+    let behaviours = a.behaviours().expect("foraging has its state");
+    let f = behaviours.flowfl.as_ref().expect("the flowfl rule's state");
+    assert!(behaviours.nest.is_none() && behaviours.food.is_empty());
+    assert_eq!(f.items.len(), 30, "2 items per robot");
+    assert!(a.stats().foraging_deliveries > 0, "items reach the nest");
+    assert_eq!(a.stats().foraging_deliveries, f.deliveries);
+    let carried = f.robots.iter().filter(|r| r.item.is_some()).count();
+    let off_floor = f.items.iter().filter(|i| i.is_none()).count();
+    assert_eq!(
+        carried, off_floor,
+        "an item off the floor is carried by one robot"
+    );
+}

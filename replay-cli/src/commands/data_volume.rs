@@ -10,8 +10,8 @@ use std::process::ExitCode;
 
 use anyhow::Context;
 use serde::Serialize;
-use swarmfl_core::config::Behaviour;
-use swarmfl_core::world::{Controllers, World};
+use swarmfl_core::config::{Behaviour, Preset};
+use swarmfl_core::world::{Controllers, Forager, World};
 
 use crate::cli::DataVolumeArgs;
 
@@ -35,6 +35,8 @@ const NEAR_M: f64 = 0.3;
 #[derive(Serialize)]
 struct Row {
     behaviour: &'static str,
+    /// The preset the row ran under.
+    preset: String,
     robots: u32,
     seeds: Vec<u64>,
     duration_s: f64,
@@ -56,6 +58,10 @@ struct Row {
     corner_per_seed: Vec<f64>,
     /// Per seed: refused moves per robot-tick (`blocked_moves` / (robots x ticks)).
     blocked_per_seed: Vec<f64>,
+    /// Per seed: fraction of robot-ticks a robot rested in the nest (foragers; 0 without).
+    resting_per_seed: Vec<f64>,
+    /// Per seed: items delivered to the nest per robot over the run (0 without foragers).
+    deliveries_per_seed: Vec<f64>,
     /// The wall and corner fractions of robots spread uniformly over the arena (obstacles
     /// ignored), for comparison.
     uniform_wall: f64,
@@ -108,6 +114,13 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
         .collect::<anyhow::Result<Vec<_>>>()?;
     let mut rows = Vec::new();
     for &behaviour in &behaviours {
+        let base = if args.experiments {
+            let mut named = args.config.clone();
+            named.preset = Some(Preset::flowfl_experiment(behaviour).name().to_string());
+            named.resolve()?
+        } else {
+            base.clone()
+        };
         for &n in &robots {
             let mut config = base.clone();
             config.world.robots = n;
@@ -119,15 +132,23 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
             let ticks = (args.duration_s / config.run.tick_s).round() as u64;
             let (mut per_seed, mut stds, mut het) = (Vec::new(), Vec::new(), Vec::new());
             let (mut wall, mut corner, mut blocked) = (Vec::new(), Vec::new(), Vec::new());
+            let (mut rest, mut deliveries) = (Vec::new(), Vec::new());
             let half = 0.5 * config.world.arena_side_m;
             for &seed in &seeds {
                 let mut world = World::new(&config, seed)
                     .with_context(|| format!("building the world of seed {seed}"))?;
                 let mut controllers = Controllers::new(&config, seed);
-                let (mut near_wall, mut near_corner) = (0u64, 0u64);
+                let (mut near_wall, mut near_corner, mut resting) = (0u64, 0u64, 0u64);
                 for _ in 0..ticks {
                     let event = controllers.decide(&world);
                     world.apply(&event);
+                    if let Some(b) = world.behaviours() {
+                        resting += b
+                            .foragers
+                            .iter()
+                            .filter(|f| matches!(f, Forager::Rest { .. }))
+                            .count() as u64;
+                    }
                     for p in world.poses() {
                         let near_x = half - p.x.abs() < NEAR_M;
                         let near_y = half - p.y.abs() < NEAR_M;
@@ -144,6 +165,8 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 wall.push(near_wall as f64 / robot_ticks);
                 corner.push(near_corner as f64 / robot_ticks);
                 blocked.push(s.blocked_moves as f64 / robot_ticks);
+                rest.push(resting as f64 / robot_ticks);
+                deliveries.push(s.foraging_deliveries as f64 / f64::from(n.max(1)));
             }
             let inner = ((half - NEAR_M).max(0.0) / half).powi(2);
             let edge = (NEAR_M / half).min(1.0);
@@ -155,6 +178,7 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 .map(|&(_, _, count, _)| count * args.duration_s / 5000.0);
             rows.push(Row {
                 behaviour: behaviour.name(),
+                preset: base.preset.clone(),
                 robots: n,
                 seeds: seeds.clone(),
                 duration_s: args.duration_s,
@@ -166,6 +190,8 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 wall_per_seed: wall,
                 corner_per_seed: corner,
                 blocked_per_seed: blocked,
+                resting_per_seed: rest,
+                deliveries_per_seed: deliveries,
                 uniform_wall: 1.0 - inner,
                 uniform_corner: edge * edge,
                 flowfl,
@@ -177,9 +203,14 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
     if args.json {
         println!("{}", serde_json::to_string_pretty(&rows)?);
     } else {
+        let presets = if args.experiments {
+            "each behaviour's Flow-FL experiment (flowfl, flowfl-flocking, flowfl-foraging, flowfl-mixed)".to_string()
+        } else {
+            format!("preset {}", base.preset)
+        };
         println!(
-            "preset {}, {} s, seeds {:?} (samples per robot over the run; Flow-FL's dataset scaled to the same length)",
-            base.preset, args.duration_s, seeds
+            "{presets}, {} s, seeds {:?} (samples per robot over the run; Flow-FL's dataset scaled to the same length)",
+            args.duration_s, seeds
         );
         println!(
             "{:<10} {:>6} {:>10} {:>9} {:>9} {:>8} {:>7} {:>13} {:>6} {:>6} {:>7}",
@@ -218,13 +249,23 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 mean(&r.blocked_per_seed),
             );
             println!(
-                "    per seed: samples {} | heterogeneity {} | wall {} | corner {} | blocked {}",
+                "    {}, per seed: samples {} | heterogeneity {} | wall {} | corner {} | blocked {}",
+                r.preset,
                 seeds_of(&r.per_seed, 1),
                 seeds_of(&r.heterogeneity_per_seed, 4),
                 seeds_of(&r.wall_per_seed, 3),
                 seeds_of(&r.corner_per_seed, 3),
                 seeds_of(&r.blocked_per_seed, 3),
             );
+            if r.deliveries_per_seed.iter().any(|&d| d > 0.0)
+                || r.resting_per_seed.iter().any(|&x| x > 0.0)
+            {
+                println!(
+                    "    foragers: resting {} | deliveries per robot {}",
+                    seeds_of(&r.resting_per_seed, 3),
+                    seeds_of(&r.deliveries_per_seed, 1),
+                );
+            }
         }
         if let Some(r) = rows.first() {
             println!(

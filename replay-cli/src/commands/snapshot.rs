@@ -19,7 +19,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use swarmfl_core::config::Behaviour;
 use swarmfl_core::replay;
-use swarmfl_core::world::{Forager, Obstacle, World};
+use swarmfl_core::world::{foraging_flowfl, Forager, Obstacle, World};
 use swarmfl_core::SimTime;
 
 use crate::cli::SnapshotArgs;
@@ -351,6 +351,25 @@ where
             )))
             .map_err(err::<DB>)?;
     }
+    if let Some(f) = &b.flowfl {
+        // Flow-FL's nest is the strip west of its edge; its items lie on the floor until taken.
+        let h = world.arena().half_side_m;
+        chart
+            .draw_series(std::iter::once(Rectangle::new(
+                [(-h, -h), (foraging_flowfl::NEST_EDGE_X_M, h)],
+                NEST.filled(),
+            )))
+            .map_err(err::<DB>)?;
+        for &(x, y) in f.items.iter().flatten() {
+            chart
+                .draw_series(std::iter::once(Circle::new(
+                    (x, y),
+                    px(b.food_radius_m, px_per_m),
+                    FOOD.filled(),
+                )))
+                .map_err(err::<DB>)?;
+        }
+    }
     Ok(())
 }
 
@@ -390,9 +409,11 @@ where
                 )))
                 .map_err(err::<DB>)?;
         }
-        let item = match behaviours.map(|b| (b.of[i], b.foragers[i])) {
-            Some((Behaviour::Foraging, Forager::Return)) => Some(ITEM),
-            Some((Behaviour::Foraging, Forager::Rest { .. })) => Some(WHITE),
+        // Flow-FL's foragers also return without an item (a fruitless trip): theirs is marked.
+        let item = match behaviours.map(|b| (b.of[i], b.foragers[i], b.flowfl.as_ref())) {
+            Some((Behaviour::Foraging, _, Some(f))) if f.robots[i].item.is_some() => Some(ITEM),
+            Some((Behaviour::Foraging, Forager::Return, None)) => Some(ITEM),
+            Some((Behaviour::Foraging, Forager::Rest { .. }, _)) => Some(WHITE),
             _ => None,
         };
         if let Some(item) = item {
@@ -457,7 +478,7 @@ fn legend_entries(world: &World, marks: &[RobotMark]) -> Vec<(&'static str, Shap
             if marks.contains(&RobotMark::Byzantine) {
                 entries.push(("Byzantine robot (red ring)", BYZANTINE.stroke_width(3)));
             }
-            if b.nest.is_some() {
+            if b.nest.is_some() || b.flowfl.is_some() {
                 entries.push(("carrying food", ITEM.filled()));
                 entries.push(("resting (white dot)", WHITE.filled()));
                 entries.push(("nest", NEST.filled()));
