@@ -481,6 +481,10 @@ fn run_parallel(
     (failed.into_inner().expect("workers finished"), finished)
 }
 
+/// The folder of a sweep's output that holds the logs of runs in progress (without
+/// `--keep-logs`); readers of logs pass over it.
+pub(crate) const TMP_DIR: &str = ".tmp";
+
 /// Runs one task and writes its result file.
 fn run_task(
     opts: &SweepOptions,
@@ -493,7 +497,7 @@ fn run_task(
     let run_dir = if opts.keep_logs {
         result.with_extension("")
     } else {
-        opts.out.join(".tmp").join(format!(
+        opts.out.join(TMP_DIR).join(format!(
             "{}-{}-seed{}-{}",
             task.experiment,
             task.point,

@@ -61,15 +61,6 @@ impl Run {
 /// by aggregation, size and seed; two logs of one run are refused.
 fn measure(inputs: &[PathBuf], every: SimTime) -> anyhow::Result<Vec<Run>> {
     let logs = find_logs(inputs)?;
-    anyhow::ensure!(
-        !logs.is_empty(),
-        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
-        inputs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
     let mut runs = Vec::with_capacity(logs.len());
     for (path, name) in &logs {
         if logs.len() > 1 {

@@ -29,6 +29,7 @@ use swarmfl_core::inspect::{self, RankedSubmission, Table};
 
 use crate::cli::RankingArgs;
 use crate::commands::inspect::warn_if_truncated;
+use crate::commands::sweep::TMP_DIR;
 use measure::{Group, Point, PointStats, RoundMeasure, RunMeasure};
 
 /// Runs `swarmfl ranking`.
@@ -54,15 +55,6 @@ struct Run {
 /// printed on stdout (per point: runs, Byzantine and honest token gains and their difference).
 pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Result<String> {
     let logs = find_logs(inputs)?;
-    anyhow::ensure!(
-        !logs.is_empty(),
-        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
-        inputs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
     let mut runs = Vec::with_capacity(logs.len());
     for (path, name) in &logs {
         runs.push(measure_log(path, name, submissions)?);
@@ -113,7 +105,9 @@ pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Res
 }
 
 /// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
-/// path order, each with its path relative to its input.
+/// path order, each with its path relative to its input. A sweep's in-progress logs (its
+/// `.tmp` folders) are passed over, unless `.tmp` itself is an input. None found is an error
+/// that names the inputs.
 pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
     let mut out = Vec::new();
     for input in inputs {
@@ -134,7 +128,9 @@ pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, Stri
             for entry in entries {
                 let path = entry?.path();
                 if path.is_dir() {
-                    stack.push(path);
+                    if path.file_name().is_none_or(|n| n != TMP_DIR) {
+                        stack.push(path);
+                    }
                 } else if path.file_name().is_some_and(|n| n == "run.swlog") {
                     found.push(path);
                 }
@@ -150,6 +146,15 @@ pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, Stri
             out.push((path, name));
         }
     }
+    anyhow::ensure!(
+        !out.is_empty(),
+        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
+        inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     Ok(out)
 }
 
@@ -412,4 +417,39 @@ fn summary_table(points: &[PointStats]) -> String {
         );
     }
     text
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A sweep's in-progress logs sit in its `.tmp` folder: a search passes over them (they
+    /// are not runs yet), but names them when given `.tmp` itself; none found is an error.
+    #[test]
+    fn find_logs_passes_over_in_progress_logs() {
+        let root = std::env::temp_dir().join(format!("swarmfl-find-logs-{}", std::process::id()));
+        let done = root.join("e4/point/seed1");
+        let running = root.join(TMP_DIR).join("e4-point-seed2-1");
+        std::fs::create_dir_all(&done).unwrap();
+        std::fs::create_dir_all(&running).unwrap();
+        std::fs::write(done.join("run.swlog"), b"").unwrap();
+        std::fs::write(running.join("run.swlog"), b"").unwrap();
+
+        let found = find_logs(std::slice::from_ref(&root)).unwrap();
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].0, done.join("run.swlog"));
+        let found = find_logs(&[root.join(TMP_DIR)]).unwrap();
+        assert_eq!(found[0].0, running.join("run.swlog"));
+
+        let empty = root.join("empty");
+        std::fs::create_dir_all(&empty).unwrap();
+        let err = find_logs(std::slice::from_ref(&empty))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("no run.swlog found under") && err.contains("empty"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&root).unwrap();
+    }
 }
