@@ -5,7 +5,8 @@
 #   2. opened at a block (URL hash #block=H), it shows the log's state at that block: every
 #      robot's position, tokens, behaviour and forager state equal what
 #      `swarmfl inspect LOG --block H --json` prints; each behaviour has a colour of its own;
-#      a swarm with foragers shows the nest and the food sources;
+#      a swarm with foragers shows the nest and the food sources (under Flow-FL's rule the nest
+#      strip and the items on the floor at that moment, which with the items carried make all);
 #   3. a screenshot at that moment is taken (SCREENSHOT=path keeps it, e.g. docs/view.png);
 #   4. the layout (scripts/page_check.py layout): no horizontal scroll at 1024x768, the reorg
 #      text above the fold at 1400x900 (SCREENSHOT_1024=path keeps the 1024 px screenshot);
@@ -13,7 +14,8 @@
 #      frames advancing while the run goes, Ctrl-C stopping run and server, and a page open at
 #      the end saying the run ended (LIVE_SCREENSHOT=path keeps a screenshot of it running).
 # Usage: scripts/view_check.sh [LOG]   (default: a fresh smoke run of a mixed swarm, a third of
-#   each behaviour; RUN_SET="key=value ..." replaces its overrides; SWARMFL=path/to/swarmfl)
+#   each behaviour; RUN_PRESET=name replaces its preset and RUN_SET="key=value ..." its overrides;
+#   VIEW_ONLY=1 stops after step 3, the checks that depend on the log; SWARMFL=path/to/swarmfl)
 set -euo pipefail
 cd "$(dirname "$0")/.."
 bin=${SWARMFL:-target/release/swarmfl}
@@ -23,7 +25,7 @@ log=${1:-}
 if [ -z "$log" ]; then
   sets=()
   for kv in ${RUN_SET-world.behaviour=mixed}; do sets+=(--set "$kv"); done
-  "$bin" run --preset smoke --seed 3 "${sets[@]}" --out "$work/run" --quiet
+  "$bin" run --preset "${RUN_PRESET:-smoke}" --seed 3 "${sets[@]}" --out "$work/run" --quiet
   log=$work/run/run.swlog
 fi
 "$bin" view "$log" --out "$work/run.html"
@@ -78,19 +80,34 @@ for r in status["robots"]:
 if len(colours) > 1 and (any(len(c) != 1 for c in colours.values())
                          or len(set().union(*colours.values())) != len(colours)):
     bad.append(f"behaviours do not each have a colour of their own: {colours}")
-if any(r["behaviour"] == "foraging" for r in status["robots"]) and \
+flowfl = status.get("nest_strip") is not None
+if any(r["behaviour"] == "foraging" for r in status["robots"]) and not flowfl and \
         (not status["nest"] or not status["food"]):
     bad.append("foragers but no nest or food sources on the page")
+# Flow-FL's foraging (world.foraging.rule = "flowfl"): the nest strip and the items of the frame
+# shown; every item is on the floor east of the strip or carried, as all were at the start.
+if any(r["behaviour"] == "foraging" for r in status["robots"]) and "items" in status:
+    items, carried = status["items"], sum(1 for r in status["robots"] if r.get("carrying"))
+    if not flowfl or not items:
+        bad.append(f"flowfl foragers but nest strip {status.get('nest_strip')}, items {items}")
+    elif len(items) + carried != status["items_at_start"]:
+        bad.append(f"{len(items)} items on the floor and {carried} carried, "
+                   f"{status['items_at_start']} at the start")
+    elif any(x <= status["nest_strip"] for x, _ in items):
+        bad.append(f"an item in the nest strip: {items}")
 if bad:
     sys.exit("view_check: the page differs from the log:\n  " + "\n  ".join(bad))
 print(f"view_check: block {height} at t = {status['time_s']} s: {len(status['robots'])} robots' "
       f"positions, tokens and behaviours ({', '.join(sorted(colours))}) match `swarmfl inspect`; "
-      f"no script errors")
+      + (f"nest strip and {len(status['items'])} items on the floor ({status['items_at_start']} with "
+         f"those carried); " if "items" in status else "")
+      + "no script errors")
 EOF
 test -s "$work/view.png" || { echo "view_check: no screenshot" >&2; cat "$work/chrome.log" >&2; exit 1; }
 if [ -n "${SCREENSHOT:-}" ]; then
   cp "$work/view.png" "$SCREENSHOT"
   echo "view_check: screenshot in $SCREENSHOT"
 fi
+if [ "${VIEW_ONLY:-0}" = 1 ]; then exit 0; fi
 python3 scripts/page_check.py layout "$url" ${SCREENSHOT_1024:+--shot "$SCREENSHOT_1024"}
 python3 scripts/page_check.py live "$bin" ${LIVE_SCREENSHOT:+--shot "$LIVE_SCREENSHOT"}

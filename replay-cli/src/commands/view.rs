@@ -1,7 +1,8 @@
 //! `swarmfl view LOG --out run.html`: one self-contained HTML file to watch a run in a browser
 //! (no network, no server): the arena with obstacles, robots with ids, Byzantine marks and radio
 //! links (with behaviours, `world.behaviour`: robots coloured by behaviour, the foraging nest and
-//! food sources, each forager's state), animated over time with a scrubber that also jumps by block height; beside it each
+//! food sources, each forager's state; under Flow-FL's foraging, `world.foraging.rule =
+//! "flowfl"`, its nest strip and the items on the floor at each frame), animated over time with a scrubber that also jumps by block height; beside it each
 //! robot's tokens, the loss per round and the chain (forks and reorgs) up to the current time.
 //! A baseline run (`learn.aggregation` = `gossip` or `central`) has no blocks or tokens: its
 //! page shows each robot's model version instead of its tokens, the loss per aggregation (the
@@ -36,7 +37,7 @@ use swarmfl_core::inspect::{self, expr::Env, Column};
 use swarmfl_core::log::{LogReader, Next};
 use swarmfl_core::replay;
 use swarmfl_core::state::State;
-use swarmfl_core::world::{Forager, Obstacle};
+use swarmfl_core::world::{foraging_flowfl, Behaviours, Forager, Obstacle};
 use swarmfl_core::Digest;
 
 use crate::cli::ViewArgs;
@@ -495,7 +496,8 @@ fn page_data(
         .iter()
         .map(|&b| if b { "1" } else { "0" })
         .collect();
-    // Behaviours: each robot's name, the nest `[x, y, r]` and food `[x, y]` (empty without).
+    // Behaviours: each robot's name, the nest `[x, y, r]` and food `[x, y]` of the `simple`
+    // rule (null and empty without).
     let behaviours = state.world.behaviours();
     let names: Vec<String> = (0..config.world.robots as usize)
         .map(|i| {
@@ -533,6 +535,17 @@ fn page_data(
         .map(|&k| frames.t[k].to_string())
         .collect::<Vec<_>>()
         .join(",");
+    // Flow-FL's foraging arena: the nest strip west of its edge and, per frame, the items on
+    // the floor. Only its runs have the keys, so every other run's data is as it was.
+    let flowfl = if order.iter().any(|&k| frames.items[k] != "null") {
+        format!(
+            ",\"nest_strip\":{},\"items\":[{}]",
+            foraging_flowfl::NEST_EDGE_X_M,
+            items_json(&order, &frames.items)
+        )
+    } else {
+        String::new()
+    };
     let live = match live {
         Some((l, upto_ms)) => format!(
             "{{\"version\":{},\"ended\":{},\"poll_ms\":{},\"upto_ms\":{upto_ms}}}",
@@ -543,7 +556,7 @@ fn page_data(
     Ok(format!(
         "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
-         \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius},\
+         \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius}{flowfl},\
          \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"versions\":[{}],\
          \"blocks\":{}],\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{}],\
          \"truncated\":{},\"live\":{live}}}",
@@ -567,6 +580,29 @@ fn page_data(
         walk.reorgs,
         serde_json::to_string(&index.truncated)?,
     ))
+}
+
+/// The items of the frames `order` as JSON text without its brackets: a frame whose items are
+/// those of the frame before it has the position (in `order`) of the frame that lists them.
+/// Items change only when taken or delivered, so most frames of a short run repeat them.
+fn items_json(order: &[usize], items: &[String]) -> String {
+    let mut out = String::new();
+    let mut listed: Option<(usize, &str)> = None;
+    for (pos, &k) in order.iter().enumerate() {
+        if pos > 0 {
+            out.push(',');
+        }
+        match listed {
+            Some((at, list)) if list == items[k] => {
+                let _ = write!(out, "{at}");
+            }
+            _ => {
+                out.push_str(&items[k]);
+                listed = Some((pos, &items[k]));
+            }
+        }
+    }
+    out
 }
 
 /// The final canonical chain as JSON: `[block id, time ms]` per block, and every robot's
@@ -706,9 +742,13 @@ struct Frames {
     pose: Vec<String>,
     links: Vec<String>,
     heads: Vec<String>,
-    /// Each robot's forager state as one letter (`e` explore, `r` return, `s` rest, `-` not a
-    /// forager); empty text when nobody forages.
+    /// Each robot's forager state as one letter (see [`forager_letter`]); empty text when
+    /// nobody forages.
     forager: Vec<String>,
+    /// Flow-FL's items on the floor (`world.foraging.rule = "flowfl"`), `[x, y, ...]` in
+    /// millimetres in item order (carried ones left out); `null` under any other rule. The
+    /// page's data lists each change once ([`items_json`]).
+    items: Vec<String>,
     /// A baseline's model version of each robot (`gossip`: the merges it made; `central`: the
     /// server's round it holds); `null` for a chain run.
     versions: Vec<String>,
@@ -777,21 +817,33 @@ impl Frames {
             })
             .collect();
         self.heads.push(format!("[{}]", heads.join(",")));
-        let forager: String = match world.behaviours().filter(|b| b.nest.is_some()) {
-            Some(b) => {
-                b.of.iter()
-                    .zip(&b.foragers)
-                    .map(|(&of, f)| match (of, f) {
-                        (Behaviour::Foraging, Forager::Explore) => 'e',
-                        (Behaviour::Foraging, Forager::Return) => 'r',
-                        (Behaviour::Foraging, Forager::Rest { .. }) => 's',
-                        _ => '-',
-                    })
-                    .collect()
-            }
+        let behaviours = world
+            .behaviours()
+            .filter(|b| b.nest.is_some() || b.flowfl.is_some());
+        let forager: String = match behaviours {
+            Some(b) => (0..n).map(|i| forager_letter(b, i)).collect(),
             None => String::new(),
         };
         self.forager.push(format!("\"{forager}\""));
+        // Flow-FL's items move (taken, carried, re-placed on delivery): each frame has its own.
+        let items = match behaviours.and_then(|b| b.flowfl.as_ref()) {
+            Some(f) => {
+                let mut items = String::from("[");
+                for (k, &(x, y)) in f.items.iter().flatten().enumerate() {
+                    let _ = write!(
+                        items,
+                        "{}{},{}",
+                        if k == 0 { "" } else { "," },
+                        (x * 1000.0).round() as i64,
+                        (y * 1000.0).round() as i64
+                    );
+                }
+                items.push(']');
+                items
+            }
+            None => "null".to_string(),
+        };
+        self.items.push(items);
         let versions = if state.aggregation.kind() == Aggregation::Chain {
             "null".to_string()
         } else {
@@ -801,6 +853,23 @@ impl Frames {
             format!("[{}]", v.join(","))
         };
         self.versions.push(versions);
+    }
+}
+
+/// Robot `i`'s forager state as one letter: `e` explore, `r` return, `s` rest, `-` not a
+/// forager. Under the `simple` rule a returning forager carries food and no other does; under
+/// Flow-FL's a forager also returns from a fruitless trip, so there the letter of one that
+/// carries an item is upper case (`E`, `R`, `S`) and a lower-case `r` returns empty-handed.
+fn forager_letter(b: &Behaviours, i: usize) -> char {
+    let letter = match (b.of[i], b.foragers[i]) {
+        (Behaviour::Foraging, Forager::Explore) => 'e',
+        (Behaviour::Foraging, Forager::Return) => 'r',
+        (Behaviour::Foraging, Forager::Rest { .. }) => 's',
+        _ => return '-',
+    };
+    match &b.flowfl {
+        Some(f) if f.robots[i].item.is_some() => letter.to_ascii_uppercase(),
+        _ => letter,
     }
 }
 
@@ -917,6 +986,100 @@ mod tests {
         let bytes = fixture("smoke-e1-faulty-seed3");
         let hidden = check_growing("forks", &bytes, &cuts(&bytes, 5, 11));
         assert!(hidden > 0, "the log has sealings off the final chain");
+    }
+
+    /// The page data of the log at `log` as JSON.
+    fn data_of(log: &Path) -> serde_json::Value {
+        serde_json::from_str(&whole(log, None).data).unwrap()
+    }
+
+    #[test]
+    fn a_flowfl_foraging_page_has_the_nest_strip_and_each_frame_s_items() {
+        let dir = scratch("flowfl");
+        let config = Config::resolve(
+            Some("flowfl-foraging"),
+            None,
+            &["run.duration_s=120".into()],
+        )
+        .unwrap();
+        let total = config.world.foraging.food_count(config.world.robots) as usize;
+        let out = crate::commands::run::run(config, 1, &dir.join("run"), true).unwrap();
+        let data = data_of(&out.log_path);
+        assert_eq!(data["nest_strip"], -1.0, "the nest strip's east edge");
+        assert_eq!(data["nest"], serde_json::Value::Null, "no disk nest");
+        let (t, items, forager) = (
+            data["t"].as_array().unwrap(),
+            data["items"].as_array().unwrap(),
+            data["forager"].as_array().unwrap(),
+        );
+        assert_eq!(items.len(), t.len(), "one item list per frame");
+        let frame_ms = data["frame_ms"].as_u64().unwrap();
+        let mut checked = 0;
+        for k in (0..t.len()).step_by(t.len() / 6) {
+            let list = items[k]
+                .as_u64()
+                .map_or(&items[k], |at| &items[at as usize]);
+            let mm: Vec<i64> = list
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_i64().unwrap())
+                .collect();
+            let letters = forager[k].as_str().unwrap();
+            let carried = letters.chars().filter(char::is_ascii_uppercase).count();
+            assert_eq!(
+                mm.len() / 2 + carried,
+                total,
+                "frame {k}: on the floor or carried"
+            );
+            // The items of a uniform frame are the log's state at that time, not the config's.
+            let t_ms = t[k].as_u64().unwrap();
+            if t_ms % frame_ms != 0 {
+                continue;
+            }
+            let (state, _, _) =
+                replay::state_at_time(&out.log_path, swarmfl_core::SimTime(t_ms)).unwrap();
+            let b = state.world.behaviours().unwrap();
+            let want: Vec<i64> = b
+                .flowfl
+                .as_ref()
+                .unwrap()
+                .items
+                .iter()
+                .flatten()
+                .flat_map(|&(x, y)| [(x * 1000.0).round() as i64, (y * 1000.0).round() as i64])
+                .collect();
+            assert_eq!(mm, want, "items at {t_ms} ms");
+            let want: String = (0..b.of.len()).map(|i| forager_letter(b, i)).collect();
+            assert_eq!(letters, want, "foragers at {t_ms} ms");
+            checked += 1;
+        }
+        assert!(
+            checked >= 3,
+            "{checked} uniform frames checked against the log"
+        );
+        let lists = items.iter().filter(|v| v.is_array()).count();
+        assert!(
+            lists > 1 && lists < items.len(),
+            "items are taken and re-placed over the run, and each change is listed once: {lists} \
+             lists for {} frames",
+            items.len()
+        );
+        assert!(
+            forager.iter().any(|f| f.as_str().unwrap().contains('R')),
+            "some forager carries an item home"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn pages_of_other_runs_have_no_flowfl_keys() {
+        let dir = scratch("simple");
+        let log = dir.join("run.swlog");
+        std::fs::write(&log, fixture("smoke-secure-seed1")).unwrap();
+        let data = data_of(&log);
+        assert!(data.get("nest_strip").is_none() && data.get("items").is_none());
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
