@@ -59,7 +59,46 @@ pub struct MixedConfig {
     /// One behaviour per robot (`avoidance`, `flocking` or `foraging`), overriding the shares
     /// when not empty; it must name every robot.
     pub per_robot: Vec<Behaviour>,
+    /// How robots get their behaviours: `share` (by robot index, from the shares or
+    /// `per_robot`, for the whole run) or `place` (Flow-FL's `mixed_by_location`: each tick by
+    /// where the robot is, `world/place.rs`; the shares and `per_robot` are not read). Left out
+    /// of the recorded text at its default, `share`.
+    #[serde(default, skip_serializing_if = "is_share")]
+    pub assign: MixedAssign,
 }
+
+/// How a mixed swarm's robots get their behaviours (`world.mixed.assign`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MixedAssign {
+    /// One behaviour per robot for the whole run, by index (`world.mixed.avoidance`,
+    /// `flocking`, `foraging`, or `per_robot`): what records without the key ran.
+    #[default]
+    Share,
+    /// By place, each tick (Flow-FL's `khepera_mixed.cpp`, `ControlStep`): flocking beyond
+    /// |x| = 2 m, avoidance where y > 0, foraging elsewhere (`world/place.rs`).
+    Place,
+}
+
+impl MixedAssign {
+    /// The name used in configurations.
+    pub fn name(self) -> &'static str {
+        match self {
+            MixedAssign::Share => "share",
+            MixedAssign::Place => "place",
+        }
+    }
+}
+
+fn is_share(assign: &MixedAssign) -> bool {
+    super::skip::omit(*assign == MixedAssign::Share)
+}
+
+/// How far from the arena's center the place rule's layout reaches, in metres: its flockers
+/// steer to goals at y = -2.5 and +2.5 m, beyond the flocking bands |x| > 2 m
+/// (`world/place.rs`, Flow-FL's `khepera_mixed.cpp` in its +-3 m arena), so
+/// `world.mixed.assign = "place"` needs an arena of at least 2 x (2.5 m + a robot's radius).
+pub const PLACE_LAYOUT_HALF_M: f64 = 2.5;
 
 impl Default for MixedConfig {
     fn default() -> Self {
@@ -68,12 +107,15 @@ impl Default for MixedConfig {
             flocking: 1.0 / 3.0,
             foraging: 1.0 / 3.0,
             per_robot: Vec::new(),
+            assign: MixedAssign::Share,
         }
     }
 }
 
 impl MixedConfig {
-    /// Robot `robot`'s behaviour in a swarm of `robots` (never `Mixed`).
+    /// Robot `robot`'s behaviour in a swarm of `robots` (never `Mixed`) under `assign =
+    /// "share"` (under `"place"` the world assigns behaviours from positions instead,
+    /// `world/place.rs`).
     pub fn behaviour_of(&self, robot: u32, robots: u32) -> Behaviour {
         if let Some(&b) = self.per_robot.get(robot as usize) {
             return b;

@@ -27,8 +27,8 @@ mod validate;
 mod tests;
 
 pub use behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedConfig, WindowRule,
-    FLOWFL_LAYOUT_HALF_M,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedAssign, MixedConfig,
+    WindowRule, FLOWFL_LAYOUT_HALF_M, PLACE_LAYOUT_HALF_M,
 };
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{

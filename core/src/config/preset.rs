@@ -4,7 +4,8 @@
 use std::fmt;
 
 use super::behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedConfig, WindowRule,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedAssign, MixedConfig,
+    WindowRule,
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
@@ -63,9 +64,10 @@ pub enum Preset {
     /// (`world.foraging.rule = "flowfl"`: nest strip, moving items, probabilistic rest), no
     /// obstacles, 10 cm/s, 2 items per robot (`foraging_batch.argos`, `automate.sh`).
     FlowflForaging,
-    /// Flow-FL's mixed experiment as ours builds it: `flowfl` with a third of the swarm per
-    /// behaviour (by index; Flow-FL's is by place), no obstacles, its 5.9 m arena, 2 food
-    /// sources per robot (`mixed_by_location_batch.argos`).
+    /// Flow-FL's mixed experiment: `flowfl` with each robot's behaviour set by where it is,
+    /// as Flow-FL's (`world.mixed.assign = "place"`, `world/place.rs`), no obstacles, its
+    /// 5.9 m arena, 2 food sources per robot, the nest in the foraging region
+    /// (`mixed_by_location_batch.argos`).
     FlowflMixed,
     /// Experiment 1: no security, no Byzantine robots; sweep `data.expiration_s`.
     E1Expiration,
@@ -168,8 +170,9 @@ impl Preset {
                  moving items, probabilistic rest), no obstacles, 10 cm/s, 2 items per robot"
             }
             Preset::FlowflMixed => {
-                "Flow-FL's mixed experiment (ours by index): `flowfl`, a third per behaviour, \
-                 no obstacles, 5.9 x 5.9 m, 2 food sources per robot"
+                "Flow-FL's mixed experiment: `flowfl`, behaviours by place (flocking beyond \
+                 |x| = 2 m, avoidance where y > 0, foraging elsewhere), no obstacles, \
+                 5.9 x 5.9 m, 2 food sources per robot"
             }
             Preset::E1Expiration => {
                 "Exp. 1: security off, no Byzantine robots; sweep data.expiration_s 250..1250"
@@ -346,9 +349,16 @@ fn flowfl_experiment(c: &mut Config, experiment: Preset) {
         }
         Preset::FlowflMixed => {
             c.world.behaviour = Behaviour::Mixed;
+            // By place (`khepera_mixed.cpp`, `ControlStep`).
+            c.world.mixed.assign = MixedAssign::Place;
             // Walls at +-3 m, 0.1 m thick: 5.9 m between their faces.
             c.world.arena_side_m = 5.9;
             c.world.foraging.food_per_robot = 2;
+            // Flow-FL's nest is the strip x < -1 m (`mixed_loop_functions.cpp`); its part in
+            // the foraging region (-2 < x < -1, y < 0) holds our nest disk of 1 m across,
+            // which at its default (-1.4, 0) would lie half in the avoidance region.
+            c.world.foraging.nest_x_m = -1.5;
+            c.world.foraging.nest_y_m = -1.5;
         }
         _ => unreachable!("flowfl_experiment is called for the three flowfl-* experiments"),
     }

@@ -527,6 +527,41 @@ fn bad_behaviour_settings_are_refused_naming_the_key() {
         "world.mixed.foraging=0",
     ]);
     ok(&["world.behaviour=flocking", "world.foraging.nest_x_m=9"]);
+    // The place rule (`world.mixed.assign`): a known value, a mixed swarm, no per-robot list,
+    // our own foragers, an arena that holds Flow-FL's layout.
+    let e = err(&["world.behaviour=mixed", "world.mixed.assign=random"]);
+    assert!(
+        e.contains("world.mixed.assign") && e.contains("share") && e.contains("place"),
+        "{e}"
+    );
+    let e = err(&["world.mixed.assign=place", "world.arena_side_m=5.9"]);
+    assert!(
+        e.contains("world.mixed.assign") && e.contains("world.behaviour=mixed"),
+        "{e}"
+    );
+    let place = ["world.behaviour=mixed", "world.mixed.assign=place"];
+    let e = err(&place);
+    assert!(
+        e.contains("world.arena_side_m") && e.contains("world.mixed.assign"),
+        "{e}"
+    );
+    let e = err(&[
+        place[0],
+        place[1],
+        "world.arena_side_m=5.9",
+        "world.foraging.rule=flowfl",
+    ]);
+    assert!(
+        e.contains("world.foraging.rule") && e.contains("simple"),
+        "{e}"
+    );
+    let per_robot = format!("world.mixed.per_robot={:?}", vec!["flocking"; 15]);
+    let e = err(&[place[0], place[1], "world.arena_side_m=5.9", &per_robot]);
+    assert!(e.contains("world.mixed.per_robot"), "{e}");
+    let e = err(&[place[0], place[1], "world.arena_side_m=nan"]);
+    assert!(e.contains("world.arena_side_m"), "{e}");
+    let c = ok(&[place[0], place[1], "world.arena_side_m=5.9"]);
+    assert_eq!(c.world.mixed.assign, MixedAssign::Place);
     // The e-puck's avoidance weighs its eight sensors; an unknown rule names its key.
     let e = err(&["world.avoidance=epuck", "world.proximity_sensors=6"]);
     assert!(
@@ -654,7 +689,17 @@ fn the_flowfl_experiments_are_presets_and_bad_foraging_input_names_its_key() {
             preset == Preset::FlowflForaging,
             "{preset}"
         );
+        // Only Flow-FL's mixed experiment assigns behaviours by place; every other preset
+        // keeps its text without the key.
+        assert_eq!(
+            text.contains("assign ="),
+            preset == Preset::FlowflMixed,
+            "{preset}: {text}"
+        );
     }
+    let mixed = Preset::FlowflMixed.config();
+    assert_eq!(mixed.world.mixed.assign, MixedAssign::Place);
+    assert!(mixed.to_toml().contains("assign = \"place\""));
     let foraging = Preset::FlowflForaging.config();
     assert_eq!(foraging.world.foraging.rule, ForagingRule::Flowfl);
     assert_eq!(foraging.world.foraging.food_count(60), 120);

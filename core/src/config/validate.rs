@@ -4,7 +4,7 @@
 //! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
 //! engine) read only configuration fields, so they live here too.
 
-use super::behaviour::{Avoidance, Behaviour, ForagingRule};
+use super::behaviour::{Avoidance, Behaviour, ForagingRule, MixedAssign, PLACE_LAYOUT_HALF_M};
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
@@ -210,12 +210,14 @@ fn ring_rules_have_eight_sensors(c: &Config) -> Result<(), ConfigError> {
     Ok(())
 }
 
-/// Whether any robot of the swarm runs `b` (directly or in a mixed swarm).
+/// Whether any robot of the swarm runs `b` (directly or in a mixed swarm; by place, every
+/// robot may run every behaviour).
 fn runs(c: &Config, b: Behaviour) -> bool {
     let w = &c.world;
     w.behaviour == b
         || (w.behaviour == Behaviour::Mixed
-            && (0..w.robots).any(|i| w.mixed.behaviour_of(i, w.robots) == b))
+            && (w.mixed.assign == MixedAssign::Place
+                || (0..w.robots).any(|i| w.mixed.behaviour_of(i, w.robots) == b)))
 }
 
 fn mixed_swarm_is_complete(c: &Config) -> Result<(), ConfigError> {
@@ -230,6 +232,9 @@ fn mixed_swarm_is_complete(c: &Config) -> Result<(), ConfigError> {
                 w.behaviour.name()
             ),
         );
+    }
+    if m.assign == MixedAssign::Place {
+        return mixed_by_place_fits(c);
     }
     if w.behaviour != Behaviour::Mixed {
         return Ok(());
@@ -275,6 +280,51 @@ fn mixed_swarm_is_complete(c: &Config) -> Result<(), ConfigError> {
         );
     }
     Ok(())
+}
+
+/// `world.mixed.assign = "place"` (`world/place.rs`): a mixed swarm, no per-robot list (the
+/// place decides), our own foragers (Flow-FL's `flowfl` foraging lays out its own nest and
+/// lights for the foraging arena), and an arena that holds the flocking bands' goals at
+/// y = +-2.5 m with a robot's body to spare.
+fn mixed_by_place_fits(c: &Config) -> Result<(), ConfigError> {
+    let w = &c.world;
+    let place = "with world.mixed.assign = \"place\"";
+    if w.behaviour != Behaviour::Mixed {
+        return out_of_range(
+            "world.mixed.assign",
+            "\"place\"".to_string(),
+            format!(
+                "\"share\" unless world.behaviour = \"mixed\" (it is \"{}\"); set world.behaviour=mixed",
+                w.behaviour.name()
+            ),
+        );
+    }
+    if !w.mixed.per_robot.is_empty() {
+        return out_of_range(
+            "world.mixed.per_robot",
+            format!("{} entries", w.mixed.per_robot.len()),
+            format!("empty {place} (a robot's place sets its behaviour); set world.mixed.assign=share to list them"),
+        );
+    }
+    if w.foraging.rule == ForagingRule::Flowfl {
+        return out_of_range(
+            "world.foraging.rule",
+            "\"flowfl\"".to_string(),
+            format!("\"simple\" {place} (Flow-FL's foraging is laid out for its foraging arena)"),
+        );
+    }
+    let need = 2.0 * (PLACE_LAYOUT_HALF_M + w.robot_radius_m);
+    if w.arena_side_m >= need {
+        return Ok(());
+    }
+    out_of_range(
+        "world.arena_side_m",
+        w.arena_side_m.to_string(),
+        format!(
+            "at least {need} m {place} (Flow-FL's mixed arena: flocking beyond |x| = 2 m toward \
+             goals at y = +-2.5 m); enlarge the arena or set world.mixed.assign=share"
+        ),
+    )
 }
 
 /// The largest |coordinate| of a point inside the walls, keeping `margin` from them.

@@ -3,8 +3,10 @@
 //! "Behaviours").
 //!
 //! The assignment is a pure function of the configuration (`world.behaviour`, and for
-//! `mixed` the shares or the per-robot list of `world.mixed`), so the world and the
-//! controllers agree on it without a random draw. Food sources are placed from their own
+//! `mixed` the shares or the per-robot list of `world.mixed`) or, with `world.mixed.assign =
+//! "place"`, of the robots' positions (`place.rs`, redone by the reducer after every tick), so
+//! the world and the controllers agree on it without a random draw: the controllers read it
+//! from the world. Food sources are placed from their own
 //! seeded stream (`Purpose::Obstacles`, index 1), so they never perturb the obstacles' or the
 //! robots' placement. Forager states ([`Forager`]) change in the reducer, from positions
 //! alone (`foraging.rs`): replaying the tick events reproduces them, and they enter the world's
@@ -14,19 +16,32 @@ use serde::{Deserialize, Serialize};
 
 use super::arena::{Arena, PLACEMENT_ATTEMPTS};
 use super::foraging_flowfl::FlowflForaging;
-use super::WorldError;
-use crate::config::{Behaviour, Config, ForagingRule};
+use super::{place, Pose, WorldError};
+use crate::config::{Behaviour, Config, ForagingRule, MixedAssign};
 use crate::rng::{self, Purpose};
 
-/// Each robot's behaviour (never `Mixed`), in robot order.
-pub fn assignment(config: &Config) -> Vec<Behaviour> {
+/// Each robot's behaviour (never `Mixed`) with the robots at `poses`, in robot order.
+pub fn assignment(config: &Config, poses: &[Pose]) -> Vec<Behaviour> {
     let w = &config.world;
+    if assigned_by_place(config) {
+        return poses
+            .iter()
+            .map(|p| place::behaviour_at(p.x, p.y))
+            .collect();
+    }
     (0..w.robots)
         .map(|i| match w.behaviour {
             Behaviour::Mixed => w.mixed.behaviour_of(i, w.robots),
             b => b,
         })
         .collect()
+}
+
+/// Whether the behaviours follow the robots' places (`world.mixed.assign = "place"` in a mixed
+/// swarm), each tick, instead of being fixed per robot.
+pub fn assigned_by_place(config: &Config) -> bool {
+    let w = &config.world;
+    w.behaviour == Behaviour::Mixed && w.mixed.assign == MixedAssign::Place
 }
 
 /// The nest of a foraging swarm: a disk robots bring items to.
@@ -84,8 +99,12 @@ impl Forager {
 /// The behaviours' part of the world.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Behaviours {
-    /// Each robot's behaviour, in robot order.
+    /// Each robot's behaviour, in robot order (this tick's, under the place rule).
     pub of: Vec<Behaviour>,
+    /// How `of` is set: `Place` redoes it from the positions after every tick (`place.rs`).
+    /// Left out of the serialized state at `Share`.
+    #[serde(default, skip_serializing_if = "is_share")]
+    pub assign: MixedAssign,
     /// The nest, when some robot forages.
     pub nest: Option<Nest>,
     /// The food sources (empty without foragers).
@@ -106,19 +125,28 @@ pub struct Behaviours {
 }
 
 impl Behaviours {
-    /// The behaviours of the run seeded with `seed`, or `None` when every robot runs the
-    /// default avoidance walk (then the world is exactly what it was before behaviours).
+    /// The behaviours of the run seeded with `seed` with the robots at `poses`, or `None`
+    /// when every robot runs the default avoidance walk for the whole run (then the world is
+    /// exactly what it was before behaviours).
     pub fn new(
         config: &Config,
         seed: u64,
         arena: &Arena,
+        poses: &[Pose],
     ) -> Result<Option<Behaviours>, WorldError> {
-        let of = assignment(config);
-        if of.iter().all(|&b| b == Behaviour::Avoidance) {
+        let of = assignment(config, poses);
+        let by_place = assigned_by_place(config);
+        if !by_place && of.iter().all(|&b| b == Behaviour::Avoidance) {
             return Ok(None);
         }
+        let assign = if by_place {
+            MixedAssign::Place
+        } else {
+            MixedAssign::Share
+        };
         let f = &config.world.foraging;
-        let foraging = of.contains(&Behaviour::Foraging);
+        // Under the place rule any robot may forage, whatever it does at the start.
+        let foraging = by_place || of.contains(&Behaviour::Foraging);
         if foraging && f.rule == ForagingRule::Flowfl {
             let forages = of.iter().map(|&b| b == Behaviour::Foraging).collect();
             return Ok(Some(Behaviours {
@@ -130,6 +158,7 @@ impl Behaviours {
                     })
                     .collect(),
                 of,
+                assign,
                 nest: None,
                 food: Vec::new(),
                 food_radius_m: f.food_radius_m,
@@ -150,6 +179,7 @@ impl Behaviours {
         Ok(Some(Behaviours {
             foragers: vec![Forager::Explore; of.len()],
             of,
+            assign,
             nest,
             food,
             food_radius_m: f.food_radius_m,
@@ -159,6 +189,13 @@ impl Behaviours {
         }))
     }
 
+    /// Under the place rule, sets every robot's behaviour from the positions after a tick.
+    pub(super) fn follow_places(&mut self, poses: &[Pose]) {
+        if self.assign == MixedAssign::Place {
+            place::assign(&mut self.of, poses);
+        }
+    }
+
     /// Whether a robot at (`x`, `y`) with body radius `r` touches a food source.
     pub fn at_food(&self, x: f64, y: f64, r: f64) -> bool {
         let reach = self.food_radius_m + r;
@@ -166,6 +203,10 @@ impl Behaviours {
             .iter()
             .any(|s| (x - s.x) * (x - s.x) + (y - s.y) * (y - s.y) <= reach * reach)
     }
+}
+
+fn is_share(assign: &MixedAssign) -> bool {
+    *assign == MixedAssign::Share
 }
 
 /// Food sources uniformly inside the walls, each clear of the nest and of every obstacle by a

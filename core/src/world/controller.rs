@@ -26,8 +26,10 @@
 use serde::{Deserialize, Serialize};
 
 use super::steering::{avoid, override_walk, walk, RobotController, Steer, Walk, WheelCommand};
-use super::{behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, sensor_angle, World};
-use crate::config::{Avoidance, Behaviour, Config, FlockingConfig};
+use super::{
+    behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, place, sensor_angle, World,
+};
+use crate::config::{Avoidance, Behaviour, Config, FlockingConfig, MixedAssign};
 use crate::rng::{self, Purpose};
 
 /// One tick of the world: every robot's wheel command, in robot order.
@@ -49,8 +51,6 @@ pub struct Controllers {
     sensors: Vec<(bool, f64)>,
     robots: Vec<RobotController>,
     readings: Vec<f64>,
-    /// Each robot's behaviour (`world/behaviour.rs`).
-    behaviours: Vec<Behaviour>,
     flocking: FlockingConfig,
     /// Reused buffer: the range-and-bearing contacts flockers read.
     contacts: Vec<Vec<crate::types::RobotId>>,
@@ -84,7 +84,6 @@ impl Controllers {
             sensors,
             robots,
             readings: vec![0.0; n as usize],
-            behaviours: behaviour::assignment(config),
             flocking: w.flocking.clone(),
             contacts: Vec::new(),
             flowfl: vec![foraging_flowfl::Wheels::default(); w.robots as usize],
@@ -99,7 +98,12 @@ impl Controllers {
             "controllers built for another swarm"
         );
         let v = self.cruise_mmps;
-        if self.behaviours.contains(&Behaviour::Flocking) {
+        // Each robot's behaviour this tick is the world's (`behaviour.rs`): fixed per robot,
+        // or, under the place rule, where the robot stands (`place.rs`).
+        let behaviours = world.behaviours();
+        let behaviour_of = |i: usize| behaviours.map_or(Behaviour::Avoidance, |b| b.of[i]);
+        let by_place = behaviours.is_some_and(|b| b.assign == MixedAssign::Place);
+        if behaviours.is_some_and(|b| b.of.contains(&Behaviour::Flocking)) {
             world.contacts(&mut self.contacts);
         }
         let mut commands = Vec::with_capacity(self.robots.len());
@@ -133,16 +137,23 @@ impl Controllers {
                 None => walk(c, &walk_params, v),
             };
             let pose = world.poses()[i];
-            let command = match (self.behaviours[i], world.behaviours()) {
-                (Behaviour::Flocking, _) => flocking::command(
-                    c,
-                    &steer,
-                    i,
-                    world.poses(),
-                    &self.contacts[i],
-                    &self.flocking,
-                    world.time().secs(),
-                ),
+            let command = match (behaviour_of(i), behaviours) {
+                (Behaviour::Flocking, _) => {
+                    let goal = if by_place {
+                        place::flocking_goal(pose.x)
+                    } else {
+                        flocking::goal(&self.flocking, world.time().secs())
+                    };
+                    flocking::command(
+                        c,
+                        &steer,
+                        i,
+                        world.poses(),
+                        &self.contacts[i],
+                        &self.flocking,
+                        goal,
+                    )
+                }
                 (
                     Behaviour::Foraging,
                     Some(behaviour::Behaviours {

@@ -11,7 +11,8 @@
 //!   `alignment_weight` (the heading travels in the range-and-bearing message).
 //! - Goal: the unit vector to the goal (Flow-FL's light), weighted by `goal_weight`; every
 //!   `goal_swap_s` seconds the goal moves to its mirror image through the arena's center, so
-//!   the flock keeps crossing the arena (0 keeps it fixed, as Flow-FL's light).
+//!   the flock keeps crossing the arena (0 keeps it fixed, as Flow-FL's light). In a mixed
+//!   swarm by place (`place.rs`) the goal is instead that of the band the robot flocks in.
 //!
 //! The robot steers along the sum with the shared steering (`steering::steer_to`): obstacle
 //! avoidance first, then a turn proportional to the heading error. The controller reads the
@@ -32,7 +33,8 @@ pub fn goal(f: &FlockingConfig, t_s: f64) -> (f64, f64) {
     }
 }
 
-/// The flocking robot `i`'s wheel command for the next tick.
+/// The flocking robot `i`'s wheel command for the next tick, pulled toward `goal` (in metres:
+/// [`goal`] at the time, or the place rule's, `place.rs`).
 pub(super) fn command(
     c: &mut RobotController,
     steer: &Steer,
@@ -40,7 +42,7 @@ pub(super) fn command(
     poses: &[Pose],
     neighbours: &[RobotId],
     f: &FlockingConfig,
-    t_s: f64,
+    goal: (f64, f64),
 ) -> WheelCommand {
     let p = poses[i];
     let (mut cx, mut cy, mut ax, mut ay) = (0.0, 0.0, 0.0, 0.0);
@@ -63,7 +65,7 @@ pub(super) fn command(
             (cx, cy) = (cx / len, cy / len);
         }
     }
-    let (gx, gy) = goal(f, t_s);
+    let (gx, gy) = goal;
     let (tx, ty) = (gx - p.x, gy - p.y);
     let gl = libm::hypot(tx, ty);
     let (ux, uy) = if gl > 1e-9 {

@@ -22,12 +22,15 @@ pub mod foraging;
 pub mod foraging_flowfl;
 mod khepera;
 pub mod physics;
+pub mod place;
 pub mod sensors;
 pub mod steering;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Avoidance, Behaviour, Config, ConfigError, ForagingRule, WindowRule};
+use crate::config::{
+    Avoidance, Behaviour, Config, ConfigError, ForagingRule, MixedAssign, WindowRule,
+};
 use crate::data::{HeldoutObserver, Recorder, Recording, Sample};
 use crate::rng::{self, Purpose, Rng};
 use crate::types::{Digest, RobotId, SimTime};
@@ -211,11 +214,11 @@ pub(crate) fn sensor_angle(avoidance: Avoidance, k: u32, n: u32) -> f64 {
 }
 
 impl Extra {
-    fn new(config: &Config, seed: u64, arena: &Arena) -> Result<Extra, WorldError> {
+    fn new(config: &Config, seed: u64, arena: &Arena, poses: &[Pose]) -> Result<Extra, WorldError> {
         Ok(Extra {
             rab_robot_occlusion: config.world.rab_robot_occlusion,
             window_rule: config.data.window_rule,
-            behaviours: Behaviours::new(config, seed, arena)?,
+            behaviours: Behaviours::new(config, seed, arena, poses)?,
             avoidance: config.world.avoidance,
             slide_on_contact: config.world.slide_on_contact,
         })
@@ -283,7 +286,7 @@ impl World {
             &mut rng::stream(placement_seed, Purpose::Placement, 0),
         )?;
         let n = w.robots;
-        let extra = Extra::new(config, seed, &arena)?;
+        let extra = Extra::new(config, seed, &arena, &poses)?;
         let mut world = World {
             params,
             arena,
@@ -362,6 +365,9 @@ impl World {
         self.counters.collisions += overlaps;
         self.tick += 1;
         if let Some(b) = &mut self.extra.behaviours {
+            // Under the place rule the behaviours follow the new positions first, so a forager
+            // steps only while it stands in the foraging region (`place.rs`).
+            b.follow_places(&self.poses);
             foraging::advance(b, &self.poses, self.params.body.radius_m, self.tick);
         }
         self.scratch.grid = grid;
@@ -622,6 +628,9 @@ impl World {
         h.update(&self.sample_chain.0);
         if let Some(b) = &self.extra.behaviours {
             h.update(&rmp_serde::to_vec(&(&b.foragers, b.deliveries)).expect("states serialise"));
+            if b.assign == MixedAssign::Place {
+                h.update(&rmp_serde::to_vec(&b.of).expect("behaviours serialise"));
+            }
             if let Some(f) = &b.flowfl {
                 h.update(&rmp_serde::to_vec(f).expect("flowfl foraging state serialises"));
             }

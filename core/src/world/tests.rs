@@ -645,3 +645,64 @@ fn flowfl_foraging_starts_in_the_nest_delivers_and_replays_identically() {
         "an item off the floor is carried by one robot"
     );
 }
+
+#[test]
+fn a_mixed_swarm_by_place_follows_the_robots_and_freezes_foragers_outside() {
+    let c = Config::resolve(
+        Some("flowfl-mixed"),
+        None,
+        &["run.duration_s=400".to_string()],
+    )
+    .unwrap();
+    let check_places = |w: &World| {
+        let b = w.behaviours().expect("a mixed swarm has its behaviours");
+        for (i, p) in w.poses().iter().enumerate() {
+            assert_eq!(b.of[i], place::behaviour_at(p.x, p.y), "robot {i}");
+        }
+    };
+    let run = || {
+        let mut world = World::new(&c, 2).unwrap();
+        let mut controllers = Controllers::new(&c, 2);
+        check_places(&world);
+        let mut events = Vec::new();
+        let (mut switches, mut seen) = (0u32, [false; 3]);
+        for _ in 0..4000 {
+            let before = world.behaviours().unwrap().clone();
+            let e = controllers.decide(&world);
+            world.apply(&e);
+            check_places(&world);
+            let after = world.behaviours().unwrap();
+            for i in 0..after.of.len() {
+                switches += u32::from(after.of[i] != before.of[i]);
+                seen[after.of[i] as usize] = true;
+                // Outside the foraging region a forager's state does not move (Flow-FL's
+                // `ControlStep` does not step its state machine there).
+                if after.of[i] != Behaviour::Foraging {
+                    assert_eq!(after.foragers[i], before.foragers[i], "robot {i}");
+                }
+            }
+            events.push(e);
+        }
+        (world, events, switches, seen)
+    };
+    let (a, events, switches, seen) = run();
+    assert!(switches > 0, "robots change behaviour as they move");
+    assert_eq!(seen, [true; 3], "every behaviour runs");
+    assert_eq!(a.stats().collisions, 0);
+    let (b, ..) = run();
+    assert_eq!(a.digest(), b.digest(), "same seed, same world");
+    let mut folded = World::new(&c, 2).unwrap();
+    for e in &events {
+        folded.apply(e);
+    }
+    assert_eq!(folded.digest(), a.digest(), "the events alone rebuild it");
+    assert_eq!(folded, a);
+    // The digest covers the assignment: the same poses under another assignment differ.
+    let mut other = a.clone();
+    let ob = other.extra.behaviours.as_mut().unwrap();
+    ob.of[0] = match ob.of[0] {
+        Behaviour::Avoidance => Behaviour::Flocking,
+        _ => Behaviour::Avoidance,
+    };
+    assert_ne!(other.digest(), a.digest());
+}

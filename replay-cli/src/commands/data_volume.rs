@@ -62,6 +62,13 @@ struct Row {
     resting_per_seed: Vec<f64>,
     /// Per seed: items delivered to the nest per robot over the run (0 without foragers).
     deliveries_per_seed: Vec<f64>,
+    /// Per seed: the fractions of robot-ticks run as avoidance, flocking and foraging (what a
+    /// mixed swarm by place, `world.mixed.assign = "place"`, spends where).
+    behaviour_share_per_seed: Vec<[f64; 3]>,
+    /// Per seed: the mean over robots of the fraction of its robot-ticks spent in its most
+    /// frequent behaviour (1 when each robot keeps one behaviour, as by share; 1/3 when every
+    /// robot splits its time evenly between the three).
+    own_behaviour_per_seed: Vec<f64>,
     /// The wall and corner fractions of robots spread uniformly over the arena (obstacles
     /// ignored), for comparison.
     uniform_wall: f64,
@@ -71,6 +78,18 @@ struct Row {
     flowfl: Option<f64>,
     /// `samples_per_robot / flowfl`.
     ratio: Option<f64>,
+}
+
+/// Adds a tick to each robot's count of its behaviour: avoidance, flocking, foraging.
+fn count_behaviours(world: &World, ticks: &mut [[u64; 3]]) {
+    let index = |b: Behaviour| match b {
+        Behaviour::Flocking => 1,
+        Behaviour::Foraging => 2,
+        Behaviour::Avoidance | Behaviour::Mixed => 0,
+    };
+    for (i, robot) in ticks.iter_mut().enumerate() {
+        robot[world.behaviours().map_or(0, |b| index(b.of[i]))] += 1;
+    }
 }
 
 fn list<T: std::str::FromStr>(what: &str, text: &str) -> anyhow::Result<Vec<T>>
@@ -132,16 +151,19 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
             let ticks = (args.duration_s / config.run.tick_s).round() as u64;
             let (mut per_seed, mut stds, mut het) = (Vec::new(), Vec::new(), Vec::new());
             let (mut wall, mut corner, mut blocked) = (Vec::new(), Vec::new(), Vec::new());
-            let (mut rest, mut deliveries) = (Vec::new(), Vec::new());
+            let (mut rest, mut deliveries, mut shares) = (Vec::new(), Vec::new(), Vec::new());
+            let mut own = Vec::new();
             let half = 0.5 * config.world.arena_side_m;
             for &seed in &seeds {
                 let mut world = World::new(&config, seed)
                     .with_context(|| format!("building the world of seed {seed}"))?;
                 let mut controllers = Controllers::new(&config, seed);
                 let (mut near_wall, mut near_corner, mut resting) = (0u64, 0u64, 0u64);
+                let mut behaviour_ticks = vec![[0u64; 3]; n as usize];
                 for _ in 0..ticks {
                     let event = controllers.decide(&world);
                     world.apply(&event);
+                    count_behaviours(&world, &mut behaviour_ticks);
                     if let Some(b) = world.behaviours() {
                         resting += b
                             .foragers
@@ -167,6 +189,16 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 blocked.push(s.blocked_moves as f64 / robot_ticks);
                 rest.push(resting as f64 / robot_ticks);
                 deliveries.push(s.foraging_deliveries as f64 / f64::from(n.max(1)));
+                let total = behaviour_ticks.iter().fold([0u64; 3], |mut a, r| {
+                    (0..3).for_each(|k| a[k] += r[k]);
+                    a
+                });
+                shares.push(total.map(|t| t as f64 / robot_ticks));
+                let most: u64 = behaviour_ticks
+                    .iter()
+                    .map(|r| r.iter().copied().max().unwrap_or(0))
+                    .sum();
+                own.push(most as f64 / robot_ticks);
             }
             let inner = ((half - NEAR_M).max(0.0) / half).powi(2);
             let edge = (NEAR_M / half).min(1.0);
@@ -192,6 +224,8 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                 blocked_per_seed: blocked,
                 resting_per_seed: rest,
                 deliveries_per_seed: deliveries,
+                behaviour_share_per_seed: shares,
+                own_behaviour_per_seed: own,
                 uniform_wall: 1.0 - inner,
                 uniform_corner: edge * edge,
                 flowfl,
@@ -264,6 +298,19 @@ pub fn command(args: DataVolumeArgs) -> anyhow::Result<ExitCode> {
                     "    foragers: resting {} | deliveries per robot {}",
                     seeds_of(&r.resting_per_seed, 3),
                     seeds_of(&r.deliveries_per_seed, 1),
+                );
+            }
+            if r.behaviour == Behaviour::Mixed.name() {
+                let share = |k: usize| {
+                    let v: Vec<f64> = r.behaviour_share_per_seed.iter().map(|s| s[k]).collect();
+                    seeds_of(&v, 3)
+                };
+                println!(
+                    "    robot-ticks run as: avoidance {} | flocking {} | foraging {} | a robot's most frequent {}",
+                    share(0),
+                    share(1),
+                    share(2),
+                    seeds_of(&r.own_behaviour_per_seed, 3),
                 );
             }
         }

@@ -31,7 +31,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use swarmfl_core::config::{Aggregation, Behaviour, Config};
+use swarmfl_core::config::{Aggregation, Behaviour, Config, MixedAssign};
 use swarmfl_core::event::{CheckpointCause, Event, Record};
 use swarmfl_core::inspect::{self, expr::Env, Column};
 use swarmfl_core::log::{LogReader, Next};
@@ -557,7 +557,7 @@ fn page_data(
         "{{\"title\":{},\"robots\":{},\"half\":{},\"radius\":{},\"range\":{},\
          \"duration_ms\":{duration_ms},\"frame_ms\":{frame_ms},\"obstacles\":[{}],\"byzantine\":[{}],\
          \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius}{flowfl},\
-         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"versions\":[{}],\
+         \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"of\":[{}],\"versions\":[{}],\
          \"blocks\":{}],\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{}],\
          \"truncated\":{},\"live\":{live}}}",
         serde_json::to_string(title)?,
@@ -574,6 +574,7 @@ fn page_data(
         pick(&frames.links),
         pick(&frames.heads),
         pick(&frames.forager),
+        pick(&frames.of),
         pick(&frames.versions),
         walk.blocks,
         config.learn.aggregation.name(),
@@ -749,6 +750,10 @@ struct Frames {
     /// millimetres in item order (carried ones left out); `null` under any other rule. The
     /// page's data lists each change once ([`items_json`]).
     items: Vec<String>,
+    /// Each robot's behaviour at the frame as one letter (`a` avoidance, `f` flocking, `o`
+    /// foraging) when behaviours follow places (`world.mixed.assign = "place"`); empty text
+    /// when each robot keeps one behaviour (the page's `behaviour` then holds it).
+    of: Vec<String>,
     /// A baseline's model version of each robot (`gossip`: the merges it made; `central`: the
     /// server's round it holds); `null` for a chain run.
     versions: Vec<String>,
@@ -844,6 +849,22 @@ impl Frames {
             None => "null".to_string(),
         };
         self.items.push(items);
+        let of: String = match world
+            .behaviours()
+            .filter(|b| b.assign == MixedAssign::Place)
+        {
+            Some(b) => {
+                b.of.iter()
+                    .map(|&x| match x {
+                        Behaviour::Avoidance | Behaviour::Mixed => 'a',
+                        Behaviour::Flocking => 'f',
+                        Behaviour::Foraging => 'o',
+                    })
+                    .collect()
+            }
+            None => String::new(),
+        };
+        self.of.push(format!("\"{of}\""));
         let versions = if state.aggregation.kind() == Aggregation::Chain {
             "null".to_string()
         } else {
