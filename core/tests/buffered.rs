@@ -3,13 +3,12 @@
 //! and every Byzantine kind acts under it; faulty robots' submissions are outliers against
 //! their bases and cost their stakes.
 
-use std::path::PathBuf;
+mod common;
 
 use swarmfl_core::byzantine::byzantine_robots;
 use swarmfl_core::config::{ByzantineKind, Config, Preset, RoundProtocol};
 use swarmfl_core::contract::ContractState;
 use swarmfl_core::event::Record;
-use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::metrics::best_node;
 use swarmfl_core::replay;
 use swarmfl_core::sim::Sim;
@@ -45,14 +44,7 @@ fn a_buffered_run_makes_versions_and_replays_bit_exactly() {
     let (again, _) = run(&config, seed);
     assert!(records == again, "two runs of one seed differ");
 
-    let dir = std::env::temp_dir().join(format!("swarmfl-buffered-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path: PathBuf = dir.join("run.swlog");
-    let mut w = LogWriter::create(&path, &Header::new(seed, config.to_toml())).unwrap();
-    for r in &records {
-        w.append(r).unwrap();
-    }
-    w.finish().unwrap();
+    let path = common::write_log("buffered", &config, seed, &records);
     let replayed = replay::replay(&path).unwrap();
     let resimulated = replay::resimulate(&path).unwrap();
     assert_eq!(replayed.final_hash, resimulated.final_hash);
@@ -61,7 +53,7 @@ fn a_buffered_run_makes_versions_and_replays_bit_exactly() {
         RoundProtocol::Buffered,
         "the recorded configuration names the protocol"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }
 
 #[test]

@@ -2,11 +2,10 @@
 //! `world/place.rs`) end to end through the driver: robots change behaviour as they move, the
 //! run is the same twice, and its log replays and re-simulates bit for bit.
 
-use std::path::PathBuf;
+mod common;
 
 use swarmfl_core::config::{Behaviour, Config, MixedAssign, Preset};
 use swarmfl_core::event::Record;
-use swarmfl_core::log::{Header, LogWriter};
 use swarmfl_core::replay;
 use swarmfl_core::sim::Sim;
 
@@ -42,14 +41,7 @@ fn a_mixed_swarm_by_place_replays_and_resimulates_bit_exactly() {
         .count();
     assert!(checkpoints > 5, "{checkpoints} checkpoints");
 
-    let dir = std::env::temp_dir().join(format!("swarmfl-mixed-place-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let path: PathBuf = dir.join("run.swlog");
-    let mut w = LogWriter::create(&path, &Header::new(seed, config.to_toml())).unwrap();
-    for r in &records {
-        w.append(r).unwrap();
-    }
-    w.finish().unwrap();
+    let path = common::write_log("mixed-place", &config, seed, &records);
     let replayed = replay::replay(&path).unwrap();
     let resimulated = replay::resimulate(&path).unwrap();
     assert_eq!(replayed.final_hash, resimulated.final_hash);
@@ -58,5 +50,5 @@ fn a_mixed_swarm_by_place_replays_and_resimulates_bit_exactly() {
         MixedAssign::Place,
         "the recorded configuration names the rule"
     );
-    std::fs::remove_dir_all(&dir).unwrap();
+    std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }
