@@ -16,7 +16,7 @@
 //! Used: the `theta` chosen models, in the order they were chosen.
 
 use super::meamed::mean_around_median;
-use super::{krum_scores, Aggregate, Input};
+use super::{coordinatewise, krum_scores, Aggregate, Input};
 
 /// Iterated Krum, then the coordinate-wise mean of the `beta` chosen values around the median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
@@ -33,17 +33,9 @@ pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
             .expect("theta <= q models remain");
         chosen.push(remaining.remove(best));
     }
-    let len = inputs[0].weights.len();
-    let mut column = vec![0i64; theta];
     let beta = theta - 2 * f;
-    let weights = (0..len)
-        .map(|i| {
-            for (slot, &k) in column.iter_mut().zip(&chosen) {
-                *slot = inputs[k].weights[i];
-            }
-            mean_around_median(&mut column, beta)
-        })
-        .collect();
+    let models: Vec<&[i64]> = chosen.iter().map(|&k| inputs[k].weights).collect();
+    let weights = coordinatewise(&models, |column| mean_around_median(column, beta));
     Aggregate {
         weights,
         used: chosen,

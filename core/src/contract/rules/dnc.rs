@@ -33,7 +33,7 @@
 //!
 //! Used: the `q - f` kept, smallest score first.
 
-use super::{mean, Aggregate, Input};
+use super::{mean, models_of, Aggregate, Input};
 use crate::contract::payout::div_round_half_away;
 
 /// Power-iteration steps per aggregation.
@@ -41,7 +41,7 @@ pub const POWER_STEPS: usize = 64;
 
 /// The mean of the `q - f` models with the smallest projections on the top direction.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+    let models = models_of(inputs);
     let keep = models.len().saturating_sub(f).max(1);
     let scores = scores(&models);
     let mut order: Vec<usize> = (0..models.len()).collect();

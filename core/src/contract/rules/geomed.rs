@@ -28,7 +28,9 @@
 //! Used: the `q - f` submissions nearest the result in L1 (nearest first, ties to the earlier
 //! submission).
 
-use super::{isqrt, median_of, nearest, squared_distance, Aggregate, Input};
+use super::{
+    coordinatewise, isqrt, median_of, models_of, nearest, squared_distance, Aggregate, Input,
+};
 use crate::contract::payout::div_round_half_away;
 
 /// The most Weiszfeld steps one aggregation takes (it stops earlier at a fixed point). From
@@ -39,7 +41,7 @@ pub const MAX_STEPS: usize = 256;
 
 /// The geometric median: Weiszfeld steps from the coordinate-wise median to a fixed point.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+    let models = models_of(inputs);
     let z = weiszfeld(&models, MAX_STEPS).0;
     let used = nearest(inputs, &z, inputs.len().saturating_sub(f).max(1));
     Aggregate { weights: z, used }
@@ -48,16 +50,7 @@ pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
 /// The estimate after at most `max_steps` steps from the coordinate-wise median, and the
 /// number of steps taken (a step that returns its start counts).
 pub fn weiszfeld(models: &[&[i64]], max_steps: usize) -> (Vec<i64>, usize) {
-    let len = models[0].len();
-    let mut column = vec![0i64; models.len()];
-    let mut z: Vec<i64> = (0..len)
-        .map(|i| {
-            for (slot, w) in column.iter_mut().zip(models) {
-                *slot = w[i];
-            }
-            median_of(&mut column)
-        })
-        .collect();
+    let mut z = coordinatewise(models, median_of);
     for step in 1..=max_steps {
         let next = step_from(models, &z);
         if next == z {

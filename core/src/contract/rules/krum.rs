@@ -12,11 +12,11 @@
 //! Used: the selected model, then the `m` models its score summed over (nearest first, ties to
 //! the earlier submission): they vouched for it. The other `f + 1` lose their stakes.
 
-use super::{krum_scores, squared_distance, Aggregate, Input};
+use super::{krum_scores, models_of, squared_distance, Aggregate, Input};
 
 /// The Krum choice and its neighbourhood.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+    let models = models_of(inputs);
     let m = models.len().saturating_sub(f + 2).max(1);
     let scores = krum_scores(&models, m);
     let best = (0..models.len())

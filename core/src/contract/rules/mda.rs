@@ -16,14 +16,14 @@
 //!
 //! Used: the chosen subset, nearest (L1) to the result first, ties to the earlier submission.
 
-use super::{mean, squared_distance, Aggregate, Input};
+use super::{mean, models_of, squared_distance, Aggregate, Input};
 use crate::contract::payout;
 
 /// The mean of the minimum-diameter `q - f` subset.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();
     let keep = q.saturating_sub(f).max(1);
-    let chosen = min_diameter_subset(&inputs.iter().map(|s| s.weights).collect::<Vec<_>>(), keep);
+    let chosen = min_diameter_subset(&models_of(inputs), keep);
     let models: Vec<&[i64]> = chosen.iter().map(|&k| inputs[k].weights).collect();
     let weights = mean(&models);
     let mut used = chosen;

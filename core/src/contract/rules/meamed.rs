@@ -11,23 +11,16 @@
 //! Used: the `q - f` submissions nearest the result in L1 (nearest first, ties to the earlier
 //! submission).
 
-use super::{median_of, nearest, Aggregate, Input};
+use super::{coordinatewise, median_of, models_of, nearest, Aggregate, Input};
 use crate::contract::payout::div_round_half_away;
 
 /// The coordinate-wise mean of the `q - f` values around the median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();
     let keep = q.saturating_sub(f).max(1);
-    let len = inputs[0].weights.len();
-    let mut column = vec![0i64; q];
-    let weights: Vec<i64> = (0..len)
-        .map(|i| {
-            for (slot, s) in column.iter_mut().zip(inputs) {
-                *slot = s.weights[i];
-            }
-            mean_around_median(&mut column, keep)
-        })
-        .collect();
+    let weights = coordinatewise(&models_of(inputs), |column| {
+        mean_around_median(column, keep)
+    });
     let used = nearest(inputs, &weights, keep);
     Aggregate { weights, used }
 }

@@ -5,20 +5,11 @@
 //! Used: the `q - f` submissions nearest the median in L1 (nearest first, ties to the earlier
 //! submission).
 
-use super::{median_of, nearest, Aggregate, Input};
+use super::{coordinatewise, median_of, models_of, nearest, Aggregate, Input};
 
 /// The coordinate-wise median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let len = inputs[0].weights.len();
-    let mut column = vec![0i64; inputs.len()];
-    let weights: Vec<i64> = (0..len)
-        .map(|i| {
-            for (slot, s) in column.iter_mut().zip(inputs) {
-                *slot = s.weights[i];
-            }
-            median_of(&mut column)
-        })
-        .collect();
+    let weights = coordinatewise(&models_of(inputs), median_of);
     let used = nearest(inputs, &weights, inputs.len().saturating_sub(f).max(1));
     Aggregate { weights, used }
 }

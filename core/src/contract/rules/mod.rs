@@ -164,6 +164,26 @@ pub fn mean(models: &[&[i64]]) -> Vec<i64> {
         .collect()
 }
 
+/// The submitted weight vectors of `inputs`, in submission order.
+pub fn models_of<'a>(inputs: &[Input<'a>]) -> Vec<&'a [i64]> {
+    inputs.iter().map(|s| s.weights).collect()
+}
+
+/// `reduce` applied to each coordinate's column (one value per model, in `models` order) of
+/// `models` (non-empty, one length); the column is scratch that `reduce` may reorder.
+pub fn coordinatewise(models: &[&[i64]], mut reduce: impl FnMut(&mut [i64]) -> i64) -> Vec<i64> {
+    let len = models[0].len();
+    let mut column = vec![0i64; models.len()];
+    (0..len)
+        .map(|i| {
+            for (slot, w) in column.iter_mut().zip(models) {
+                *slot = w[i];
+            }
+            reduce(&mut column)
+        })
+        .collect()
+}
+
 /// The median of `values` (non-empty, sorted in place): the middle value for an odd count, the
 /// mean of the two middle values rounded half away from zero for an even count.
 pub fn median_of(values: &mut [i64]) -> i64 {

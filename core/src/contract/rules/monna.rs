@@ -16,11 +16,11 @@
 //!
 //! Used: the `q - f` chosen, nearest the pivot first.
 
-use super::{mean, squared_distance, Aggregate, Input};
+use super::{mean, models_of, squared_distance, Aggregate, Input};
 
 /// The mean of the `q - f` submissions nearest the shared model `current`.
 pub fn aggregate(current: &[i64], inputs: &[Input], f: usize) -> Aggregate {
-    let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+    let models = models_of(inputs);
     let (weights, used) = nearest_mean(current, &models, models.len().saturating_sub(f).max(1));
     Aggregate { weights, used }
 }
@@ -67,7 +67,7 @@ mod tests {
         let inputs = inputs_of(&[(&[7], 1), (&[3], 1), (&[5], 1), (&[100], 1)]);
         let a = aggregate(&[5], &inputs, 1);
         assert_eq!((a.weights, a.used), (vec![5], vec![2, 0, 1]));
-        let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+        let models = models_of(&inputs);
         assert_eq!(nearest_mean(&[5], &models, 2), (vec![6], vec![2, 0]));
     }
 }

@@ -5,11 +5,11 @@
 //!
 //! Used: the `q - f` selected models, best score first.
 
-use super::{krum_scores, mean, Aggregate, Input};
+use super::{krum_scores, mean, models_of, Aggregate, Input};
 
 /// The mean of the `q - f` best-scored models.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let models: Vec<&[i64]> = inputs.iter().map(|s| s.weights).collect();
+    let models = models_of(inputs);
     let m = models.len().saturating_sub(f + 2).max(1);
     let scores = krum_scores(&models, m);
     let mut order: Vec<usize> = (0..models.len()).collect();

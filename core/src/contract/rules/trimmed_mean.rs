@@ -5,25 +5,18 @@
 //! Used: the `q - f` submissions nearest the aggregate in L1 (nearest first, ties to the
 //! earlier submission).
 
-use super::{nearest, Aggregate, Input};
+use super::{coordinatewise, models_of, nearest, Aggregate, Input};
 use crate::contract::payout::div_round_half_away;
 
 /// The coordinate-wise `f`-trimmed mean.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
-    let len = inputs[0].weights.len();
     let q = inputs.len();
     let kept = q - 2 * f;
-    let mut column = vec![0i64; q];
-    let weights: Vec<i64> = (0..len)
-        .map(|i| {
-            for (slot, s) in column.iter_mut().zip(inputs) {
-                *slot = s.weights[i];
-            }
-            column.sort_unstable();
-            let sum: i128 = column[f..q - f].iter().map(|&w| i128::from(w)).sum();
-            i64::try_from(div_round_half_away(sum, kept as i128)).expect("a mean of i64")
-        })
-        .collect();
+    let weights = coordinatewise(&models_of(inputs), |column| {
+        column.sort_unstable();
+        let sum: i128 = column[f..q - f].iter().map(|&w| i128::from(w)).sum();
+        i64::try_from(div_round_half_away(sum, kept as i128)).expect("a mean of i64")
+    });
     let used = nearest(inputs, &weights, q.saturating_sub(f).max(1));
     Aggregate { weights, used }
 }
