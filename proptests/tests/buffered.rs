@@ -15,37 +15,21 @@ use proptest::prelude::*;
 use swarmfl_core::config::Rule;
 use swarmfl_core::contract::buffered::{staleness_weight, BufferedParams, Refusal};
 use swarmfl_core::contract::outlier::RelativeOutlier;
-use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, RobustRule};
+use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome};
 use swarmfl_core::types::Digest;
 use swarmfl_core::RobotId;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
+mod common;
+use common::{base_params, robust, INT48, STAKE};
+
 const ROBOTS: u32 = 6;
-const INT48: i64 = 1 << 47;
 const MAX_STALENESS: u32 = 3;
 
 fn params(rule: Rule, timeout_ms: u64, outlier: Option<RelativeOutlier>) -> ContractParams {
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
         security: rule != Rule::Fedavg,
-        quorum: 3,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, -1],
-        genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
-        robust: match rule {
-            Rule::Fedavg | Rule::Paper => None,
-            rule => Some(RobustRule { rule, assumed_f: 1 }),
-        },
+        robust: robust(rule),
         round_timeout_ms: timeout_ms,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
         buffered: Some(BufferedParams {
             max_staleness: MAX_STALENESS,
             staleness_weights: (0..=MAX_STALENESS)
@@ -53,8 +37,8 @@ fn params(rule: Rule, timeout_ms: u64, outlier: Option<RelativeOutlier>) -> Cont
                 .collect(),
             step_units: 1_000_000,
         }),
-        rule_plugin: None,
         outlier,
+        ..base_params(ROBOTS, vec![1, 1, -1])
     }
 }
 

@@ -9,33 +9,15 @@ use proptest::prelude::*;
 use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, Verdict};
 use swarmfl_core::RobotId;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
+mod common;
+use common::{base_params, INT48, STAKE, TOKEN};
+
 const ROBOTS: u32 = 6;
-const INT48: i64 = 1 << 47;
 
 fn params(security: bool) -> ContractParams {
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
         security,
-        quorum: 3,
-        // A 3-weight model may be 150_000_000 units away from the shared one.
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, -1],
-        genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
-        robust: None,
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..base_params(ROBOTS, vec![1, 1, -1])
     }
 }
 

@@ -12,42 +12,24 @@ use std::sync::Arc;
 use proptest::prelude::*;
 use swarmfl_core::config::{Defence, Rule};
 use swarmfl_core::contract::defences::{self, DefenceParams};
-use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, RobustRule, Verdict};
+use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, Verdict};
 use swarmfl_core::RobotId;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
+mod common;
+use common::{base_params, robust, INT48, STAKE, TOKEN};
+
 const ROBOTS: u32 = 9;
-const INT48: i64 = 1 << 47;
 const RULES: [Rule; 4] = [Rule::Paper, Rule::Krum, Rule::Median, Rule::MultiKrum];
 
 fn params(rule: Rule, defence: Defence, refund_percent: u32) -> ContractParams {
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
-        security: true,
-        quorum: 7,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
         genesis_weights: vec![0i64, 1_000_000, -1_000_000, 7].into(),
-        robust: match rule {
-            Rule::Fedavg | Rule::Paper => None,
-            rule => Some(RobustRule { rule, assumed_f: 1 }),
-        },
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        preagg: None,
-        engine: Default::default(),
+        robust: robust(rule),
         defence: Some(DefenceParams {
             defence,
             refund_percent,
         }),
-        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..base_params(ROBOTS, vec![1, 1, 1, 1, 1, -1, -1])
     }
 }
 

@@ -12,14 +12,14 @@ use proptest::prelude::*;
 use swarmfl_core::config::{Preaggregator, Rule};
 use swarmfl_core::contract::preagg::PreaggParams;
 use swarmfl_core::contract::{
-    Call, ContractParams, ContractState, Outcome, RobustRule, Verdict, MAX_WEIGHT_MAGNITUDE,
+    Call, ContractParams, ContractState, Outcome, Verdict, MAX_WEIGHT_MAGNITUDE,
 };
 use swarmfl_core::RobotId;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
+mod common;
+use common::{base_params, robust, INT48, STAKE, TOKEN};
+
 const ROBOTS: u32 = 9;
-const INT48: i64 = 1 << 47;
 
 /// The chains tested: each stage alone, and two orders of two stages.
 fn chains() -> Vec<Vec<Preaggregator>> {
@@ -39,33 +39,14 @@ fn chains() -> Vec<Vec<Preaggregator>> {
 /// fewer models than it needs (bucketing's 4 buckets are too few for krum and bulyan).
 fn params(rule: Rule, stages: &[Preaggregator]) -> Option<ContractParams> {
     let p = ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
-        security: true,
-        quorum: 7,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
-        genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
-        robust: match rule {
-            Rule::Fedavg | Rule::Paper => None,
-            rule => Some(RobustRule { rule, assumed_f: 1 }),
-        },
-        round_timeout_ms: 0,
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
-        claim_bound: Default::default(),
+        robust: robust(rule),
         preagg: Some(PreaggParams {
             stages: stages.to_vec(),
             assumed_f: 1,
             bucket_size: 2,
             clip_radius_units: 30_000_000,
         }),
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..base_params(ROBOTS, vec![1, 1, 1, 1, 1, -1, -1])
     };
     p.check().ok().map(|()| p)
 }

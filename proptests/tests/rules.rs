@@ -9,41 +9,20 @@ use std::sync::Arc;
 
 use proptest::prelude::*;
 use swarmfl_core::config::Rule;
-use swarmfl_core::contract::{
-    Call, ContractParams, ContractState, Outcome, RobustRule, MAX_WEIGHT_MAGNITUDE,
-};
+use swarmfl_core::contract::{Call, ContractParams, ContractState, Outcome, MAX_WEIGHT_MAGNITUDE};
 use swarmfl_core::RobotId;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
+mod common;
+use common::{base_params, robust, INT48, STAKE, TOKEN};
+
 const ROBOTS: u32 = 9;
-const INT48: i64 = 1 << 47;
 
 /// Quorum 7 with f = 1: every rule is defined (bulyan needs 4f + 3 = 7).
 fn params(rule: Rule) -> ContractParams {
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
         security: rule.stakes(),
-        quorum: 7,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
-        genesis_weights: vec![0i64, 1_000_000, -1_000_000].into(),
-        robust: match rule {
-            Rule::Fedavg | Rule::Paper => None,
-            rule => Some(RobustRule { rule, assumed_f: 1 }),
-        },
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: swarmfl_core::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        robust: robust(rule),
+        ..base_params(ROBOTS, vec![1, 1, 1, 1, 1, -1, -1])
     }
 }
 
