@@ -5,11 +5,10 @@
 use std::sync::Arc;
 
 use super::*;
+use crate::contract::test_support::{STAKE, TOKEN};
 use crate::contract::{Call, ContractParams, ContractState, Outcome};
 use crate::types::Digest;
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
 const ROBOTS: u32 = 10;
 
 /// 10 robots with 21 tokens, stake 5, K accepted updates per version, the paper's rule with
@@ -21,22 +20,7 @@ fn params(k: u32, max_staleness: u32, step_units: u64) -> ContractParams {
         reward_weights[k as usize - 1] = -1;
     }
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
-        security: true,
-        quorum: k,
         outlier_threshold_units: 100,
-        reward_weights,
-        genesis_weights: vec![0i64; 2].into(),
-        robust: None,
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
         buffered: Some(BufferedParams {
             max_staleness,
             staleness_weights: (0..=max_staleness)
@@ -44,8 +28,7 @@ fn params(k: u32, max_staleness: u32, step_units: u64) -> ContractParams {
                 .collect(),
             step_units,
         }),
-        rule_plugin: None,
-        outlier: None,
+        ..crate::contract::test_support::params(ROBOTS, reward_weights, 2)
     }
 }
 

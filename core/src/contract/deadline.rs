@@ -101,25 +101,8 @@ mod tests {
 
     fn params(timeout_ms: u64) -> ContractParams {
         ContractParams {
-            robots: 15,
-            initial_units: 21 * TOKEN,
-            stake_units: 5 * TOKEN,
-            security: true,
-            quorum: 7,
-            outlier_threshold_units: 50_000_000,
-            reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
-            genesis_weights: vec![0i64; 4].into(),
             round_timeout_ms: timeout_ms,
-            claim_bound: Default::default(),
-            robust: None,
-            options: Default::default(),
-            engine: Default::default(),
-            defence: None,
-            block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-            preagg: None,
-            buffered: None,
-            rule_plugin: None,
-            outlier: None,
+            ..crate::contract::test_support::params(15, vec![1, 1, 1, 1, 1, -1, -1], 4)
         }
     }
 

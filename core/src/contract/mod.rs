@@ -62,6 +62,8 @@ mod rewards;
 pub mod rules;
 
 #[cfg(test)]
+mod test_support;
+#[cfg(test)]
 mod tests;
 
 use std::sync::Arc;

@@ -6,10 +6,8 @@ use std::sync::Arc;
 
 use super::*;
 use crate::contract::buffered::{staleness_weight, BufferedParams, STEP_SCALE};
+use crate::contract::test_support::{STAKE, TOKEN};
 use crate::contract::{Call, Outcome};
-
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
 
 fn rule(factor_micro: u64, window_buffers: u32, cap_units: i64) -> RelativeOutlier {
     RelativeOutlier {
@@ -32,29 +30,15 @@ fn params(robots: u32, k: u32, outlier: Option<RelativeOutlier>) -> ContractPara
     let mut reward_weights = vec![1; k as usize];
     reward_weights[k as usize - 1] = -1;
     ContractParams {
-        robots,
         initial_units: 10_000 * TOKEN,
-        stake_units: STAKE,
-        security: true,
-        quorum: k,
         outlier_threshold_units: 100,
-        reward_weights,
-        genesis_weights: vec![0i64; 2].into(),
-        robust: None,
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
         buffered: Some(BufferedParams {
             max_staleness: 4,
             staleness_weights: (0..=4).map(|t| staleness_weight(0.5, t)).collect(),
             step_units: STEP_SCALE,
         }),
-        rule_plugin: None,
         outlier,
+        ..crate::contract::test_support::params(robots, reward_weights, 2)
     }
 }
 

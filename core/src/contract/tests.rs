@@ -6,34 +6,16 @@ use std::sync::Arc;
 use super::payout::{div_round_half_away, fedavg, payouts, rank};
 use super::*;
 use crate::config::{FedAvgRounding, MedianRule, PayoutRounding, RankTies};
+use crate::contract::test_support::{STAKE, TOKEN};
 
-const TOKEN: u64 = 1_000_000_000;
-const STAKE: u64 = 5 * TOKEN;
 const ROBOTS: u32 = 10;
 
 /// 10 robots with 21 tokens, stake 5, quorum 7, k = [1, 1, 1, 1, 1, -1, -1], threshold 0.05
 /// (50_000_000 units, so a 4-weight model may be at most 200_000_000 units away), genesis 0.
 fn params(security: bool) -> ContractParams {
     ContractParams {
-        robots: ROBOTS,
-        initial_units: 21 * TOKEN,
-        stake_units: STAKE,
         security,
-        quorum: 7,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
-        genesis_weights: vec![0i64; 4].into(),
-        robust: None,
-        round_timeout_ms: 0,
-        claim_bound: Default::default(),
-        options: Default::default(),
-        engine: Default::default(),
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..super::test_support::params(ROBOTS, vec![1, 1, 1, 1, 1, -1, -1], 4)
     }
 }
 
