@@ -101,6 +101,10 @@ def test_ctrl_c_interrupts_a_run(tmp_path):
     import signal
     import threading
 
+    # A process started in the background by a shell without job control (as CI runners may
+    # start it) inherits SIGINT ignored, and Python then never raises KeyboardInterrupt: install
+    # Python's own handler for the test, as an interactive session has it.
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     timer = threading.Timer(0.5, lambda: os.kill(os.getpid(), signal.SIGINT))
     timer.start()
     try:
@@ -108,5 +112,6 @@ def test_ctrl_c_interrupts_a_run(tmp_path):
             swarmfl.run(preset="smoke", seed=3, set={"run.duration_s": 3000}, out=tmp_path / "r")
     finally:
         timer.cancel()
+        signal.signal(signal.SIGINT, previous)
     assert (tmp_path / "r" / "run.swlog").exists()
     assert not (tmp_path / "r" / "summary.json").exists()
