@@ -4,10 +4,11 @@
 //! authors' option on, and counts where they differ (docs/CONTRACT.md has the table).
 //!
 //! ```text
-//! cargo run -p swarmfl-core --example compare_authors -- AUTHORS.json [ROUNDS]
+//! cargo run --release -p swarmfl-core --features evm --example compare_authors -- AUTHORS.json [ROUNDS]
 //! ```
 //!
-//! `AUTHORS.json` holds `{"bytecode": "<hex>"}` (solc's `evm.bytecode.object`). The authors'
+//! `AUTHORS.json` holds `{"bytecode": "<hex>"}` (solc's `evm.bytecode.object`, with or without
+//! `0x`; `contracts/compile.js` on the authors' source writes it, docs/CONTRACT.md says how). The authors'
 //! contract fixes 15 robots, a quorum of 7 and 2848 weights; their robots send 5 ether (1 ether
 //! = 10^18 wei) where swarmfl stakes 5 tokens (10^9 units each), so a payout compares as
 //! `floor(wei / 10^9)` units, exactly (their base share is the only amount that is not a
@@ -218,22 +219,39 @@ fn kind(outcome: &Outcome) -> &'static str {
     }
 }
 
+/// Prints `message` and exits with status 2 (bad arguments or input).
+fn fail(message: String) -> ! {
+    eprintln!("compare_authors: {message}");
+    std::process::exit(2)
+}
+
 fn main() {
     let mut args = std::env::args().skip(1);
-    let path = args
-        .next()
-        .expect("usage: compare_authors AUTHORS.json [ROUNDS]");
-    let rounds: u64 = args
-        .next()
-        .map_or(200, |r| r.parse().expect("ROUNDS is a number"));
+    let Some(path) = args.next() else {
+        fail("usage: compare_authors AUTHORS.json [ROUNDS]".into())
+    };
+    let rounds: u64 = match args.next() {
+        None => 200,
+        Some(r) => r
+            .parse()
+            .unwrap_or_else(|_| fail(format!("ROUNDS {r:?} is not a whole number"))),
+    };
+    let text = std::fs::read_to_string(&path)
+        .unwrap_or_else(|e| fail(format!("{path}: cannot read it ({e})")));
     let json: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&path).expect("readable AUTHORS.json"))
-            .expect("AUTHORS.json is JSON");
-    let hex = json["bytecode"].as_str().expect("a bytecode field");
-    let bytecode: Vec<u8> = (0..hex.len())
-        .step_by(2)
-        .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex"))
-        .collect();
+        serde_json::from_str(&text).unwrap_or_else(|e| fail(format!("{path}: not JSON ({e})")));
+    let Some(hex) = json["bytecode"].as_str() else {
+        fail(format!(
+            "{path}: no string field `bytecode`: write solc's evm.bytecode.object there"
+        ))
+    };
+    // solc's standard JSON gives the bytecode bare, contracts/compile.js with a 0x prefix.
+    let bytecode: Vec<u8> = revm::primitives::hex::decode(hex).unwrap_or_else(|e| {
+        fail(format!(
+            "{path}: `bytecode` is not hex ({e}): write solc's evm.bytecode.object, with or \
+             without 0x"
+        ))
+    });
 
     for k in [vec![1, 1, 1, 1, 1, -1, -1], vec![5, 4, 3, 2, 1, -1, -2]] {
         let mut rng = Pcg64::seed_from_u64(2025);

@@ -6,11 +6,10 @@ use std::sync::Arc;
 use rand_core::{RngCore, SeedableRng};
 use rand_pcg::Pcg64;
 
+use super::super::test_support::{self, TOKEN};
 use super::super::{Call, ClaimBound, ContractParams, ContractState, Outcome};
 use super::*;
 use crate::config::*;
-
-const TOKEN: u64 = 1_000_000_000;
 
 /// A small random draw in `0..n`.
 fn below(rng: &mut Pcg64, n: u64) -> u64 {
@@ -92,25 +91,16 @@ fn random_params(rng: &mut Pcg64, len: usize) -> ContractParams {
         }
     };
     ContractParams {
-        robots,
         initial_units: (5 + below(rng, 30)) * TOKEN + below(rng, 7),
         stake_units: (1 + below(rng, 6)) * TOKEN + below(rng, 3),
         security: chance(rng, 85),
         quorum,
         outlier_threshold_units: [0, 1, 1_000, 50_000_000][below(rng, 4) as usize],
-        reward_weights,
         genesis_weights: genesis.into(),
         round_timeout_ms,
         claim_bound,
-        robust: None,
         options,
-        engine: ContractEngine::Native,
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..test_support::params(robots, reward_weights, 0)
     }
 }
 
@@ -309,25 +299,8 @@ fn a_thousand_random_rounds_agree_on_every_call() {
 #[test]
 fn the_evm_contract_closes_a_stalled_round_at_its_deadline() {
     let p = ContractParams {
-        robots: 15,
-        initial_units: 21 * TOKEN,
-        stake_units: 5 * TOKEN,
-        security: true,
-        quorum: 7,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1, 1, 1, -1, -1],
-        genesis_weights: vec![0i64; 4].into(),
         round_timeout_ms: 300_000,
-        claim_bound: ClaimBound::default(),
-        robust: None,
-        options: Default::default(),
-        engine: ContractEngine::Native,
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..test_support::params(15, vec![1, 1, 1, 1, 1, -1, -1], 4)
     };
     let pe = ContractParams {
         engine: ContractEngine::Evm,
@@ -498,25 +471,9 @@ fn a_submission_over_the_block_gas_limit_is_refused_and_changes_nothing() {
         .map(|i| (i % 97 - 48) * 10_000_000 + 1)
         .collect();
     let p = ContractParams {
-        robots: 3,
-        initial_units: 21 * TOKEN,
-        stake_units: 5 * TOKEN,
-        security: true,
-        quorum: 3,
-        outlier_threshold_units: 50_000_000,
-        reward_weights: vec![1, 1, 1],
         genesis_weights: genesis.into(),
-        round_timeout_ms: 0,
-        claim_bound: ClaimBound::default(),
-        robust: None,
-        options: ContractOptions::default(),
         engine: ContractEngine::Evm,
-        defence: None,
-        block_gas_limit: crate::config::AUTHORS_BLOCK_GAS_LIMIT,
-        preagg: None,
-        buffered: None,
-        rule_plugin: None,
-        outlier: None,
+        ..test_support::params(3, vec![1, 1, 1], 0)
     };
     let submit = |weights: &Arc<[i64]>| Call::SubmitModel {
         weights: weights.clone(),
