@@ -5,7 +5,8 @@
 # the wall time of run and replay. PAIRS=diagonal runs only 16 pairs (pair i is rule i mod 14
 # with attack i mod 16, so every rule and every attack appears) instead of all 224. Then every
 # pre-aggregator (contract.preaggregators) runs once in front of a rule against an adaptive
-# attack (PREAGG=0 skips them), replayed the same way.
+# attack (PREAGG=0 skips them), and the threshold gate (contract.threshold_gate) in front of
+# two rules, replayed the same way.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 DURATION_S=${DURATION_S:-600}
@@ -23,29 +24,32 @@ ATTACKS=(faulty malicious smart sign-flip gaussian alie ipm min-max mimic inflat
 # (pre-aggregator chain, rule, attack): each stage once, and one chain of two.
 PREAGGS=('["nnm"] krum optimal-alie' '["bucketing"] median optimal-ipm' '["clipping"] paper extreme-value'
          '["arc"] trimmed-mean mirror-targets' '["nnm","arc"] geomed optimal-ipm')
+# (rule, attack) behind the paper's threshold (contract.threshold_gate = true).
+GATES=('median optimal-ipm' 'krum optimal-alie')
 PREAGG=${PREAGG:-1}
 
 one() {
-    local rule=$1 attack=$2 chain=${3:-[]}
-    local dir="$OUT/$1-$2-$(printf %s "$chain" | tr -dc a-z)"
+    local rule=$1 attack=$2 chain=${3:-[]} gate=${4:-false}
+    local dir="$OUT/$1-$2-$(printf %s "$chain" | tr -dc a-z)-$gate"
     local t0 t1 t2
     t0=$(date +%s.%N)
     $BIN run --preset smoke --seed "$SEED" --out "$dir" --quiet \
         --set run.duration_s="$DURATION_S" --set learn.learning_rate=0.01 \
         --set contract.rule="$rule" --set contract.assumed_f=1 \
         --set byzantine.kind="$attack" --set byzantine.count="$COUNT" \
-        --set "contract.preaggregators=$chain"
+        --set "contract.preaggregators=$chain" --set contract.threshold_gate="$gate"
     t1=$(date +%s.%N)
     $BIN replay "$dir/run.swlog" > "$dir/replay.txt"
     t2=$(date +%s.%N)
     grep -q "bit-exact" "$dir/replay.txt" || { echo "$rule $attack: replay not bit-exact"; cat "$dir/replay.txt"; exit 1; }
-    python3 - "$dir/summary.json" "$rule" "$attack" "$t0" "$t1" "$t2" "$chain" <<'PY'
+    python3 - "$dir/summary.json" "$rule" "$attack" "$t0" "$t1" "$t2" "$chain" "$gate" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
 h = (s.get("contract") or {}).get("heldout_loss_by_round") or []
 loss = f"{h[-1]:.5f}" if h else "n/a"
 t0, t1, t2 = map(float, sys.argv[4:7])
 chain = "" if sys.argv[7] == "[]" else " after " + sys.argv[7]
+chain += " gated" if sys.argv[8] == "true" else ""
 print(f"{sys.argv[2] + chain:18} {sys.argv[3]:16} rounds {len(h):3}  held-out {loss:>9}  run {t1-t0:5.1f} s  replay {t2-t1:4.1f} s  bit-exact")
 PY
     rm -f "$dir/run.swlog"
@@ -61,5 +65,9 @@ if [ "$PREAGG" = 1 ]; then
     for entry in "${PREAGGS[@]}"; do
         read -r chain rule attack <<< "$entry"
         one "$rule" "$attack" "$chain"
+    done
+    for entry in "${GATES[@]}"; do
+        read -r rule attack <<< "$entry"
+        one "$rule" "$attack" "[]" true
     done
 fi

@@ -614,6 +614,8 @@ Experiments, points and default runs (seeds 1..=runs):
   e4-robustness  <rule>--<attack>--<count>: 9 rules x (clean + 12 attacks x {3, 7})       3 runs
   e4-benchmark   <behaviour>--<rule>--<attack>--<count>: {flocking,mixed,avoidance} x 16
                  rules (12, 4 behind nnm) x (clean + 4 attacks x {3, 5}), 5000 s       3 runs
+  e4-gate        <behaviour>--gate+<rule>--<attack>--<count>: e4-benchmark's median and krum
+                 points at {0, 5} behind the paper's threshold (contract.threshold_gate) 3 runs
   e5-smart-defence  <defence>--<attack>--<count>: defences none, agreement, innovation x
                  (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
   e2-malicious-authors, e3-smart-authors  e2-malicious and e3-smart under the authors'

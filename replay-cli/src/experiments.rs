@@ -10,7 +10,7 @@
 use swarmfl_core::config::{Behaviour, ByzantineKind, Defence, Rule};
 
 /// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 13] = [
+pub const EXPERIMENTS: [&str; 14] = [
     "e0-baselines",
     "e1-expiration",
     "e1-faulty",
@@ -19,6 +19,7 @@ pub const EXPERIMENTS: [&str; 13] = [
     "e3-smart",
     "e4-robustness",
     "e4-benchmark",
+    "e4-gate",
     "e5-smart-defence",
     "e2-malicious-authors",
     "e3-smart-authors",
@@ -96,6 +97,11 @@ pub const BENCH_ATTACKS: [ByzantineKind; 4] = [
 /// per 7-model round, within the rules' assumed f = 2) and 5 (about 2.3 per round, at and
 /// beyond it).
 pub const BENCH_COUNTS: [u32; 3] = [0, 3, 5];
+
+/// The rules `e4-gate` runs behind the paper's threshold (`contract.threshold_gate`): the
+/// coordinate-wise median and Krum, the two selection rules with the fewest destroyed runs of
+/// `e4-benchmark` at 5 Byzantine robots.
+pub const GATE_RULES: [Rule; 2] = [Rule::Median, Rule::Krum];
 
 /// The name of a rule of [`BENCH_RULES`] in point names and figures: `median`, or
 /// `nnm+median` behind NNM.
@@ -240,6 +246,13 @@ pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
             preset: "e4-robustness".into(),
             axis: "Byzantine robots".into(),
             points: bench_points(),
+            runs: 3,
+        },
+        "e4-gate" => Experiment {
+            name: "e4-gate".into(),
+            preset: "e4-robustness".into(),
+            axis: "Byzantine robots".into(),
+            points: gate_points(),
             runs: 3,
         },
         "e5-smart-defence" => Experiment {
@@ -425,6 +438,38 @@ fn bench_points() -> Vec<Point> {
         }
     }
     points
+}
+
+/// The grid of `e4-gate`: `e4-benchmark`'s points for the rules of [`GATE_RULES`] at 0 and 5
+/// Byzantine robots (the count at which every robust rule lost runs and the paper's rule
+/// lost fewest), each behind the paper's threshold, same preset, seeds and settings, so each
+/// point compares with its `e4-benchmark` namesake without the gate. Point names are
+/// `<behaviour>--gate+<rule>--<attack>--<count>`.
+fn gate_points() -> Vec<Point> {
+    bench_points()
+        .into_iter()
+        .filter(|p| {
+            let rule = p
+                .tags
+                .iter()
+                .find(|(k, _)| *k == "rule")
+                .map(|(_, v)| v.as_str());
+            GATE_RULES.iter().any(|r| rule == Some(r.name())) && (p.x == 0.0 || p.x == 5.0)
+        })
+        .map(|mut p| {
+            for (k, v) in &mut p.tags {
+                if *k == "rule" {
+                    *v = format!("gate+{v}");
+                }
+            }
+            let mut parts: Vec<&str> = p.name.split("--").collect();
+            let gated = format!("gate+{}", parts[1]);
+            parts[1] = &gated;
+            p.name = parts.join("--");
+            p.overrides.push("contract.threshold_gate=true".to_string());
+            p
+        })
+        .collect()
 }
 
 /// Counts of `smart-then-collude` in `e5-smart-defence`: 3 (a minority that must first earn
@@ -628,6 +673,7 @@ mod tests {
         check("e2-malicious", 8, 20);
         check("e3-smart", 8, 18);
         check("e4-benchmark", 3 * 16 * 9, 3);
+        check("e4-gate", 3 * 2 * 5, 3);
         check("e5-smart-defence", 39, 3);
         check("e2-malicious-authors", 8, 20);
         check("e3-smart-authors", 8, 18);

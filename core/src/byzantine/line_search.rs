@@ -99,9 +99,7 @@ pub fn objective(view: &View, round: &Round, forged: &[f32]) -> Option<u128> {
     let current = &view.chain.weights[..];
     let fixed = learn::to_fixed(forged, view.weight_scale).ok()?;
     let distance = payout::distance_units(&fixed, current);
-    if params.rule().uses_threshold()
-        && u128::from(distance) > view.chain.outlier_bound_units(params)
-    {
+    if params.threshold_applies() && u128::from(distance) > view.chain.outlier_bound_units(params) {
         return None;
     }
     let samples = u64::from(view.config.claimed_samples);

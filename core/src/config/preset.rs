@@ -498,6 +498,7 @@ impl Config {
                 block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
                 defence_refund_percent: 50,
                 preaggregators: Vec::new(),
+                threshold_gate: false,
                 bucket_size: 2,
                 clip_radius: 1.0,
                 protocol: RoundProtocol::Rounds,

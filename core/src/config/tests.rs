@@ -742,3 +742,30 @@ fn the_flowfl_experiments_are_presets_and_bad_foraging_input_names_its_key() {
     ]);
     assert!(e.contains("world.foraging.food_sources"), "{e}");
 }
+
+#[test]
+fn the_threshold_gate_needs_a_robust_rule_and_stays_out_of_records_when_off() {
+    let set = |o: &[&str]| {
+        let o: Vec<String> = o.iter().map(|s| s.to_string()).collect();
+        Config::resolve(Some("smoke"), None, &o).map_err(|e| e.to_string())
+    };
+    let gated = set(&["contract.rule=\"median\"", "contract.threshold_gate=true"]).unwrap();
+    assert!(gated.contract.threshold_gate);
+    assert!(gated.to_toml().contains("threshold_gate = true"));
+    for rule in ["paper", "fedavg"] {
+        let e = set(&[
+            &format!("contract.rule=\"{rule}\""),
+            "contract.threshold_gate=true",
+        ])
+        .unwrap_err();
+        assert!(
+            e.contains("contract.threshold_gate") && e.contains("robust rule"),
+            "{rule}: {e}"
+        );
+    }
+    let off = set(&["contract.rule=\"median\""]).unwrap();
+    assert!(
+        !off.to_toml().contains("threshold_gate"),
+        "off, the key is not recorded"
+    );
+}

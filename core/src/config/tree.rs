@@ -400,6 +400,15 @@ pub struct ContractConfig {
     /// on the submissions made (docs/CONTRACT.md). Empty (the default): the rule alone.
     #[serde(default, skip_serializing_if = "is_empty")]
     pub preaggregators: Vec<Preaggregator>,
+    /// The paper's outlier threshold in front of a robust rule: a submission farther than
+    /// `outlier_threshold` (mean absolute distance per weight) from the shared model is refused
+    /// as an outlier and its stake kept, as under `paper`, and the robust rule (behind any
+    /// pre-aggregators) aggregates the round's accepted models. Needs a robust rule (`paper`
+    /// has the threshold already, `fedavg` stakes nothing) on the native contract (RESEARCH.md,
+    /// "The threshold in front of a robust rule"). Off by default, and then left out of the
+    /// recorded configuration.
+    #[serde(default, skip_serializing_if = "is_false")]
+    pub threshold_gate: bool,
     /// `bucketing`: models per bucket, `s` (1..=quorum; 2 by default; the last bucket holds the
     /// remainder when `s` does not divide the quorum).
     #[serde(

@@ -110,6 +110,7 @@ fn table(c: &Config) -> Vec<Step> {
         Across(super::protocol_fit::buffered_fits),
         Integer("contract.penalised_ranks", k.penalised_ranks.into(), 0, (c.quorum() - 1).into()),
         Across(robust_rules_need_security),
+        Across(threshold_gate_needs_a_robust_rule),
         Across(assumed_f_fits_the_rule),
         Across(mda_search_fits),
         Across(reward_weights_fit_the_quorum),
@@ -495,6 +496,24 @@ fn robust_rules_need_security(c: &Config) -> Result<(), ConfigError> {
         "fedavg or paper while contract.security = false (security off is the fedavg rule); \
          set contract.security = true to use another rule"
             .to_string(),
+    )
+}
+
+/// `contract.threshold_gate` puts the paper's threshold in front of a robust rule: `paper`
+/// has it already and `fedavg` (security off) stakes nothing to keep.
+fn threshold_gate_needs_a_robust_rule(c: &Config) -> Result<(), ConfigError> {
+    if !c.contract.threshold_gate || !matches!(c.rule(), Rule::Paper | Rule::Fedavg) {
+        return Ok(());
+    }
+    out_of_range(
+        "contract.threshold_gate",
+        "true".to_string(),
+        format!(
+            "false with contract.rule = {}: the gate puts the paper's outlier threshold in \
+             front of a robust rule (paper has it already, fedavg stakes nothing); set \
+             contract.rule to a robust rule, or contract.threshold_gate = false",
+            c.rule().name()
+        ),
     )
 }
 

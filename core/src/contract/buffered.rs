@@ -445,7 +445,7 @@ impl ContractState {
             ThresholdRule::Inclusive => distance > max,
             ThresholdRule::Strict => distance >= max,
         };
-        let verdict = if params.security && params.rule().uses_threshold() && beyond {
+        let verdict = if params.threshold_applies() && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted

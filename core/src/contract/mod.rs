@@ -173,6 +173,11 @@ pub struct RobustRule {
     pub rule: Rule,
     /// Byzantine submissions per round the rule assumes (`contract.assumed_f`).
     pub assumed_f: u32,
+    /// The paper's outlier threshold refuses submissions before the rule aggregates
+    /// (`contract.threshold_gate`). Left out of the encoding when off, so the parameters of
+    /// runs without it encode, and hash, as before the key existed.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub threshold_gate: bool,
 }
 
 impl ContractParams {
@@ -194,6 +199,7 @@ impl ContractParams {
                 rule => Some(RobustRule {
                     rule,
                     assumed_f: c.assumed_f,
+                    threshold_gate: c.threshold_gate,
                 }),
             },
             round_timeout_ms: (c.round_timeout_s * 1000.0).round() as u64,
@@ -261,6 +267,14 @@ impl ContractParams {
             None if self.security => Rule::Paper,
             None => Rule::Fedavg,
         }
+    }
+
+    /// Whether the outlier threshold refuses submissions as they arrive: under the paper's
+    /// rule, and under a robust rule behind `contract.threshold_gate`; the other rules judge
+    /// a round's models together.
+    pub fn threshold_applies(&self) -> bool {
+        self.security
+            && (self.rule().uses_threshold() || self.robust.is_some_and(|r| r.threshold_gate))
     }
 
     /// The assumed Byzantine count (0 for `fedavg` and `paper`, which ignore it).
@@ -896,7 +910,7 @@ impl ContractState {
             ThresholdRule::Inclusive => distance > max,
             ThresholdRule::Strict => distance >= max,
         };
-        let verdict = if params.security && params.rule().uses_threshold() && beyond {
+        let verdict = if params.threshold_applies() && beyond {
             Verdict::Outlier
         } else {
             Verdict::Accepted

@@ -694,6 +694,7 @@ fn median_rule_pays_the_models_it_used_and_keeps_the_others_stakes() {
         robust: Some(RobustRule {
             rule: Rule::Median,
             assumed_f: 2,
+            threshold_gate: false,
         }),
         ..params(true)
     };
@@ -734,12 +735,83 @@ fn median_rule_pays_the_models_it_used_and_keeps_the_others_stakes() {
     assert_eq!(s.total_units(), p.total_units());
 }
 
+/// The same round behind `contract.threshold_gate`: the far model is refused as it arrives
+/// (an outlier, its stake kept, as under paper), the round waits for a seventh model within
+/// the threshold, and the median of the seven accepted models pays the five it used.
+#[test]
+fn the_threshold_gate_refuses_the_far_model_before_the_median_sees_it() {
+    let p = ContractParams {
+        robust: Some(RobustRule {
+            rule: Rule::Median,
+            assumed_f: 2,
+            threshold_gate: true,
+        }),
+        ..params(true)
+    };
+    assert!(p.threshold_applies());
+    let mut s = ContractState::genesis(&p);
+    let far = 1i64 << 40;
+    // Threshold 50_000_000 units per weight: 200_000_000 over the 4 weights, from genesis 0.
+    let at_bound = [50_000_000i64, 50_000_000, 50_000_000, 50_000_000];
+    let models: [[i64; 4]; 8] = [
+        [10, 10, 10, 10],
+        [11, 9, 10, 10],
+        [far, far, far, far],
+        [9, 11, 10, 10],
+        [10, 10, 12, 8],
+        [10, 10, 8, 12],
+        [12, 8, 10, 10],
+        at_bound,
+    ];
+    let mut outcomes = Vec::new();
+    for (robot, w) in models.iter().enumerate() {
+        let samples = if robot == 2 { u64::from(u32::MAX) } else { 10 };
+        outcomes.push(s.execute(&p, robot as RobotId, STAKE, &submit(*w, samples)));
+    }
+    assert_eq!(
+        outcomes[2],
+        Outcome::Outlier {
+            round: 0,
+            distance_units: 4 * (far as u64)
+        }
+    );
+    assert_eq!(s.balances[2], 16 * TOKEN, "the outlier's stake is kept");
+    assert!(outcomes[6].is_accepted() && !matches!(outcomes[6], Outcome::Aggregated { .. }));
+    let Outcome::Aggregated { payouts, .. } = &outcomes[7] else {
+        panic!("the model at the bound is accepted and closes the round: {outcomes:?}");
+    };
+    // Per coordinate, sorted: (8 or 9, 10.., 12, 5e7) -> median 10.
+    assert_eq!(&s.weights[..], &[10, 10, 10, 10]);
+    // L1 to the median: 0, 2, -, 2, 4, 4, 4, ~2e8 -> q - f = 5 used: robots 0, 1, 3, 4, 5.
+    let paid: Vec<RobotId> = payouts.iter().map(|p| p.robot).collect();
+    assert_eq!(paid, vec![0, 1, 3, 4, 5]);
+    // The pool holds the round's 7 stakes and the outlier's: 40 tokens, 8 each.
+    assert!(payouts.iter().all(|p| p.units == 8 * TOKEN), "{payouts:?}");
+    assert_eq!(s.holdings_units, 0);
+    assert_eq!(s.total_units(), p.total_units());
+
+    // Without the gate the same far model is accepted (the median outvotes it instead).
+    let open = ContractParams {
+        robust: Some(RobustRule {
+            threshold_gate: false,
+            ..p.robust.expect("a robust rule")
+        }),
+        ..p.clone()
+    };
+    assert!(!open.threshold_applies());
+    let mut t = ContractState::genesis(&open);
+    t.execute(&open, 0, STAKE, &submit(models[0], 10));
+    let out = t.execute(&open, 2, STAKE, &submit(models[2], 10));
+    assert!(out.is_accepted(), "{out:?}");
+}
+
 #[test]
 fn robust_rules_need_their_quorum() {
     let p = ContractParams {
         robust: Some(RobustRule {
             rule: Rule::Bulyan,
             assumed_f: 2,
+            threshold_gate: false,
         }),
         ..params(true)
     };
@@ -757,6 +829,7 @@ fn paper_parameters_encode_without_the_rule() {
         robust: Some(RobustRule {
             rule: Rule::Krum,
             assumed_f: 1,
+            threshold_gate: false,
         }),
         ..params(true)
     };
@@ -772,6 +845,29 @@ fn paper_parameters_encode_without_the_rule() {
     assert_eq!(back, p);
     let back: ContractParams = rmp_serde::from_slice(&b).unwrap();
     assert_eq!(back, q);
+}
+
+/// `contract.threshold_gate` came after robust rules had records: off, a robust rule encodes
+/// (and so hashes) as its two fields did; on, it encodes a third and reads back.
+#[test]
+fn a_robust_rule_without_the_gate_encodes_as_before() {
+    let off = RobustRule {
+        rule: Rule::Krum,
+        assumed_f: 1,
+        threshold_gate: false,
+    };
+    assert_eq!(
+        rmp_serde::to_vec(&off).unwrap(),
+        rmp_serde::to_vec(&(Rule::Krum, 1u32)).unwrap()
+    );
+    let on = RobustRule {
+        threshold_gate: true,
+        ..off
+    };
+    let bytes = rmp_serde::to_vec(&on).unwrap();
+    assert_eq!(rmp_serde::from_slice::<RobustRule>(&bytes).unwrap(), on);
+    let old = rmp_serde::to_vec(&(Rule::Krum, 1u32)).unwrap();
+    assert_eq!(rmp_serde::from_slice::<RobustRule>(&old).unwrap(), off);
 }
 
 /// `contract.rank_order`: one model close to the shared model (robot 6 at 5e6 units, an

@@ -47,6 +47,10 @@ pub fn base_params(robots: u32, reward_weights: Vec<i64>) -> ContractParams {
 pub fn robust(rule: Rule) -> Option<RobustRule> {
     match rule {
         Rule::Fedavg | Rule::Paper => None,
-        rule => Some(RobustRule { rule, assumed_f: 1 }),
+        rule => Some(RobustRule {
+            rule,
+            assumed_f: 1,
+            threshold_gate: false,
+        }),
     }
 }

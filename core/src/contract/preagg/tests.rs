@@ -161,6 +161,7 @@ fn a_contract_round_with_nnm_conserves_tokens_and_pays_the_nearest() {
         robust: Some(RobustRule {
             rule: Rule::Median,
             assumed_f: 2,
+            threshold_gate: false,
         }),
         round_timeout_ms: 0,
         options: Default::default(),
