@@ -686,6 +686,20 @@ fn cloning_shares_the_models_and_the_digest_tracks_them() {
     );
 }
 
+/// A model far from the shared one (`2^40` units per weight).
+const FAR: i64 = 1 << 40;
+
+/// Six models near 10 and one far away (robot 2): the median rule tests' round.
+const MEDIAN_ROUND: [[i64; 4]; 7] = [
+    [10, 10, 10, 10],
+    [11, 9, 10, 10],
+    [FAR, FAR, FAR, FAR],
+    [9, 11, 10, 10],
+    [10, 10, 12, 8],
+    [10, 10, 8, 12],
+    [12, 8, 10, 10],
+];
+
 /// A robust rule's round: every valid model is accepted (no threshold), the rule decides the
 /// model and whom it used, the used share the pool equally, the others lose their stakes.
 #[test]
@@ -699,20 +713,10 @@ fn median_rule_pays_the_models_it_used_and_keeps_the_others_stakes() {
         ..params(true)
     };
     let mut s = ContractState::genesis(&p);
-    // Six models near 10 and one far away with a huge sample claim: under paper it would be an
-    // outlier; here it is accepted, outvoted by the median and not paid.
-    let far = 1i64 << 40;
-    let models: [[i64; 4]; 7] = [
-        [10, 10, 10, 10],
-        [11, 9, 10, 10],
-        [far, far, far, far],
-        [9, 11, 10, 10],
-        [10, 10, 12, 8],
-        [10, 10, 8, 12],
-        [12, 8, 10, 10],
-    ];
+    // The far model claims a huge sample count: under paper it would be an outlier; here it
+    // is accepted, outvoted by the median and not paid.
     let mut last = None;
-    for (robot, w) in models.iter().enumerate() {
+    for (robot, w) in MEDIAN_ROUND.iter().enumerate() {
         let samples = if robot == 2 { u64::from(u32::MAX) } else { 10 };
         let out = s.execute(&p, robot as RobotId, STAKE, &submit(*w, samples));
         assert!(out.is_accepted(), "{out:?}");
@@ -750,19 +754,9 @@ fn the_threshold_gate_refuses_the_far_model_before_the_median_sees_it() {
     };
     assert!(p.threshold_applies());
     let mut s = ContractState::genesis(&p);
-    let far = 1i64 << 40;
     // Threshold 50_000_000 units per weight: 200_000_000 over the 4 weights, from genesis 0.
-    let at_bound = [50_000_000i64, 50_000_000, 50_000_000, 50_000_000];
-    let models: [[i64; 4]; 8] = [
-        [10, 10, 10, 10],
-        [11, 9, 10, 10],
-        [far, far, far, far],
-        [9, 11, 10, 10],
-        [10, 10, 12, 8],
-        [10, 10, 8, 12],
-        [12, 8, 10, 10],
-        at_bound,
-    ];
+    let at_bound = [50_000_000i64; 4];
+    let models: Vec<[i64; 4]> = MEDIAN_ROUND.iter().copied().chain([at_bound]).collect();
     let mut outcomes = Vec::new();
     for (robot, w) in models.iter().enumerate() {
         let samples = if robot == 2 { u64::from(u32::MAX) } else { 10 };
@@ -772,7 +766,7 @@ fn the_threshold_gate_refuses_the_far_model_before_the_median_sees_it() {
         outcomes[2],
         Outcome::Outlier {
             round: 0,
-            distance_units: 4 * (far as u64)
+            distance_units: 4 * (FAR as u64)
         }
     );
     assert_eq!(s.balances[2], 16 * TOKEN, "the outlier's stake is kept");
