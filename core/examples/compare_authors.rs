@@ -8,11 +8,11 @@
 //! ```
 //!
 //! `AUTHORS.json` holds `{"bytecode": "<hex>"}` (solc's `evm.bytecode.object`, with or without
-//! `0x`; `contracts/compile.js` on the authors' source writes it, docs/CONTRACT.md says how). The authors'
-//! contract fixes 15 robots, a quorum of 7 and 2848 weights; their robots send 5 ether (1 ether
-//! = 10^18 wei) where swarmfl stakes 5 tokens (10^9 units each), so a payout compares as
-//! `floor(wei / 10^9)` units, exactly (their base share is the only amount that is not a
-//! multiple of 10^9 wei).
+//! `0x`; `contracts/compile.js` on the authors' source writes it, docs/CONTRACT.md says how).
+//! The authors' contract fixes 15 robots, a quorum of 7 and 2848 weights; their robots send 5
+//! ether (1 ether = 10^18 wei) where swarmfl stakes 5 tokens (10^9 units each), so a payout
+//! compares as `floor(wei / 10^9)` units, exactly (their base share is the only amount that is
+//! not a multiple of 10^9 wei).
 
 use std::collections::BTreeMap;
 use std::sync::Arc;
