@@ -82,7 +82,7 @@ fn key_of(o: &str) -> &str {
 }
 
 /// A file-name-safe form of a point's coordinates.
-fn safe(text: &str) -> String {
+pub(crate) fn safe(text: &str) -> String {
     text.chars()
         .map(|c| {
             if c.is_ascii_alphanumeric() || matches!(c, '.' | '_' | '=' | '-' | '+' | ',') {
@@ -92,6 +92,36 @@ fn safe(text: &str) -> String {
             }
         })
         .collect()
+}
+
+/// A grid point's coordinates from what its result files record: of its overrides (the
+/// point's own, then the sweep's `--set`), the leading ones whose `+`-joined safe form is the
+/// point's name `point`, each as `(key, value)` (value as given to `--grid`). Empty when no
+/// prefix names the point (not a `--grid` point).
+pub fn coordinates(point: &str, overrides: &[String]) -> Vec<(String, String)> {
+    let Some(n) = (1..=overrides.len())
+        .rev()
+        .find(|&n| safe(&overrides[..n].join("+")) == point)
+    else {
+        return Vec::new();
+    };
+    overrides[..n]
+        .iter()
+        .map(|o| {
+            let (k, v) = o.split_once('=').unwrap_or((o, ""));
+            (k.trim().to_string(), v.trim().to_string())
+        })
+        .collect()
+}
+
+/// A grid value as figures and tables show it: a TOML string without its quotes (`"krum"`
+/// is `krum`), anything else as given.
+pub fn shown_value(value: &str) -> &str {
+    let v = value.trim();
+    ['"', '\'']
+        .iter()
+        .find_map(|&q| v.strip_prefix(q).and_then(|t| t.strip_suffix(q)))
+        .unwrap_or(v)
 }
 
 /// The experiment of a grid: every combination of `axes` (first axis slowest) on `preset`.
@@ -214,6 +244,29 @@ mod tests {
         assert_eq!(exp.points[2].x, 1.0);
         let numeric = experiment("smoke", &axes[1..], &[]).unwrap();
         assert_eq!(numeric.points[1].x, 3.0);
+    }
+
+    #[test]
+    fn a_points_coordinates_are_the_overrides_that_name_it() {
+        let overrides: Vec<String> = [
+            "contract.rule=\"krum\"",
+            "byzantine.count=3",
+            "run.duration_s=300",
+        ]
+        .map(String::from)
+        .into();
+        let c = coordinates("contract.rule=_krum_+byzantine.count=3", &overrides);
+        assert_eq!(
+            c,
+            [
+                ("contract.rule".to_string(), "\"krum\"".to_string()),
+                ("byzantine.count".to_string(), "3".to_string())
+            ]
+        );
+        assert_eq!(shown_value(&c[0].1), "krum");
+        assert_eq!(shown_value("'a,b'"), "a,b");
+        assert_eq!(shown_value("[1, 2]"), "[1, 2]");
+        assert!(coordinates("byzantine-3", &overrides).is_empty());
     }
 
     #[test]

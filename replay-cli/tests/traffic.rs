@@ -109,6 +109,22 @@ fn the_last_row_is_the_summary_and_a_study_gets_its_csv_and_figures() {
         out.to_str().unwrap(),
     ]);
     assert!(o.status.success(), "{}", text(&o.stderr));
+    // Every file written is listed, one a line.
+    let listed = text(&o.stdout);
+    let mut on_disk: Vec<PathBuf> = std::fs::read_dir(&out)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
+    on_disk.sort();
+    for file in &on_disk {
+        assert!(
+            listed
+                .lines()
+                .any(|l| l.trim() == file.display().to_string()),
+            "{} not listed in:\n{listed}",
+            file.display()
+        );
+    }
     let csv = std::fs::read_to_string(out.join("traffic.csv")).unwrap();
     // Sorted by aggregation: the chain's rounds before gossip, 3 rows each (0, 30, 60 s).
     let modes: Vec<&str> = csv

@@ -24,7 +24,8 @@ use swarmfl_core::SimTime;
 use crate::cli::TrafficArgs;
 use crate::commands::ranking::find_logs;
 use crate::commands::report::plots::{self, Kind, Plot, Series};
-use crate::commands::report::stats::Stat;
+use crate::commands::report::stats::{fixed, Stat};
+use crate::commands::report::written_list;
 
 /// Runs `swarmfl traffic`.
 pub fn command(args: TrafficArgs) -> anyhow::Result<ExitCode> {
@@ -93,12 +94,7 @@ fn mb(bytes: f64) -> f64 {
 
 /// `v` with 3 decimals, never `-0.000` (a flat series' growth, rounded).
 fn mb3(v: f64) -> String {
-    let text = format!("{v:.3}");
-    if text == "-0.000" {
-        "0.000".to_string()
-    } else {
-        text
-    }
+    fixed(v, 3)
 }
 
 /// One table per run, MB per node: mean and [min, median, max] over nodes.
@@ -188,29 +184,28 @@ const QUANTITIES: [(&str, &str, Read); 2] = [
     ("stored", "bytes stored", |r| r.stored.mean),
 ];
 
-/// Writes `traffic.csv` and the figures into `out`; returns what it printed (the files, and
-/// per run the end values and the growth over the second half).
+/// Writes `traffic.csv` and the figures into `out`; returns what it printed (every file
+/// written, one a line, then per run the end values and the growth over the second half).
 fn write_study(runs: &[Run], out: &Path) -> anyhow::Result<String> {
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let csv_path = out.join("traffic.csv");
     std::fs::write(&csv_path, csv_text(runs)?)
         .with_context(|| format!("cannot write {}", csv_path.display()))?;
     let mut with_text = true;
-    let mut figures = Vec::new();
+    let mut files = vec![csv_path];
     for (stem, plot) in over_time(runs).into_iter().chain(rates(runs)) {
         with_text &= plots::draw(&plot, out, &stem)?;
-        figures.push(stem);
+        files.extend(["svg", "png"].map(|ext| out.join(format!("{stem}.{ext}"))));
     }
-    let mut text = format!(
-        "wrote {}: traffic.csv ({} runs), {} figures (SVG, PNG): {}{}\n",
-        out.display(),
+    let mut text = written_list(out, &files);
+    let _ = writeln!(
+        text,
+        "{} runs{}",
         runs.len(),
-        figures.len(),
-        figures.join(", "),
         if with_text {
             ""
         } else {
-            " (without text: no font could be loaded)"
+            "; the figures are without text: no font could be loaded"
         }
     );
     let _ = writeln!(
@@ -296,6 +291,7 @@ fn over_time(runs: &[Run]) -> Vec<(String, Plot<'static>)> {
                     kind: Kind::Time { log_y: false },
                     series,
                     nonnegative: true,
+                    x_ticks: Vec::new(),
                 },
             ));
         }
@@ -341,6 +337,7 @@ fn rates(runs: &[Run]) -> Vec<(String, Plot<'static>)> {
                     kind: Kind::Scaling { log_y: false },
                     series,
                     nonnegative: false,
+                    x_ticks: Vec::new(),
                 },
             )
         })

@@ -1,20 +1,18 @@
 //! The figures of `swarmfl ranking`, in the report's style (`report::plots`: points with 95 %
 //! error bars versus the Byzantine count, SVG and PNG). One set per Byzantine kind, one
-//! series per ranking (and group): `<kind>-gain` (Byzantine minus honest tokens gained, the
+//! series per ranking, setting (the other keys the runs differ on, `key=value` in the legend)
+//! and group: `<kind>-gain` (Byzantine minus honest tokens gained, the
 //! claim's quantity), `<kind>-tokens` (both groups' gains), `<kind>-rank` (mean rank of their
 //! accepted submissions), `<kind>-position` (mean distance to the shared model over the
 //! round's median distance) and `<kind>-median` (share of rounds whose median model is
 //! Byzantine, and of rounds where every Byzantine model is closer to the shared model than
-//! every honest one). Series at one count are spread by a small x offset so that their bars
-//! do not hide each other.
+//! every honest one). The x axis is marked at each count measured; series at one count are
+//! spread around it (`report::plots` does it) so that their bars do not hide each other.
 
 use std::path::Path;
 
 use super::measure::PointStats;
 use crate::commands::report::plots::{self, Kind, Plot, Series};
-
-/// The x offset between neighbouring series at one count.
-const SPREAD: f64 = 0.08;
 
 /// Draws every figure into `out`; returns whether their text could be drawn.
 pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
@@ -22,37 +20,50 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
     kinds.dedup();
     let mut with_text = true;
     for kind in kinds {
-        let mut rankings: Vec<&str> = points
+        // The lines of a figure: a ranking and the other keys' values (`Point::setting`).
+        let mut lines: Vec<(&str, &[(String, String)])> = points
             .iter()
             .filter(|(p, _)| p.kind == kind)
-            .map(|(p, _)| p.ranking.as_str())
+            .map(|(p, _)| (p.ranking.as_str(), p.setting.as_slice()))
             .collect();
-        rankings.sort_unstable();
-        rankings.dedup();
-        // One series per (ranking, metric); `label` names the group and the ranking.
+        lines.sort_unstable();
+        lines.dedup();
+        // One series per (line, metric); `label` names the group, the ranking and the setting.
         let series = |metrics: &[(&str, &str)]| -> Vec<Series> {
-            let total = (rankings.len() * metrics.len()) as f64;
             let mut out = Vec::new();
-            for ranking in &rankings {
+            for (ranking, setting) in &lines {
                 for (metric, label) in metrics {
-                    let offset = (out.len() as f64 - (total - 1.0) / 2.0) * SPREAD;
                     let pts = points
                         .iter()
-                        .filter(|(p, _)| p.kind == kind && p.ranking == *ranking)
+                        .filter(|(p, _)| {
+                            p.kind == kind && p.ranking == *ranking && p.setting == *setting
+                        })
                         .filter_map(|(p, stats)| {
                             let s = stats.iter().find(|(n, _)| n == metric)?.1?;
-                            Some((f64::from(p.count) + offset, s))
+                            Some((f64::from(p.count), s))
                         })
                         .collect();
-                    out.push(Series {
-                        label: format!("{label}, {ranking} ranking"),
-                        points: pts,
-                    });
+                    let mut label = format!("{label}, {ranking} ranking");
+                    for (k, v) in *setting {
+                        label.push_str(&format!(", {k}={v}"));
+                    }
+                    out.push(Series { label, points: pts });
                 }
             }
             out
         };
         let x_label = format!("{kind} robots");
+        let mut counts: Vec<u32> = points
+            .iter()
+            .filter(|(p, _)| p.kind == kind)
+            .map(|(p, _)| p.count)
+            .collect();
+        counts.sort_unstable();
+        counts.dedup();
+        let x_ticks: Vec<(f64, String)> = counts
+            .iter()
+            .map(|&c| (f64::from(c), c.to_string()))
+            .collect();
         let plots = [
             (
                 "gain",
@@ -63,6 +74,7 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
                     kind: Kind::Versus,
                     series: series(&[("gain_difference", &format!("{kind} - honest"))]),
                     nonnegative: false,
+                    x_ticks: x_ticks.clone(),
                 },
             ),
             (
@@ -74,6 +86,7 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
                     kind: Kind::Versus,
                     series: series(&[("byzantine_gain", kind), ("honest_gain", "honest")]),
                     nonnegative: false,
+                    x_ticks: x_ticks.clone(),
                 },
             ),
             (
@@ -85,6 +98,7 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
                     kind: Kind::Versus,
                     series: series(&[("byzantine_rank", kind), ("honest_rank", "honest")]),
                     nonnegative: true,
+                    x_ticks: x_ticks.clone(),
                 },
             ),
             (
@@ -101,6 +115,7 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
                         ("honest_distance_ratio", "honest"),
                     ]),
                     nonnegative: true,
+                    x_ticks: x_ticks.clone(),
                 },
             ),
             (
@@ -118,6 +133,7 @@ pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {
                         ),
                     ]),
                     nonnegative: true,
+                    x_ticks: x_ticks.clone(),
                 },
             ),
         ];

@@ -257,7 +257,8 @@ pub fn run(
     }
 }
 
-/// A configuration point: the ranking it ran under, the Byzantine kind and count.
+/// A configuration point: the ranking it ran under, the Byzantine kind and count, and the
+/// value of every other configuration key on which the measured runs differ.
 #[derive(Clone, Debug, PartialEq, Eq, PartialOrd, Ord)]
 pub struct Point {
     /// The ranking (`contract.rank_order`, with the key when not the exact distance).
@@ -266,6 +267,57 @@ pub struct Point {
     pub kind: String,
     /// `byzantine.count`.
     pub count: u32,
+    /// `(key, value)` of each other key whose value differs between the runs measured
+    /// together (`contract.rule` in a grid over rules), in key order; empty when they differ
+    /// only in the three above.
+    pub setting: Vec<(String, String)>,
+}
+
+impl Point {
+    /// The other keys' `key=value`, joined by `, ` (empty without any).
+    pub fn setting_text(&self) -> String {
+        self.setting
+            .iter()
+            .map(|(k, v)| format!("{k}={v}"))
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+}
+
+/// The configuration keys a [`Point`] has fields for: never among its `setting`.
+pub const POINT_KEYS: [&str; 4] = [
+    "contract.rank_order",
+    "contract.rank_key",
+    "byzantine.kind",
+    "byzantine.count",
+];
+
+/// What a run shows for a key its recorded configuration leaves out (a key recorded only
+/// away from its default).
+pub const LEFT_OUT: &str = "(default)";
+
+/// The keys that tell runs apart beyond a [`Point`]'s own fields: every configuration key
+/// (`Config::flat_values`) whose value is not the same in all `configs`, but [`POINT_KEYS`];
+/// sorted. Then per run, its `(key, value)` on each (a TOML string without its quotes;
+/// [`LEFT_OUT`] where its configuration does not hold the key).
+pub fn settings(configs: &[BTreeMap<String, String>]) -> Vec<Vec<(String, String)>> {
+    let mut keys: Vec<&String> = configs.iter().flat_map(|c| c.keys()).collect();
+    keys.sort();
+    keys.dedup();
+    keys.retain(|k| {
+        !POINT_KEYS.contains(&k.as_str()) && configs.iter().any(|c| c.get(*k) != configs[0].get(*k))
+    });
+    configs
+        .iter()
+        .map(|c| {
+            keys.iter()
+                .map(|k| {
+                    let v = c.get(*k).map_or(LEFT_OUT, |v| crate::grid::shown_value(v));
+                    ((*k).clone(), v.to_string())
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The per-run metrics a point summarises, by column name, in column order.
@@ -403,6 +455,45 @@ mod tests {
     }
 
     #[test]
+    fn the_keys_runs_differ_on_are_their_settings() {
+        let config = |pairs: &[(&str, &str)]| -> BTreeMap<String, String> {
+            pairs
+                .iter()
+                .map(|(k, v)| (k.to_string(), v.to_string()))
+                .collect()
+        };
+        let configs = [
+            config(&[
+                ("contract.rule", "\"median\""),
+                ("byzantine.count", "1"),
+                ("run.duration_s", "300.0"),
+                ("byzantine.search_evals", "40"),
+            ]),
+            config(&[
+                ("contract.rule", "\"krum\""),
+                ("byzantine.count", "3"),
+                ("run.duration_s", "300.0"),
+            ]),
+        ];
+        // The count has its own field; the duration is the same; a key one configuration
+        // leaves out (at its default) is shown so.
+        assert_eq!(
+            settings(&configs),
+            [
+                vec![
+                    ("byzantine.search_evals".to_string(), "40".to_string()),
+                    ("contract.rule".to_string(), "median".to_string()),
+                ],
+                vec![
+                    ("byzantine.search_evals".to_string(), LEFT_OUT.to_string()),
+                    ("contract.rule".to_string(), "krum".to_string()),
+                ],
+            ]
+        );
+        assert_eq!(settings(&configs[..1]), [Vec::new()]);
+    }
+
+    #[test]
     fn points_summarise_runs_and_leave_undefined_values_out() {
         let run_with = |gain: f64, below: f64| RunMeasure {
             rounds: 10,
@@ -415,6 +506,7 @@ mod tests {
             ranking: "median".into(),
             kind: "smart".into(),
             count: 1,
+            setting: Vec::new(),
         };
         let runs = BTreeMap::from([(
             point.clone(),

@@ -4,7 +4,9 @@
 //! canonical chain gives each submission's distance to the shared model, the round's median
 //! distance, the rank it was given and what it was paid (`inspect::RankedSubmission`). The runs
 //! are grouped by point, the ranking they ran under (`contract.rank_order`) x
-//! `byzantine.kind` x `byzantine.count`, and summarised with the report's 95 % intervals.
+//! `byzantine.kind` x `byzantine.count` x the value of every other configuration key on which
+//! the runs differ (`contract.rule` in a grid over rules; a column each in the files after
+//! `count`), and summarised with the report's 95 % intervals.
 //!
 //! Files written into the output directory: `rounds.csv` (per run and closed round: the
 //! median distance, whether a Byzantine model held it, and each group's mean position),
@@ -42,6 +44,8 @@ pub fn command(args: RankingArgs) -> anyhow::Result<ExitCode> {
 /// One measured run.
 struct Run {
     point: Point,
+    /// Its configuration, every key (`Config::flat_values`).
+    config: BTreeMap<String, String>,
     seed: u64,
     /// The log's path relative to the input it was found under.
     log: String,
@@ -59,22 +63,14 @@ pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Res
     for (path, name) in &logs {
         runs.push(measure_log(path, name, submissions)?);
     }
-    runs.sort_by(|a, b| (&a.point, a.seed).cmp(&(&b.point, b.seed)));
-    for pair in runs.windows(2) {
-        anyhow::ensure!(
-            (&pair[0].point, pair[0].seed) != (&pair[1].point, pair[1].seed),
-            "{} and {} are the same run (ranking {}, {} x {}, seed {}): give each run once",
-            pair[0].log,
-            pair[1].log,
-            pair[0].point.ranking,
-            pair[0].point.count,
-            pair[0].point.kind,
-            pair[0].seed
-        );
-    }
+    tell_apart(&mut runs)?;
+    let keys: Vec<String> = runs
+        .first()
+        .map(|r| r.point.setting.iter().map(|(k, _)| k.clone()).collect())
+        .unwrap_or_default();
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
-    write_rounds(&out.join("rounds.csv"), &runs)?;
-    write_runs(&out.join("runs.csv"), &runs)?;
+    write_rounds(&out.join("rounds.csv"), &keys, &runs)?;
+    write_runs(&out.join("runs.csv"), &keys, &runs)?;
     let mut by_point: BTreeMap<Point, Vec<RunMeasure>> = BTreeMap::new();
     for r in &runs {
         by_point
@@ -83,10 +79,10 @@ pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Res
             .push(r.measure.clone());
     }
     let points = measure::points(&by_point);
-    write_points_csv(&out.join("points.csv"), &points)?;
+    write_points_csv(&out.join("points.csv"), &keys, &points)?;
     write_points_json(&out.join("points.json"), &by_point, &points)?;
     if submissions {
-        write_submissions(&out.join("submissions.csv"), &runs)?;
+        write_submissions(&out.join("submissions.csv"), &keys, &runs)?;
     }
     let with_text = figures::draw_all(&points, out)?;
     let mut text = format!(
@@ -102,6 +98,37 @@ pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Res
     );
     text.push_str(&summary_table(&points));
     Ok(text)
+}
+
+/// Gives each run's point the other configuration keys on which the runs differ
+/// ([`measure::settings`]), sorts the runs by point and seed, and refuses two runs of one
+/// point and seed (one configuration, given twice), naming both logs.
+fn tell_apart(runs: &mut [Run]) -> anyhow::Result<()> {
+    let configs: Vec<BTreeMap<String, String>> = runs.iter().map(|r| r.config.clone()).collect();
+    for (r, setting) in runs.iter_mut().zip(measure::settings(&configs)) {
+        r.point.setting = setting;
+    }
+    runs.sort_by(|a, b| (&a.point, a.seed).cmp(&(&b.point, b.seed)));
+    for pair in runs.windows(2) {
+        let p = &pair[0].point;
+        anyhow::ensure!(
+            (p, pair[0].seed) != (&pair[1].point, pair[1].seed),
+            "{} and {} are the same run (ranking {}, {} x {}{}, seed {}; their configurations \
+             are equal): give each run once",
+            pair[0].log,
+            pair[1].log,
+            p.ranking,
+            p.count,
+            p.kind,
+            if p.setting.is_empty() {
+                String::new()
+            } else {
+                format!(", {}", p.setting_text())
+            },
+            pair[0].seed
+        );
+    }
+    Ok(())
 }
 
 /// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
@@ -185,7 +212,9 @@ fn measure_log(path: &Path, name: &str, submissions: bool) -> anyhow::Result<Run
             ranking,
             kind: config.byzantine.kind.name().to_string(),
             count: config.byzantine.count,
+            setting: Vec::new(),
         },
+        config: config.flat_values(),
         seed: index.seed,
         log: name.to_string(),
         rounds,
@@ -203,25 +232,42 @@ fn num(v: f64) -> String {
     v.to_string()
 }
 
-/// The leading columns naming a run.
-fn run_columns(r: &Run) -> Vec<String> {
-    vec![
-        r.point.ranking.clone(),
-        r.point.kind.clone(),
-        r.point.count.to_string(),
-        r.seed.to_string(),
-    ]
+/// The leading columns naming a point: ranking, kind, count, then the value of each other
+/// key that tells the runs apart.
+fn point_columns(p: &Point) -> Vec<String> {
+    let mut row = vec![p.ranking.clone(), p.kind.clone(), p.count.to_string()];
+    row.extend(p.setting.iter().map(|(_, v)| v.clone()));
+    row
 }
 
-const RUN_HEADER: [&str; 4] = ["ranking", "kind", "count", "seed"];
+/// The header of [`point_columns`], the other keys being `keys`.
+fn point_header(keys: &[String]) -> Vec<String> {
+    let mut header: Vec<String> = ["ranking", "kind", "count"].map(String::from).to_vec();
+    header.extend(keys.iter().cloned());
+    header
+}
+
+/// The leading columns naming a run: its point's, then the seed.
+fn run_columns(r: &Run) -> Vec<String> {
+    let mut row = point_columns(&r.point);
+    row.push(r.seed.to_string());
+    row
+}
+
+/// The header of [`run_columns`].
+fn run_header(keys: &[String]) -> Vec<String> {
+    let mut header = point_header(keys);
+    header.push("seed".into());
+    header
+}
 
 fn writer(path: &Path) -> anyhow::Result<csv::Writer<std::fs::File>> {
     csv::Writer::from_path(path).with_context(|| format!("cannot write {}", path.display()))
 }
 
-fn write_rounds(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+fn write_rounds(path: &Path, keys: &[String], runs: &[Run]) -> anyhow::Result<()> {
     let mut w = writer(path)?;
-    let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+    let mut header = run_header(keys);
     header.extend(
         [
             "round",
@@ -274,9 +320,9 @@ fn write_rounds(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-fn write_runs(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+fn write_runs(path: &Path, keys: &[String], runs: &[Run]) -> anyhow::Result<()> {
     let mut w = writer(path)?;
-    let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+    let mut header = run_header(keys);
     header.push("log".into());
     if let Some(first) = runs.first() {
         header.extend(measure::metrics(&first.measure).into_iter().map(|(n, _)| n));
@@ -296,9 +342,9 @@ fn write_runs(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
-fn write_points_csv(path: &Path, points: &[PointStats]) -> anyhow::Result<()> {
+fn write_points_csv(path: &Path, keys: &[String], points: &[PointStats]) -> anyhow::Result<()> {
     let mut w = writer(path)?;
-    let mut header: Vec<String> = ["ranking", "kind", "count"].map(String::from).to_vec();
+    let mut header = point_header(keys);
     if let Some((_, stats)) = points.first() {
         for (name, _) in stats {
             header.extend([
@@ -310,7 +356,7 @@ fn write_points_csv(path: &Path, points: &[PointStats]) -> anyhow::Result<()> {
     }
     w.write_record(&header)?;
     for (p, stats) in points {
-        let mut row = vec![p.ranking.clone(), p.kind.clone(), p.count.to_string()];
+        let mut row = point_columns(p);
         for (_, s) in stats {
             match s {
                 Some(s) => row.extend([
@@ -345,13 +391,22 @@ fn write_points_json(
                     (name.clone(), v)
                 })
                 .collect();
-            serde_json::json!({
+            let mut point = serde_json::json!({
                 "ranking": p.ranking,
                 "kind": p.kind,
                 "count": p.count,
                 "runs": runs.get(p).map_or(0, Vec::len),
                 "metrics": metrics,
-            })
+            });
+            if !p.setting.is_empty() {
+                point["setting"] = p
+                    .setting
+                    .iter()
+                    .map(|(k, v)| (k.clone(), serde_json::Value::from(v.as_str())))
+                    .collect::<serde_json::Map<_, _>>()
+                    .into();
+            }
+            point
         })
         .collect();
     let text = serde_json::to_string_pretty(&value)? + "\n";
@@ -363,7 +418,7 @@ fn finite(v: f64) -> Option<f64> {
     v.is_finite().then_some(v)
 }
 
-fn write_submissions(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
+fn write_submissions(path: &Path, keys: &[String], runs: &[Run]) -> anyhow::Result<()> {
     let mut w = writer(path)?;
     let mut wrote_header = false;
     for r in runs {
@@ -371,7 +426,7 @@ fn write_submissions(path: &Path, runs: &[Run]) -> anyhow::Result<()> {
             continue;
         };
         if !wrote_header {
-            let mut header: Vec<String> = RUN_HEADER.iter().map(|s| s.to_string()).collect();
+            let mut header = run_header(keys);
             header.extend(table.names().into_iter().map(String::from));
             w.write_record(&header)?;
             wrote_header = true;
@@ -406,10 +461,15 @@ fn summary_table(points: &[PointStats]) -> String {
             .map_or(0, |s| s.n);
         let _ = writeln!(
             text,
-            "{}  {}  {}  {}  {}  {}  {}",
+            "{}  {}  {}{}  {}  {}  {}  {}",
             p.ranking,
             p.kind,
             p.count,
+            if p.setting.is_empty() {
+                String::new()
+            } else {
+                format!(" ({})", p.setting_text())
+            },
             runs,
             get("byzantine_gain"),
             get("honest_gain"),
@@ -422,6 +482,92 @@ fn summary_table(points: &[PointStats]) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A run of `rule` at `count` faulty robots and seed `seed`, its configuration the
+    /// smoke preset's with those set (flattened as `Config::flat_values`).
+    fn run_of(rule: &str, count: u32, seed: u64) -> Run {
+        let overrides = [
+            format!("contract.rule={rule}"),
+            "byzantine.kind=faulty".to_string(),
+            format!("byzantine.count={count}"),
+        ];
+        let config =
+            swarmfl_core::config::Config::resolve(Some("smoke"), None, &overrides).unwrap();
+        let position = measure::Position {
+            submissions: 0,
+            distance_ratio: f64::NAN,
+            off_median_ratio: f64::NAN,
+            rank: f64::NAN,
+            penalised: f64::NAN,
+            gain_tokens: f64::NAN,
+        };
+        Run {
+            point: Point {
+                ranking: config.contract.rank_order.name().to_string(),
+                kind: config.byzantine.kind.name().to_string(),
+                count,
+                setting: Vec::new(),
+            },
+            config: config.flat_values(),
+            seed,
+            log: format!("{rule}-{count}/seed{seed}/run.swlog"),
+            rounds: Vec::new(),
+            measure: RunMeasure {
+                rounds: 0,
+                median_byzantine: 0.0,
+                byzantine_below_honest: f64::NAN,
+                groups: [position; 2],
+                token_gain: [0.0, 0.0],
+            },
+            submissions: None,
+        }
+    }
+
+    /// `sweep --grid contract.rule=median,krum --grid byzantine.count=1,3`: the rule is not
+    /// one of a point's own fields, yet the runs differ in it, so they are different runs,
+    /// and the rule is a column of their point. The same configuration and seed twice is
+    /// still refused.
+    #[test]
+    fn runs_that_differ_in_any_key_are_different_runs() {
+        let mut runs: Vec<Run> = ["median", "krum"]
+            .iter()
+            .flat_map(|rule| [1, 3].map(|count| run_of(rule, count, 1)))
+            .collect();
+        tell_apart(&mut runs).unwrap();
+        let points: Vec<String> = runs
+            .iter()
+            .map(|r| point_columns(&r.point).join(","))
+            .collect();
+        assert_eq!(
+            points,
+            [
+                "median,faulty,1,krum",
+                "median,faulty,1,median",
+                "median,faulty,3,krum",
+                "median,faulty,3,median"
+            ]
+        );
+        assert_eq!(
+            run_header(&["contract.rule".to_string()]),
+            ["ranking", "kind", "count", "contract.rule", "seed"]
+        );
+        // Runs that differ only in the point's own fields have no other column.
+        let mut runs = vec![run_of("median", 1, 1), run_of("median", 3, 1)];
+        tell_apart(&mut runs).unwrap();
+        assert!(runs.iter().all(|r| r.point.setting.is_empty()));
+        // One configuration and seed twice: one run given twice.
+        let mut runs = vec![
+            run_of("krum", 1, 1),
+            run_of("median", 1, 1),
+            run_of("krum", 1, 1),
+        ];
+        let err = tell_apart(&mut runs).unwrap_err().to_string();
+        assert!(
+            err.contains("krum-1/seed1/run.swlog and krum-1/seed1/run.swlog are the same run")
+                && err.contains("contract.rule=krum, seed 1"),
+            "{err}"
+        );
+    }
 
     /// A sweep's in-progress logs sit in its `.tmp` folder: a search passes over them (they
     /// are not runs yet), but names them when given `.tmp` itself; none found is an error.

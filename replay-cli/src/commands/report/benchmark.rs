@@ -21,6 +21,7 @@ use super::heatmap::{draw, Heatmap, Scale};
 use super::load::RunResult;
 use super::markdown;
 use super::plots::Figure;
+use super::stats::fixed;
 use crate::experiments;
 
 /// The experiment this module reads.
@@ -386,7 +387,7 @@ pub fn tables(b: &Bench) -> (String, String) {
             "- {}: {} ({} runs)",
             l.behaviour,
             l.heterogeneity
-                .map_or_else(|| "n/a".to_string(), |h| format!("{h:.4}")),
+                .map_or_else(|| "n/a".to_string(), |h| fixed(h, 4)),
             l.runs
         );
     }
@@ -402,7 +403,7 @@ pub fn tables(b: &Bench) -> (String, String) {
         for l in &b.levels {
             match b.best(&l.behaviour, count) {
                 Some(w) => {
-                    let _ = write!(md, " {} ({:.5}) |", w.rule, w.loss);
+                    let _ = write!(md, " {} ({}) |", w.rule, fixed(w.loss, 5));
                 }
                 None => {
                     let _ = write!(md, " n/a |");
@@ -436,7 +437,7 @@ pub fn tables(b: &Bench) -> (String, String) {
                 md,
                 "| {rule} | {} | {} |",
                 l.behaviour,
-                clean.map_or_else(|| "n/a".to_string(), |c| format!("{c:.5}"))
+                clean.map_or_else(|| "n/a".to_string(), |c| fixed(c, 5))
             );
             for &count in &b.counts {
                 let Some(w) = b.worst_of(rule, &l.behaviour, count) else {
@@ -460,9 +461,9 @@ pub fn tables(b: &Bench) -> (String, String) {
                 if count > 0 {
                     let _ = write!(
                         md,
-                        " {} ({:.5}, {}) |",
+                        " {} ({}, {}) |",
                         w.attack,
-                        w.loss,
+                        fixed(w.loss, 5),
                         ratio.map_or_else(|| "n/a".to_string(), |r| format!("{r:.2}x"))
                     );
                 }

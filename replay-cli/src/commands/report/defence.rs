@@ -90,6 +90,7 @@ pub fn draw_all(
                     kind: Kind::Versus,
                     series: tokens,
                     nonnegative: false,
+                    x_ticks: Vec::new(),
                 },
             ),
             (
@@ -104,6 +105,7 @@ pub fn draw_all(
                     kind: Kind::Versus,
                     series: loss,
                     nonnegative: true,
+                    x_ticks: Vec::new(),
                 },
             ),
         ];

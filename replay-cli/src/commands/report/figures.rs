@@ -4,6 +4,7 @@
 
 use std::path::Path;
 
+use super::coords::GridCoords;
 use super::plots::{draw, Figure, Kind, Plot, Series};
 use super::stats::{ExperimentStats, PointStats, Stat};
 
@@ -70,8 +71,9 @@ fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a
     let mut loss: Vec<Series> = e
         .points
         .iter()
-        .map(|p| Series {
-            label: label(&e.name, &p.point, p.x),
+        .enumerate()
+        .map(|(i, p)| Series {
+            label: label(e, i),
             points: p.loss.clone(),
         })
         .collect();
@@ -108,6 +110,7 @@ fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a
             kind: Kind::Time { log_y: true },
             series: loss,
             nonnegative: true,
+            x_ticks: Vec::new(),
         },
     )
 }
@@ -129,6 +132,9 @@ fn tokens(e: &ExperimentStats) -> Option<Planned<'_>> {
         && tokens_move;
     if !applies {
         return None;
+    }
+    if let Some(g) = &e.grid {
+        return Some(grid_tokens(e, g));
     }
     let pick = |key: &str| -> Vec<(f64, Stat)> {
         e.points
@@ -158,8 +164,69 @@ fn tokens(e: &ExperimentStats) -> Option<Planned<'_>> {
                     points: pick("byzantine_gain"),
                 },
             ],
+            x_ticks: Vec::new(),
         },
     ))
+}
+
+/// A grid's tokens figure: versus its x key ([`GridCoords::versus`]), its values as the ticks,
+/// a pair of series (honest, Byzantine) per combination of the other keys.
+fn grid_tokens<'a>(e: &'a ExperimentStats, g: &'a GridCoords) -> Planned<'a> {
+    let v = g.versus();
+    let mut combos: Vec<&str> = Vec::new();
+    for s in &v.series {
+        if !combos.contains(&s.as_str()) {
+            combos.push(s);
+        }
+    }
+    let mut series = Vec::new();
+    for combo in &combos {
+        for (key, who) in [
+            ("honest_gain", "honest robots"),
+            ("byzantine_gain", "Byzantine robots"),
+        ] {
+            series.push(Series {
+                label: if combo.is_empty() {
+                    who.to_string()
+                } else {
+                    format!("{who}, {combo}")
+                },
+                points: e
+                    .points
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| v.series[*i] == *combo)
+                    .filter_map(|(i, p)| p.metrics.get(key).map(|s| (v.x[i], *s)))
+                    .collect(),
+            });
+        }
+    }
+    let x_key = &g.keys[g.x_key];
+    let others: Vec<&str> = (0..g.keys.len())
+        .filter(|&j| j != g.x_key)
+        .map(|j| g.keys[j].as_str())
+        .collect();
+    let per = if others.is_empty() {
+        String::new()
+    } else {
+        format!(", a pair of series per {}", others.join(" x "))
+    };
+    (
+        format!("{}-tokens", e.name),
+        format!(
+            "{}: tokens gained by honest and by Byzantine robots versus {x_key}{per} (mean, 95 % CI)",
+            e.name
+        ),
+        Plot {
+            title: format!("{}: tokens gained", e.name),
+            x_label: x_key,
+            y_label: "tokens gained per robot",
+            kind: Kind::Versus,
+            nonnegative: false,
+            series,
+            x_ticks: v.ticks,
+        },
+    )
 }
 
 /// Chain size over time, one line per point.
@@ -179,11 +246,13 @@ fn chain(e: &ExperimentStats) -> Planned<'_> {
             series: e
                 .points
                 .iter()
-                .map(|p| Series {
-                    label: label(&e.name, &p.point, p.x),
+                .enumerate()
+                .map(|(i, p)| Series {
+                    label: label(e, i),
                     points: p.chain_mb.clone(),
                 })
                 .collect(),
+            x_ticks: Vec::new(),
         },
     )
 }
@@ -226,6 +295,7 @@ fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
                 kind: Kind::Time { log_y: true },
                 series,
                 nonnegative: true,
+                x_ticks: Vec::new(),
             },
         ));
     }
@@ -263,18 +333,23 @@ fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
                 kind: Kind::Versus,
                 series,
                 nonnegative: true,
+                x_ticks: Vec::new(),
             },
         ));
     }
     figures
 }
 
-/// A point's legend label.
-fn label(experiment: &str, point: &str, x: f64) -> String {
-    if x.is_nan() || experiment == "e0-baselines" {
+/// Point `i`'s legend label: a grid's `key=value` of every key, else by the experiment.
+fn label(e: &ExperimentStats, i: usize) -> String {
+    if let Some(g) = &e.grid {
+        return g.label(i);
+    }
+    let (point, x) = (&e.points[i].point, e.points[i].x);
+    if x.is_nan() || e.name == "e0-baselines" {
         return point.to_string();
     }
-    match experiment {
+    match e.name.as_str() {
         "e1-expiration" => format!("expiration {x} s"),
         "e1-faulty" => "1 faulty robot".to_string(),
         _ => format!("{x} Byzantine"),

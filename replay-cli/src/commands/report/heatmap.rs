@@ -15,6 +15,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 use plotters::style::text_anchor::{HPos, Pos, VPos};
 
+use super::stats::fixed;
 use super::style::{self, Style};
 
 /// The percentile at which the colour scale stops: cells above it are drawn in the top colour
@@ -390,7 +391,7 @@ fn number(v: f64) -> String {
         return format!("{v:.2e}");
     }
     let digits = (2 - v.abs().log10().floor() as i32).clamp(0, 6) as usize;
-    format!("{v:.digits$}")
+    fixed(v, digits)
 }
 
 /// `text` in lines no wider than `width` at an em of `em`, broken at spaces (a word wider

@@ -6,8 +6,9 @@
 //! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
 //! standard figures of each experiment), `robustness` (e4's heatmaps), `benchmark` (the
 //! robustness benchmark's heatmaps on a heterogeneity axis), `defence` (e5's
-//! figures) and `scale` (e6's figures and tables), and `tables` (the CSV files and
-//! `report.md`).
+//! figures) and `scale` (e6's figures and tables), `coords` (a `--grid` sweep's keys and
+//! values, which name its points in figures and tables), and `tables` (the CSV files and
+//! `report.md`). `swarmfl report` prints every file it wrote.
 //!
 //! Results are sorted by experiment, point (in the grid's order) and seed before any sum, so
 //! the numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
@@ -15,6 +16,7 @@
 //! times are kept apart in `timing.csv`.
 
 mod benchmark;
+mod coords;
 mod defence;
 mod figures;
 mod frame;
@@ -37,16 +39,33 @@ use crate::cli::ReportArgs;
 
 pub use frame::{results_frame, Frame};
 
-/// Runs `swarmfl report`.
+/// Runs `swarmfl report`: prints every file it wrote, one a line.
 pub fn command(args: ReportArgs) -> anyhow::Result<ExitCode> {
-    let path = report(&args.dir, &args.out)?;
-    println!("wrote {}", path.display());
+    let files = make(&args.dir, &args.out)?;
+    print!("{}", written_list(&args.out, &files));
     Ok(ExitCode::SUCCESS)
+}
+
+/// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's
+/// path, one a line.
+pub(crate) fn written_list(out: &Path, files: &[PathBuf]) -> String {
+    let mut text = format!("wrote {} files into {}:\n", files.len(), out.display());
+    for f in files {
+        text.push_str(&format!("  {}\n", f.display()));
+    }
+    text
 }
 
 /// Makes the report of the results in `dir` into `out`: figures (SVG and PNG), `report.md`,
 /// `numbers.csv`, `series.csv` and `timing.csv`. Returns the path of `report.md`.
 pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
+    make(dir, out)?;
+    Ok(out.join("report.md"))
+}
+
+/// [`report`], returning every file written (the CSVs, each figure's SVG and PNG, and
+/// `report.md` last).
+fn make(dir: &Path, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let (results, mut notes) = load::load(dir)?;
     anyhow::ensure!(
         !results.is_empty(),
@@ -58,10 +77,17 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
     let bench = benchmark::study(&results);
     scale::extend(&mut stats, &scale_rows);
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
+    let mut written = Vec::new();
+    let mut write = |name: &str, text: String| -> anyhow::Result<()> {
+        let path = out.join(name);
+        std::fs::write(&path, text).with_context(|| format!("cannot write {}", path.display()))?;
+        written.push(path);
+        Ok(())
+    };
     let (numbers, series) = tables::numbers_csv(&stats);
-    std::fs::write(out.join("numbers.csv"), numbers)?;
-    std::fs::write(out.join("series.csv"), series)?;
-    std::fs::write(out.join("timing.csv"), tables::timing_csv(&stats))?;
+    write("numbers.csv", numbers)?;
+    write("series.csv", series)?;
+    write("timing.csv", tables::timing_csv(&stats))?;
     // e4-robustness has 225 points: its figures are heatmaps; e5's 39 points are drawn per
     // defence; e6's per protocol against the swarm's size. The standard figures are for the
     // others.
@@ -78,11 +104,11 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
     figures.extend(defence::draw_all(&stats, out, &mut notes)?);
     figures.extend(scale::draw_all(&stats, &scale_rows, out, &mut notes)?);
     if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
-        std::fs::write(out.join("e4-worst-case.csv"), robustness::worst_case(e).1)?;
+        write("e4-worst-case.csv", robustness::worst_case(e).1)?;
     }
     if let Some(b) = &bench {
-        std::fs::write(
-            out.join(format!("{}-worst-case.csv", benchmark::EXPERIMENT)),
+        write(
+            &format!("{}-worst-case.csv", benchmark::EXPERIMENT),
             benchmark::tables(b).1,
         )?;
     }
@@ -94,9 +120,16 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
         &notes,
         results.len(),
     );
-    let path = out.join("report.md");
-    std::fs::write(&path, md).with_context(|| format!("cannot write {}", path.display()))?;
-    Ok(path)
+    write("report.md", md)?;
+    let mut files: Vec<PathBuf> = figures
+        .iter()
+        .flat_map(|f| ["svg", "png"].map(|ext| out.join(format!("{}.{ext}", f.stem))))
+        .collect();
+    files.sort();
+    let md = written.pop();
+    written.extend(files);
+    written.extend(md);
+    Ok(written)
 }
 
 #[cfg(test)]
@@ -391,6 +424,97 @@ mod tests {
             err.contains("seed3.json with --set run.duration_s=200 (configuration 1234567890ab)"),
             "{err}"
         );
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// The text of every `<text>` element of an SVG (plotters writes each on a line of its
+    /// own).
+    fn svg_texts(svg: &str) -> Vec<String> {
+        svg.split("<text")
+            .skip(1)
+            .filter_map(|t| t.split_once('>')?.1.split_once("</text>"))
+            .map(|(inside, _)| inside.trim().to_string())
+            .collect()
+    }
+
+    #[test]
+    fn a_grid_over_a_text_key_and_a_count_is_drawn_and_tabled_by_its_values() {
+        // The sweep: --grid contract.rule=median,krum --grid byzantine.count=1,3.
+        let dir = temp("two-key-grid");
+        let axes = [
+            crate::grid::parse_axis("contract.rule=median,krum").unwrap(),
+            crate::grid::parse_axis("byzantine.count=1,3").unwrap(),
+        ];
+        let set = ["run.duration_s=300".to_string()];
+        let exp = crate::grid::experiment("smoke", &axes, &set).unwrap();
+        for (index, p) in exp.points.iter().enumerate() {
+            let count: f64 = p.name.rsplit('=').next().unwrap().parse().unwrap();
+            for seed in 1..=2 {
+                let mut s = synthetic_summary(&exp.name, count, seed);
+                let mut overrides = p.overrides.clone();
+                overrides.extend(set.iter().cloned());
+                s["sweep"] = serde_json::json!({
+                    "experiment": exp.name, "overrides": overrides, "point": p.name,
+                    "point_index": index, "preset": "smoke", "seed": seed, "x": p.x,
+                });
+                let path = results::result_path(&dir, &exp.name, &p.name, seed);
+                results::write_atomic(&path, &s).unwrap();
+            }
+        }
+        let out = dir.join("report");
+        let files = make(&dir, &out).unwrap();
+        let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+        // A column per key, showing the values.
+        assert!(
+            md.contains("| point | contract.rule | byzantine.count | runs |"),
+            "{md}"
+        );
+        assert!(
+            md.contains("| contract.rule=krum+byzantine.count=3 | krum | 3 | 2 |"),
+            "{md}"
+        );
+        // Over time: a line per combination, named key=value.
+        let loss = svg_texts(&std::fs::read_to_string(out.join("grid-smoke-loss.svg")).unwrap());
+        for label in [
+            "contract.rule=median, byzantine.count=1",
+            "contract.rule=median, byzantine.count=3",
+            "contract.rule=krum, byzantine.count=1",
+            "contract.rule=krum, byzantine.count=3",
+        ] {
+            assert!(loss.iter().any(|t| t == label), "{label} in {loss:?}");
+        }
+        assert!(!loss.iter().any(|t| t.contains("Byzantine")), "{loss:?}");
+        // Versus the count, its values as the ticks; a pair of series per rule.
+        let tokens =
+            svg_texts(&std::fs::read_to_string(out.join("grid-smoke-tokens.svg")).unwrap());
+        assert!(tokens.iter().any(|t| t == "byzantine.count"), "{tokens:?}");
+        for label in [
+            "honest robots, contract.rule=median",
+            "Byzantine robots, contract.rule=krum",
+        ] {
+            assert!(tokens.iter().any(|t| t == label), "{label} in {tokens:?}");
+        }
+        // plotters writes the y ticks, then the x ticks, then the legend: the x axis is
+        // marked at 1 and 3 only.
+        let legend = tokens
+            .iter()
+            .position(|t| t.starts_with("honest robots"))
+            .unwrap();
+        assert_eq!(tokens[legend - 2..legend], ["1", "3"], "{tokens:?}");
+        assert!(
+            tokens[legend - 3].parse::<f64>().unwrap() > 1.0,
+            "{tokens:?}"
+        );
+        // Every file written is listed, report.md last.
+        let mut on_disk: Vec<PathBuf> = std::fs::read_dir(&out)
+            .unwrap()
+            .map(|e| e.unwrap().path())
+            .collect();
+        on_disk.sort();
+        let mut listed = files.clone();
+        listed.sort();
+        assert_eq!(listed, on_disk);
+        assert_eq!(files.last(), Some(&out.join("report.md")));
         std::fs::remove_dir_all(&dir).unwrap();
     }
 

@@ -71,6 +71,10 @@ pub(crate) struct Plot<'a> {
     pub(crate) series: Vec<Series>,
     /// The quantity cannot be negative (a size, a loss): the axis and the intervals stop at 0.
     pub(crate) nonnegative: bool,
+    /// A [`Kind::Versus`] plot's x key points and their labels (a grid's values, text or
+    /// numbers), its series then centred around each; empty: whole-number ticks where
+    /// plotters puts them.
+    pub(crate) x_ticks: Vec<(f64, String)>,
 }
 
 /// The logical canvas (see [`super::style`]): the SVG is this size, the PNG twice it.
@@ -171,6 +175,34 @@ fn grid_ticks(plot: &Plot) -> Vec<f64> {
     xs
 }
 
+/// A linear axis whose key points are given (a grid's values): plotters' `with_key_points`
+/// on a float range has no default formatting, which the mesh needs.
+struct KeyedAxis {
+    range: plotters::coord::types::RangedCoordf64,
+    keys: Vec<f64>,
+}
+
+impl Ranged for KeyedAxis {
+    type FormatOption = plotters::coord::ranged1d::DefaultFormatting;
+    type ValueType = f64;
+
+    fn map(&self, value: &f64, limit: (i32, i32)) -> i32 {
+        self.range.map(value, limit)
+    }
+
+    fn key_points<Hint: plotters::coord::ranged1d::KeyPointHint>(&self, hint: Hint) -> Vec<f64> {
+        if hint.weight().allow_light_points() {
+            Vec::new()
+        } else {
+            self.keys.clone()
+        }
+    }
+
+    fn range(&self) -> std::ops::Range<f64> {
+        self.range.range()
+    }
+}
+
 type DrawResult<DB> = Result<(), DrawingAreaErrorKind<<DB as DrawingBackend>::ErrorType>>;
 
 fn bounds(plot: &Plot) -> (f64, f64, f64, f64) {
@@ -236,6 +268,15 @@ fn tick(v: f64) -> String {
     }
 }
 
+/// An x tick label: the plot's own label at one of its [`Plot::x_ticks`], else the value as
+/// a whole number (a time in seconds, a count).
+fn x_tick(plot: &Plot, x: f64) -> String {
+    plot.x_ticks
+        .iter()
+        .find(|(at, _)| (at - x).abs() < 1e-9)
+        .map_or_else(|| format!("{x:.0}"), |(_, label)| label.clone())
+}
+
 /// The key points of a log axis over [lo, hi]: 1, 2 and 5 times each power of ten inside (or
 /// more steps when the range spans less than a decade), so values below 1 are labelled too.
 fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
@@ -261,6 +302,7 @@ fn log_ticks(lo: f64, hi: f64) -> Vec<f64> {
 /// no tick labels without.
 macro_rules! draw_mesh {
     ($chart:expr, $plot:expr, $text:expr, $st:expr) => {{
+        let x_labels = |x: &f64| x_tick($plot, *x);
         let mut mesh = $chart.configure_mesh();
         mesh.light_line_style(WHITE.mix(0.0))
             .bold_line_style(BLACK.mix(0.08).stroke_width($st.upx(1.0)))
@@ -271,7 +313,7 @@ macro_rules! draw_mesh {
                 .y_desc($plot.y_label)
                 .axis_desc_style($st.font(style::AXIS))
                 .label_style($st.font(style::TICK))
-                .x_label_formatter(&|x: &f64| format!("{x:.0}"))
+                .x_label_formatter(&x_labels)
                 .y_label_formatter(&|y: &f64| tick(*y));
         } else {
             mesh.x_labels(0).y_labels(0);
@@ -310,6 +352,16 @@ fn draw_on<DB: DrawingBackend>(
                 x0..x1,
                 (y0..y1).log_scale().with_key_points(log_ticks(y0, y1)),
             )?;
+            draw_mesh!(chart, plot, text, st);
+            draw_series(&mut chart, plot, text, y0, st)?;
+        }
+        Kind::Versus if !plot.x_ticks.is_empty() => {
+            let (x0, x1) = x_range(plot.kind, x0, x1);
+            let x_axis = KeyedAxis {
+                range: (x0..x1).into(),
+                keys: plot.x_ticks.iter().map(|(x, _)| *x).collect(),
+            };
+            let mut chart = builder.build_cartesian_2d(x_axis, y0..y1)?;
             draw_mesh!(chart, plot, text, st);
             draw_series(&mut chart, plot, text, y0, st)?;
         }
@@ -421,9 +473,14 @@ where
             Kind::Versus | Kind::Scaling { .. } => {
                 // Series side by side, so that their error bars do not hide each other: by a
                 // step of the grid, or on a log axis by a factor.
+                let centre = if plot.x_ticks.is_empty() {
+                    0.5
+                } else {
+                    (plot.series.len() as f64 - 1.0) / 2.0
+                };
                 let shift = |x: f64| match plot.kind {
                     Kind::Scaling { .. } => x * (1.0 + (i as f64 - 0.5) * 0.04),
-                    _ => x + (i as f64 - 0.5) * 0.08,
+                    _ => x + (i as f64 - centre) * 0.08,
                 };
                 // A log axis shows no value at or below 0: such a point is left out and an
                 // interval's lower end stops at the axis.
@@ -547,6 +604,7 @@ mod tests {
                 },
             ],
             nonnegative: true,
+            x_ticks: Vec::new(),
         };
         // The same legend in both (a series of one point); only its value differs: a number,
         // or NaN, which draws nothing. The difference is the marker and its error bar.
@@ -579,6 +637,7 @@ mod tests {
                 },
             ],
             nonnegative: true,
+            x_ticks: Vec::new(),
         };
         // A log axis has no 0: that point is left out of the ticks and the bounds.
         assert_eq!(grid_ticks(&plot), [15.0, 60.0, 1000.0]);
@@ -616,6 +675,7 @@ mod tests {
                 points: vec![(0.0, stat(0.0, 0.4)), (100.0, stat(1.0, 0.2))],
             }],
             nonnegative: true,
+            x_ticks: Vec::new(),
         };
         let (_, _, y0, _) = bounds(&plot);
         assert_eq!(y0, 0.0);

@@ -8,7 +8,7 @@ use std::path::Path;
 
 use super::heatmap::{draw, Heatmap};
 use super::plots::Figure;
-use super::stats::ExperimentStats;
+use super::stats::{fixed, ExperimentStats};
 use crate::experiments;
 
 /// The experiment this module draws.
@@ -192,7 +192,7 @@ pub fn worst_case(e: &ExperimentStats) -> (String, String) {
         let _ = write!(
             md,
             "| {rule} | {} |",
-            clean.map_or_else(|| "n/a".to_string(), |l| format!("{l:.5}"))
+            clean.map_or_else(|| "n/a".to_string(), |l| fixed(l, 5))
         );
         for &count in &counts {
             // Highest loss; ties to the earlier attack in grid order.
@@ -209,8 +209,9 @@ pub fn worst_case(e: &ExperimentStats) -> (String, String) {
                     let ratio = clean.map(|k| l / k);
                     let _ = write!(
                         md,
-                        " {} ({l:.5}, {}) |",
+                        " {} ({}, {}) |",
                         c.attack,
+                        fixed(l, 5),
                         ratio.map_or_else(|| "n/a".to_string(), |r| format!("{r:.2}x"))
                     );
                     let _ = writeln!(

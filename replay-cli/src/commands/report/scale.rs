@@ -18,7 +18,7 @@ use serde_json::Value;
 
 use super::load::RunResult;
 use super::plots::{draw, Figure, Kind, Plot, Series};
-use super::stats::{self, ExperimentStats, PointStats, Stat};
+use super::stats::{self, fixed, ExperimentStats, PointStats, Stat};
 use crate::experiments::{self, E6_PROTOCOLS};
 
 /// The experiments this module draws: the sizes with three seeds, and 1000 robots with two.
@@ -213,8 +213,8 @@ impl Spread {
     /// `mean ± sd` as text (the mean alone for one value).
     pub fn text(self, digits: usize) -> String {
         match self.sd {
-            Some(sd) => format!("{:.digits$} ± {:.digits$}", self.mean, sd),
-            None => format!("{:.digits$}", self.mean),
+            Some(sd) => format!("{} ± {}", fixed(self.mean, digits), fixed(sd, digits)),
+            None => fixed(self.mean, digits),
         }
     }
 }
@@ -425,6 +425,7 @@ fn heldout_over_time(points: &[(&Row, &PointStats)]) -> Vec<Planned> {
                     kind: Kind::Time { log_y: true },
                     series,
                     nonnegative: true,
+                    x_ticks: Vec::new(),
                 },
             )
         })
@@ -536,6 +537,7 @@ fn versus(v: &Versus, points: &[(&Row, &PointStats)]) -> Planned {
             kind: Kind::Scaling { log_y: v.log_y },
             series,
             nonnegative: true,
+            x_ticks: Vec::new(),
         },
     )
 }
@@ -667,7 +669,7 @@ pub fn section(rows: &[Row]) -> String {
             clean.map_or("n/a", |c| c.point.as_str()),
             text(clean.and_then(|c| c.spread(|r| r.heldout)), 5),
             text(Spread::of(&row.ratio_to_clean), 2),
-            worst.map_or_else(|| "n/a".to_string(), |w| format!("{w:.2}")),
+            worst.map_or_else(|| "n/a".to_string(), |w| fixed(w, 2)),
         );
     }
     md

@@ -11,6 +11,7 @@ use std::collections::BTreeMap;
 
 use serde_json::Value;
 
+use super::coords::GridCoords;
 use super::load::RunResult;
 use crate::experiments;
 
@@ -43,12 +44,22 @@ impl Stat {
         Some(Stat { n, mean, ci })
     }
 
-    /// `mean +- ci` as text.
+    /// `mean +- ci` as text ([`fixed`]: never `-0.00`).
     pub fn text(self, digits: usize) -> String {
         match self.ci {
-            Some(ci) => format!("{:.digits$} ± {:.digits$}", self.mean, ci),
-            None => format!("{:.digits$}", self.mean),
+            Some(ci) => format!("{} ± {}", fixed(self.mean, digits), fixed(ci, digits)),
+            None => fixed(self.mean, digits),
         }
+    }
+}
+
+/// `v` with `digits` decimals, as tables show numbers: a value that rounds to zero is `0.00`,
+/// never `-0.00` (a tiny negative mean, or IEEE's negative zero).
+pub fn fixed(v: f64, digits: usize) -> String {
+    let text = format!("{v:.digits$}");
+    match text.strip_prefix('-') {
+        Some(unsigned) if unsigned.chars().all(|c| c == '0' || c == '.') => unsigned.to_string(),
+        _ => text,
     }
 }
 
@@ -118,12 +129,16 @@ pub struct PointStats {
 pub struct ExperimentStats {
     /// The experiment's id.
     pub name: String,
-    /// The grid's axis label.
+    /// The grid's axis label (a `--grid` sweep's: its first key; its figures and tables use
+    /// `grid`).
     pub axis: String,
     /// The preset its points start from (`sweep.preset`, else the experiment's name).
     pub preset: String,
     /// Per point, in grid order.
     pub points: Vec<PointStats>,
+    /// A `sweep --grid` experiment's keys and its points' values on them (`None` for a
+    /// built-in experiment).
+    pub grid: Option<GridCoords>,
 }
 
 /// The loss of a run at time `t`: the last round closed at or before `t`.
@@ -177,6 +192,7 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
                     |e| e.axis.to_string(),
                 ),
                 points: Vec::new(),
+                grid: None,
             });
         }
     }
@@ -202,6 +218,9 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
                 .or_else(|| runs_x(&mine, name))
                 .unwrap_or(f64::NAN);
             exp.points.push(point_stats(name, x, &runs));
+        }
+        if grid.is_none() {
+            exp.grid = GridCoords::of(&exp.points);
         }
     }
     out
@@ -424,6 +443,27 @@ mod tests {
         assert_eq!(t_975(120), 1.980);
         assert!(t_975(45) < 2.021 && t_975(45) > 2.000);
         assert!(t_975(100_000) > 1.960 && t_975(100_000) < 1.961);
+    }
+
+    #[test]
+    fn a_number_that_rounds_to_zero_prints_as_zero_not_minus_zero() {
+        assert_eq!(fixed(-0.0, 4), "0.0000");
+        assert_eq!(fixed(-0.00001, 4), "0.0000");
+        assert_eq!(fixed(-0.00005001, 4), "-0.0001");
+        assert_eq!(fixed(-2.5, 2), "-2.50");
+        assert_eq!(fixed(-0.4, 0), "0");
+        let tiny = Stat {
+            n: 2,
+            mean: -0.001,
+            ci: Some(-0.0),
+        };
+        assert_eq!(tiny.text(2), "0.00 ± 0.00");
+        let one = Stat {
+            n: 1,
+            mean: -1e-9,
+            ci: None,
+        };
+        assert_eq!(one.text(4), "0.0000");
     }
 
     #[test]

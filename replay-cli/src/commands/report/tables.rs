@@ -92,6 +92,29 @@ pub fn timing_csv(stats: &[ExperimentStats]) -> String {
     timing
 }
 
+/// The columns that place an experiment's points in its table, and per point its cells: a
+/// `--grid` sweep's keys, each point's value on each (text as given,
+/// [`super::coords::UNSET`] where a point does not set the key); a built-in experiment's axis
+/// and each point's x.
+pub fn point_columns(e: &ExperimentStats) -> (Vec<String>, Vec<Vec<String>>) {
+    match &e.grid {
+        Some(g) => (
+            g.keys.clone(),
+            (0..e.points.len())
+                .map(|i| {
+                    (0..g.keys.len())
+                        .map(|j| g.value(i, j).replace('|', "\\|"))
+                        .collect()
+                })
+                .collect(),
+        ),
+        None => (
+            vec![e.axis.clone()],
+            e.points.iter().map(|p| vec![p.x.to_string()]).collect(),
+        ),
+    }
+}
+
 /// `report.md`: per experiment its figures, its own tables (e4, e5; e6's study, from
 /// `scale_rows`, in the first of its experiments; the benchmark's, from `bench`) and the table
 /// of every point's numbers, then the notes.
@@ -150,18 +173,23 @@ pub fn markdown(
         if scale::is_home(scale_rows, &e.name) {
             let _ = writeln!(md, "{}", scale::section(scale_rows));
         }
+        let (keys, coordinates) = point_columns(e);
         let _ = writeln!(
             md,
             "| point | {} | runs | rounds | final loss | final held-out loss | honest gain (tokens) | Byzantine gain (tokens) | chain MB | wall s/run |",
-            e.axis
+            keys.join(" | ")
         );
-        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
-        for p in &e.points {
+        let _ = writeln!(
+            md,
+            "|---|{}---|---|---|---|---|---|---|---|",
+            "---|".repeat(keys.len())
+        );
+        for (p, coordinates) in e.points.iter().zip(&coordinates) {
             let _ = writeln!(
                 md,
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
                 p.point,
-                p.x,
+                coordinates.join(" | "),
                 p.seeds.len(),
                 get(p, "rounds", 1),
                 get(p, "final_loss", 5),
@@ -214,4 +242,45 @@ pub fn markdown(
         }
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::super::coords::{tests::two_key_grid, GridCoords};
+    use super::*;
+
+    #[test]
+    fn a_grid_is_tabled_with_a_column_per_key_showing_its_values() {
+        let points = two_key_grid();
+        let e = ExperimentStats {
+            name: "grid-smoke".into(),
+            axis: "contract.rule".into(),
+            preset: "smoke".into(),
+            grid: GridCoords::of(&points),
+            points,
+        };
+        let (keys, cells) = point_columns(&e);
+        assert_eq!(keys, ["contract.rule", "byzantine.count"]);
+        assert_eq!(
+            cells,
+            [
+                ["median", "1"],
+                ["median", "3"],
+                ["krum", "1"],
+                ["krum", "3"]
+            ]
+        );
+        let md = markdown(&[e], &[], &[], None, &[], 8);
+        assert!(
+            md.contains("| point | contract.rule | byzantine.count | runs | rounds |"),
+            "{md}"
+        );
+        assert!(md.contains("|---|---|---|---|---|"), "{md}");
+        // `--grid contract.rule='"krum"'`: the directory name has `_` for the quotes, the
+        // column the value.
+        assert!(
+            md.contains("| contract.rule=_krum_+byzantine.count=3 | krum | 3 | 2 |"),
+            "{md}"
+        );
+    }
 }
