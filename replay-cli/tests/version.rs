@@ -36,3 +36,54 @@ fn version_names_the_crate_version_and_the_commit_it_was_built_from() {
         );
     }
 }
+
+/// A file at the workspace's root.
+fn root_file(name: &str) -> String {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/..");
+    let path = std::path::Path::new(path).join(name);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+}
+
+#[test]
+fn the_license_texts_and_the_citation_match_the_manifest() {
+    // Cargo.toml's `license` names the texts the repository must carry.
+    let license = env!("CARGO_PKG_LICENSE");
+    let ids: Vec<&str> = license.split(" OR ").collect();
+    assert_eq!(
+        ids,
+        ["MIT", "Apache-2.0"],
+        "Cargo.toml's license changed: {license}"
+    );
+    let mit = root_file("LICENSE-MIT");
+    assert!(
+        mit.starts_with("MIT License\n\nCopyright (c) the swarmfl developers\n"),
+        "{mit}"
+    );
+    assert!(mit.contains("THE SOFTWARE IS PROVIDED \"AS IS\""), "{mit}");
+    let apache = root_file("LICENSE-APACHE");
+    assert!(apache.contains("Apache License\n                           Version 2.0, January 2004"));
+    assert!(apache.contains("END OF TERMS AND CONDITIONS"));
+
+    // CITATION.cff: CFF 1.2.0, this version, the same licenses, and the paper to cite.
+    let cff = root_file("CITATION.cff");
+    let lines: Vec<&str> = cff.lines().collect();
+    assert!(lines.contains(&"cff-version: 1.2.0"), "{cff}");
+    let version = format!("version: {}", env!("CARGO_PKG_VERSION"));
+    assert!(
+        lines.contains(&version.as_str()),
+        "CITATION.cff should say `{version}`"
+    );
+    for id in ids {
+        assert!(
+            lines.contains(&format!("  - {id}").as_str()),
+            "CITATION.cff's license: {id}"
+        );
+    }
+    assert!(lines.contains(&"preferred-citation:"), "{cff}");
+    assert!(
+        cff.contains(
+            "title: Securing Federated Learning in Robot Swarms using Blockchain Technology"
+        ),
+        "{cff}"
+    );
+}
