@@ -41,6 +41,14 @@ const KIND_RECORD: u8 = 1;
 const KIND_FOOTER: u8 = 2;
 const FRAME_OVERHEAD: u64 = 13;
 
+/// The git commit this build was made from (`core/build.rs` asks `git rev-parse HEAD`), or
+/// `None` when it was built outside a git checkout. Every log's header records it, and
+/// `swarmfl --version` prints it.
+pub const GIT_COMMIT: Option<&str> = match option_env!("SWARMFL_GIT_COMMIT") {
+    Some(commit) if !commit.is_empty() => Some(commit),
+    _ => None,
+};
+
 /// The self-describing header of a log: enough to re-simulate the run and to know what made it.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Header {
@@ -88,9 +96,7 @@ impl Header {
         Header {
             format_version: FORMAT_VERSION,
             crate_version: env!("CARGO_PKG_VERSION").to_string(),
-            git_commit: option_env!("SWARMFL_GIT_COMMIT")
-                .filter(|s| !s.is_empty())
-                .map(str::to_string),
+            git_commit: GIT_COMMIT.map(str::to_string),
             rustc_version: option_env!("SWARMFL_RUSTC_VERSION")
                 .filter(|s| !s.is_empty())
                 .map(str::to_string),

@@ -1,50 +1,181 @@
 //! The repository documents itself, and no document points at a file a clone does not have.
 //!
-//! Every Markdown file of the repository (outside `target/`, hidden folders and dependency
-//! folders) is read, and the test fails, naming the file, line and path, when
+//! Every Markdown file of the repository is read, and the test fails, naming the file, line
+//! and path, when
 //! - a relative link `[text](path)` does not resolve (from the linking file's folder), or
 //! - an inline code span that names a path under one of the repository's own top-level folders
 //!   (`core/src/sim/mod.rs`, `scripts/remake-studies.sh`, `reproduction/e4-benchmark/results`)
 //!   names none.
 //!
+//! What belongs to the repository is what git tracks (`git ls-files`), not what the work tree
+//! holds: the main job writes `runs/`, and a document naming `runs/claim12` names a user's
+//! output, not a folder of the repository, so the test must not care what a user's runs left
+//! behind. Without git (a source tarball, or a checkout inside another repository's tree) the
+//! work tree is walked instead, leaving out hidden folders, `target/`, and the folders the
+//! root's `.gitignore` names (`/runs`, `__pycache__/`). A document git does not track yet is
+//! checked once it is added.
+//!
 //! A span with a placeholder (`<`, `*`, `{`, `$`) is a pattern, not a path, and is skipped; a
 //! `:line` or `#anchor` suffix is dropped. Go files are go-ethereum's (docs/CONTRACT.md cites
 //! its sources, whose `core/` is not ours): this repository has none.
 
+use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
+use std::process::Command;
 
-/// Folders that hold no document of ours.
+/// Folders that hold no document of ours, whatever `.gitignore` says.
 const SKIP: &[&str] = &["target", "node_modules", "__pycache__"];
 
-fn markdown_files(dir: &Path, out: &mut Vec<PathBuf>) {
-    let mut entries: Vec<_> = std::fs::read_dir(dir)
-        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
-        .map(|e| e.expect("a directory entry").path())
-        .collect();
-    entries.sort();
-    for path in entries {
-        let name = path.file_name().and_then(|n| n.to_str()).unwrap_or("");
-        if path.is_dir() {
-            if !name.starts_with('.') && !SKIP.contains(&name) {
-                markdown_files(&path, out);
-            }
-        } else if name.ends_with(".md") {
-            out.push(path);
+/// The repository's files, as paths relative to its root.
+struct Repository {
+    root: PathBuf,
+    /// Every file of the repository (tracked by git, or, without git, on disk and not ignored).
+    files: Vec<PathBuf>,
+}
+
+/// How the repository's files are found.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Source {
+    /// `git ls-files` when `root` is a git work tree's top level, else the walk.
+    GitIfPresent,
+    /// The walk of the work tree, minus `.gitignore`'s folders (a tarball has no `.git`).
+    WorkTree,
+}
+
+impl Repository {
+    fn at(root: &Path, source: Source) -> Repository {
+        let tracked = match source {
+            Source::GitIfPresent => git_files(root),
+            Source::WorkTree => None,
+        };
+        let files = tracked.unwrap_or_else(|| {
+            let ignored = Ignored::read(root);
+            let mut files = Vec::new();
+            walk(root, Path::new(""), &ignored, &mut files);
+            files
+        });
+        Repository {
+            root: root.to_path_buf(),
+            files,
         }
+    }
+
+    /// The Markdown files (that the work tree still has).
+    fn markdown(&self) -> Vec<PathBuf> {
+        self.files
+            .iter()
+            .filter(|f| f.extension().is_some_and(|e| e == "md"))
+            .filter(|f| self.root.join(f).is_file())
+            .cloned()
+            .collect()
+    }
+
+    /// The top-level folders (a path in a code span must start with one). `.ci` counts too.
+    fn top_folders(&self) -> BTreeSet<String> {
+        let mut tops: BTreeSet<String> = self
+            .files
+            .iter()
+            .filter(|f| f.components().count() > 1)
+            .filter_map(|f| {
+                f.components()
+                    .next()?
+                    .as_os_str()
+                    .to_str()
+                    .map(str::to_owned)
+            })
+            .filter(|n| !SKIP.contains(&n.as_str()))
+            .collect();
+        tops.insert(".ci".into());
+        tops
     }
 }
 
-/// The repository's own top-level folders (a path in a code span must start with one).
-fn top_folders(root: &Path) -> Vec<String> {
-    let mut tops: Vec<String> = std::fs::read_dir(root)
-        .expect("the repository root")
-        .map(|e| e.expect("a directory entry").path())
-        .filter(|p| p.is_dir())
-        .filter_map(|p| p.file_name()?.to_str().map(str::to_owned))
-        .filter(|n| !n.starts_with('.') && !SKIP.contains(&n.as_str()))
+/// The files git tracks under `root`, when `root` is the top level of a git work tree and git
+/// runs; `None` otherwise (no git, no `.git`, or `root` inside another repository's tree).
+fn git_files(root: &Path) -> Option<Vec<PathBuf>> {
+    let git = |args: &[&str]| -> Option<Vec<u8>> {
+        let out = Command::new("git")
+            .arg("-C")
+            .arg(root)
+            .args(args)
+            .output()
+            .ok()?;
+        out.status.success().then_some(out.stdout)
+    };
+    let top = git(&["rev-parse", "--show-toplevel"])?;
+    let top = PathBuf::from(String::from_utf8(top).ok()?.trim_end());
+    if top.canonicalize().ok()? != root.canonicalize().ok()? {
+        return None;
+    }
+    let listed = git(&["ls-files", "-z", "--cached"])?;
+    let files: Vec<PathBuf> = listed
+        .split(|&b| b == 0)
+        .filter(|name| !name.is_empty())
+        .filter_map(|name| std::str::from_utf8(name).ok().map(PathBuf::from))
         .collect();
-    tops.push(".ci".into());
-    tops
+    (!files.is_empty()).then_some(files)
+}
+
+/// The folder names the root's `.gitignore` leaves out: `/name` or `/name/` at the root only,
+/// `name/` or `name` anywhere. Patterns with a `/` inside or a glob are not folders we skip.
+struct Ignored {
+    at_root: Vec<String>,
+    anywhere: Vec<String>,
+}
+
+impl Ignored {
+    fn read(root: &Path) -> Ignored {
+        let text = std::fs::read_to_string(root.join(".gitignore")).unwrap_or_default();
+        let mut ignored = Ignored {
+            at_root: Vec::new(),
+            anywhere: Vec::new(),
+        };
+        for line in text.lines().map(str::trim) {
+            if line.is_empty() || line.starts_with(['#', '!']) {
+                continue;
+            }
+            let anchored = line.starts_with('/');
+            let name = line.trim_start_matches('/').trim_end_matches('/');
+            if name.is_empty() || name.contains(['/', '*', '?', '[']) {
+                continue;
+            }
+            if anchored {
+                ignored.at_root.push(name.to_owned());
+            } else {
+                ignored.anywhere.push(name.to_owned());
+            }
+        }
+        ignored
+    }
+
+    fn skips(&self, relative: &Path, name: &str) -> bool {
+        let at_root = relative.components().count() == 1;
+        name.starts_with('.')
+            || SKIP.contains(&name)
+            || self.anywhere.iter().any(|n| n == name)
+            || (at_root && self.at_root.iter().any(|n| n == name))
+    }
+}
+
+/// The files under `root/relative`, as paths relative to `root`, in name order.
+fn walk(root: &Path, relative: &Path, ignored: &Ignored, out: &mut Vec<PathBuf>) {
+    let dir = root.join(relative);
+    let mut entries: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap_or_else(|e| panic!("{}: {e}", dir.display()))
+        .map(|e| e.expect("a directory entry").file_name())
+        .collect();
+    entries.sort();
+    for name in entries {
+        let path = relative.join(&name);
+        let name = name.to_str().unwrap_or("");
+        if root.join(&path).is_dir() {
+            if !ignored.skips(&path, name) {
+                walk(root, &path, ignored, out);
+            }
+        } else {
+            out.push(path);
+        }
+    }
 }
 
 /// The targets of relative Markdown links `](target)` on a line.
@@ -71,28 +202,18 @@ fn code_spans(line: &str) -> Vec<&str> {
     line.split('`').skip(1).step_by(2).collect()
 }
 
-#[test]
-fn documents_name_only_files_a_clone_has() {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .parent()
-        .expect("core sits in the workspace");
-    let tops = top_folders(root);
-    let mut files = Vec::new();
-    markdown_files(root, &mut files);
-    assert!(
-        files.len() > 10,
-        "found only {} Markdown files",
-        files.len()
-    );
+/// Every place a document of `repository` names a path it does not have, as
+/// `file:line: link (target)` or ``file:line: `span` ``.
+fn missing_paths(repository: &Repository) -> Vec<String> {
+    let root = &repository.root;
+    let tops = repository.top_folders();
     let mut missing = Vec::new();
-    for file in &files {
-        let text = std::fs::read_to_string(file).expect("a readable document");
+    for relative in repository.markdown() {
+        let file = root.join(&relative);
+        let text =
+            std::fs::read_to_string(&file).unwrap_or_else(|e| panic!("{}: {e}", file.display()));
         let dir = file.parent().expect("a file has a folder");
-        let shown = file
-            .strip_prefix(root)
-            .unwrap_or(file)
-            .display()
-            .to_string();
+        let shown = relative.display();
         let mut fenced = false;
         for (n, line) in text.lines().enumerate() {
             if line.trim_start().starts_with("```") {
@@ -113,7 +234,7 @@ fn documents_name_only_files_a_clone_has() {
                 let Some((first, _)) = path.split_once('/') else {
                     continue;
                 };
-                if !tops.iter().any(|t| t == first)
+                if !tops.contains(first)
                     || path.contains(char::is_whitespace)
                     || path.contains(['<', '*', '{', '$'])
                     || path.ends_with(".go")
@@ -126,11 +247,82 @@ fn documents_name_only_files_a_clone_has() {
             }
         }
     }
+    missing
+}
+
+#[test]
+fn documents_name_only_files_a_clone_has() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("core sits in the workspace");
+    let repository = Repository::at(root, Source::GitIfPresent);
+    let documents = repository.markdown().len();
+    assert!(documents > 10, "found only {documents} Markdown files");
+    let missing = missing_paths(&repository);
     assert!(
         missing.is_empty(),
-        "documents name {} path(s) that this checkout does not have (fix the path, or write a \
-         pattern with <placeholders>):\n{}",
+        "documents name {} path(s) under the repository's folders that this checkout does not \
+         have (fix the path, or write a pattern with <placeholders>):\n{}",
         missing.len(),
         missing.join("\n")
     );
+}
+
+/// A small repository in a fresh temporary folder: a document naming a run's output
+/// (`runs/claim12`), a file it has and one it lacks, and what a user's runs leave behind (a
+/// `runs/paper-seed1/` folder with a report whose link resolves nowhere).
+fn user_tree(name: &str) -> PathBuf {
+    let root =
+        std::env::temp_dir().join(format!("swarmfl-doc-paths-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&root);
+    let write = |relative: &str, text: &str| {
+        let path = root.join(relative);
+        std::fs::create_dir_all(path.parent().expect("a folder")).expect("a temporary folder");
+        std::fs::write(path, text).expect("a temporary file");
+    };
+    write(
+        ".gitignore",
+        "/target\n/runs\n__pycache__/\nreproduction/*/results/.tmp/\n",
+    );
+    write(
+        "docs/GUIDE.md",
+        "The study keeps `runs/claim12`; see `docs/NOTES.md` and `docs/GONE.md`.\n",
+    );
+    write("docs/NOTES.md", "[the guide](GUIDE.md)\n");
+    write(
+        "runs/paper-seed1/report.md",
+        "[a figure](figures/none.svg)\n",
+    );
+    write("docs/__pycache__/cache.md", "[nothing](nowhere.md)\n");
+    root
+}
+
+#[test]
+fn a_users_run_folder_is_not_a_repository_folder() {
+    // Without git (a source tarball), and with git when this machine has it: the same answer.
+    let mut sources = vec![("work tree", Source::WorkTree)];
+    let root = user_tree("check");
+    let git = |args: &[&str]| {
+        Command::new("git")
+            .arg("-C")
+            .arg(&root)
+            .args(args)
+            .output()
+            .is_ok_and(|o| o.status.success())
+    };
+    if git(&["init", "-q"]) && git(&["add", "."]) {
+        sources.push(("git", Source::GitIfPresent));
+    }
+    for (label, source) in sources {
+        let repository = Repository::at(&root, source);
+        let tops = repository.top_folders();
+        assert!(!tops.contains("runs"), "{label}: {tops:?}");
+        assert!(tops.contains("docs"), "{label}: {tops:?}");
+        assert_eq!(
+            missing_paths(&repository),
+            vec!["docs/GUIDE.md:1: `docs/GONE.md`".to_string()],
+            "{label}"
+        );
+    }
+    std::fs::remove_dir_all(&root).expect("the temporary folder");
 }

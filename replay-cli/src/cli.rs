@@ -2,6 +2,7 @@
 //! Each subcommand's arguments are one struct that its function in `commands/` takes.
 
 use std::path::PathBuf;
+use std::sync::LazyLock;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
 use swarmfl_core::config::Config;
@@ -9,12 +10,19 @@ use swarmfl_core::config::Config;
 /// swarmfl: a deterministic, event-sourced replay engine for blockchain-secured federated
 /// learning in robot swarms.
 #[derive(Parser, Debug)]
-#[command(name = "swarmfl", version, about)]
+#[command(name = "swarmfl", version = VERSION.as_str(), about)]
 pub struct Cli {
     /// The subcommand.
     #[command(subcommand)]
     pub command: Command,
 }
+
+/// What `swarmfl --version` prints after the name: the crate's version and the git commit the
+/// binary was built from (the commit every log's header records), e.g. `0.1.0 (commit 5184882…)`.
+pub static VERSION: LazyLock<String> = LazyLock::new(|| {
+    let commit = swarmfl_core::log::GIT_COMMIT.unwrap_or("unknown: built outside a git checkout");
+    format!("{} (commit {commit})", env!("CARGO_PKG_VERSION"))
+});
 
 /// Which configuration to use: a preset, a TOML file over it, and overrides.
 #[derive(Args, Debug, Clone)]
