@@ -17,6 +17,7 @@ use swarmfl_core::summary::RunSummary;
 
 use crate::cli::RunArgs;
 use crate::progress::Progress;
+use crate::run_dir;
 
 /// Wall time and CPU time per part of the driver, shared with the driver's profiler hook.
 /// The wall time of a part is the driver thread's time in it (for learning: training, or
@@ -99,19 +100,36 @@ fn cpu_clock_s(clock: libc::clockid_t) -> f64 {
     ts.tv_sec as f64 + ts.tv_nsec as f64 * 1e-9
 }
 
-/// Runs `swarmfl run`: the run into `--out` (default `runs/<preset>-seed<N>`), then its summary
-/// and what to try next unless `--quiet`.
+/// Runs `swarmfl run`: the run into `--out` (default [`run_dir::default_run_dir`]: distinct
+/// per configuration), then its summary and what to try next unless `--quiet`. A run already in
+/// the folder is replaced or refused as [`run_dir::prepare`] says.
 pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
     let RunArgs {
-        config,
+        config: config_args,
         seed,
         out,
+        force,
         quiet,
         live,
         port,
     } = args;
-    let config = config.resolve()?;
-    let out = out.unwrap_or_else(|| PathBuf::from(format!("runs/{}-seed{seed}", config.preset)));
+    let config = config_args.resolve()?;
+    let (out, chosen) = run_dir::choose(out, force, || {
+        // The file was read once by `resolve`; a second read that fails says so.
+        let file = match &config_args.config {
+            Some(path) => Some(
+                std::fs::read(path)
+                    .with_context(|| format!("cannot read --config {}", path.display()))?,
+            ),
+            None => None,
+        };
+        Ok(run_dir::default_run_dir(
+            &config.preset,
+            seed,
+            &config_args.overrides,
+            file.as_deref(),
+        ))
+    })?;
     if let Some(warning) = density_warning(&config) {
         eprintln!("{warning}");
     }
@@ -120,11 +138,8 @@ pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
         true => Some(crate::commands::live::Live::bind(port)?),
         false => None,
     };
-    if let Some(replaced) = clear_previous_run(&out)? {
-        eprintln!(
-            "replacing the previous run in {} ({replaced})",
-            out.display()
-        );
+    if let Some(replaced) = run_dir::prepare(&out, &run_header(&config, seed), chosen)? {
+        eprintln!("{replaced}");
     }
     let outcome = match server {
         None => run(config, seed, &out, quiet)?,
@@ -146,6 +161,12 @@ pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
         print_next(&outcome);
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The header of a run of `config` with `seed` offered no plug-ins (the command line's): what
+/// [`run_with_plugins`] writes, and what a run already in the folder is compared with.
+fn run_header(config: &Config, seed: u64) -> Header {
+    Header::new(seed, config.to_toml())
 }
 
 /// Neighbours within radio range above which `run` says the swarm is crowded (the paper's
@@ -171,53 +192,6 @@ fn density_warning(config: &Config) -> Option<String> {
             w.robots, w.arena_side_m, w.arena_side_m, w.rab_range_m
         )
     })
-}
-
-/// The files a run leaves in its folder: the log, its sidecar index, the summary and the
-/// viewer page that `run` writes beside them.
-const RUN_FILES: [&str; 4] = ["run.swlog", "run.swlog.idx", "summary.json", "run.html"];
-
-/// Makes `out` ready for a new run. A folder that holds a previous run (a `run.swlog`) loses
-/// that run's files, so nothing of it (an old `run.html` above all) is left beside the new log;
-/// what it returns names the run replaced. A folder that holds other files but no run is
-/// refused, so a mistyped `--out` never mixes a run into someone's files.
-fn clear_previous_run(out: &Path) -> anyhow::Result<Option<String>> {
-    let Ok(entries) = std::fs::read_dir(out) else {
-        return Ok(None);
-    };
-    let names: Vec<String> = entries
-        .filter_map(|e| e.ok())
-        .map(|e| e.file_name().to_string_lossy().into_owned())
-        .collect();
-    if names.is_empty() {
-        return Ok(None);
-    }
-    if !names.iter().any(|n| n == "run.swlog") {
-        anyhow::bail!(
-            "--out {} is a folder that holds other files ({}) but no run: choose a new or empty \
-             folder, or a previous run's folder to replace that run",
-            out.display(),
-            names.iter().take(3).cloned().collect::<Vec<_>>().join(", ")
-                + if names.len() > 3 { ", ..." } else { "" }
-        );
-    }
-    let what = std::fs::read_to_string(out.join("summary.json"))
-        .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
-        .and_then(|s| {
-            let hash = s.get("final_hash")?.as_str()?.get(..12)?.to_string();
-            Some(format!("seed {}, final hash {hash}...", s.get("seed")?))
-        })
-        .unwrap_or_else(|| "its summary is unreadable".to_string());
-    for name in RUN_FILES {
-        let path = out.join(name);
-        match std::fs::remove_file(&path) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => {}
-            Err(e) => return Err(e).with_context(|| format!("cannot remove {}", path.display())),
-        }
-    }
-    Ok(Some(what))
 }
 
 /// What a finished run reports.
@@ -286,7 +260,7 @@ pub fn run_with_plugins(
     flush: Flush,
     mut check: impl FnMut() -> anyhow::Result<()>,
 ) -> anyhow::Result<RunOutcome> {
-    let mut header = Header::new(seed, config.to_toml());
+    let mut header = run_header(&config, seed);
     header.plugins = plugins.used_by(&config).map_err(anyhow::Error::msg)?;
     let sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
     write_run(&header, sim, out, quiet, flush, |_| check())
