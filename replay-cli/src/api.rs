@@ -15,7 +15,8 @@ pub use crate::commands::sweep::{Shard, SweepOptions, SweepOutcome, TaskDone};
 
 /// Forks the log at `parent` at block `height` with `overrides` into `out`, as `swarmfl fork`
 /// does, offered `plugins` (the parent's must be among them, with the recorded sources);
-/// `check` as in [`run_with_plugins`].
+/// `check` as in [`run_with_plugins`]. A run already in `out` is replaced (said on stderr);
+/// the parent's own folder is refused.
 pub fn fork_with_plugins(
     parent: &Path,
     height: u64,
@@ -29,7 +30,7 @@ pub fn fork_with_plugins(
         parent,
         height,
         overrides,
-        Some(out.to_path_buf()),
+        (out, crate::run_dir::Chosen::Explicit),
         quiet,
         plugins,
         check,

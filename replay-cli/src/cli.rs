@@ -153,9 +153,16 @@ pub struct RunArgs {
     /// The seed: with the configuration, it determines the whole run.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Output directory (default `runs/<preset>-seed<N>`).
+    /// Output directory. Default `runs/<preset>-seed<N>` for a preset as it is, and
+    /// `runs/<preset>-seed<N>-<8 hex digits>` with --set or --config (a digest of the sorted
+    /// overrides and the file's contents), so every configuration has its own folder. A run of
+    /// the same configuration there is replaced (and said so); one of another configuration is
+    /// refused without --force. A folder named here is replaced, saying what it held.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the run in the default folder even if it is of another configuration.
+    #[arg(long)]
+    pub force: bool,
     /// No progress bar and no summary on stdout.
     #[arg(long)]
     pub quiet: bool,
@@ -280,9 +287,15 @@ pub struct ForkArgs {
     /// Override a key from the fork point on (repeatable), e.g. --set contract.security=true.
     #[arg(long = "set", value_name = "KEY=VALUE", required = true)]
     pub overrides: Vec<String>,
-    /// Output directory (default: next to the parent, fork-at-H).
+    /// Output directory, never the parent's own. Default: beside the parent's folder,
+    /// `<parent folder>-fork-at-H-<8 hex digits of the sorted overrides>`; a fork of another
+    /// configuration there is refused without --force. A folder named here is replaced, saying
+    /// what it held.
     #[arg(long)]
     pub out: Option<PathBuf>,
+    /// Replace the run in the default folder even if it is of another configuration.
+    #[arg(long)]
+    pub force: bool,
     /// No progress bar and no summary.
     #[arg(long)]
     pub quiet: bool,

@@ -10,6 +10,7 @@ mod grid;
 mod png;
 mod progress;
 mod results;
+mod run_dir;
 
 pub mod api;
 

@@ -1,9 +1,10 @@
 //! Progress of long commands (`run`, `fork`, `sweep`) on stderr: an indicatif bar on a
 //! terminal, plain lines otherwise (a batch log, `2>err.txt`, CI).
 //!
-//! Plain lines follow one rule ([`Ticker`]): a line when the work has crossed into a new tenth
-//! since the last line and at least [`MIN_GAP_S`] seconds have passed, plus a first and a last
-//! line. A long run therefore prints one line per 10 %; a short one at most one per 5 s. The
+//! Plain lines follow one rule ([`Ticker`]): a line every [`LINE_PERIOD_S`] seconds of wall
+//! time, however far the work has come, plus a first and a last line. A long run is therefore
+//! never silent for more than a few seconds (a share of the work would be: a tenth of a
+//! 1e7-second run takes minutes), and a short one prints at most one line per period. The
 //! clock lives here, never in the core: the driver only reports how far it is.
 
 use std::io::IsTerminal;
@@ -11,8 +12,8 @@ use std::time::Instant;
 
 use indicatif::{ProgressBar, ProgressStyle};
 
-/// Fewest seconds between two plain progress lines.
-pub const MIN_GAP_S: f64 = 5.0;
+/// Seconds of wall time between two plain progress lines.
+pub const LINE_PERIOD_S: f64 = 5.0;
 
 /// Decides when a plain progress line is due and writes it. Pure: the caller passes the time.
 #[derive(Clone, Debug)]
@@ -23,9 +24,7 @@ pub struct Ticker {
     unit: &'static str,
     /// The total amount of work.
     total: u64,
-    /// The tenth (0..=10) reached at the last line.
-    last_tenth: u64,
-    /// When the last line was written, seconds since the start.
+    /// When the last line was written (the first line at 0), seconds since the start.
     last_line_s: f64,
 }
 
@@ -36,7 +35,6 @@ impl Ticker {
             label: label.into(),
             unit,
             total: total.max(1),
-            last_tenth: 0,
             last_line_s: 0.0,
         }
     }
@@ -46,13 +44,12 @@ impl Ticker {
         format!("{}: started, {} {}", self.label, self.total, self.unit)
     }
 
-    /// The line due at `elapsed_s` with `done` units finished, if one is due.
+    /// The line due at `elapsed_s` with `done` units finished: one when [`LINE_PERIOD_S`] have
+    /// passed since the last line, whatever `done` is.
     pub fn tick(&mut self, done: u64, elapsed_s: f64) -> Option<String> {
-        let tenth = (done.min(self.total) * 10) / self.total;
-        if tenth <= self.last_tenth || elapsed_s - self.last_line_s < MIN_GAP_S {
+        if elapsed_s - self.last_line_s < LINE_PERIOD_S {
             return None;
         }
-        self.last_tenth = tenth;
         self.last_line_s = elapsed_s;
         Some(self.line(done, elapsed_s))
     }
@@ -187,22 +184,27 @@ mod tests {
     }
 
     #[test]
-    fn long_runs_print_every_tenth_and_short_runs_every_five_seconds() {
-        // 1000 s of wall time: a line at each tenth (10 %, 20 %, ... 100 %).
-        let long = lines(5000, 1000.0);
-        assert_eq!(long.len(), 10, "{long:?}");
-        for pair in long.windows(2) {
-            assert!(pair[1].0 - pair[0].0 <= 100.0 + 1e-6, "{pair:?}");
-        }
+    fn long_runs_are_never_silent_for_more_than_a_period() {
+        // A 1e6-second run that takes 310 s of wall time: a tenth of it is 31 s, but a line
+        // comes every 5 s from the start.
+        let step_s = 310.0 / 10_000.0;
+        let long = lines(1_000_000, 310.0);
+        assert!(long[0].0 <= LINE_PERIOD_S + step_s, "{long:?}");
         assert!(
-            long[0].1.contains(" 10 % (500/5000 sim s)"),
+            long[0].1.contains("  1 % (16200/1000000 sim s) after 5 s"),
             "{}",
             long[0].1
         );
-        // 12 s of wall time: never two lines within 5 s, but at least two in the run.
+        for pair in long.windows(2) {
+            let gap = pair[1].0 - pair[0].0;
+            assert!(gap <= LINE_PERIOD_S + step_s, "{pair:?}");
+            assert!(gap >= LINE_PERIOD_S, "{pair:?}");
+        }
+        assert_eq!(long.len(), 61, "{:?}", long.last());
+        // 12 s of wall time: a line at 5 s and at 10 s, never two within a period.
         let short = lines(1000, 12.0);
         assert_eq!(short.len(), 2, "{short:?}");
-        assert!(short[1].0 - short[0].0 >= MIN_GAP_S);
+        assert!(short[1].0 - short[0].0 >= LINE_PERIOD_S);
         // Nothing before 5 s however fast the work goes.
         assert!(lines(1000, 4.9).is_empty());
     }

@@ -1,7 +1,7 @@
 //! `swarmfl fork LOG --at H --set k=v [--out DIR]`: continue a run from block H under a changed
 //! configuration.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::Instant;
 
@@ -11,6 +11,7 @@ use swarmfl_core::sim::Sim;
 
 use crate::cli::ForkArgs;
 use crate::commands::run;
+use crate::run_dir::{self, Chosen};
 
 /// Runs `swarmfl fork`.
 pub fn command(args: ForkArgs) -> anyhow::Result<ExitCode> {
@@ -19,53 +20,61 @@ pub fn command(args: ForkArgs) -> anyhow::Result<ExitCode> {
         at,
         overrides,
         out,
+        force,
         quiet,
     } = args;
-    fork(&log, at, &overrides, out, quiet)?;
+    let (out, chosen) = run_dir::choose(out, force, || {
+        Ok(run_dir::default_fork_dir(&log, at, &overrides))
+    })?;
+    fork(&log, at, &overrides, &out, chosen, quiet)?;
     Ok(ExitCode::SUCCESS)
 }
 
 /// Plans the fork, re-simulates the parent up to the fork point (checking every record against
-/// the parent's log), continues under the new configuration and writes `DIR/run.swlog` and
-/// `DIR/summary.json`.
+/// the parent's log), continues under the new configuration and writes `out/run.swlog` and
+/// `out/summary.json`; a run already in `out` is replaced or refused as
+/// [`run_dir::prepare`] says for a folder `chosen` so, and the parent's own folder is refused.
 pub fn fork(
     parent: &Path,
     height: u64,
     overrides: &[String],
-    out: Option<PathBuf>,
+    out: &Path,
+    chosen: Chosen,
     quiet: bool,
 ) -> anyhow::Result<()> {
     fork_with(
         parent,
         height,
         overrides,
-        out,
+        (out, chosen),
         quiet,
         &Plugins::none(),
         || Ok(()),
     )
 }
 
-/// [`fork`] offered `plugins` (the Python package's attacks; the parent's must be among them
-/// with the sources its header records); `check` runs before every record is written and its
-/// error stops the fork (a plug-in that failed). Returns the fork's directory.
+/// [`fork`] into `out` (its folder and how it was chosen) offered `plugins` (the Python
+/// package's attacks; the parent's must be among them with the sources its header records);
+/// `check` runs before every record is written and its error stops the fork (a plug-in that
+/// failed).
 pub fn fork_with(
     parent: &Path,
     height: u64,
     overrides: &[String],
-    out: Option<PathBuf>,
+    (out, chosen): (&Path, Chosen),
     quiet: bool,
     plugins: &Plugins,
     mut stop: impl FnMut() -> anyhow::Result<()>,
 ) -> anyhow::Result<()> {
     let started = Instant::now();
+    // Before the plan, which may fold the whole parent: a fork into its parent's folder would
+    // truncate the log it is about to read.
+    let default = run_dir::default_fork_dir(parent, height, overrides);
+    run_dir::refuse_parent_folder(parent, out, &default)?;
     let plan = fork::plan_with(parent, height, overrides, plugins)?;
-    let out = out.unwrap_or_else(|| {
-        parent
-            .parent()
-            .unwrap_or(Path::new("."))
-            .join(format!("fork-at-{height}"))
-    });
+    if let Some(replaced) = run_dir::prepare(out, &plan.header, chosen)? {
+        eprintln!("{replaced}");
+    }
     if !quiet {
         let values = plan.config.flat_values();
         eprintln!(
@@ -91,7 +100,7 @@ pub fn fork_with(
     let outcome = run::write_run(
         &plan.header,
         sim,
-        &out,
+        out,
         quiet,
         run::Flush::WhenFull,
         |record| {
