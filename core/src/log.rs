@@ -931,7 +931,10 @@ mod tests {
             let offset = err.offset().expect("offset reported") as usize;
             assert!(offset <= pos, "damage at {pos} reported at {offset}");
             assert_eq!(err.record_index(), Some(records.len() as u64), "{err}");
-            assert!(matches!(err, LogError::Corrupt { .. }), "flip at {pos}: {err}");
+            assert!(
+                matches!(err, LogError::Corrupt { .. }),
+                "flip at {pos}: {err}"
+            );
         }
     }
 

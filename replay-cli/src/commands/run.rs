@@ -583,7 +583,10 @@ pub fn print_next(outcome: &RunOutcome) {
         "  {me} view {log} --out {}   # watch it in a browser",
         html.display()
     );
-    println!("  {me} replay {log}            # check that it replays bit-exactly");
+    println!(
+        "  {me} replay {log}            # check its hash chain and checkpoints (--resimulate: \
+         re-make every record)"
+    );
     println!("  {me} inspect {log} --block {height}   # the chain, contract and robots at a block");
     if me != "swarmfl" {
         println!("  (`cargo install --path replay-cli --locked` puts `swarmfl` on your PATH)");
