@@ -785,6 +785,56 @@ impl<R: Read> LogReader<R> {
     }
 }
 
+/// Where a reader stands between two frames of a log: what [`LogReader::seek_to`] needs to read
+/// on from there without reading the frames before (their chain value is kept in it).
+#[derive(Clone, Debug)]
+pub struct Position {
+    offset: u64,
+    index: u64,
+    chain: HashChain,
+    last_checkpoint: Option<GoodCheckpoint>,
+}
+
+impl Position {
+    /// Index of the next record.
+    pub fn index(&self) -> u64 {
+        self.index
+    }
+}
+
+impl<R: Read> LogReader<R> {
+    /// Where the reader stands (before the next frame).
+    pub fn position(&self) -> Position {
+        Position {
+            offset: self.offset,
+            index: self.index,
+            chain: self.chain.clone(),
+            last_checkpoint: self.last_checkpoint,
+        }
+    }
+}
+
+impl<R: Read + Seek> LogReader<R> {
+    /// Moves the reader to `position`, taken earlier from a reader of this same file, to read
+    /// on from there. Every frame after it is checked as in one read from the start (the chain
+    /// goes on from the value kept in `position`), so a file that changed after the position
+    /// was taken reads as corrupt there.
+    pub fn seek_to(&mut self, position: &Position) -> Result<(), LogError> {
+        self.input
+            .seek(SeekFrom::Start(position.offset))
+            .map_err(|e| LogError::Io {
+                path: self.path.clone(),
+                message: e.to_string(),
+            })?;
+        self.offset = position.offset;
+        self.index = position.index;
+        self.chain = position.chain.clone();
+        self.last_checkpoint = position.last_checkpoint;
+        self.footer = None;
+        Ok(())
+    }
+}
+
 /// What [`LogReader::next_intact`] found at the reader's place in a log that may still grow.
 #[derive(Debug)]
 pub enum Next {
@@ -1006,6 +1056,32 @@ mod tests {
         let footer = rmp_serde::to_vec(&footer).unwrap();
         frame(&mut out, &mut chain, KIND_FOOTER, &footer);
         out
+    }
+
+    #[test]
+    fn a_reader_moved_to_a_kept_position_reads_on_as_one_read_of_the_whole() {
+        let (bytes, footer) = sample_log(25);
+        let (whole, _) = read_all(&bytes);
+        let mut reader = LogReader::new(std::io::Cursor::new(&bytes), "mem").unwrap();
+        for _ in 0..12 {
+            reader.next_record().unwrap();
+        }
+        let at_12 = reader.position();
+        assert_eq!(at_12.index(), 12);
+        while reader.next_record().unwrap().is_some() {}
+        reader.seek_to(&at_12).unwrap();
+        let mut rest = vec![];
+        while let Some(r) = reader.next_record().unwrap() {
+            rest.push(r);
+        }
+        assert_eq!(rest, whole[12..]);
+        assert_eq!(reader.footer(), Some(footer));
+        // A position of another log does not fit this file: its next frame is corrupt.
+        let (other, _) = sample_log(24);
+        let mut reader = LogReader::new(std::io::Cursor::new(&other), "mem").unwrap();
+        reader.seek_to(&at_12).unwrap();
+        let err = reader.next_record().unwrap_err();
+        assert!(matches!(err, LogError::Corrupt { index: 12, .. }), "{err}");
     }
 
     #[test]
