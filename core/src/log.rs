@@ -1076,12 +1076,20 @@ mod tests {
         }
         assert_eq!(rest, whole[12..]);
         assert_eq!(reader.footer(), Some(footer));
-        // A position of another log does not fit this file: its next frame is corrupt.
-        let (other, _) = sample_log(24);
+        // A position of another log (the same records under another seed) does not fit this
+        // file: its next frame is corrupt.
+        let header = Header::new(8, "preset = \"smoke\"\n".to_string());
+        let mut w = LogWriter::new(Vec::new(), "mem", &header).unwrap();
+        for r in &whole {
+            w.append(r).unwrap();
+        }
+        let (_, other) = w.finish().unwrap();
+        assert_eq!(other.len(), bytes.len(), "the frames stand at the same offsets");
         let mut reader = LogReader::new(std::io::Cursor::new(&other), "mem").unwrap();
         reader.seek_to(&at_12).unwrap();
         let err = reader.next_record().unwrap_err();
         assert!(matches!(err, LogError::Corrupt { index: 12, .. }), "{err}");
+        assert!(err.to_string().contains("frame header check failed"), "{err}");
     }
 
     #[test]
