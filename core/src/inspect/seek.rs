@@ -196,7 +196,7 @@ impl Seeker {
 
     /// Whether block `height` gets a snapshot.
     fn is_mark(&self, height: u64) -> bool {
-        self.every > 0 && height > 0 && height % self.every == 0
+        self.every > 0 && height > 0 && height.is_multiple_of(self.every)
     }
 
     /// The sealing records of the blocks to keep a snapshot of after record `after` and before
