@@ -1084,12 +1084,19 @@ mod tests {
             w.append(r).unwrap();
         }
         let (_, other) = w.finish().unwrap();
-        assert_eq!(other.len(), bytes.len(), "the frames stand at the same offsets");
+        assert_eq!(
+            other.len(),
+            bytes.len(),
+            "the frames stand at the same offsets"
+        );
         let mut reader = LogReader::new(std::io::Cursor::new(&other), "mem").unwrap();
         reader.seek_to(&at_12).unwrap();
         let err = reader.next_record().unwrap_err();
         assert!(matches!(err, LogError::Corrupt { index: 12, .. }), "{err}");
-        assert!(err.to_string().contains("frame header check failed"), "{err}");
+        assert!(
+            err.to_string().contains("frame header check failed"),
+            "{err}"
+        );
     }
 
     #[test]
