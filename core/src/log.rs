@@ -5,21 +5,35 @@
 //!
 //! ```text
 //! magic    "SWARMFL\0"                      8 bytes
-//! version  u32                              FORMAT_VERSION
+//! version  u32                              FORMAT_VERSION (2; version 1 is still read)
 //! hlen     u32, header: rmp-serde (named)   Header
 //! htag     [u8; 8]                          first 8 bytes of blake3(header bytes)
-//! frames   kind u8 | len u32 | tag [u8; 8] | payload (len bytes)
+//! frames   version 2: kind u8 | len u32 | check [u8; 4] | tag [u8; 4] | payload (len bytes)
+//!          version 1: kind u8 | len u32 | tag [u8; 8] | payload (len bytes)
 //!          kind 1 = record (payload: rmp-serde Record), kind 2 = footer (payload: Footer)
 //! ```
 //!
-//! The chain starts at `h0 = blake3("swarmfl-log" | version | run identity)`, where the identity
-//! is the seed, the resolved configuration and the fork origin (not the build provenance, so
-//! that the same run made by two builds has the same final hash), and folds every
-//! frame's payload: `h(i+1) = blake3(h(i) | payload)`. A frame's tag is the first 8 bytes of its
-//! chain value, so a flipped bit is caught at the very record it hits; the footer carries the
-//! whole final hash and the record count. A cut or damaged log is reported with the byte offset
-//! and record index of the first bad frame and the last good checkpoint, and every record
-//! before it stays readable.
+//! The chain starts at `h0 = blake3("swarmfl-log" | 1 | run identity)`, where 1 is
+//! [`RECORD_VERSION`] and the identity is the seed, the resolved configuration and the fork
+//! origin (not the build provenance, so that the same run made by two builds has the same final
+//! hash), and folds every frame's payload: `h(i+1) = blake3(h(i) | payload)`. The chain is the
+//! same in both layouts, so a run's final hash does not depend on the layout that stored it.
+//!
+//! A frame's tag is the first bytes of its chain value (8 in version 1, 4 in version 2), so a
+//! flipped bit is caught at the very record it hits; the footer carries the whole final hash and
+//! the record count. In version 2 the frame's `check` (first 4 bytes of
+//! `blake3("swarmfl-frame" | h(i) | kind | len)`) covers the kind and the length and ties them
+//! to the frame's place in the chain, so a damaged length is found before the payload is read
+//! and reported as corruption, never as a cut log. (In version 1 a length made larger than the
+//! rest of the file reads as a truncation.) Both layouts have 13-byte frame headers, so a run's
+//! log has the same size in either (`summary.json`'s `log_bytes`).
+//!
+//! A cut or damaged log is reported with the byte offset and record index of the first bad
+//! frame and the last good checkpoint, and every record before it stays readable.
+//!
+//! The chain is not keyed: it shows that a log was not damaged, not who wrote it. Whoever edits
+//! a log can recompute the chain; only a re-simulation (`swarmfl replay --resimulate`) shows that
+//! the records are those of the header's seed and configuration.
 
 use std::fs::File;
 use std::io::{BufReader, BufWriter, Read, Seek, SeekFrom, Write};
@@ -32,8 +46,15 @@ use crate::types::{Digest, SimTime};
 
 /// The first bytes of every log.
 pub const MAGIC: &[u8; 8] = b"SWARMFL\0";
-/// The version of the layout and of the record types; bumped on any incompatible change.
-pub const FORMAT_VERSION: u32 = 1;
+/// The version of the layout this build writes; bumped on any incompatible change. Version 2
+/// added the frame header check; this build reads versions 1 and 2.
+pub const FORMAT_VERSION: u32 = 2;
+/// The oldest layout version this build reads.
+pub const OLDEST_FORMAT_VERSION: u32 = 1;
+/// The version of the record types and of the hash chain's start (`h0`), which the layouts
+/// 1 and 2 share: it is what a run's final hash depends on, and what `summary.json`'s `format`
+/// records. Bumped only when the records' encoding changes (which moves every hash).
+pub const RECORD_VERSION: u32 = 1;
 /// Largest payload a frame may carry; a larger length is taken as corruption.
 pub const MAX_PAYLOAD_BYTES: u32 = 1 << 28;
 
@@ -157,13 +178,13 @@ pub enum LogError {
         path: String,
     },
     /// The log was written in another format version.
-    #[error("{path}: log format version {found}, but this swarmfl (v{crate_version}) reads version {supported}; replay it with the swarmfl version that wrote it, or re-run the simulation with this one")]
+    #[error("{path}: log format version {found}, but this swarmfl (v{crate_version}) reads versions {OLDEST_FORMAT_VERSION} to {supported}; replay it with the swarmfl version that wrote it, or re-run the simulation with this one")]
     Version {
         /// The file.
         path: String,
         /// Version found in the file.
         found: u32,
-        /// Version this build reads.
+        /// Newest version this build reads.
         supported: u32,
         /// This build's crate version.
         crate_version: &'static str,
@@ -269,7 +290,7 @@ impl HashChain {
         let identity = (header.seed, &header.config_toml, &header.parent);
         let mut h = blake3::Hasher::new();
         h.update(b"swarmfl-log");
-        h.update(&FORMAT_VERSION.to_le_bytes());
+        h.update(&RECORD_VERSION.to_le_bytes());
         h.update(&rmp_serde::to_vec(&identity).expect("identity encodes"));
         if !header.plugins.is_empty() {
             h.update(&rmp_serde::to_vec(&header.plugins).expect("plug-in ids encode"));
@@ -286,6 +307,20 @@ impl HashChain {
         h.update(payload);
         self.value = *h.finalize().as_bytes();
         self.tag()
+    }
+
+    /// The version-2 frame check of the next frame, of `kind` and payload length `len`: the
+    /// first 4 bytes of `blake3("swarmfl-frame" | current value | kind | len)`. It covers the
+    /// frame header's fields and ties them to the frame's place in the chain.
+    pub fn frame_check(&self, kind: u8, len: u32) -> [u8; 4] {
+        let mut h = blake3::Hasher::new();
+        h.update(b"swarmfl-frame");
+        h.update(&self.value);
+        h.update(&[kind]);
+        h.update(&len.to_le_bytes());
+        let mut check = [0u8; 4];
+        check.copy_from_slice(&h.finalize().as_bytes()[..4]);
+        check
     }
 
     /// The tag of the current value.
@@ -375,6 +410,8 @@ impl<W: Write> LogWriter<W> {
             "record of {} bytes",
             payload.len()
         );
+        let len = payload.len() as u32;
+        let check = self.chain.frame_check(kind, len);
         let tag = self.chain.fold(payload);
         let io = |e: std::io::Error| LogError::Io {
             path: self.path.clone(),
@@ -382,8 +419,9 @@ impl<W: Write> LogWriter<W> {
         };
         let mut head = [0u8; FRAME_OVERHEAD as usize];
         head[0] = kind;
-        head[1..5].copy_from_slice(&(payload.len() as u32).to_le_bytes());
-        head[5..13].copy_from_slice(&tag);
+        head[1..5].copy_from_slice(&len.to_le_bytes());
+        head[5..9].copy_from_slice(&check);
+        head[9..13].copy_from_slice(&tag[..4]);
         self.out.write_all(&head).map_err(io)?;
         self.out.write_all(payload).map_err(io)?;
         self.bytes += FRAME_OVERHEAD + payload.len() as u64;
@@ -425,6 +463,8 @@ impl<W: Write> LogWriter<W> {
 pub struct LogReader<R: Read> {
     input: R,
     path: String,
+    /// The file's layout version ([`OLDEST_FORMAT_VERSION`] to [`FORMAT_VERSION`]).
+    version: u32,
     header: Header,
     header_bytes: Vec<u8>,
     chain: HashChain,
@@ -494,7 +534,7 @@ impl<R: Read> LogReader<R> {
             });
         }
         let version = u32::from_le_bytes(fixed[8..12].try_into().expect("4 bytes"));
-        if version != FORMAT_VERSION {
+        if !(OLDEST_FORMAT_VERSION..=FORMAT_VERSION).contains(&version) {
             return Err(LogError::Version {
                 path: name.to_string(),
                 found: version,
@@ -537,12 +577,12 @@ impl<R: Read> LogReader<R> {
                 offset: 16,
                 message: e.to_string(),
             })?;
-        if header.format_version != FORMAT_VERSION {
+        if header.format_version != version {
             return Err(LogError::Header {
                 path: name.to_string(),
                 offset: 16,
                 message: format!(
-                    "header says format version {} but the file says {FORMAT_VERSION}",
+                    "header says format version {} but the file says {version}",
                     header.format_version
                 ),
             });
@@ -550,6 +590,7 @@ impl<R: Read> LogReader<R> {
         Ok(LogReader {
             input,
             path: name.to_string(),
+            version,
             chain: HashChain::start(&header),
             header,
             header_bytes,
@@ -559,6 +600,11 @@ impl<R: Read> LogReader<R> {
             footer: None,
             payload: Vec::new(),
         })
+    }
+
+    /// The file's layout version (1 or 2; see the module documentation).
+    pub fn format_version(&self) -> u32 {
+        self.version
     }
 
     /// The log's header.
@@ -642,6 +688,17 @@ impl<R: Read> LogReader<R> {
         if kind != KIND_RECORD && kind != KIND_FOOTER {
             return Err(self.corrupt(frame_offset, format!("unknown frame kind {kind}")));
         }
+        // Version 2: the kind and the length are checked before the payload is read, so a
+        // damaged length is corruption at this frame, never a cut log.
+        if self.version >= 2 && head[5..9] != self.chain.frame_check(kind, len) {
+            return Err(self.corrupt(
+                frame_offset,
+                format!(
+                    "frame header check failed: the frame's kind ({kind}) or length ({len}) \
+                     bytes were altered, or the frame is not the one that belongs here"
+                ),
+            ));
+        }
         if len > MAX_PAYLOAD_BYTES {
             return Err(self.corrupt(
                 frame_offset,
@@ -663,7 +720,11 @@ impl<R: Read> LogReader<R> {
         }
         let mut chain = self.chain.clone();
         let tag = chain.fold(&self.payload);
-        if tag[..] != head[5..13] {
+        let tag_ok = match self.version {
+            1 => tag[..] == head[5..13],
+            _ => tag[..4] == head[9..13],
+        };
+        if !tag_ok {
             return Err(self.corrupt(
                 frame_offset,
                 "hash chain broken: the frame's bytes (or its length or tag) were altered"
@@ -727,6 +788,56 @@ impl<R: Read> LogReader<R> {
     /// The raw payload of the record last returned (its exact encoded bytes).
     pub fn last_payload(&self) -> &[u8] {
         &self.payload
+    }
+}
+
+/// Where a reader stands between two frames of a log: what [`LogReader::seek_to`] needs to read
+/// on from there without reading the frames before (their chain value is kept in it).
+#[derive(Clone, Debug)]
+pub struct Position {
+    offset: u64,
+    index: u64,
+    chain: HashChain,
+    last_checkpoint: Option<GoodCheckpoint>,
+}
+
+impl Position {
+    /// Index of the next record.
+    pub fn index(&self) -> u64 {
+        self.index
+    }
+}
+
+impl<R: Read> LogReader<R> {
+    /// Where the reader stands (before the next frame).
+    pub fn position(&self) -> Position {
+        Position {
+            offset: self.offset,
+            index: self.index,
+            chain: self.chain.clone(),
+            last_checkpoint: self.last_checkpoint,
+        }
+    }
+}
+
+impl<R: Read + Seek> LogReader<R> {
+    /// Moves the reader to `position`, taken earlier from a reader of this same file, to read
+    /// on from there. Every frame after it is checked as in one read from the start (the chain
+    /// goes on from the value kept in `position`), so a file that changed after the position
+    /// was taken reads as corrupt there.
+    pub fn seek_to(&mut self, position: &Position) -> Result<(), LogError> {
+        self.input
+            .seek(SeekFrom::Start(position.offset))
+            .map_err(|e| LogError::Io {
+                path: self.path.clone(),
+                message: e.to_string(),
+            })?;
+        self.offset = position.offset;
+        self.index = position.index;
+        self.chain = position.chain.clone();
+        self.last_checkpoint = position.last_checkpoint;
+        self.footer = None;
+        Ok(())
     }
 }
 
@@ -877,10 +988,146 @@ mod tests {
             assert!(offset <= pos, "damage at {pos} reported at {offset}");
             assert_eq!(err.record_index(), Some(records.len() as u64), "{err}");
             assert!(
-                matches!(err, LogError::Corrupt { .. } | LogError::Truncated { .. }),
-                "{err}"
+                matches!(err, LogError::Corrupt { .. }),
+                "flip at {pos}: {err}"
             );
         }
+    }
+
+    /// The byte offset of every frame of a log (records and footer).
+    fn frame_offsets(bytes: &[u8]) -> Vec<usize> {
+        let mut at = LogReader::new(bytes, "mem").unwrap().offset() as usize;
+        let mut frames = vec![];
+        while at < bytes.len() {
+            frames.push(at);
+            let len = u32::from_le_bytes(bytes[at + 1..at + 5].try_into().unwrap());
+            at += FRAME_OVERHEAD as usize + len as usize;
+        }
+        frames
+    }
+
+    #[test]
+    fn a_damaged_frame_length_is_corruption_at_its_record_not_a_cut() {
+        let (bytes, _) = sample_log(25);
+        let frames = frame_offsets(&bytes);
+        assert_eq!(frames.len(), 26, "25 records and the footer");
+        for (index, &frame) in frames.iter().enumerate() {
+            // Every bit of the length field and of the kind: a larger length used to read
+            // past the end of the file and be reported as a truncated log.
+            for pos in frame..frame + 5 {
+                for bit in 0..8 {
+                    let mut damaged = bytes.clone();
+                    damaged[pos] ^= 1 << bit;
+                    let (records, end) = read_all(&damaged);
+                    let err = end.expect_err("a damaged frame header must be detected");
+                    assert!(
+                        matches!(err, LogError::Corrupt { .. }),
+                        "byte {pos} bit {bit}: {err}"
+                    );
+                    assert_eq!(err.offset(), Some(frame as u64), "{err}");
+                    assert_eq!(records.len(), index, "{err}");
+                    assert!(err.to_string().contains("corrupt record"), "{err}");
+                }
+            }
+        }
+    }
+
+    /// The bytes of a version-1 log of `records` (the layout of the fixtures committed before
+    /// version 2): an 8-byte tag per frame and no frame check.
+    fn version_1_log(records: &[Record]) -> Vec<u8> {
+        let mut header = Header::new(7, "preset = \"smoke\"\n".to_string());
+        header.format_version = 1;
+        let header_bytes = rmp_serde::to_vec_named(&header).unwrap();
+        let mut out = MAGIC.to_vec();
+        out.extend_from_slice(&1u32.to_le_bytes());
+        out.extend_from_slice(&(header_bytes.len() as u32).to_le_bytes());
+        out.extend_from_slice(&header_bytes);
+        out.extend_from_slice(&blake3::hash(&header_bytes).as_bytes()[..8]);
+        let mut chain = HashChain::start(&header);
+        let frame = |out: &mut Vec<u8>, chain: &mut HashChain, kind: u8, payload: &[u8]| {
+            out.push(kind);
+            out.extend_from_slice(&(payload.len() as u32).to_le_bytes());
+            out.extend_from_slice(&chain.fold(payload));
+            out.extend_from_slice(payload);
+        };
+        let mut buf = vec![];
+        for r in records {
+            encode_record(r, &mut buf);
+            frame(&mut out, &mut chain, KIND_RECORD, &buf);
+        }
+        let footer = Footer {
+            records: records.len() as u64,
+            final_hash: chain.digest(),
+        };
+        let footer = rmp_serde::to_vec(&footer).unwrap();
+        frame(&mut out, &mut chain, KIND_FOOTER, &footer);
+        out
+    }
+
+    #[test]
+    fn a_reader_moved_to_a_kept_position_reads_on_as_one_read_of_the_whole() {
+        let (bytes, footer) = sample_log(25);
+        let (whole, _) = read_all(&bytes);
+        let mut reader = LogReader::new(std::io::Cursor::new(&bytes), "mem").unwrap();
+        for _ in 0..12 {
+            reader.next_record().unwrap();
+        }
+        let at_12 = reader.position();
+        assert_eq!(at_12.index(), 12);
+        while reader.next_record().unwrap().is_some() {}
+        reader.seek_to(&at_12).unwrap();
+        let mut rest = vec![];
+        while let Some(r) = reader.next_record().unwrap() {
+            rest.push(r);
+        }
+        assert_eq!(rest, whole[12..]);
+        assert_eq!(reader.footer(), Some(footer));
+        // A position of another log (the same records under another seed) does not fit this
+        // file: its next frame is corrupt.
+        let header = Header::new(8, "preset = \"smoke\"\n".to_string());
+        let mut w = LogWriter::new(Vec::new(), "mem", &header).unwrap();
+        for r in &whole {
+            w.append(r).unwrap();
+        }
+        let (_, other) = w.finish().unwrap();
+        assert_eq!(
+            other.len(),
+            bytes.len(),
+            "the frames stand at the same offsets"
+        );
+        let mut reader = LogReader::new(std::io::Cursor::new(&other), "mem").unwrap();
+        reader.seek_to(&at_12).unwrap();
+        let err = reader.next_record().unwrap_err();
+        assert!(matches!(err, LogError::Corrupt { index: 12, .. }), "{err}");
+        assert!(
+            err.to_string().contains("frame header check failed"),
+            "{err}"
+        );
+    }
+
+    #[test]
+    fn version_1_logs_are_read_with_the_same_chain_and_size() {
+        let (v2, footer) = sample_log(25);
+        let (records, _) = read_all(&v2);
+        let v1 = version_1_log(&records);
+        assert_eq!(v1.len(), v2.len(), "the layouts have frames of one size");
+        assert_ne!(v1, v2);
+        let reader = LogReader::new(&v1[..], "v1").unwrap();
+        assert_eq!(reader.format_version(), 1);
+        assert_eq!(reader.header().format_version, 1);
+        let (again, end) = read_all(&v1);
+        assert_eq!(again, records);
+        assert_eq!(end.unwrap(), footer, "the same final hash in both layouts");
+        assert_eq!(
+            LogReader::new(&v2[..], "v2").unwrap().format_version(),
+            FORMAT_VERSION
+        );
+        // A version-1 frame is still checked by its 8-byte tag.
+        let frames = frame_offsets(&v1);
+        let mut damaged = v1.clone();
+        damaged[frames[3] + FRAME_OVERHEAD as usize] ^= 0x04;
+        let err = read_all(&damaged).1.unwrap_err();
+        assert!(matches!(err, LogError::Corrupt { index: 3, .. }), "{err}");
     }
 
     #[test]
@@ -910,7 +1157,13 @@ mod tests {
         let (bytes, _) = sample_log(3);
         let header_end = LogReader::new(&bytes[..], "mem").unwrap().offset() as usize;
         let mut damaged = bytes[..header_end + 13].to_vec();
+        // A frame header that checks (the file is cut, not altered): the payload is missing.
+        let check = LogReader::new(&bytes[..], "mem")
+            .unwrap()
+            .chain
+            .frame_check(KIND_RECORD, MAX_PAYLOAD_BYTES);
         damaged[header_end + 1..header_end + 5].copy_from_slice(&MAX_PAYLOAD_BYTES.to_le_bytes());
+        damaged[header_end + 5..header_end + 9].copy_from_slice(&check);
         let mut reader = LogReader::new(&damaged[..], "mem").unwrap();
         let err = reader.next_record().unwrap_err();
         assert!(matches!(err, LogError::Truncated { index: 0, .. }), "{err}");
@@ -976,7 +1229,7 @@ mod tests {
         bytes[8] = 99;
         let err = read_all(&bytes).1.unwrap_err().to_string();
         assert!(
-            err.contains("format version 99") && err.contains("reads version 1"),
+            err.contains("format version 99") && err.contains("reads versions 1 to 2"),
             "{err}"
         );
         let err = read_all(&MAGIC[..]).1.unwrap_err().to_string();

@@ -100,7 +100,9 @@ pub struct ByzantineSummary {
 /// Figures of a run for `summary.json` (the CLI adds wall-clock figures).
 #[derive(Clone, Debug, serde::Serialize, serde::Deserialize)]
 pub struct RunSummary {
-    /// Log format version.
+    /// Version of the records and of the hash chain ([`crate::log::RECORD_VERSION`]; the log
+    /// file's layout version, which does not change the records or the final hash, is in the
+    /// log's header).
     pub format: u32,
     /// The seed.
     pub seed: u64,
@@ -168,7 +170,7 @@ impl RunSummary {
             ),
         };
         RunSummary {
-            format: crate::log::FORMAT_VERSION,
+            format: crate::log::RECORD_VERSION,
             seed,
             preset: config.preset.clone(),
             config_hash: config.hash().to_hex().to_string(),

@@ -79,8 +79,10 @@ fn reseal(data: &[u8]) -> Vec<u8> {
         let len = (u32_at(&out, pos + 1) as usize).min(out.len() - pos - FRAME_OVERHEAD);
         out[pos + 1..pos + 5].copy_from_slice(&(len as u32).to_le_bytes());
         let start = pos + FRAME_OVERHEAD;
+        let check = chain.frame_check(out[pos], len as u32);
         let tag = chain.fold(&out[start..start + len]);
-        out[pos + 5..pos + 13].copy_from_slice(&tag);
+        out[pos + 5..pos + 9].copy_from_slice(&check);
+        out[pos + 9..pos + 13].copy_from_slice(&tag[..4]);
         pos = start + len;
     }
     out

@@ -376,14 +376,34 @@ fn poses<'py>(py: Python<'py>, log: PathBuf, every_s: f64) -> PyResult<Bound<'py
     table(py, &t)
 }
 
+/// The seekers of the last logs [`at_block`] looked into (at most [`MAX_SEEKERS`]): each keeps
+/// a full-state snapshot every `output.snapshot_every_blocks` blocks it folds past, so walking
+/// a run's blocks (`Run.at(block=...)` in a loop) folds its log about once, not once per block.
+static SEEKERS: std::sync::Mutex<Vec<(PathBuf, inspect::Seeker)>> =
+    std::sync::Mutex::new(Vec::new());
+
+/// Most logs whose seekers [`SEEKERS`] keeps (the oldest is dropped first).
+const MAX_SEEKERS: usize = 2;
+
 /// The state right after block `block` of a chain run's final canonical chain, as the JSON
 /// text of `swarmfl inspect --block B --json`.
 #[pyfunction]
 fn at_block(py: Python<'_>, log: PathBuf, block: u64) -> PyResult<String> {
     let report = py
         .detach(|| {
-            let index = inspect::index_run(&log, Some(block))?;
-            inspect::block_report(&index, block, None)
+            let mut seekers = SEEKERS.lock().unwrap_or_else(|p| p.into_inner());
+            let at = match seekers.iter().position(|(path, _)| *path == log) {
+                Some(at) => at,
+                None => {
+                    let seeker = inspect::Seeker::open(&log)?;
+                    if seekers.len() == MAX_SEEKERS {
+                        seekers.remove(0);
+                    }
+                    seekers.push((log.clone(), seeker));
+                    seekers.len() - 1
+                }
+            };
+            seekers[at].1.block_report(block, None)
         })
         .map_err(err)?;
     serde_json::to_string(&report).map_err(err)

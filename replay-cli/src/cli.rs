@@ -55,7 +55,11 @@ impl ConfigArgs {
 pub enum Command {
     /// Simulate a run: writes DIR/run.swlog and DIR/summary.json.
     Run(RunArgs),
-    /// Replay a log: fold its events and check every checkpoint (or re-simulate it).
+    /// Check a log. By default: the hash chain is intact (no frame was damaged or cut) and its
+    /// events fold to every checkpoint it records ("consistent"). The chain is not keyed, so
+    /// this does not show that the header (seed, configuration) or the records are those the
+    /// run made: an edited log whose chain was recomputed passes. --resimulate re-runs the
+    /// header's seed and configuration and compares every record byte for byte ("bit-exact").
     Replay(ReplayArgs),
     /// Draw the arena, obstacles, robots (Byzantine ones marked) and radio links at a simulated
     /// time or right after a block of the final canonical chain (SVG or PNG).
@@ -64,7 +68,9 @@ pub enum Command {
     /// the arena with robots, ids, Byzantine marks and radio links, animated with a scrubber
     /// that also jumps by block height; each robot's tokens, the loss per round and the chain
     /// with its forks and reorgs up to the time shown. `run.html#t=600` or `#block=40` opens
-    /// at that moment.
+    /// at that moment. It checks the hash chain and every checkpoint it folds, as `replay`
+    /// does without --resimulate (not that the header is the run's); a damaged record is
+    /// refused (exit 1), a cut log shown up to the cut with a warning.
     View(ViewArgs),
     /// Compare two logs: header differences and the first diverging record (exit 1 if they
     /// differ, 2 if one cannot be read). With --resimulate, compare one log with a re-simulation under this build: exit
@@ -74,7 +80,10 @@ pub enum Command {
     /// from fixtures/manifest.toml (after an intentional change; see CHANGELOG.md).
     Fixtures(FixturesArgs),
     /// Show block H of the final canonical chain: the block, the contract state after it, every
-    /// node's head and the world at that moment (and the time it took).
+    /// node's head and the world at that moment (and the time it took). It checks the hash
+    /// chain and every checkpoint it folds, as `replay` does without --resimulate (not that
+    /// the header is the run's); a damaged record is refused (exit 1), a cut log inspected up
+    /// to the cut with a warning.
     Inspect(InspectArgs),
     /// Find the first block of the final canonical chain where a predicate holds (exit 1 if none);
     /// in a baseline run (no blocks), the first checkpoint by time (time, round, loss,
@@ -183,7 +192,9 @@ pub struct RunArgs {
 pub struct ReplayArgs {
     /// The log (run.swlog).
     pub log: PathBuf,
-    /// Re-simulate from the header's seed and configuration and compare every record.
+    /// Re-simulate from the header's seed and configuration and compare every record byte
+    /// for byte: the only check that the records are those of the header (as long as the run
+    /// takes to simulate).
     #[arg(long)]
     pub resimulate: bool,
 }
@@ -618,7 +629,7 @@ and its stakes refunded). Keys a fork may change:
 Example: what if security had been on from block 200?
   swarmfl run --preset e2-faulty --set contract.security=false --seed 1 --out runs/nosec
   swarmfl fork runs/nosec/run.swlog --at 200 --set contract.security=true --out runs/sec-at-200
-  swarmfl replay runs/sec-at-200/run.swlog            # bit-exact on its own
+  swarmfl replay --resimulate runs/sec-at-200/run.swlog   # bit-exact on its own
   swarmfl diff runs/nosec/run.swlog runs/sec-at-200/run.swlog   # first divergence: the fork";
 
 /// The long help of `swarmfl sweep`: the task list and sharding.

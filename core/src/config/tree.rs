@@ -714,7 +714,12 @@ fn default_inflated_samples() -> u32 {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct OutputConfig {
-    /// A full-state snapshot is written to the log every this many checkpoints (0 = never).
+    /// Block lookups on the run's log keep the full reduced state in memory right after every
+    /// this many blocks of the final canonical chain that they fold past, and a later lookup of
+    /// the same log starts from the nearest one at or before its block instead of folding from
+    /// genesis (`inspect::Seeker`: the Python package's `Run.at(block=...)`; 0 = keep none).
+    /// Read from the log's header. Nothing is written: the run's records are the same for every
+    /// value (the value is part of the recorded configuration text, so it stays in it).
     pub snapshot_every_blocks: u32,
 }
 

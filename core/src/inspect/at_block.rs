@@ -1,23 +1,17 @@
 //! The state at one block of the final canonical chain: what `swarmfl inspect --block H` shows,
-//! from an index made for that block or from the sidecar (folding only up to the block).
-
-use std::path::Path;
+//! from an index made for that block (from the sidecar, folding only up to the block: `seek.rs`).
 
 use serde::Serialize;
 
 use super::error::InspectError;
-use super::fold::{fold_to_record, LastLearning};
+use super::fold::LastLearning;
 use super::index::{BlockRow, RunIndex};
-use super::sidecar::Sidecar;
-use crate::byzantine;
 use crate::config::{Behaviour, Config};
 use crate::contract::{Call, ContractState, Outcome, Submission, Verdict};
 use crate::ledger::{BlockEntry, BlockHash};
-use crate::log::LogReader;
 use crate::metrics::LearnReport;
-use crate::replay::{header_config, ReplayError};
 use crate::state::State;
-use crate::types::{RobotId, SimTime};
+use crate::types::RobotId;
 
 /// What `swarmfl inspect` shows about one block.
 #[derive(Clone, Debug, Serialize)]
@@ -237,19 +231,19 @@ pub fn block_report(
 }
 
 /// Everything a block report is made from.
-struct ReportInput<'a> {
-    path: &'a str,
-    config: &'a Config,
-    byzantine: &'a [bool],
-    canonical: &'a std::collections::BTreeSet<BlockHash>,
-    row: &'a BlockRow,
-    state: &'a State,
-    learned: &'a LastLearning,
+pub(super) struct ReportInput<'a> {
+    pub(super) path: &'a str,
+    pub(super) config: &'a Config,
+    pub(super) byzantine: &'a [bool],
+    pub(super) canonical: &'a std::collections::BTreeSet<BlockHash>,
+    pub(super) row: &'a BlockRow,
+    pub(super) state: &'a State,
+    pub(super) learned: &'a LastLearning,
 }
 
 impl ReportInput<'_> {
     /// The report, with `robot`'s view when asked for.
-    fn report(&self, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
+    pub(super) fn report(&self, robot: Option<RobotId>) -> Result<BlockReport, InspectError> {
         let robots = self.config.world.robots;
         if let Some(r) = robot {
             if r >= robots {
@@ -519,64 +513,4 @@ fn describe_learning(report: &LearnReport) -> String {
             format!("skipped round {}: {}", report.base_round + 1, reason.name())
         }
     }
-}
-
-/// The report of block `height` using a sidecar index: folds the log only up to the block's
-/// sealing checkpoint.
-pub fn block_report_indexed(
-    log: &Path,
-    sidecar: &Sidecar,
-    height: u64,
-    robot: Option<RobotId>,
-) -> Result<BlockReport, InspectError> {
-    let name = log.display().to_string();
-    let last = sidecar.blocks.len() as u64 - 1;
-    if height > last {
-        return Err(InspectError::BlockPastEnd {
-            path: name,
-            block: height,
-            last,
-        });
-    }
-    let mut reader = LogReader::open(log).map_err(ReplayError::from)?;
-    let mut config = header_config(&reader, &name)?;
-    let seed = reader.header().seed;
-    let mut state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
-        path: name.clone(),
-        cause: source,
-    })?;
-    let mut learned: LastLearning = vec![None; config.world.robots as usize];
-    let (_, hash, record) = sidecar.blocks[height as usize];
-    // The sidecar was written by a fold that checked every checkpoint of this very log (tied
-    // to it by size and footer digest), and the hash chain guarantees the records are the
-    // same: only the block's own checkpoint is checked again.
-    let time = match record {
-        Some(stop) => fold_to_record(
-            &mut reader,
-            &mut state,
-            &mut learned,
-            &mut config,
-            &name,
-            stop,
-        )?,
-        None => SimTime(0),
-    };
-    let canonical = sidecar.blocks.iter().map(|b| b.1).collect();
-    let row = BlockRow {
-        height,
-        hash,
-        time,
-        record,
-        node_heights: Vec::new(),
-    };
-    ReportInput {
-        path: &name,
-        config: &config,
-        byzantine: &byzantine::byzantine_robots(&config, seed),
-        canonical: &canonical,
-        row: &row,
-        state: &state,
-        learned: &learned,
-    }
-    .report(robot)
 }

@@ -30,17 +30,20 @@
 //! that fold, not the report, is the cost; with the index the cost grows with the asked height.
 //! The timings are in docs/PERFORMANCE.md, "Replay, inspect and bisect".
 //!
-//! Full-state snapshots every K blocks would bound the fold to K blocks' worth of records, but
-//! need serde for `Ledger` and `World` (not derived today: the ledger shares blocks and
-//! transactions through `Arc`s, the world holds its random streams) and `LogReader` seeking to
-//! a byte offset. At the paper's scale the fold stays below the 1 s target (docs/PERFORMANCE.md), so they are
-//! not written.
+//! Full-state snapshots every `output.snapshot_every_blocks` blocks are kept in memory by a
+//! [`Seeker`] (`seek.rs`): the state, last learning reports, configuration and reader position
+//! right after the sealing of every such block of the final canonical chain that a lookup
+//! folded past, so later lookups of the same log (the Python package's `Run.at(block=...)`)
+//! fold only from the nearest one. Written beside the log they would need serde for `Ledger`
+//! and `World` (not derived today: the ledger shares blocks and transactions through `Arc`s,
+//! the world holds its random streams); at the paper's scale one fold stays below the 1 s
+//! target (docs/PERFORMANCE.md), so they are not written.
 
 //! # Files
 //!
 //! By the question they answer: `index.rs` (the one fold that indexes the final canonical
 //! chain, [`index_run`]), `fold.rs` (the record fold shared by the index and a block's report),
-//! `sidecar.rs` (`LOG.idx`), `at_block.rs` (the state at a block, [`block_report`]),
+//! `sidecar.rs` (`LOG.idx`), `seek.rs` (lookups from in-memory snapshots, [`Seeker`]), `at_block.rs` (the state at a block, [`block_report`]),
 //! `values.rs` (per-block values for predicates), `bisect.rs` (the first block where a
 //! predicate holds), `export.rs` (the closed rounds), `tables.rs` (every table `swarmfl export`
 //! writes and the Python package loads, as typed columns), `ranking.rs` (where each
@@ -57,6 +60,7 @@ pub mod expr;
 mod fold;
 mod index;
 mod ranking;
+mod seek;
 mod sidecar;
 mod tables;
 pub mod timeline;
@@ -67,8 +71,8 @@ mod values;
 mod tests;
 
 pub use at_block::{
-    block_report, block_report_indexed, BalanceInfo, BlockInfo, BlockReport, ContractInfo,
-    NodeInfo, RobotInfo, RobotView, RoundInfo, SubmissionInfo, TxInfo, WorldInfo,
+    block_report, BalanceInfo, BlockInfo, BlockReport, ContractInfo, NodeInfo, RobotInfo,
+    RobotView, RoundInfo, SubmissionInfo, TxInfo, WorldInfo,
 };
 pub use bisect::{bisect, profile, BisectHit, Profile};
 pub use error::InspectError;
@@ -77,6 +81,7 @@ pub use expr::{EvalError, Expr, ParseError};
 pub use fold::LastLearning;
 pub use index::{index_run, BlockRow, ChainBytesRow, Indexer, RunIndex, StateAtBlock};
 pub use ranking::{rank_round, RankedSubmission};
+pub use seek::{block_report_indexed, Seeker, MAX_SNAPSHOTS};
 pub use sidecar::{read_sidecar, sidecar_path, Sidecar, SIDECAR_VERSION};
 pub use tables::{poses_table, Column, Table};
 pub use traffic::{traffic, Spread, Traffic, TrafficRow, MAX_PERIOD_MS};

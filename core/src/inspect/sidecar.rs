@@ -36,7 +36,8 @@ pub fn sidecar_path(log: &Path) -> std::path::PathBuf {
     std::path::PathBuf::from(name)
 }
 
-fn log_identity(path: &Path) -> Result<(u64, String), InspectError> {
+/// A log's size and the blake3 of its last 64 bytes (hex): what ties a sidecar to it.
+pub(super) fn log_identity(path: &Path) -> Result<(u64, String), InspectError> {
     use std::io::{Read, Seek, SeekFrom};
     let io = |e: std::io::Error| {
         InspectError::Replay(ReplayError::Log(crate::log::LogError::Io {

@@ -173,7 +173,13 @@ fn eval_errors_name_the_robot() {
 
 /// A short run with security on and three smart robots, written to a temporary log.
 fn short_run(name: &str) -> PathBuf {
+    short_run_with(name, |_| {})
+}
+
+/// [`short_run`] with `tweak` applied to its configuration.
+fn short_run_with(name: &str, tweak: impl FnOnce(&mut crate::config::Config)) -> PathBuf {
     let mut config = Preset::Smoke.config();
+    tweak(&mut config);
     config.run.duration_s = 200.0;
     config.contract.security = true;
     config.byzantine.kind = ByzantineKind::Smart;
@@ -714,4 +720,49 @@ fn an_indexer_fed_in_pieces_gives_the_index_of_each_prefix() {
         index_text(&whole)
     );
     std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_seeker_keeps_a_snapshot_every_k_blocks_and_starts_later_lookups_there() {
+    let path = short_run_with("seek", |c| c.output.snapshot_every_blocks = 4);
+    let index = index_run(&path, None).unwrap();
+    assert!(index.last_height() >= 9, "{}", index.last_height());
+    let record = |h: u64| index.chain[h as usize].record.unwrap();
+    let text = |r: BlockReport| serde_json::to_string(&r).unwrap();
+    let mut seeker = Seeker::new(&path, index.sidecar(&path).unwrap()).unwrap();
+    // The first lookup folds from genesis and keeps blocks 4 and 8 on the way.
+    let at_9 = seeker.block_report(9, Some(1)).unwrap();
+    assert_eq!(seeker.last_folded(), record(9) + 1);
+    assert_eq!(seeker.snapshots(), 2);
+    // Later ones start from the nearest snapshot at or before their block.
+    let at_6 = seeker.block_report(6, None).unwrap();
+    assert_eq!(seeker.last_folded(), record(6) - record(4));
+    let at_8 = seeker.block_report(8, Some(2)).unwrap();
+    assert_eq!(seeker.last_folded(), 0);
+    let at_2 = seeker.block_report(2, None).unwrap();
+    assert_eq!(seeker.last_folded(), record(2) + 1);
+    let at_0 = seeker.block_report(0, None).unwrap();
+    assert_eq!(seeker.last_folded(), 0);
+    assert_eq!(seeker.snapshots(), 2);
+    // Each report is the one of a fold from genesis.
+    for (h, robot, got) in [
+        (9, Some(1), at_9),
+        (6, None, at_6),
+        (8, Some(2), at_8),
+        (2, None, at_2),
+        (0, None, at_0),
+    ] {
+        let full = index_run(&path, Some(h)).unwrap();
+        assert_eq!(
+            text(block_report(&full, h, robot).unwrap()),
+            text(got),
+            "block {h}"
+        );
+    }
+    // Blocks past the end are refused by name.
+    assert!(matches!(
+        seeker.block_report(index.last_height() + 1, None),
+        Err(InspectError::BlockPastEnd { .. })
+    ));
+    std::fs::remove_dir_all(path.parent().unwrap()).unwrap();
 }

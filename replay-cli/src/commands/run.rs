@@ -719,7 +719,7 @@ pub fn next_text(summary: &serde_json::Value, log: &Path, me: &str) -> String {
     };
     format!(
         "\nnext:\n  {me} view {log} --out {}   # watch it in a browser\n  {me} replay {log}            \
-         # check that it replays bit-exactly\n  {inspect}\n",
+         # check its hash chain and checkpoints (--resimulate: re-make every record)\n  {inspect}\n",
         html.display()
     )
 }

@@ -11,9 +11,10 @@
 //!   [`POLL_MS`] after the last build, or twice as long as that build took if longer, so the
 //!   view never takes more than a third of one core from the run however long the log grows.
 //!   When the run ends it builds once more from the finished log: that page says the run ended.
-//! - The server (tiny_http, synchronous, no async runtime) answers `GET /` with the page and
-//!   `GET /data.json?have=V` with the newest data (or `{"unchanged":true}` when the page holds
-//!   version V already). The page asks every [`POLL_MS`]. After the last build the server keeps
+//! - The server ([`http`]: std::net, synchronous, one request per connection, bounded request
+//!   heads, the loopback `Host` only) answers `GET /` with the page and `GET /data.json?have=V`
+//!   with the newest data (or `{"unchanged":true}` when the page holds version V already).
+//!   The page asks every [`POLL_MS`]. After the last build the server keeps
 //!   answering while pages still ask (at most [`LINGER`]), so an open page learns that the run
 //!   ended, then stops; Ctrl-C ends the process, server included, and an open page says the
 //!   server is gone.
@@ -24,9 +25,11 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use tiny_http::{Header, Request, Response, Server};
-
 use crate::commands::view::{Fold, LiveState, Page};
+
+pub mod http;
+
+use http::{Request, Response, Server};
 
 /// How often the page asks for newer data, and the shortest time between two builds (ms).
 pub const POLL_MS: u64 = 1000;
@@ -75,11 +78,8 @@ impl Live {
     /// Binds the live view to `127.0.0.1:port` (`0`: any free port). A port in use is an error
     /// that names it and the way out.
     pub fn bind(port: u16) -> anyhow::Result<Bound> {
-        let server = Server::http(("127.0.0.1", port)).map_err(|e| {
-            let in_use = e
-                .downcast_ref::<std::io::Error>()
-                .is_some_and(|io| io.kind() == std::io::ErrorKind::AddrInUse);
-            if in_use {
+        let server = Server::bind(port).map_err(|e| {
+            if e.kind() == std::io::ErrorKind::AddrInUse {
                 anyhow::anyhow!(
                     "--live: port {port} on 127.0.0.1 is in use (another `swarmfl run --live`, \
                      or another program); choose a free one with --port N, or --port 0 for \
@@ -89,10 +89,7 @@ impl Live {
                 anyhow::anyhow!("--live: cannot serve on 127.0.0.1:{port}: {e}; try --port 0")
             }
         })?;
-        let port = server
-            .server_addr()
-            .to_ip()
-            .map_or(port, |addr| addr.port());
+        let port = server.port().unwrap_or(port);
         Ok(Bound { server, port })
     }
 
@@ -231,16 +228,13 @@ fn update_summary(updates: &[(Duration, u64)]) -> Option<String> {
 fn serve_loop(shared: &Shared, server: &Server) {
     let mut last_built_at: Option<Instant> = None;
     loop {
-        match server.recv_timeout(Duration::from_millis(100)) {
-            Ok(Some(request)) => {
-                *lock(&shared.last_request) = Instant::now();
-                answer(shared, request);
-            }
-            Ok(None) => {}
-            Err(e) => {
-                eprintln!("live view: the server stopped: {e}");
-                return;
-            }
+        let served = server.serve_one(Duration::from_millis(100), |request| {
+            *lock(&shared.last_request) = Instant::now();
+            answer(shared, request)
+        });
+        if let Err(e) = served {
+            eprintln!("live view: the server stopped: {e}");
+            return;
         }
         if shared.built_last.load(Ordering::SeqCst) {
             let at = *last_built_at.get_or_insert_with(Instant::now);
@@ -259,16 +253,16 @@ const STARTING: &str = "<!DOCTYPE html><html lang=\"en\"><head><meta charset=\"u
     <body><p>The run is starting; this page reloads itself.</p>\
     <pre id=\"status\">{\"ok\":false,\"loading\":true,\"live\":{\"starting\":true}}</pre></body></html>";
 
-/// Answers one request: `/` the page, `/data.json?have=V` the newest data, else 404.
-fn answer(shared: &Shared, request: Request) {
+/// Answers one request: `/` the page, `/data.json?have=V` the newest data, else 404 (whose
+/// words do not repeat the path asked for).
+fn answer(shared: &Shared, request: &Request) -> Response {
     let page = lock(&shared.page).clone();
-    let url = request.url().to_string();
-    let (path, query) = url.split_once('?').unwrap_or((url.as_str(), ""));
-    let (status, kind, body) = match (path, page) {
+    let (status, content_type, body) = match (request.path.as_str(), page) {
         ("/" | "/index.html", Some(page)) => (200, "text/html; charset=utf-8", page.html.clone()),
         ("/" | "/index.html", None) => (200, "text/html; charset=utf-8", STARTING.to_string()),
         ("/data.json", Some(page)) => {
-            let have = query
+            let have = request
+                .query
                 .split('&')
                 .find_map(|kv| kv.strip_prefix("have="))
                 .and_then(|v| v.parse::<u64>().ok());
@@ -282,20 +276,14 @@ fn answer(shared: &Shared, request: Request) {
         _ => (
             404,
             "text/plain; charset=utf-8",
-            format!("no {path} here: the live view is at /"),
+            "no such page here: the live view is at /".to_string(),
         ),
     };
-    let response = Response::from_string(body)
-        .with_status_code(status)
-        .with_header(header("Content-Type", kind))
-        .with_header(header("Cache-Control", "no-store"));
-    // A page closed mid-answer is no error of the run's.
-    let _ = request.respond(response);
-}
-
-/// A header from constant, valid text.
-fn header(name: &str, value: &str) -> Header {
-    Header::from_bytes(name.as_bytes(), value.as_bytes()).expect("a constant, valid header")
+    Response {
+        status,
+        content_type,
+        body,
+    }
 }
 
 /// Locks a mutex whose holder may have panicked (the data is still whole: every writer
@@ -307,6 +295,73 @@ fn lock<T>(m: &Mutex<T>) -> std::sync::MutexGuard<'_, T> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::io::{Read, Write};
+    use std::net::TcpStream;
+
+    /// Sends `request` to 127.0.0.1:port (then closes the sending side) and reads the answer:
+    /// its status and its whole text.
+    fn exchange(port: u16, request: &[u8]) -> (u16, String) {
+        let mut s = TcpStream::connect(("127.0.0.1", port)).unwrap();
+        s.set_read_timeout(Some(Duration::from_secs(30))).unwrap();
+        // The server may refuse before it has read it all: a failed write is its answer.
+        let _ = s.write_all(request);
+        let _ = s.shutdown(std::net::Shutdown::Write);
+        let mut answer = Vec::new();
+        let _ = s.read_to_end(&mut answer);
+        let text = String::from_utf8_lossy(&answer).into_owned();
+        let status = text
+            .split_whitespace()
+            .nth(1)
+            .and_then(|c| c.parse().ok())
+            .unwrap_or(0);
+        (status, text)
+    }
+
+    #[test]
+    fn the_server_bounds_requests_echoes_nothing_and_answers_its_loopback_host_only() {
+        let bound = Live::bind(0).unwrap();
+        let port = bound.port;
+        let live = bound.start(Path::new("/nonexistent/swarmfl-live-test/run.swlog"));
+        let get = |target: &str, host: &str| {
+            exchange(
+                port,
+                format!("GET {target} HTTP/1.1\r\nHost: {host}\r\n\r\n").as_bytes(),
+            )
+        };
+        // A long address: refused without reading it all, and not repeated.
+        let long = format!("/{}", "a".repeat(200_000));
+        let (status, text) = get(&long, "127.0.0.1");
+        assert_eq!(status, 414, "{}", &text[..text.len().min(300)]);
+        assert!(!text.contains("aaaa"), "the path is echoed");
+        // Long headers.
+        let big = format!(
+            "GET / HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Big: {}\r\n\r\n",
+            "b".repeat(200_000)
+        );
+        let (status, text) = exchange(port, big.as_bytes());
+        assert_eq!(status, 431, "{}", &text[..text.len().min(300)]);
+        assert!(!text.contains("bbbb"));
+        // An unknown path is not repeated.
+        let (status, text) = get("/no-such-secret-path", "127.0.0.1");
+        assert_eq!(status, 404, "{text}");
+        assert!(!text.contains("no-such-secret-path"), "{text}");
+        // A foreign host (a DNS rebinding) is refused; the loopback names are served.
+        for host in ["evil.example", &format!("evil.example:{port}")] {
+            let (status, text) = get("/", host);
+            assert_eq!(status, 403, "{host}: {text}");
+            assert!(!text.contains("evil"), "{text}");
+        }
+        for host in [
+            format!("127.0.0.1:{port}"),
+            format!("localhost:{port}"),
+            format!("[::1]:{port}"),
+        ] {
+            let (status, text) = get("/", &host);
+            assert_eq!(status, 200, "{host}: {text}");
+            assert!(text.contains("The run is starting"), "{text}");
+        }
+        live.finish();
+    }
 
     #[test]
     fn the_closing_line_gives_first_median_and_last_update() {
