@@ -142,3 +142,51 @@ impl ContractState {
         refunded_units
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::super::test_support::{params, STAKE};
+    use super::*;
+
+    /// The stake rule both protocols apply: `(security, value, balance) -> stake or outcome`.
+    #[test]
+    fn the_stake_is_exact_and_held() {
+        let on = params(3, vec![1, 1], 2);
+        let off = ContractParams {
+            security: false,
+            ..params(3, vec![1, 1], 2)
+        };
+        let check = |p: &ContractParams, value: u64, balance: u64, expect: Result<u64, &str>| {
+            let got = stake(p, value, balance).map_err(|o| o.name());
+            assert_eq!(got, expect, "value {value}, balance {balance}");
+        };
+        check(&on, STAKE, STAKE, Ok(STAKE));
+        check(&on, STAKE - 1, 10 * STAKE, Err("insufficient_stake"));
+        check(&on, STAKE, STAKE - 1, Err("insufficient_stake"));
+        check(&on, STAKE + 1, 10 * STAKE, Err("malformed"));
+        check(&off, 0, 0, Ok(0));
+        check(&off, STAKE + 1, 0, Ok(0));
+    }
+
+    /// The verdict at the bound: inclusive accepts a distance equal to it, strict refuses it;
+    /// a rule that does not apply the threshold on arrival accepts everything.
+    #[test]
+    fn the_verdict_follows_the_bound_and_the_threshold_rule() {
+        let inclusive = params(3, vec![1, 1], 2);
+        let mut strict = params(3, vec![1, 1], 2);
+        strict.options.threshold = ThresholdRule::Strict;
+        let fedavg_like = ContractParams {
+            security: false,
+            ..params(3, vec![1, 1], 2)
+        };
+        for (p, distance, expect) in [
+            (&inclusive, 100, Verdict::Accepted),
+            (&inclusive, 101, Verdict::Outlier),
+            (&strict, 99, Verdict::Accepted),
+            (&strict, 100, Verdict::Outlier),
+            (&fedavg_like, u64::MAX, Verdict::Accepted),
+        ] {
+            assert_eq!(verdict(p, distance, 100), expect, "distance {distance}");
+        }
+    }
+}
