@@ -13,7 +13,8 @@ registry! {
     )]
     #[serde(rename_all = "lowercase")]
     pub enum Behaviour {
-        /// Random walk at cruise speed with obstacle avoidance (the paper's robots; today's default).
+        /// Random walk at cruise speed with obstacle avoidance (the paper's robots; today's
+        /// default).
         #[default]
         Avoidance = "avoidance",
         /// Separation, cohesion and alignment from the range-and-bearing readings of neighbours,

@@ -34,7 +34,9 @@ macro_rules! registry {
         $(#[$meta:meta])*
         $vis:vis enum $Enum:ident => $Spec:ty {
             $( $(#[$vmeta:meta])* $Variant:ident = $name:literal => $spec:expr, )+
-            $( ; unlisted: $( $(#[$umeta:meta])* $Unlisted:ident = $uname:literal => $uspec:expr, )+ )?
+            $( ; unlisted: $(
+                $(#[$umeta:meta])* $Unlisted:ident = $uname:literal => $uspec:expr,
+            )+ )?
         }
     ) => {
         registry! {
