@@ -196,10 +196,11 @@ pub fn draw(seed: u64, duration_s: f64) -> Config {
             ByzantineKind::Malicious,
             ByzantineKind::Smart,
         ][rng.below(4) as usize];
-        c.byzantine.ledger = LedgerBehaviour::ALL[rng.below(7) as usize];
+        c.byzantine.ledger = CHAOS_LEDGER[rng.below(CHAOS_LEDGER.len() as u64) as usize];
         if c.byzantine.kind == ByzantineKind::None && c.byzantine.ledger == LedgerBehaviour::Honest
         {
-            c.byzantine.ledger = LedgerBehaviour::ALL[1 + rng.below(6) as usize];
+            c.byzantine.ledger =
+                CHAOS_LEDGER_MISBEHAVING[rng.below(CHAOS_LEDGER_MISBEHAVING.len() as u64) as usize];
         }
     }
     c.faults = FaultsConfig::draw(
@@ -339,6 +340,30 @@ type NodeCheck = fn(&mut Watch, &Ledger, RobotId) -> Result<(), Broken>;
 
 /// An invariant of the whole swarm at a checkpoint (time in ms).
 type SwarmCheck = fn(&mut Watch, &Ledger, u64) -> Result<(), Broken>;
+
+/// The ledger behaviours a campaign draws from, by the draw's value (a named list, not a slice
+/// of [`LedgerBehaviour::ALL`]: a new behaviour in the registry must not move the behaviour a
+/// seed draws, or every recorded campaign would change meaning).
+const CHAOS_LEDGER: [LedgerBehaviour; 7] = [
+    LedgerBehaviour::Honest,
+    LedgerBehaviour::Equivocate,
+    LedgerBehaviour::Withhold,
+    LedgerBehaviour::Flood,
+    LedgerBehaviour::Replay,
+    LedgerBehaviour::SpamInvalid,
+    LedgerBehaviour::FutureTimestamp,
+];
+
+/// The misbehaving ones, drawn again when the first draw made a Byzantine robot of no kind
+/// and an honest ledger ([`CHAOS_LEDGER`] without `honest`, in its order).
+const CHAOS_LEDGER_MISBEHAVING: [LedgerBehaviour; 6] = [
+    LedgerBehaviour::Equivocate,
+    LedgerBehaviour::Withhold,
+    LedgerBehaviour::Flood,
+    LedgerBehaviour::Replay,
+    LedgerBehaviour::SpamInvalid,
+    LedgerBehaviour::FutureTimestamp,
+];
 
 /// The invariants of each honest node, in the order they are checked: all of them for one
 /// node, then the next node; the first broken one is reported.
@@ -775,6 +800,24 @@ fn final_chains_valid(ledger: &Ledger, honest: &[RobotId]) -> Result<(), String>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A campaign's seed draws the ledger behaviour by index into named lists: they are the
+    /// lists every recorded campaign drew from, whatever the registry adds.
+    #[test]
+    fn the_ledger_draws_keep_their_lists() {
+        let names = |list: &[LedgerBehaviour]| list.iter().map(|b| b.name()).collect::<Vec<_>>();
+        let all = [
+            "honest",
+            "equivocate",
+            "withhold",
+            "flood",
+            "replay",
+            "spam-invalid",
+            "future-timestamp",
+        ];
+        assert_eq!(names(&CHAOS_LEDGER), all);
+        assert_eq!(names(&CHAOS_LEDGER_MISBEHAVING), all[1..]);
+    }
 
     #[test]
     fn draws_are_valid_and_reproducible() {

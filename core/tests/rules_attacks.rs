@@ -50,10 +50,9 @@ fn run_and_fold(config: &Config, label: &str, mut check: impl FnMut(&Record)) ->
 fn every_rule_and_attack_runs_and_replays_bit_exactly() {
     // The 12 runs are independent: run them side by side (each asserts on its own).
     // (`plugin` needs an agent from outside: the Python package's tests run it.)
-    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL[1..]
-        .iter()
-        .copied()
-        .filter(|&k| k != ByzantineKind::Plugin)
+    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL
+        .into_iter()
+        .filter(|&k| !matches!(k, ByzantineKind::None | ByzantineKind::Plugin))
         .enumerate()
         .collect();
     kinds.into_par_iter().for_each(|(i, kind)| {
@@ -80,10 +79,9 @@ fn every_rule_and_attack_runs_and_replays_bit_exactly() {
 fn every_attack_acts_under_gossip_and_central_and_replays_bit_exactly() {
     let aggregations = [Aggregation::Gossip, Aggregation::Central];
     // (`plugin` needs an agent from outside: the Python package's tests run it.)
-    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL[1..]
-        .iter()
-        .copied()
-        .filter(|&k| k != ByzantineKind::Plugin)
+    let kinds: Vec<(usize, ByzantineKind)> = ByzantineKind::ALL
+        .into_iter()
+        .filter(|&k| !matches!(k, ByzantineKind::None | ByzantineKind::Plugin))
         .enumerate()
         .collect();
     kinds.into_par_iter().for_each(|(i, kind)| {

@@ -5,7 +5,7 @@ use std::path::PathBuf;
 use std::sync::LazyLock;
 
 use clap::{Args, Parser, Subcommand, ValueEnum};
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{Config, Rule};
 
 /// swarmfl: a deterministic, event-sourced replay engine for blockchain-secured federated
 /// learning in robot swarms.
@@ -33,10 +33,9 @@ pub struct ConfigArgs {
     /// A TOML file overlaid on the preset (it may name its own `preset`).
     #[arg(long)]
     pub config: Option<PathBuf>,
-    /// Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`).
-    /// `contract.rule` takes fedavg, paper, krum, multi-krum, median, trimmed-mean, geomed,
-    /// centered-clipping, bulyan, mda, meamed, monna, signguard or dnc (docs/GUIDE.md).
-    #[arg(long = "set", value_name = "KEY=VALUE")]
+    /// Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`); the help
+    /// names the rules `contract.rule` takes, from the registry ([`set_help`]).
+    #[arg(long = "set", value_name = "KEY=VALUE", help = set_help())]
     pub overrides: Vec<String>,
 }
 
@@ -49,6 +48,18 @@ impl ConfigArgs {
             &self.overrides,
         )?)
     }
+}
+
+/// The help of `--set`: it names every built-in rule, in the registry's order, so a new rule
+/// is in the help by its line in the registry.
+fn set_help() -> String {
+    let names = Rule::ALL.map(Rule::name);
+    let (last, rest) = names.split_last().expect("the registry lists rules");
+    format!(
+        "Overrides, `key.path=value`, applied in order (e.g. `--set world.robots=30`). \
+         `contract.rule` takes {} or {last} (docs/GUIDE.md)",
+        rest.join(", ")
+    )
 }
 
 #[derive(Subcommand, Debug)]

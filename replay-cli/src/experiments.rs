@@ -34,6 +34,25 @@ pub const EXPERIMENTS: [&str; 14] = [
 /// 0, 1, 3, 5, 7 would be 441.
 pub const E4_COUNTS: [u32; 3] = [0, 3, 7];
 
+/// The attacks of e4-robustness, in its grid's order: named, not a slice of
+/// [`ByzantineKind::ALL`], so that a new attack in the registry cannot reshape the published
+/// grid (smart-then-collude is e5-smart-defence's attack, and the kinds after it in the
+/// registry are issue 33's).
+pub const E4_ATTACKS: [ByzantineKind; 12] = [
+    ByzantineKind::Faulty,
+    ByzantineKind::Malicious,
+    ByzantineKind::Smart,
+    ByzantineKind::SignFlip,
+    ByzantineKind::Gaussian,
+    ByzantineKind::Alie,
+    ByzantineKind::Ipm,
+    ByzantineKind::MinMax,
+    ByzantineKind::Mimic,
+    ByzantineKind::InflateSamples,
+    ByzantineKind::PoisonData,
+    ByzantineKind::Collude,
+];
+
 /// The rules of the published `e4-robustness` grid (the first nine of [`Rule::ALL`]): the rules
 /// issue #33 added (mda, meamed, monna, signguard, dnc) are not in it, so the committed study
 /// keeps its 225 points.
@@ -368,13 +387,7 @@ fn e4_points() -> Vec<Point> {
             let kinds: Vec<ByzantineKind> = if count == 0 {
                 vec![ByzantineKind::None]
             } else {
-                // smart-then-collude is e5-smart-defence's attack, and the kinds after it are
-                // issue 33's: the e4 grid stays as published (12 attacks).
-                ByzantineKind::ALL[1..=13]
-                    .iter()
-                    .copied()
-                    .filter(|&k| k != ByzantineKind::SmartThenCollude)
-                    .collect()
+                E4_ATTACKS.to_vec()
             };
             for kind in kinds {
                 let mut overrides = base.clone();
@@ -707,6 +720,39 @@ mod tests {
                 assert_eq!(mine, authors, "{theirs} {}", q.name);
             }
         }
+    }
+
+    /// e4-robustness's attacks are the 12 it was published with, in that order.
+    #[test]
+    fn the_e4_attacks_are_the_published_twelve() {
+        let names: Vec<&str> = E4_ATTACKS.iter().map(|k| k.name()).collect();
+        assert_eq!(
+            names,
+            [
+                "faulty",
+                "malicious",
+                "smart",
+                "sign-flip",
+                "gaussian",
+                "alie",
+                "ipm",
+                "min-max",
+                "mimic",
+                "inflate-samples",
+                "poison-data",
+                "collude"
+            ]
+        );
+        let exp = experiment("e4-robustness").unwrap();
+        let attacks: std::collections::BTreeSet<&str> = exp
+            .points
+            .iter()
+            .flat_map(|p| p.tags.iter().filter(|(k, _)| *k == "attack"))
+            .map(|(_, v)| v.as_str())
+            .filter(|&a| a != "none")
+            .collect();
+        assert_eq!(attacks.len(), 12);
+        assert!(names.iter().all(|n| attacks.contains(n)));
     }
 
     #[test]

@@ -6,41 +6,24 @@
 
 use serde::{Deserialize, Serialize};
 
-/// What a robot does: the controller that drives it.
-#[derive(
-    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
-)]
-#[serde(rename_all = "lowercase")]
-pub enum Behaviour {
-    /// Random walk at cruise speed with obstacle avoidance (the paper's robots; today's default).
-    #[default]
-    Avoidance,
-    /// Separation, cohesion and alignment from the range-and-bearing readings of neighbours,
-    /// steered toward a goal (Flow-FL's flocking to a light).
-    Flocking,
-    /// Shuttling between food sources and the nest: explore, return with an item, rest.
-    Foraging,
-    /// A swarm whose robots run different behaviours (`world.mixed`).
-    Mixed,
-}
-
-impl Behaviour {
-    /// Every behaviour, in the order of their names in errors and summaries.
-    pub const ALL: [Behaviour; 4] = [
-        Behaviour::Avoidance,
-        Behaviour::Flocking,
-        Behaviour::Foraging,
-        Behaviour::Mixed,
-    ];
-
-    /// The name used in configurations, summaries and drawings.
-    pub fn name(self) -> &'static str {
-        match self {
-            Behaviour::Avoidance => "avoidance",
-            Behaviour::Flocking => "flocking",
-            Behaviour::Foraging => "foraging",
-            Behaviour::Mixed => "mixed",
-        }
+registry! {
+    /// What a robot does: the controller that drives it.
+    #[derive(
+        Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+    )]
+    #[serde(rename_all = "lowercase")]
+    pub enum Behaviour {
+        /// Random walk at cruise speed with obstacle avoidance (the paper's robots; today's
+        /// default).
+        #[default]
+        Avoidance = "avoidance",
+        /// Separation, cohesion and alignment from the range-and-bearing readings of neighbours,
+        /// steered toward a goal (Flow-FL's flocking to a light).
+        Flocking = "flocking",
+        /// Shuttling between food sources and the nest: explore, return with an item, rest.
+        Foraging = "foraging",
+        /// A swarm whose robots run different behaviours (`world.mixed`).
+        Mixed = "mixed",
     }
 }
 

@@ -4,93 +4,82 @@
 
 use serde::{Deserialize, Serialize};
 
-/// A contract aggregation rule (`contract.rule`).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Rule {
-    /// Sample-weighted average of every valid model; no stakes, no threshold, no rewards
-    /// (the paper's security off).
-    Fedavg,
-    /// The paper's contract: outlier threshold, sample-weighted FedAvg of the accepted models,
-    /// ranking by distance to the median distance, rewards and penalties.
-    Paper,
-    /// Krum: the model with the smallest sum of squared distances to its `q - f - 2` nearest.
-    Krum,
-    /// Multi-Krum: the unweighted mean of the `q - f` models with the best Krum scores.
-    MultiKrum,
-    /// Coordinate-wise median.
-    Median,
-    /// Coordinate-wise mean after dropping the `f` smallest and `f` largest values.
-    TrimmedMean,
-    /// Geometric median by a fixed number of fixed-point Weiszfeld steps.
-    Geomed,
-    /// Centered clipping around the shared model, radius the median distance.
-    CenteredClipping,
-    /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed mean.
-    Bulyan,
-    /// Minimum-diameter averaging: the mean of the `q - f` models of the smallest diameter.
-    Mda,
-    /// Mean around the median: per weight, the mean of the `q - f` values nearest the median.
-    Meamed,
-    /// MoNNA: the mean of the `q - f` models nearest the shared model.
-    Monna,
-    /// SignGuard: norm and sign-statistics filters, then the mean clipped to the median norm.
-    Signguard,
-    /// Divide and conquer: drop the `f` models farthest along the top principal direction.
-    Dnc,
-    /// A rule supplied by the program that runs the simulation (the Python package), named by
-    /// `contract.rule_plugin`; not in [`Rule::ALL`], which lists the built-in rules.
-    Plugin,
+registry! {
+    /// A contract aggregation rule (`contract.rule`): one line each (its name and the smallest
+    /// quorum it is defined for, [`Rule::min_quorum`]); its arithmetic is `contract/rules/`'s
+    /// file of that name, dispatched by `Rule::aggregate`.
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+    #[serde(rename_all = "kebab-case")]
+    pub enum Rule => Quorum {
+        /// Sample-weighted average of every valid model; no stakes, no threshold, no rewards
+        /// (the paper's security off).
+        Fedavg = "fedavg" => Quorum::One,
+        /// The paper's contract: outlier threshold, sample-weighted FedAvg of the accepted
+        /// models, ranking by distance to the median distance, rewards and penalties.
+        Paper = "paper" => Quorum::One,
+        /// Krum: the model with the smallest sum of squared distances to its `q - f - 2`
+        /// nearest.
+        Krum = "krum" => Quorum::TwoFPlusThree,
+        /// Multi-Krum: the unweighted mean of the `q - f` models with the best Krum scores.
+        MultiKrum = "multi-krum" => Quorum::TwoFPlusThree,
+        /// Coordinate-wise median.
+        Median = "median" => Quorum::TwoFPlusOne,
+        /// Coordinate-wise mean after dropping the `f` smallest and `f` largest values.
+        TrimmedMean = "trimmed-mean" => Quorum::TwoFPlusOne,
+        /// Geometric median by a fixed number of fixed-point Weiszfeld steps.
+        Geomed = "geomed" => Quorum::TwoFPlusOne,
+        /// Centered clipping around the shared model, radius the median distance.
+        CenteredClipping = "centered-clipping" => Quorum::TwoFPlusOne,
+        /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed
+        /// mean.
+        Bulyan = "bulyan" => Quorum::FourFPlusThree,
+        /// Minimum-diameter averaging: the mean of the `q - f` models of the smallest diameter.
+        Mda = "mda" => Quorum::TwoFPlusOne,
+        /// Mean around the median: per weight, the mean of the `q - f` values nearest the
+        /// median.
+        Meamed = "meamed" => Quorum::TwoFPlusOne,
+        /// MoNNA: the mean of the `q - f` models nearest the shared model.
+        Monna = "monna" => Quorum::TwoFPlusOne,
+        /// SignGuard: norm and sign-statistics filters, then the mean clipped to the median
+        /// norm.
+        Signguard = "signguard" => Quorum::TwoFPlusOne,
+        /// Divide and conquer: drop the `f` models farthest along the top principal direction.
+        Dnc = "dnc" => Quorum::TwoFPlusOne,
+        ; unlisted:
+        /// A rule supplied by the program that runs the simulation (the Python package), named
+        /// by `contract.rule_plugin`; not in [`Rule::ALL`], which lists the built-in rules. It
+        /// is given `f` and the round's models and answers for itself.
+        Plugin = "plugin" => Quorum::One,
+    }
+}
+
+/// The smallest quorum an aggregation rule is defined for with `f` assumed Byzantine
+/// submissions (a rule's line in the [`Rule`] registry).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Quorum {
+    /// Any non-empty round.
+    One,
+    /// `2f + 1`: a majority of honest models.
+    TwoFPlusOne,
+    /// `2f + 3`: Krum's `q - f - 2 >= 1` neighbours.
+    TwoFPlusThree,
+    /// `4f + 3`: Bulyan's `q - 2f` Krum selections, each with Krum's quorum.
+    FourFPlusThree,
+}
+
+impl Quorum {
+    /// The quorum with `f` assumed Byzantine submissions.
+    pub const fn of(self, f: u32) -> u32 {
+        match self {
+            Quorum::One => 1,
+            Quorum::TwoFPlusOne => 2 * f + 1,
+            Quorum::TwoFPlusThree => 2 * f + 3,
+            Quorum::FourFPlusThree => 4 * f + 3,
+        }
+    }
 }
 
 impl Rule {
-    /// Every variant, in documentation order.
-    pub const ALL: [Rule; 14] = [
-        Rule::Fedavg,
-        Rule::Paper,
-        Rule::Krum,
-        Rule::MultiKrum,
-        Rule::Median,
-        Rule::TrimmedMean,
-        Rule::Geomed,
-        Rule::CenteredClipping,
-        Rule::Bulyan,
-        Rule::Mda,
-        Rule::Meamed,
-        Rule::Monna,
-        Rule::Signguard,
-        Rule::Dnc,
-    ];
-
-    /// The rule's name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            Rule::Fedavg => "fedavg",
-            Rule::Paper => "paper",
-            Rule::Krum => "krum",
-            Rule::MultiKrum => "multi-krum",
-            Rule::Median => "median",
-            Rule::TrimmedMean => "trimmed-mean",
-            Rule::Geomed => "geomed",
-            Rule::CenteredClipping => "centered-clipping",
-            Rule::Bulyan => "bulyan",
-            Rule::Mda => "mda",
-            Rule::Meamed => "meamed",
-            Rule::Monna => "monna",
-            Rule::Signguard => "signguard",
-            Rule::Dnc => "dnc",
-            Rule::Plugin => "plugin",
-        }
-    }
-
-    /// Looks a rule up by its configuration name.
-    pub fn from_name(name: &str) -> Option<Rule> {
-        Rule::ALL
-            .into_iter()
-            .chain([Rule::Plugin])
-            .find(|r| r.name() == name)
-    }
-
     /// True when submissions stake tokens and the used ones are paid (every rule but fedavg).
     pub fn stakes(self) -> bool {
         self != Rule::Fedavg
@@ -100,22 +89,9 @@ impl Rule {
     /// submissions: krum and multi-krum `2f + 3`, median, trimmed mean, geomed, centered
     /// clipping, mda, meamed, monna, signguard and dnc `2f + 1`, bulyan `4f + 3`, fedavg and
     /// paper 1; a plug-in rule 1 (it is given `f` and the round's models and answers for
-    /// itself).
+    /// itself). Each rule's line in the registry says which.
     pub fn min_quorum(self, f: u32) -> u32 {
-        match self {
-            Rule::Fedavg | Rule::Paper | Rule::Plugin => 1,
-            Rule::Krum | Rule::MultiKrum => 2 * f + 3,
-            Rule::Median
-            | Rule::TrimmedMean
-            | Rule::Geomed
-            | Rule::CenteredClipping
-            | Rule::Mda
-            | Rule::Meamed
-            | Rule::Monna
-            | Rule::Signguard
-            | Rule::Dnc => 2 * f + 1,
-            Rule::Bulyan => 4 * f + 3,
-        }
+        self.spec().of(f)
     }
 }
 

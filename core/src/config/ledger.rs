@@ -5,50 +5,26 @@ use serde::{Deserialize, Serialize};
 
 use crate::types::RobotId;
 
-/// What the Byzantine robots do on the ledger.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum LedgerBehaviour {
-    /// Seal, gossip and submit like everyone.
-    #[default]
-    Honest,
-    /// Seal two different blocks on one parent, each sent to part of the peers.
-    Equivocate,
-    /// Seal but release the blocks late, except to some peers.
-    Withhold,
-    /// Spam valid-looking transactions (future nonces, same-nonce variants).
-    Flood,
-    /// Re-send old transactions and transactions signed for another chain.
-    Replay,
-    /// Send malformed, forged and oversize blocks and transactions.
-    SpamInvalid,
-    /// Send blocks stamped far in the future.
-    FutureTimestamp,
-}
-
-impl LedgerBehaviour {
-    /// Every variant, in documentation order.
-    pub const ALL: [LedgerBehaviour; 7] = [
-        LedgerBehaviour::Honest,
-        LedgerBehaviour::Equivocate,
-        LedgerBehaviour::Withhold,
-        LedgerBehaviour::Flood,
-        LedgerBehaviour::Replay,
-        LedgerBehaviour::SpamInvalid,
-        LedgerBehaviour::FutureTimestamp,
-    ];
-
-    /// The name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            LedgerBehaviour::Honest => "honest",
-            LedgerBehaviour::Equivocate => "equivocate",
-            LedgerBehaviour::Withhold => "withhold",
-            LedgerBehaviour::Flood => "flood",
-            LedgerBehaviour::Replay => "replay",
-            LedgerBehaviour::SpamInvalid => "spam-invalid",
-            LedgerBehaviour::FutureTimestamp => "future-timestamp",
-        }
+registry! {
+    /// What the Byzantine robots do on the ledger.
+    #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
+    #[serde(rename_all = "kebab-case")]
+    pub enum LedgerBehaviour {
+        /// Seal, gossip and submit like everyone.
+        #[default]
+        Honest = "honest",
+        /// Seal two different blocks on one parent, each sent to part of the peers.
+        Equivocate = "equivocate",
+        /// Seal but release the blocks late, except to some peers.
+        Withhold = "withhold",
+        /// Spam valid-looking transactions (future nonces, same-nonce variants).
+        Flood = "flood",
+        /// Re-send old transactions and transactions signed for another chain.
+        Replay = "replay",
+        /// Send malformed, forged and oversize blocks and transactions.
+        SpamInvalid = "spam-invalid",
+        /// Send blocks stamped far in the future.
+        FutureTimestamp = "future-timestamp",
     }
 }
 

@@ -9,6 +9,10 @@
 //! configuration names (rules, defences, attacks, engines, options) are defined here, each
 //! domain keeps their behaviour; the checks that span domains live in `validate.rs`.
 
+// First: its macro is in scope in the modules below, which declare the plug points with it.
+#[macro_use]
+mod registry;
+
 mod behaviour;
 mod byzantine;
 mod contract;
@@ -33,8 +37,8 @@ pub use behaviour::{
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, OutlierRule,
-    PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
-    MDA_MAX_SUBSETS,
+    PayoutRounding, PoolRule, Quorum, RankKey, RankOrder, RankTies, RoundProtocol, Rule,
+    ThresholdRule, MDA_MAX_SUBSETS,
 };
 pub use error::ConfigError;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};

@@ -9,44 +9,23 @@ use serde::{Deserialize, Serialize};
 /// pass over the round's models on every node, and no published chain is longer than two.
 pub const MAX_STAGES: usize = 8;
 
-/// One pre-aggregation stage (`contract.preaggregators`, applied in list order).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum Preaggregator {
-    /// Nearest-neighbour mixing: each model becomes the mean of its `n - f` nearest models.
-    Nnm,
-    /// Bucketing: a seeded shuffle, then the mean of each bucket of `contract.bucket_size`.
-    Bucketing,
-    /// Static clipping of each update to the radius `contract.clip_radius`.
-    Clipping,
-    /// Adaptive robust clipping: the largest updates are clipped to the norm of the next one.
-    Arc,
+registry! {
+    /// One pre-aggregation stage (`contract.preaggregators`, applied in list order).
+    #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+    #[serde(rename_all = "kebab-case")]
+    pub enum Preaggregator {
+        /// Nearest-neighbour mixing: each model becomes the mean of its `n - f` nearest models.
+        Nnm = "nnm",
+        /// Bucketing: a seeded shuffle, then the mean of each bucket of `contract.bucket_size`.
+        Bucketing = "bucketing",
+        /// Static clipping of each update to the radius `contract.clip_radius`.
+        Clipping = "clipping",
+        /// Adaptive robust clipping: the largest updates are clipped to the norm of the next one.
+        Arc = "arc",
+    }
 }
 
 impl Preaggregator {
-    /// Every variant, in documentation order.
-    pub const ALL: [Preaggregator; 4] = [
-        Preaggregator::Nnm,
-        Preaggregator::Bucketing,
-        Preaggregator::Clipping,
-        Preaggregator::Arc,
-    ];
-
-    /// The stage's name as written in configurations.
-    pub fn name(self) -> &'static str {
-        match self {
-            Preaggregator::Nnm => "nnm",
-            Preaggregator::Bucketing => "bucketing",
-            Preaggregator::Clipping => "clipping",
-            Preaggregator::Arc => "arc",
-        }
-    }
-
-    /// Looks a stage up by its configuration name.
-    pub fn from_name(name: &str) -> Option<Preaggregator> {
-        Preaggregator::ALL.into_iter().find(|p| p.name() == name)
-    }
-
     /// How many models leave the stage when `count` enter it: bucketing makes
     /// `ceil(count / bucket_size)` bucket means, every other stage one model per model.
     pub fn output_count(self, count: u32, bucket_size: u32) -> u32 {

@@ -84,7 +84,7 @@ use super::{
     check_model, model_digest, outlier, preagg, rules, ContractParams, ContractState, Outcome,
     Payout, RoundSummary, Submission, Verdict, MAX_WEIGHT_MAGNITUDE,
 };
-use crate::config::{Config, RoundProtocol, Rule, ThresholdRule};
+use crate::config::{Config, RoundProtocol, Rule};
 use crate::types::{Digest, RobotId};
 
 /// Fixed-point scale of the staleness weight: `S(0) = 2^16`.
@@ -423,33 +423,14 @@ impl ContractState {
                 last_base: previous_last_base - 1,
             });
         }
-        let stake_units = if params.security {
-            if value_units < params.stake_units || balance < params.stake_units {
-                return Outcome::InsufficientStake;
-            }
-            if value_units > params.stake_units {
-                return Outcome::Malformed(format!(
-                    "value {value_units} exceeds the stake of {} units; send exactly the stake",
-                    params.stake_units
-                ));
-            }
-            params.stake_units
-        } else {
-            0
+        let stake_units = match super::submit::stake(params, value_units, balance) {
+            Ok(units) => units,
+            Err(refused) => return refused,
         };
 
         let distance_units = payout::distance_units(weights, &base);
-        let distance = u128::from(distance_units);
         let max = self.outlier_bound_units(params);
-        let beyond = match params.options.threshold {
-            ThresholdRule::Inclusive => distance > max,
-            ThresholdRule::Strict => distance >= max,
-        };
-        let verdict = if params.threshold_applies() && beyond {
-            Verdict::Outlier
-        } else {
-            Verdict::Accepted
-        };
+        let verdict = super::submit::verdict(params, distance_units, max);
         let diff = weights
             .iter()
             .zip(base.iter())
@@ -473,26 +454,9 @@ impl ContractState {
             previous_last_base,
         });
         b.last_base[sender as usize] = base_round + 1;
-        if verdict == Verdict::Outlier {
-            return Outcome::Outlier {
-                round,
-                distance_units,
-            };
-        }
-        let accepted = self.accepted_count();
-        assert!(accepted <= params.quorum, "a buffer never exceeds K");
-        if accepted < params.quorum {
-            return Outcome::Accepted {
-                round,
-                distance_units,
-            };
-        }
-        let payouts = self.aggregate_buffer(params, bp);
-        Outcome::Aggregated {
-            round,
-            distance_units,
-            payouts,
-        }
+        self.conclude(params, round, distance_units, verdict, |state| {
+            state.aggregate_buffer(params, bp)
+        })
     }
 
     /// Closes the buffer: the rule on the weighted updates, the server step, the payouts,

@@ -66,24 +66,8 @@ impl ContractState {
             return;
         }
         let before = self.total_units();
-        if let Some(b) = self.buffered.as_mut() {
-            std::sync::Arc::make_mut(b)
-                .refund(&self.submissions, |s| s.verdict == Verdict::Accepted);
-        }
-        for s in std::mem::take(&mut self.submissions) {
-            if s.verdict != Verdict::Accepted {
-                continue;
-            }
-            self.holdings_units = self
-                .holdings_units
-                .checked_sub(s.stake_units)
-                .expect("the contract holds the open round's stakes");
-            let balance = &mut self.balances[s.sender as usize];
-            *balance = balance
-                .checked_add(s.stake_units)
-                .expect("conserved supply fits u64");
-            self.timeout_refunded_units += s.stake_units;
-        }
+        // Accepted stakes go back; an outlier's stays in the pool, as when the round closes.
+        self.timeout_refunded_units += self.refund_open_round(|s| s.verdict == Verdict::Accepted);
         self.rounds_timed_out += 1;
         self.round_opened_ms = timestamp_ms;
         assert_eq!(self.total_units(), before, "a deadline conserves tokens");

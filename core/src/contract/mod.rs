@@ -60,6 +60,7 @@ pub mod preagg;
 pub mod rank_order;
 mod rewards;
 pub mod rules;
+mod submit;
 
 #[cfg(test)]
 mod test_support;
@@ -70,7 +71,7 @@ use std::sync::Arc;
 
 use serde::{Deserialize, Serialize};
 
-use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule, ThresholdRule};
+use crate::config::{Config, ContractEngine, ContractOptions, Defence, Rule};
 use crate::types::{Digest, RobotId};
 
 use claims::check_model;
@@ -754,19 +755,7 @@ impl ContractState {
         if self.evm.is_some() {
             return evm::restart_round(self);
         }
-        if let Some(b) = self.buffered.as_mut() {
-            Arc::make_mut(b).refund(&self.submissions, |_| true);
-        }
-        for s in std::mem::take(&mut self.submissions) {
-            self.holdings_units = self
-                .holdings_units
-                .checked_sub(s.stake_units)
-                .expect("the contract holds the open round's stakes");
-            let balance = &mut self.balances[s.sender as usize];
-            *balance = balance
-                .checked_add(s.stake_units)
-                .expect("conserved supply fits u64");
-        }
+        self.refund_open_round(|_| true);
     }
 
     /// Sum of all balances plus the contract's holdings: constant for a run.
@@ -840,34 +829,6 @@ impl ContractState {
         Outcome::Transferred
     }
 
-    /// Takes `stake_units` from `sender`'s balance (checked by the caller to hold it) into the
-    /// contract's holdings and records the submission: the one place a stake moves in, under
-    /// every protocol, so that conservation has one code path to hold on.
-    fn take_stake_and_record(
-        &mut self,
-        sender: RobotId,
-        samples: u64,
-        distance_units: u64,
-        stake_units: u64,
-        verdict: Verdict,
-        weights: &Arc<[i64]>,
-    ) {
-        self.balances[sender as usize] -= stake_units;
-        self.holdings_units = self
-            .holdings_units
-            .checked_add(stake_units)
-            .expect("supply fits u64");
-        self.submissions.push(Submission {
-            sender,
-            samples,
-            distance_units,
-            stake_units,
-            verdict,
-            weights: weights.clone(),
-            weights_digest: model_digest(weights),
-        });
-    }
-
     fn submit_model(
         &mut self,
         params: &ContractParams,
@@ -888,33 +849,13 @@ impl ContractState {
         if let Err(reason) = check_model(params, weights, samples) {
             return Outcome::Malformed(reason);
         }
-        let stake_units = if params.security {
-            if value_units < params.stake_units || balance < params.stake_units {
-                return Outcome::InsufficientStake;
-            }
-            if value_units > params.stake_units {
-                return Outcome::Malformed(format!(
-                    "value {value_units} exceeds the stake of {} units; send exactly the stake",
-                    params.stake_units
-                ));
-            }
-            params.stake_units
-        } else {
-            0
+        let stake_units = match submit::stake(params, value_units, balance) {
+            Ok(units) => units,
+            Err(refused) => return refused,
         };
 
         let distance_units = payout::distance_units(weights, &self.weights);
-        let max = params.max_distance_units();
-        let distance = u128::from(distance_units);
-        let beyond = match params.options.threshold {
-            ThresholdRule::Inclusive => distance > max,
-            ThresholdRule::Strict => distance >= max,
-        };
-        let verdict = if params.threshold_applies() && beyond {
-            Verdict::Outlier
-        } else {
-            Verdict::Accepted
-        };
+        let verdict = submit::verdict(params, distance_units, params.max_distance_units());
         if verdict == Verdict::Accepted && params.options.int48_products {
             if let Err(reason) = payout::int48_products(&self.accepted_models(), weights, samples) {
                 return Outcome::Malformed(reason);
@@ -929,29 +870,9 @@ impl ContractState {
             weights,
         );
         let round = self.round;
-        if verdict == Verdict::Outlier {
-            return Outcome::Outlier {
-                round,
-                distance_units,
-            };
-        }
-        let accepted = self.accepted_count();
-        assert!(
-            accepted <= params.quorum,
-            "a round never exceeds the quorum"
-        );
-        if accepted < params.quorum {
-            return Outcome::Accepted {
-                round,
-                distance_units,
-            };
-        }
-        let payouts = self.aggregate(params);
-        Outcome::Aggregated {
-            round,
-            distance_units,
-            payouts,
-        }
+        self.conclude(params, round, distance_units, verdict, |state| {
+            state.aggregate(params)
+        })
     }
 
     /// Closes the round: FedAvg, ranking and payouts, round += 1. Returns the payouts.

@@ -2,7 +2,9 @@
 //! which of them the rule *used* (the reward rule pays exactly those).
 //!
 //! One file per rule; [`Rule`] dispatches to each file's `aggregate`. A new rule is one new
-//! file, one enum line and one match arm. Every rule is integer arithmetic on fixed-point
+//! file, its `pub mod` here, its line in the [`Rule`] registry (`config/contract.rs`: name and
+//! quorum) and its arm in [`Rule::aggregate`]'s match, which does not compile without it;
+//! `core/tests/registry.rs` fails on a file here that the registry does not list. Every rule is integer arithmetic on fixed-point
 //! weights (`|w_i| < 2^47`, at most 2^16 weights, at most 10 000 submissions), deterministic,
 //! with every rounding and tie stated in its file. Shared conventions:
 //!
