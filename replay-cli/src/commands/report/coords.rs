@@ -4,7 +4,6 @@
 //! a legend naming `key=value`, the figure versus a key has that key's values on its x axis and
 //! a series per combination of the other keys, and the report's table has a column per key.
 
-use super::stats::PointStats;
 use crate::grid;
 
 /// What a point shows for a key it does not set: a results directory can hold two grids, one
@@ -37,12 +36,13 @@ pub struct Versus {
 }
 
 impl GridCoords {
-    /// The coordinates of a grid's points, read from their names and recorded overrides
-    /// ([`grid::coordinates`]). `None` when no point is a `--grid` point.
-    pub fn of(points: &[PointStats]) -> Option<GridCoords> {
+    /// The coordinates of a grid's points, read from each point's name and recorded overrides
+    /// ([`grid::coordinates`]), in the experiment's order. `None` when no point is a `--grid`
+    /// point.
+    pub fn of<'a>(points: impl IntoIterator<Item = (&'a str, &'a [String])>) -> Option<GridCoords> {
         let coords: Vec<Vec<(String, String)>> = points
-            .iter()
-            .map(|p| grid::coordinates(&p.point, &p.overrides))
+            .into_iter()
+            .map(|(point, overrides)| grid::coordinates(point, overrides))
             .collect();
         let mut keys: Vec<String> = Vec::new();
         for (k, _) in coords.iter().flatten() {
@@ -155,6 +155,7 @@ fn integer(value: Option<&str>) -> Option<f64> {
 
 #[cfg(test)]
 pub(crate) mod tests {
+    use super::super::stats::{grid_coords, PointStats};
     use super::*;
 
     /// A point of `sweep --grid`, with the sweep's `--set` after the point's overrides.
@@ -192,7 +193,7 @@ pub(crate) mod tests {
 
     #[test]
     fn a_two_key_grid_with_a_text_key_is_labelled_by_its_values() {
-        let g = GridCoords::of(&two_key_grid()).expect("a grid");
+        let g = grid_coords(&two_key_grid()).expect("a grid");
         assert_eq!(g.keys, ["contract.rule", "byzantine.count"]);
         let labels: Vec<String> = (0..4).map(|i| g.label(i)).collect();
         assert_eq!(
@@ -226,7 +227,7 @@ pub(crate) mod tests {
             .iter()
             .map(|r| point(&[&format!("contract.rule={r}")]))
             .collect();
-        let g = GridCoords::of(&points).unwrap();
+        let g = grid_coords(&points).unwrap();
         let v = g.versus();
         assert_eq!(v.x, [0.0, 1.0, 2.0]);
         let ticks: Vec<&str> = v.ticks.iter().map(|(_, t)| t.as_str()).collect();
@@ -243,7 +244,7 @@ pub(crate) mod tests {
             point(&["byzantine.count=1", "contract.rank_order=nearest"]),
             point(&["byzantine.count=2"]),
         ];
-        let g = GridCoords::of(&points).unwrap();
+        let g = grid_coords(&points).unwrap();
         assert_eq!(g.keys, ["byzantine.count", "contract.rank_order"]);
         assert_eq!(g.value(0, 1), UNSET);
         assert_eq!(g.label(1), "byzantine.count=1, contract.rank_order=nearest");
@@ -253,6 +254,6 @@ pub(crate) mod tests {
         // Points that are not a grid's have no coordinates.
         let mut other = point(&["byzantine.count=1"]);
         other.point = "byzantine-1".into();
-        assert_eq!(GridCoords::of(&[other]), None);
+        assert_eq!(grid_coords(&[other]), None);
     }
 }

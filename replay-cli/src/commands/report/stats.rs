@@ -220,7 +220,7 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
             exp.points.push(point_stats(name, x, &runs));
         }
         if grid.is_none() {
-            exp.grid = GridCoords::of(&exp.points);
+            exp.grid = grid_coords(&exp.points);
         }
     }
     out
@@ -413,6 +413,16 @@ impl Gathered {
             self.chain_runs.push(v);
         }
     }
+}
+
+/// The grid coordinates of an experiment's points ([`GridCoords::of`] over their names and
+/// recorded overrides); `None` when no point is a `--grid` point.
+pub fn grid_coords(points: &[PointStats]) -> Option<GridCoords> {
+    GridCoords::of(
+        points
+            .iter()
+            .map(|p| (p.point.as_str(), p.overrides.as_slice())),
+    )
 }
 
 #[cfg(test)]

@@ -246,7 +246,7 @@ pub fn markdown(
 
 #[cfg(test)]
 mod tests {
-    use super::super::coords::{tests::two_key_grid, GridCoords};
+    use super::super::coords::tests::two_key_grid;
     use super::*;
 
     #[test]
@@ -256,7 +256,7 @@ mod tests {
             name: "grid-smoke".into(),
             axis: "contract.rule".into(),
             preset: "smoke".into(),
-            grid: GridCoords::of(&points),
+            grid: super::super::stats::grid_coords(&points),
             points,
         };
         let (keys, cells) = point_columns(&e);
