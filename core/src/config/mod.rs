@@ -13,6 +13,7 @@ mod behaviour;
 mod byzantine;
 mod contract;
 mod error;
+mod hints;
 mod ledger;
 mod overrides;
 mod preagg;
