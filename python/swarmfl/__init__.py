@@ -203,12 +203,43 @@ def _grid(grid: Optional[Mapping[str, Any]]) -> list:
             "grid= takes a mapping of key to a list of values, e.g. "
             f"grid={{'contract.rule': ['median', 'krum']}}, got {type(grid).__name__}"
         )
+    if len(grid) == 0:
+        raise SwarmflError(
+            f"grid= is empty, so there is nothing to sweep: give each key a list of values, "
+            f"e.g. {_GRID_EXAMPLE}")
     axes = []
     for key, values in grid.items():
         if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
             values = [values]
+        values = list(values)
+        if not values:
+            raise SwarmflError(
+                f"grid[{key!r}] is an empty list: give it at least one value, e.g. "
+                f"grid={{{key!r}: [...]}}, or leave the key out")
         axes.append(f"{key}=" + ",".join(_grid_value(v) for v in values))
     return axes
+
+
+_GRID_EXAMPLE = ("swarmfl.sweep(grid={'contract.rule': ['median', 'krum'], "
+                 "'byzantine.count': [1, 3]}, preset='smoke')")
+
+
+def _check_sweep_arguments(experiment: Optional[str], grid: Optional[Mapping[str, Any]],
+                           preset: Optional[str]) -> None:
+    """The sweep's choice of experiment or grid, told in this function's arguments (the
+    command's own messages name --grid and --preset)."""
+    if experiment is not None and grid is not None:
+        raise SwarmflError(
+            f"give either experiment= ({experiment!r}) or grid=, not both: a grid runs on "
+            "preset= (default 'paper'), an experiment on its own preset")
+    if experiment is not None and preset is not None:
+        raise SwarmflError(
+            f"preset={preset!r}: the experiment {experiment!r} has its own preset; preset= is "
+            "for a grid= sweep")
+    if experiment is None and grid is None:
+        raise SwarmflError(
+            "nothing to sweep: name an experiment (e.g. swarmfl.sweep('e2-faulty'); "
+            f"`swarmfl sweep --help` lists them) or give grid=, e.g. {_GRID_EXAMPLE}")
 
 
 class _Progress:
@@ -269,9 +300,10 @@ def sweep(experiment: Optional[str] = None, *, grid: Optional[Mapping[str, Any]]
     """
     if seeds is not None and (not isinstance(seeds, int) or isinstance(seeds, bool) or seeds < 1):
         raise SwarmflError(f"seeds must be a positive integer, got {seeds!r}")
+    _check_sweep_arguments(experiment, grid, preset)
+    axes = _grid(grid)
     if out is None:
         out = tempfile.mkdtemp(prefix="swarmfl-sweep-")
-    axes = _grid(grid)
     label = experiment or f"grid-{preset or 'paper'}"
     bar = _Progress(progress, f"sweep {label}")
     try:
