@@ -198,7 +198,8 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
 }
 
 /// Checks that the plug-ins the header of the log at `path` records are among `plugins`, with
-/// the same sources: the command (no plug-ins) refuses every log that has one, naming it.
+/// the same sources (what a re-simulation needs): the command (no plug-ins) refuses every log
+/// that has one, naming it.
 pub fn check_plugins<R: Read>(
     reader: &LogReader<R>,
     path: &str,
@@ -206,6 +207,30 @@ pub fn check_plugins<R: Read>(
 ) -> Result<(), ReplayError> {
     plugins
         .check(&reader.header().plugins)
+        .map_err(|message| ReplayError::Plugin {
+            path: path.to_string(),
+            message,
+        })
+}
+
+/// [`check_plugins`] for a fold of the log (`replay` without re-simulation, the viewer, the
+/// tables): only a plug-in rule is needed, since every fold re-executes the contract and the
+/// rule computes its aggregates; an attack's submissions are records, so a fold runs without
+/// the attack.
+pub fn check_fold_plugins<R: Read>(
+    reader: &LogReader<R>,
+    path: &str,
+    plugins: &Plugins,
+) -> Result<(), ReplayError> {
+    let rules: Vec<_> = reader
+        .header()
+        .plugins
+        .iter()
+        .filter(|p| p.kind == "rule")
+        .cloned()
+        .collect();
+    plugins
+        .check(&rules)
         .map_err(|message| ReplayError::Plugin {
             path: path.to_string(),
             message,

@@ -433,6 +433,15 @@ class Run:
         return self._table("balances")
 
     @property
+    def outcomes(self) -> pd.DataFrame:
+        """Every model submission on the final canonical chain with the contract's verdict,
+        refused ones included (``submissions`` holds only those a round counted): block,
+        time_s, robot, byzantine, samples (claimed), outcome (``accepted``, ``aggregated``,
+        ``outlier``, ``duplicate``, ``insufficient_stake``, ``malformed``, ...) and reason (why
+        a ``malformed`` or refused call was refused, else empty)."""
+        return self._table("outcomes")
+
+    @property
     def chain_bytes(self) -> pd.DataFrame:
         """Every node's canonical chain size at every sealing (chain runs)."""
         return self._table("chain_bytes")
@@ -486,6 +495,32 @@ class Run:
         time_s, leaves = hit
         self.last_bisect = {"time_s": time_s, "values": dict(leaves)}
         return time_s
+
+    def view(self, out: PathLike) -> Path:
+        """Writes the run's viewer, one self-contained HTML file, into ``out`` (as ``swarmfl
+        view LOG --out OUT``) and returns its path. A run with a plug-in rule is drawn with the
+        rule this ``Run`` was given (the command cannot run it)."""
+        self._offer_rule()
+        _swarmfl.view(os.fspath(self.log), os.fspath(out))
+        return Path(out)
+
+    def snapshot(self, out: PathLike, time_s: Optional[float] = None,
+                 block: Optional[int] = None) -> Path:
+        """Draws the world at ``time_s`` simulated seconds or right after ``block`` of the
+        final canonical chain (exactly one) into ``out``, SVG or PNG by its extension (as
+        ``swarmfl snapshot LOG --time T --out OUT``), and returns its path."""
+        if (block is None) == (time_s is None):
+            raise SwarmflError("give exactly one of time_s= (simulated seconds) or block= (a "
+                               "height of the final canonical chain)")
+        if block is not None and (not isinstance(block, int) or isinstance(block, bool)
+                                  or block < 0):
+            raise SwarmflError(f"block must be a non-negative integer, got {block!r}")
+        if time_s is not None and not (isinstance(time_s, (int, float)) and 0 <= time_s < float("inf")):
+            raise SwarmflError(f"time_s must be a non-negative number of seconds, got {time_s!r}")
+        self._offer_rule()
+        _swarmfl.snapshot(os.fspath(self.log), os.fspath(out),
+                          None if time_s is None else float(time_s), block)
+        return Path(out)
 
     def export(self, out: PathLike) -> None:
         """Writes the CSV tables into ``out``, as ``swarmfl export``."""

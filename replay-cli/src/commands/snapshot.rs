@@ -592,7 +592,20 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
         block,
         out,
     } = args;
-    let log = log.as_path();
+    let title = snapshot(&log, time, block, &out)?;
+    println!("wrote {} ({title}; from {})", out.display(), log.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Draws the world of the log at `log` at simulated `time` (seconds) or right after `block` of
+/// its final canonical chain (exactly one of them) into `out` (SVG or PNG by its extension);
+/// returns the picture's title.
+pub fn snapshot(
+    log: &Path,
+    time: Option<f64>,
+    block: Option<u64>,
+    out: &Path,
+) -> anyhow::Result<String> {
     let (world, config, seed, title) = match (time, block) {
         (_, Some(height)) => {
             let index = swarmfl_core::inspect::index_run(log, Some(height))?;
@@ -643,9 +656,8 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
             }
         })
         .collect();
-    draw(&world, &marks, &title, &out)?;
-    println!("wrote {} ({title}; from {})", out.display(), log.display());
-    Ok(ExitCode::SUCCESS)
+    draw(&world, &marks, &title, out)?;
+    Ok(title)
 }
 
 #[cfg(test)]
