@@ -1,6 +1,7 @@
 //! What the configuration's error messages suggest: the nearest key or choice, an example value
 //! for each list key, serde's type names in the user's words, and numbers written compactly.
-//! Only messages read these: nothing here reaches a record.
+//! Only messages read these: nothing here reaches a record. (Numbers are written by
+//! [`crate::types::show_f64`], which the fault checks below the configuration share.)
 
 /// The choice nearest to `given` (case-insensitive), if one is within a third of its length
 /// (at least 1 edit, at most 3): a typo, not another word.
@@ -105,17 +106,6 @@ pub(super) fn type_in_words(expected: &str) -> String {
     }
 }
 
-/// A number as a message shows it: compactly in scientific notation when it is huge or tiny
-/// (`1e300`, not 301 digits), as Rust prints it otherwise (`0.5`, `10000`).
-pub fn show_f64(value: f64) -> String {
-    let a = value.abs();
-    if value.is_finite() && value != 0.0 && !(1e-6..1e16).contains(&a) {
-        format!("{value:e}")
-    } else {
-        value.to_string()
-    }
-}
-
 /// What serde said about a value, split into the parts a message uses.
 #[derive(Debug, PartialEq)]
 pub(super) enum SerdeMessage<'a> {
@@ -168,21 +158,6 @@ pub(super) fn read_serde(message: &str) -> SerdeMessage<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn huge_and_tiny_numbers_are_shown_compactly() {
-        for (v, shown) in [
-            (1e300, "1e300"),
-            (-2.5e20, "-2.5e20"),
-            (1.5e-9, "1.5e-9"),
-            (0.5, "0.5"),
-            (10_000_000.0, "10000000"),
-            (0.0, "0"),
-            (f64::INFINITY, "inf"),
-        ] {
-            assert_eq!(show_f64(v), shown);
-        }
-    }
 
     #[test]
     fn serde_messages_are_read() {

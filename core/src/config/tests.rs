@@ -820,11 +820,16 @@ fn rough_values_get_messages_in_the_users_terms() {
         "configuration key `contract.reward_weights`: value `3` has the wrong type; expected an \
          array, e.g. --set 'contract.reward_weights=[1, 1, -1]'"
     );
-    // A huge number is written compactly.
+    // A huge number is written compactly, in a fault's window too.
     assert_eq!(
         set_err("run.duration_s=1e300"),
         "configuration key `run.duration_s`: value 1e300 is out of range; allowed: a number in \
          (0, 10000000]"
+    );
+    let e = set_err("faults.crashes=[{robot=0, start_s=-1e300, end_s=20}]");
+    assert!(
+        e.contains("`faults.crashes[0]`: value [-1e300, 20) is out of range"),
+        "{e}"
     );
 }
 

@@ -8,11 +8,11 @@ use super::behaviour::{Avoidance, Behaviour, ForagingRule, MixedAssign, PLACE_LA
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
-use super::hints::show_f64;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
 use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
+use crate::types::show_f64;
 
 /// A check that relates several keys: the first violation, if any.
 type Check = fn(&Config) -> Result<(), ConfigError>;
