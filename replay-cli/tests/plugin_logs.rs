@@ -1,7 +1,8 @@
 //! Issue #53: the command reads a plug-in attack's log from its records (a fold, the viewer, a
-//! snapshot, the tables) without the attack, which only a re-simulation runs. The log is made
-//! in this process with an attack written in Rust (as the Python package offers its own); the
-//! command, another process, has none.
+//! snapshot, the tables) without the attack, which only a re-simulation runs; a plug-in rule's
+//! log, whose contract every fold re-executes, still gives its world (a snapshot at a time).
+//! The logs are made in this process with plug-ins written in Rust (as the Python package
+//! offers its own); the command, another process, has none.
 
 use std::path::PathBuf;
 use std::process::{Command, Output};
@@ -11,6 +12,8 @@ use swarmfl_cli::api::{run_with_plugins, Flush};
 use swarmfl_core::byzantine::plugin::{PluginId, Plugins};
 use swarmfl_core::byzantine::{Action, Attack, View};
 use swarmfl_core::config::Config;
+use swarmfl_core::contract::rules::plugin::RulePlugin;
+use swarmfl_core::contract::rules::Input;
 use swarmfl_core::rng::Rng;
 
 /// Submits the shared model back, claiming the configured sample count.
@@ -22,6 +25,18 @@ impl Attack for Echo {
             weights: view.shared(),
             samples: view.config.claimed_samples,
         }
+    }
+}
+
+/// The mean of the accepted models, truncated toward zero.
+struct Mean;
+
+impl RulePlugin for Mean {
+    fn aggregate(&self, current: &[i64], inputs: &[Input], _f: usize) -> Result<Vec<i64>, String> {
+        let n = inputs.len() as i64;
+        Ok((0..current.len())
+            .map(|i| inputs.iter().map(|m| m.weights[i]).sum::<i64>() / n)
+            .collect())
     }
 }
 
@@ -93,5 +108,66 @@ fn a_plugin_attacks_log_is_read_from_its_records_and_only_resimulation_needs_the
         err.contains("plug-in attack `echo`") && err.contains("cannot run plug-ins"),
         "{err}"
     );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_plugin_rules_log_gives_its_world_to_the_command_and_says_where_the_rest_is_drawn() {
+    let dir = scratch("rule");
+    let run = dir.join("run");
+    let overrides: Vec<String> = [
+        "run.duration_s=60",
+        "contract.rule=plugin",
+        "contract.rule_plugin=mean",
+    ]
+    .map(String::from)
+    .to_vec();
+    let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
+    let mut plugins = Plugins::none();
+    plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
+    run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    let log = run.join("run.swlog");
+    let log = log.to_str().unwrap();
+    // The world is records: the command draws it at a time, as this process (which has the
+    // rule) does.
+    let svg = dir.join("s.svg");
+    let out = swarmfl(&[
+        "snapshot",
+        log,
+        "--time",
+        "30",
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let here = dir.join("here.svg");
+    swarmfl_cli::api::snapshot(run.join("run.swlog").as_path(), Some(30.0), None, &here).unwrap();
+    assert_eq!(std::fs::read(&svg).unwrap(), std::fs::read(&here).unwrap());
+    // Tokens, rounds and blocks need the rule's aggregates: the command names where to draw them.
+    let html = dir.join("v.html");
+    for args in [
+        vec!["view", log, "--out", html.to_str().unwrap()],
+        vec![
+            "snapshot",
+            log,
+            "--block",
+            "1",
+            "--out",
+            svg.to_str().unwrap(),
+        ],
+    ] {
+        let out = swarmfl(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(
+            err.contains("plug-in rule `mean`")
+                && err.contains("swarmfl.open(..., rule=...).view(OUT) and .snapshot(OUT, ...)"),
+            "{args:?}: {err}"
+        );
+    }
     std::fs::remove_dir_all(&dir).unwrap();
 }

@@ -625,24 +625,26 @@ pub fn snapshot(
             if !(time.is_finite() && time >= 0.0) {
                 anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
             }
-            let (state, config, seed) = replay::state_at_time(log, SimTime::from_secs(time))?;
+            // The world alone: a picture needs no ledger or contract, so a log whose plug-in
+            // rule this process cannot run is drawn from its records.
+            let (world, config, seed) = replay::world_at_time(log, SimTime::from_secs(time))?;
             // The fold stops at the first tick at or after the time asked; a world that never
             // got there is the run's end, and a picture of it under another time would lie.
-            if state.world.time() < SimTime::from_secs(time) {
+            if world.time() < SimTime::from_secs(time) {
                 anyhow::bail!(
                     "--time {time} is past the end of {} (its last tick is at t = {}): give a \
                      time from 0 to {}, or --block HEIGHT for a block of its final chain",
                     log.display(),
-                    state.world.time(),
-                    state.world.time().secs()
+                    world.time(),
+                    world.time().secs()
                 );
             }
             let title = format!(
                 "preset {}, seed {seed}: t = {}",
                 config.preset,
-                state.world.time()
+                world.time()
             );
-            (state.world, config, seed, title)
+            (world, config, seed, title)
         }
         (None, None) => anyhow::bail!("give --time SECONDS or --block HEIGHT"),
     };
