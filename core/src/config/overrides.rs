@@ -437,12 +437,21 @@ fn parse_value(
                 toml::Value::String(_) => format!("a string, e.g. --set {key}=word"),
                 _ => "a single value".to_string(),
             };
+            let count = |c: char| raw.matches(c).count();
+            let open = count('[') != count(']')
+                || count('{') != count('}')
+                || count('"') % 2 == 1
+                || count('\'') % 2 == 1;
             Err(ConfigError::Override {
                 assignment: assignment.to_string(),
                 message: format!(
-                    "the value `{raw}` is not valid TOML ({}{at}: is a bracket, brace or quote \
-                     left open?); `{key}` takes {expected}",
+                    "the value `{raw}` is not valid TOML ({}{at}{}); `{key}` takes {expected}",
                     e.message().trim().trim_end_matches('.'),
+                    if open {
+                        ": a bracket, brace or quote is left open"
+                    } else {
+                        ""
+                    },
                 ),
             })
         }

@@ -793,7 +793,14 @@ fn rough_values_get_messages_in_the_users_terms() {
         "{e}"
     );
     assert!(
-        e.contains("is a bracket, brace or quote left open?); `faults.partitions` takes an array of tables, e.g. --set 'faults.partitions=[{kind = \"split\", start_s = 10, end_s = 20}]'"),
+        e.contains(": a bracket, brace or quote is left open); `faults.partitions` takes an array of tables, e.g. --set 'faults.partitions=[{kind = \"split\", start_s = 10, end_s = 20}]'"),
+        "{e}"
+    );
+    // Balanced but not TOML: the parser's complaint alone.
+    let e = set_err("contract.reward_weights=[1,,2]");
+    assert!(
+        e.starts_with("invalid override `contract.reward_weights=[1,,2]`: the value `[1,,2]` is not valid TOML (")
+            && !e.contains("left open"),
         "{e}"
     );
     // An entry without its end.
