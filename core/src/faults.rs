@@ -24,7 +24,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::rng::Rng;
-use crate::types::RobotId;
+use crate::types::{show_f64, RobotId};
 
 /// What a partition cuts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -138,7 +138,7 @@ impl FaultsConfig {
             } else {
                 Err((
                     key,
-                    format!("[{start}, {end})"),
+                    format!("[{}, {})", show_f64(start), show_f64(end)),
                     "0 <= start_s < end_s, finite".to_string(),
                 ))
             }
@@ -166,7 +166,7 @@ impl FaultsConfig {
             if !(0.0..=1.0).contains(&b.loss) {
                 return Err((
                     format!("faults.loss_bursts[{i}].loss"),
-                    b.loss.to_string(),
+                    show_f64(b.loss),
                     "a probability in [0, 1]".to_string(),
                 ));
             }

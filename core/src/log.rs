@@ -478,6 +478,12 @@ pub struct LogReader<R: Read> {
 impl LogReader<BufReader<File>> {
     /// Opens the log at `path` and reads its header.
     pub fn open(path: &Path) -> Result<Self, LogError> {
+        if path.is_dir() {
+            return Err(LogError::Io {
+                path: path.display().to_string(),
+                message: directory_hint(path),
+            });
+        }
         let file = File::open(path).map_err(|e| LogError::Io {
             path: path.display().to_string(),
             message: e.to_string(),
@@ -486,6 +492,22 @@ impl LogReader<BufReader<File>> {
             BufReader::with_capacity(1 << 20, file),
             &path.display().to_string(),
         )
+    }
+}
+
+/// What to give instead of the directory `dir` where a log is expected (the message follows
+/// `dir: `): its `run.swlog` when it holds one, else what a run's directory holds.
+pub fn directory_hint(dir: &Path) -> String {
+    let log = dir.join("run.swlog");
+    if log.is_file() {
+        format!(
+            "is a directory: give {} (the log the run wrote there)",
+            log.display()
+        )
+    } else {
+        "is a directory and holds no run.swlog: give a log file (`swarmfl run --out DIR` writes \
+         DIR/run.swlog)"
+            .to_string()
     }
 }
 

@@ -9,8 +9,9 @@ use crate::config::{Config, ConfigError};
 use crate::event::{Event, Record};
 use crate::log::{encode_record, Footer, LogError, LogReader};
 use crate::sim::Sim;
-use crate::state::{ApplyError, SimError, State};
+use crate::state::{apply_tick, ApplyError, SimError, State};
 use crate::types::{Digest, SimTime};
+use crate::world::World;
 
 /// Why a replay failed.
 #[derive(Debug, thiserror::Error)]
@@ -198,7 +199,8 @@ pub fn resimulate(path: &Path) -> Result<ReplayReport, ReplayError> {
 }
 
 /// Checks that the plug-ins the header of the log at `path` records are among `plugins`, with
-/// the same sources: the command (no plug-ins) refuses every log that has one, naming it.
+/// the same sources (what a re-simulation needs): the command (no plug-ins) refuses every log
+/// that has one, naming it.
 pub fn check_plugins<R: Read>(
     reader: &LogReader<R>,
     path: &str,
@@ -206,6 +208,30 @@ pub fn check_plugins<R: Read>(
 ) -> Result<(), ReplayError> {
     plugins
         .check(&reader.header().plugins)
+        .map_err(|message| ReplayError::Plugin {
+            path: path.to_string(),
+            message,
+        })
+}
+
+/// [`check_plugins`] for a fold of the log (`replay` without re-simulation, the viewer, the
+/// tables): only a plug-in rule is needed, since every fold re-executes the contract and the
+/// rule computes its aggregates; an attack's submissions are records, so a fold runs without
+/// the attack.
+pub fn check_fold_plugins<R: Read>(
+    reader: &LogReader<R>,
+    path: &str,
+    plugins: &Plugins,
+) -> Result<(), ReplayError> {
+    let rules: Vec<_> = reader
+        .header()
+        .plugins
+        .iter()
+        .filter(|p| p.kind == "rule")
+        .cloned()
+        .collect();
+    plugins
+        .check(&rules)
         .map_err(|message| ReplayError::Plugin {
             path: path.to_string(),
             message,
@@ -337,6 +363,7 @@ pub fn describe_divergence(path: &str, index: u64, logged: &Record, fresh: &Reco
 /// Folds the log at `path` until the world reaches `time` (or the log ends) and returns the
 /// state there with the run's configuration and seed. Checkpoints on the way are verified.
 pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64), ReplayError> {
+    // (Below: `world_at_time`, the same fold of the world alone.)
     let name = path.display().to_string();
     let mut reader = LogReader::open(path)?;
     let config = header_config(&reader, &name)?;
@@ -356,4 +383,53 @@ pub fn state_at_time(path: &Path, time: SimTime) -> Result<(State, Config, u64),
         }
     }
     Ok((state, config, seed))
+}
+
+/// The world at the first tick at or after `time` (or at the log's end), from the log's tick
+/// events alone, every checkpoint's world digest checked: what a picture of the world needs.
+/// No ledger or contract is folded, so a log whose contract runs a plug-in rule that is not
+/// given (its aggregates are not records) is drawn from its records all the same. Returns the
+/// world, the configuration in force there and the seed.
+pub fn world_at_time(path: &Path, time: SimTime) -> Result<(World, Config, u64), ReplayError> {
+    let name = path.display().to_string();
+    let mut reader = LogReader::open(path)?;
+    let mut config = header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut world = World::new(&config, seed).map_err(|source| ReplayError::Start {
+        path: name.clone(),
+        cause: SimError::World(source),
+    })?;
+    while world.time() < time {
+        let Some(record) = reader.next_record()? else {
+            break;
+        };
+        let index = reader.index() - 1;
+        match &record {
+            Record::Event {
+                time: at,
+                event: Event::Tick(tick),
+            } => apply_tick(&mut world, *at, tick).map_err(|cause| ReplayError::Apply {
+                path: name.clone(),
+                index,
+                kind: record.kind(),
+                time: *at,
+                cause,
+            })?,
+            Record::Checkpoint(expected) if expected.world != world.digest() => {
+                return Err(ReplayError::Diverged {
+                    path: name,
+                    index,
+                    kind: record.kind(),
+                    time: expected.time,
+                    component: "world".to_string(),
+                    detail: " between the log's checkpoint and the replayed world".to_string(),
+                })
+            }
+            _ => {}
+        }
+        if let Some(next) = reconfigured(&record) {
+            config = next;
+        }
+    }
+    Ok((world, config, seed))
 }

@@ -1,4 +1,5 @@
-//! Small types shared by every module: robot ids, simulated time, digests.
+//! Small types shared by every module: robot ids, simulated time, digests, and how a message
+//! writes a number.
 
 use std::fmt;
 
@@ -113,5 +114,36 @@ impl<'de> Deserialize<'de> for Digest {
             }
         }
         d.deserialize_bytes(V)
+    }
+}
+
+/// A number as a message shows it: compactly in scientific notation when it is huge or tiny
+/// (`1e300`, not 301 digits), as Rust prints it otherwise (`0.5`, `10000`).
+pub fn show_f64(value: f64) -> String {
+    let a = value.abs();
+    if value.is_finite() && value != 0.0 && !(1e-6..1e16).contains(&a) {
+        format!("{value:e}")
+    } else {
+        value.to_string()
+    }
+}
+
+#[cfg(test)]
+mod show_tests {
+    use super::*;
+
+    #[test]
+    fn huge_and_tiny_numbers_are_shown_compactly() {
+        for (v, shown) in [
+            (1e300, "1e300"),
+            (-2.5e20, "-2.5e20"),
+            (1.5e-9, "1.5e-9"),
+            (0.5, "0.5"),
+            (10_000_000.0, "10000000"),
+            (0.0, "0"),
+            (f64::INFINITY, "inf"),
+        ] {
+            assert_eq!(show_f64(v), shown);
+        }
     }
 }

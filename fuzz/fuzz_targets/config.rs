@@ -43,7 +43,8 @@ fuzz_target!(|data: &[u8]| {
                     ConfigError::Parse { source_name, .. } => source_name == SOURCE,
                     ConfigError::UnknownKey { key, .. }
                     | ConfigError::WrongType { key, .. }
-                    | ConfigError::UnknownValue { key, .. } => key.contains(SOURCE),
+                    | ConfigError::UnknownValue { key, .. }
+                    | ConfigError::BadEntry { key, .. } => key.contains(SOURCE),
                     ConfigError::OutOfRange { key, .. } => !key.is_empty(),
                     ConfigError::NotSetByYou { key, .. }
                     | ConfigError::NotReconfigurable { key, .. } => {

@@ -135,7 +135,8 @@ proptest! {
                     ConfigError::Parse { source_name, .. } => source_name == SOURCE,
                     ConfigError::UnknownKey { key, .. }
                     | ConfigError::WrongType { key, .. }
-                    | ConfigError::UnknownValue { key, .. } => {
+                    | ConfigError::UnknownValue { key, .. }
+                    | ConfigError::BadEntry { key, .. } => {
                         key.ends_with(&format!("(in {SOURCE})"))
                     }
                     ConfigError::OutOfRange { .. } => message.starts_with("configuration key `"),

@@ -367,6 +367,31 @@ fn export(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<()> {
         .map_err(err)
 }
 
+/// Writes the viewer of a log (one HTML file), as `swarmfl view` does; returns `(frames,
+/// sealings, height, bytes)`.
+#[pyfunction]
+fn view(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<(usize, u64, u64, usize)> {
+    let v = py
+        .detach(|| swarmfl_cli::api::view(&log, &out))
+        .map_err(err)?;
+    Ok((v.frames, v.sealings, v.height, v.bytes))
+}
+
+/// Draws the world of a log at `time_s` or right after `block` (exactly one) into `out` (SVG
+/// or PNG), as `swarmfl snapshot` does; returns the picture's title.
+#[pyfunction]
+#[pyo3(signature = (log, out, time_s=None, block=None))]
+fn snapshot(
+    py: Python<'_>,
+    log: PathBuf,
+    out: PathBuf,
+    time_s: Option<f64>,
+    block: Option<u64>,
+) -> PyResult<String> {
+    py.detach(|| swarmfl_cli::api::snapshot(&log, time_s, block, &out))
+        .map_err(err)
+}
+
 /// Every robot's pose every `every_s` simulated seconds (`inspect::poses_table`).
 #[pyfunction]
 fn poses<'py>(py: Python<'py>, log: PathBuf, every_s: f64) -> PyResult<Bound<'py, PyList>> {
@@ -534,6 +559,12 @@ impl Index {
         table(py, &self.index.balances_table().map_err(err)?)
     }
 
+    /// Every model submission on the final canonical chain with its outcome, refused ones
+    /// included (`RunIndex::outcomes_table`).
+    fn outcomes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
+        table(py, &self.index.outcomes_table().map_err(err)?)
+    }
+
     /// The chain sizes table (`RunIndex::chain_bytes_table`).
     fn chain_bytes<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyList>> {
         table(py, &self.index.chain_bytes_table().map_err(err)?)
@@ -574,6 +605,8 @@ fn _swarmfl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(results, m)?)?;
     m.add_function(wrap_pyfunction!(report, m)?)?;
     m.add_function(wrap_pyfunction!(poses, m)?)?;
+    m.add_function(wrap_pyfunction!(view, m)?)?;
+    m.add_function(wrap_pyfunction!(snapshot, m)?)?;
     m.add_function(wrap_pyfunction!(at_block, m)?)?;
     m.add_function(wrap_pyfunction!(at_time, m)?)?;
     m.add_function(wrap_pyfunction!(bisect_by_time, m)?)?;

@@ -160,6 +160,7 @@ impl PyAttack {
         d.set_item("threshold", view.threshold())?;
         d.set_item("input_waypoints", view.input_waypoints)?;
         d.set_item("claimed_samples", view.config.claimed_samples)?;
+        d.set_item("claim_bound", view.params.claim_bound.max_samples)?;
         let config = serde_json::to_string(view.config)
             .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
         d.set_item("config_json", config)?;

@@ -203,12 +203,43 @@ def _grid(grid: Optional[Mapping[str, Any]]) -> list:
             "grid= takes a mapping of key to a list of values, e.g. "
             f"grid={{'contract.rule': ['median', 'krum']}}, got {type(grid).__name__}"
         )
+    if len(grid) == 0:
+        raise SwarmflError(
+            f"grid= is empty, so there is nothing to sweep: give each key a list of values, "
+            f"e.g. {_GRID_EXAMPLE}")
     axes = []
     for key, values in grid.items():
         if isinstance(values, (str, bytes)) or not hasattr(values, "__iter__"):
             values = [values]
+        values = list(values)
+        if not values:
+            raise SwarmflError(
+                f"grid[{key!r}] is an empty list: give it at least one value, e.g. "
+                f"grid={{{key!r}: [...]}}, or leave the key out")
         axes.append(f"{key}=" + ",".join(_grid_value(v) for v in values))
     return axes
+
+
+_GRID_EXAMPLE = ("swarmfl.sweep(grid={'contract.rule': ['median', 'krum'], "
+                 "'byzantine.count': [1, 3]}, preset='smoke')")
+
+
+def _check_sweep_arguments(experiment: Optional[str], grid: Optional[Mapping[str, Any]],
+                           preset: Optional[str]) -> None:
+    """The sweep's choice of experiment or grid, told in this function's arguments (the
+    command's own messages name --grid and --preset)."""
+    if experiment is not None and grid is not None:
+        raise SwarmflError(
+            f"give either experiment= ({experiment!r}) or grid=, not both: a grid runs on "
+            "preset= (default 'paper'), an experiment on its own preset")
+    if experiment is not None and preset is not None:
+        raise SwarmflError(
+            f"preset={preset!r}: the experiment {experiment!r} has its own preset; preset= is "
+            "for a grid= sweep")
+    if experiment is None and grid is None:
+        raise SwarmflError(
+            "nothing to sweep: name an experiment (e.g. swarmfl.sweep('e2-faulty'); "
+            f"`swarmfl sweep --help` lists them) or give grid=, e.g. {_GRID_EXAMPLE}")
 
 
 class _Progress:
@@ -269,9 +300,10 @@ def sweep(experiment: Optional[str] = None, *, grid: Optional[Mapping[str, Any]]
     """
     if seeds is not None and (not isinstance(seeds, int) or isinstance(seeds, bool) or seeds < 1):
         raise SwarmflError(f"seeds must be a positive integer, got {seeds!r}")
+    _check_sweep_arguments(experiment, grid, preset)
+    axes = _grid(grid)
     if out is None:
         out = tempfile.mkdtemp(prefix="swarmfl-sweep-")
-    axes = _grid(grid)
     label = experiment or f"grid-{preset or 'paper'}"
     bar = _Progress(progress, f"sweep {label}")
     try:
@@ -401,6 +433,15 @@ class Run:
         return self._table("balances")
 
     @property
+    def outcomes(self) -> pd.DataFrame:
+        """Every model submission on the final canonical chain with the contract's verdict,
+        refused ones included (``submissions`` holds only those a round counted): block,
+        time_s, robot, byzantine, samples (claimed), outcome (``accepted``, ``aggregated``,
+        ``outlier``, ``duplicate``, ``insufficient_stake``, ``malformed``, ...) and reason (why
+        a ``malformed`` or refused call was refused, else empty)."""
+        return self._table("outcomes")
+
+    @property
     def chain_bytes(self) -> pd.DataFrame:
         """Every node's canonical chain size at every sealing (chain runs)."""
         return self._table("chain_bytes")
@@ -454,6 +495,32 @@ class Run:
         time_s, leaves = hit
         self.last_bisect = {"time_s": time_s, "values": dict(leaves)}
         return time_s
+
+    def view(self, out: PathLike) -> Path:
+        """Writes the run's viewer, one self-contained HTML file, into ``out`` (as ``swarmfl
+        view LOG --out OUT``) and returns its path. A run with a plug-in rule is drawn with the
+        rule this ``Run`` was given (the command cannot run it)."""
+        self._offer_rule()
+        _swarmfl.view(os.fspath(self.log), os.fspath(out))
+        return Path(out)
+
+    def snapshot(self, out: PathLike, time_s: Optional[float] = None,
+                 block: Optional[int] = None) -> Path:
+        """Draws the world at ``time_s`` simulated seconds or right after ``block`` of the
+        final canonical chain (exactly one) into ``out``, SVG or PNG by its extension (as
+        ``swarmfl snapshot LOG --time T --out OUT``), and returns its path."""
+        if (block is None) == (time_s is None):
+            raise SwarmflError("give exactly one of time_s= (simulated seconds) or block= (a "
+                               "height of the final canonical chain)")
+        if block is not None and (not isinstance(block, int) or isinstance(block, bool)
+                                  or block < 0):
+            raise SwarmflError(f"block must be a non-negative integer, got {block!r}")
+        if time_s is not None and not (isinstance(time_s, (int, float)) and 0 <= time_s < float("inf")):
+            raise SwarmflError(f"time_s must be a non-negative number of seconds, got {time_s!r}")
+        self._offer_rule()
+        _swarmfl.snapshot(os.fspath(self.log), os.fspath(out),
+                          None if time_s is None else float(time_s), block)
+        return Path(out)
 
     def export(self, out: PathLike) -> None:
         """Writes the CSV tables into ``out``, as ``swarmfl export``."""

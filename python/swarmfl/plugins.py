@@ -10,9 +10,11 @@ then asked again at the next tick, and the phase is skipped if it still waits wh
 next phase is due (``view.last_chance``).
 
 The log header records the plug-in's name and the blake3 digest of its class's source
-(``inspect.getsource`` of the class); ``swarmfl.replay`` and ``swarmfl.fork`` refuse a log
-whose plug-in is not given or whose source changed, and the ``swarmfl`` command refuses every
-log made with a plug-in (it cannot run Python). See docs/PYTHON.md, "Plug-in attacks", for what
+(``inspect.getsource`` of the class); ``swarmfl.replay(..., resimulate=True)`` and
+``swarmfl.fork`` refuse a log whose plug-in is not given or whose source changed, and the
+``swarmfl`` command refuses to re-simulate or fork a log made with a plug-in (it cannot run
+Python); what reads the log from its records (a fold, the tables, the viewer) needs no attack.
+See docs/PYTHON.md, "Plug-in attacks", for what
 is deterministic.
 """
 
@@ -63,8 +65,10 @@ class AttackView:
     (bool array: which robots are Byzantine), ``samples`` (its own data set, float32 array of
     shape (n, waypoints, 2): ``input_waypoints`` inputs then the targets), ``threshold`` (the
     outlier threshold, mean absolute distance per weight), ``weight_scale``,
-    ``claimed_samples`` (``byzantine.claimed_samples``), ``config`` (every ``byzantine.*`` key)
-    and ``seed``.
+    ``claimed_samples`` (``byzantine.claimed_samples``), ``claim_bound`` (the most samples the
+    contract takes in a claim, ``contract.max_claimed_samples`` or the bound derived from the
+    data window: a larger claim is refused as ``malformed``), ``config`` (every ``byzantine.*``
+    key) and ``seed``.
     """
 
     def __init__(self, raw: dict):
@@ -76,6 +80,7 @@ class AttackView:
         self.threshold: float = raw["threshold"]
         self.input_waypoints: int = raw["input_waypoints"]
         self.claimed_samples: int = raw["claimed_samples"]
+        self.claim_bound: int = raw["claim_bound"]
         self.seed: int = raw["seed"]
         self._config_json: str = raw["config_json"]
         self.shared = np.frombuffer(raw["shared"], dtype="<f4")

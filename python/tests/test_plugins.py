@@ -4,6 +4,7 @@ and source digest), are refused when absent or changed, and every bad answer rai
 exception naming the plug-in, the round and the robot."""
 
 import os
+import runpy
 import subprocess
 import sys
 from pathlib import Path
@@ -89,9 +90,23 @@ def test_replay_and_fork_need_the_same_plugin(signflip, tmp_path):
     assert fork.summary["final_hash"] == swarmfl.replay(fork.log, resimulate=True, attack=PySignFlip())["final_hash"]
 
 
-def test_the_command_refuses_a_plugin_log_by_name(signflip, tmp_path):
+def test_the_command_reads_a_plugin_attacks_log_from_its_records(signflip, tmp_path):
+    # The submissions are records: a fold, the viewer and a snapshot need no attack.
     _, plugin = signflip
-    for args in (["replay", plugin.log], ["replay", plugin.log, "--resimulate"],
+    for args in (["replay", plugin.log],
+                 ["view", plugin.log, "--out", tmp_path / "v.html"],
+                 ["snapshot", plugin.log, "--time", "30", "--out", tmp_path / "s.svg"],
+                 ["inspect", "--block", "3", plugin.log]):
+        p = subprocess.run([str(BIN), *map(str, args)], capture_output=True, text=True)
+        assert p.returncode == 0, (args, p.stderr)
+    assert plugin.summary["final_hash"] in subprocess.run(
+        [str(BIN), "replay", str(plugin.log)], capture_output=True, text=True).stdout
+    assert (tmp_path / "v.html").stat().st_size > 0 and (tmp_path / "s.svg").stat().st_size > 0
+
+
+def test_the_command_refuses_to_run_a_plugin_by_name(signflip, tmp_path):
+    _, plugin = signflip
+    for args in (["replay", plugin.log, "--resimulate"],
                  ["fork", plugin.log, "--at", "3", "--set", "learn.learning_rate=0.02", "--out", tmp_path / "f"],
                  ["run", "--preset", "smoke", "--set", "byzantine.kind=plugin", "--set", "byzantine.plugin=x",
                   "--set", "byzantine.count=1", "--out", tmp_path / "r"]):
@@ -145,9 +160,24 @@ def test_what_is_not_an_attack_is_refused_before_running(tmp_path):
         swarmfl.run(preset="smoke", set={"run.duration_s": 50.0}, attack=PySignFlip(), out=tmp_path / "d")
 
 
-def test_the_custom_attack_example_runs(tmp_path):
+def test_the_custom_attack_example_runs_and_its_attack_is_taken(tmp_path, capsys):
     script = REPO / "examples" / "python" / "custom_attack.py"
-    p = subprocess.run([sys.executable, str(script), str(tmp_path / "ex")], capture_output=True,
+    example = runpy.run_path(str(script))  # defines main, runs nothing
+    r = example["main"](tmp_path / "ex")
+    out = capsys.readouterr().out
+    byz = r.outcomes[r.outcomes.byzantine]
+    # The attack does what it says: its claims are within the contract's bound, so its
+    # submissions are judged on their models rather than all refused as malformed.
+    assert len(byz) > 0
+    assert (byz.outcome != "malformed").all(), byz.reason.unique()
+    assert byz.outcome.isin(["accepted", "aggregated"]).any(), byz.outcome.value_counts()
+    assert byz.samples.max() == r.summary["contract"]["max_claimed_samples"]
+    assert f"Byzantine submissions on the final chain: {len(byz)}" in out
+    assert "by verdict: " in out and "Byzantine robots" in out
+    # The refusals are said when there are any.
+    assert ("refused " in out) == bool((byz.reason != "").any())
+    # And run as a script.
+    p = subprocess.run([sys.executable, str(script), str(tmp_path / "ex2")], capture_output=True,
                        text=True, timeout=300)
     assert p.returncode == 0, p.stderr
-    assert "Byzantine robots" in p.stdout
+    assert "by verdict: " in p.stdout

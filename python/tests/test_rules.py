@@ -106,6 +106,30 @@ def test_the_command_refuses_a_plugin_rule_by_name(medians, tmp_path):
         assert "panicked" not in p.stderr and "diverged" not in p.stderr, p.stderr
 
 
+def test_a_rule_log_is_drawn_from_python_with_its_rule(medians, tmp_path):
+    builtin, plugin = medians
+    # The command cannot run the rule, which the contract's tokens and rounds need: it says
+    # where the log can be drawn. Its world is records: the command draws it at a time.
+    p = subprocess.run([str(BIN), "view", str(plugin.log), "--out", str(tmp_path / "c.html")],
+                       capture_output=True, text=True)
+    assert p.returncode != 0
+    assert "swarmfl.open(..., rule=...).view(OUT)" in p.stderr, p.stderr
+    assert "cannot run plug-ins" in p.stderr and "panicked" not in p.stderr, p.stderr
+    p = subprocess.run([str(BIN), "snapshot", str(plugin.log), "--time", "30", "--out",
+                        str(tmp_path / "c.svg")], capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    # From Python with the rule: the page and the picture, as the built-in median's run draws
+    # them (the same records but for the rule's identity).
+    run = swarmfl.open(plugin.path, rule=np_median)
+    page = run.view(tmp_path / "p.html")
+    assert page.stat().st_size > 0
+    svg = run.snapshot(tmp_path / "p.svg", block=3)
+    base = builtin.snapshot(tmp_path / "b.svg", block=3)
+    assert svg.read_text().replace(str(plugin.path), "") == base.read_text().replace(str(builtin.path), "")
+    at30 = run.snapshot(tmp_path / "p30.svg", time_s=30)
+    assert at30.read_bytes() == (tmp_path / "c.svg").read_bytes()
+
+
 def boom(models, f, current, samples):
     raise ZeroDivisionError("the rule divided by zero")
 

@@ -71,6 +71,31 @@ def test_submissions_add_up_to_the_rounds(smoke):
     assert (s["distance"] >= 0).all()
 
 
+def test_outcomes_hold_every_submission_the_summary_counts(smoke):
+    r, _ = smoke
+    o = r.outcomes
+    assert list(o.columns) == ["block", "time_s", "robot", "byzantine", "samples", "outcome",
+                               "reason"]
+    counted = {k: v for k, v in r.summary["contract"]["submissions"].items() if v}
+    assert o["outcome"].value_counts().to_dict() == counted
+    assert (o["reason"] != "").sum() == counted.get("malformed", 0)
+
+
+def test_view_and_snapshot_write_the_commands_files(smoke, tmp_path):
+    r, _ = smoke
+    page = r.view(tmp_path / "run.html")
+    cli("view", r.log, "--out", tmp_path / "cli.html")
+    assert page.read_bytes() == (tmp_path / "cli.html").read_bytes()
+    for kwargs, flag in [({"time_s": 30.0}, ["--time", "30"]), ({"block": 2}, ["--block", "2"])]:
+        svg = r.snapshot(tmp_path / f"{flag[0][2:]}.svg", **kwargs)
+        cli("snapshot", r.log, *flag, "--out", tmp_path / f"cli-{flag[0][2:]}.svg")
+        assert svg.read_bytes() == (tmp_path / f"cli-{flag[0][2:]}.svg").read_bytes()
+    with pytest.raises(swarmfl.SwarmflError, match="exactly one of time_s="):
+        r.snapshot(tmp_path / "x.svg")
+    with pytest.raises(swarmfl.SwarmflError, match="time_s must be a non-negative number"):
+        r.snapshot(tmp_path / "x.svg", time_s=-1)
+
+
 def test_at_and_bisect_match_inspect_and_bisect(smoke):
     r, _ = smoke
     block = r.bisect("round >= 2")

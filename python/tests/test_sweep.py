@@ -77,6 +77,23 @@ def test_a_bad_grid_raises_before_anything_runs_naming_the_key(tmp_path):
         swarmfl.results(tmp_path)
 
 
+def test_an_empty_grid_is_told_in_python_terms(tmp_path):
+    out = tmp_path / "empty"
+    with pytest.raises(swarmfl.SwarmflError) as e:
+        swarmfl.sweep(grid={}, preset="smoke", out=out)
+    assert str(e.value).startswith("grid= is empty, so there is nothing to sweep: give each key "
+                                   "a list of values, e.g. swarmfl.sweep(grid={"), str(e.value)
+    assert "--grid" not in str(e.value)
+    with pytest.raises(swarmfl.SwarmflError, match=r"grid\['contract.rule'\] is an empty list"):
+        swarmfl.sweep(grid={"contract.rule": []}, preset="smoke", out=out)
+    with pytest.raises(swarmfl.SwarmflError, match="give either experiment= .* or grid=, not both"):
+        swarmfl.sweep("e2-faulty", grid={"contract.rule": ["median"]}, out=out)
+    with pytest.raises(swarmfl.SwarmflError, match="nothing to sweep") as e:
+        swarmfl.sweep(out=out)
+    assert "--grid" not in str(e.value)
+    assert not out.exists()
+
+
 def test_a_progress_callback_that_raises_stops_the_sweep(tmp_path, monkeypatch):
     # What Ctrl-C does (KeyboardInterrupt from the wait's signal check) is what an exception in
     # the progress hook does: no new task starts, the ones under way are written, it is raised.

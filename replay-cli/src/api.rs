@@ -12,6 +12,7 @@ pub use crate::commands::report::{results_frame, Frame};
 // record (Python passes `Flush::WhenFull`).
 pub use crate::commands::run::{run, run_until, run_with_plugins, Flush, RunOutcome};
 pub use crate::commands::sweep::{Shard, SweepOptions, SweepOutcome, TaskDone};
+pub use crate::commands::view::ViewOutcome;
 
 /// Forks the log at `parent` at block `height` with `overrides` into `out`, as `swarmfl fork`
 /// does, offered `plugins` (the parent's must be among them, with the recorded sources);
@@ -35,6 +36,23 @@ pub fn fork_with_plugins(
         plugins,
         check,
     )
+}
+
+/// Writes the viewer of the log at `log` (one self-contained HTML file) into `out`, as
+/// `swarmfl view` does.
+pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
+    crate::commands::view::view(log, out)
+}
+
+/// Draws the world of the log at `log` at `time` seconds or right after `block` into `out`
+/// (SVG or PNG), as `swarmfl snapshot` does; returns the picture's title.
+pub fn snapshot(
+    log: &Path,
+    time: Option<f64>,
+    block: Option<u64>,
+    out: &Path,
+) -> anyhow::Result<String> {
+    crate::commands::snapshot::snapshot(log, time, block, out)
 }
 
 /// Writes the CSV tables of the log at `log` into `out`, as `swarmfl export` does.

@@ -559,3 +559,49 @@ fn a_predicate_that_cannot_be_evaluated_is_said_with_its_cause_once() {
     assert_eq!(count(&text, "there is no robot 99"), 1, "{text}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// Issue #53: a run's folder where its log is expected says which file to give, in every
+/// command that reads a log (not the system's "Is a directory").
+#[test]
+fn a_runs_folder_given_for_its_log_names_the_log() {
+    let dir = scratch("folder-for-log");
+    let run = dir.join("run");
+    let out = short_run(&run, "7");
+    assert!(out.status.success(), "{}", stderr(&out));
+    let r = run.to_str().unwrap();
+    let html = dir.join("v.html");
+    let svg = dir.join("s.svg");
+    let csv = dir.join("csv");
+    let want = format!("{r}: is a directory: give {r}/run.swlog (the log the run wrote there)");
+    for args in [
+        vec!["replay", r],
+        vec!["replay", r, "--resimulate"],
+        vec!["view", r, "--out", html.to_str().unwrap()],
+        vec![
+            "snapshot",
+            r,
+            "--time",
+            "10",
+            "--out",
+            svg.to_str().unwrap(),
+        ],
+        vec!["inspect", "--block", "1", r],
+        vec!["export", r, "--out", csv.to_str().unwrap()],
+        vec!["diff", r, r],
+    ] {
+        let out = swarmfl(&args);
+        let err = stderr(&out);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(err.contains(&want), "{args:?}: {err}");
+        assert!(!err.contains("os error"), "{args:?}: {err}");
+    }
+    // A folder without a log says what a log is.
+    let empty = dir.join("empty");
+    std::fs::create_dir_all(&empty).unwrap();
+    let err = stderr(&swarmfl(&["replay", empty.to_str().unwrap()]));
+    assert!(
+        err.contains("is a directory and holds no run.swlog: give a log file"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}

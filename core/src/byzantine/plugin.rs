@@ -142,11 +142,16 @@ impl Plugins {
                         if id.kind == "attack" {
                             "pass the same attack class (swarmfl.replay(..., attack=...) or \
                              swarmfl.fork(..., attack=...) in Python); the swarmfl command cannot \
-                             run plug-ins"
+                             run plug-ins (it reads the log from its records without the attack: \
+                             replay without --resimulate, view, snapshot, inspect, export)"
                                 .to_string()
                         } else if id.kind == "rule" {
                             "pass the same rule (swarmfl.open/replay/fork(..., rule=...) in \
-                             Python); the swarmfl command cannot run plug-ins"
+                             Python; swarmfl.open(..., rule=...).view(OUT) and .snapshot(OUT, \
+                             ...) draw it); every reading of the log re-executes the contract, \
+                             whose aggregates the rule computes (the records hold the \
+                             submissions, not the aggregates), and the swarmfl command cannot \
+                             run plug-ins"
                                 .to_string()
                         } else {
                             format!("this swarmfl does not know plug-ins of kind `{}`", id.kind)

@@ -32,7 +32,7 @@ pub enum ConfigError {
     UnknownKey {
         /// The key as given.
         key: String,
-        /// The keys allowed at that level.
+        /// `did you mean `x`?` when a key is close, then the keys allowed at that level.
         allowed: String,
     },
     /// A value of the wrong type.
@@ -55,6 +55,17 @@ pub enum ConfigError {
         /// `; did you mean `x`?` when one choice is close, then `; the choices are: ...` (one
         /// field, so the error stays as small as its other variants).
         help: String,
+    },
+    /// An entry of a list of tables (`faults.partitions`) that lacks a field, names an unknown
+    /// one or holds a value of the wrong type.
+    #[error("configuration key `{key}`: {problem}; {fix}")]
+    BadEntry {
+        /// The list's key.
+        key: String,
+        /// What is wrong with the entry.
+        problem: String,
+        /// How to write an entry (an example, or the fields).
+        fix: String,
     },
     /// A value outside its allowed range.
     #[error("configuration key `{key}`: value {value} is out of range; allowed: {allowed}")]

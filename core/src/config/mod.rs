@@ -17,6 +17,7 @@ mod behaviour;
 mod byzantine;
 mod contract;
 mod error;
+mod hints;
 mod ledger;
 mod overrides;
 mod preagg;

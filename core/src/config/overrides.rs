@@ -4,6 +4,7 @@
 use std::path::Path;
 
 use super::error::ConfigError;
+use super::hints::{self, SerdeMessage};
 use super::preset::Preset;
 use super::tree::Config;
 
@@ -66,13 +67,20 @@ impl Config {
         }
         if let Some((table, source_name)) = file_table {
             let mut base = full_tree(&config);
-            merge(&mut base, toml::Value::Table(table), "", source_name)?;
-            config = base
-                .try_into()
-                .map_err(|e: toml::de::Error| ConfigError::Parse {
+            let keys = hints::dotted_keys(&base);
+            merge(
+                &mut base,
+                toml::Value::Table(table.clone()),
+                "",
+                source_name,
+                &keys,
+            )?;
+            config = base.try_into().map_err(|e: toml::de::Error| {
+                locate(&config, &table, source_name, &keys).unwrap_or(ConfigError::Parse {
                     source_name: source_name.to_string(),
                     message: e.to_string(),
-                })?;
+                })
+            })?;
             config.preset = preset.name().to_string();
         }
         for assignment in overrides {
@@ -119,7 +127,8 @@ impl Config {
 
     /// Applies one `key.path=value` override. The value is TOML (`0.5`, `true`, `"faulty"`,
     /// `[1, 1, -1]`); a bare word is taken as a string. The key must exist and the value must
-    /// have the field's type.
+    /// have the field's type; an error names the key, the value, what is expected and, for a
+    /// typo of a key, the nearest key.
     pub fn set(&mut self, assignment: &str) -> Result<(), ConfigError> {
         let (key, raw) = assignment
             .split_once('=')
@@ -129,11 +138,8 @@ impl Config {
             })?;
         let key = key.trim();
         let raw = raw.trim();
-        let value: toml::Value = match toml::from_str::<toml::Table>(&format!("v = {raw}")) {
-            Ok(mut t) => t.remove("v").expect("parsed table has v"),
-            Err(_) => toml::Value::String(raw.to_string()),
-        };
         let mut root = full_tree(self);
+        let keys = hints::dotted_keys(&root);
         let mut slot = &mut root;
         let mut walked = String::new();
         for part in key.split('.') {
@@ -142,20 +148,7 @@ impl Config {
                 allowed: format!("`{walked}` is a value, not a table; set `{walked}` itself"),
             })?;
             if !table.contains_key(part) {
-                let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
-                allowed.sort_unstable();
-                return Err(ConfigError::UnknownKey {
-                    key: key.to_string(),
-                    allowed: format!(
-                        "{}: {}",
-                        if walked.is_empty() {
-                            "top-level keys"
-                        } else {
-                            walked.as_str()
-                        },
-                        allowed.join(", ")
-                    ),
-                });
+                return Err(unknown_key(key.to_string(), key, &walked, table, &keys));
             }
             if !walked.is_empty() {
                 walked.push('.');
@@ -163,19 +156,16 @@ impl Config {
             walked.push_str(part);
             slot = table.get_mut(part).expect("checked above");
         }
-        let value = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+        let value = parse_value(assignment, key, raw, slot)?;
+        let value = coerce(key, slot, value).map_err(|expected| ConfigError::WrongType {
             key: key.to_string(),
             value: raw.to_string(),
             expected,
         })?;
         *slot = value;
-        let updated: Config = root.try_into().map_err(|e: toml::de::Error| {
-            unknown_choice(key, raw, e.message()).unwrap_or_else(|| ConfigError::WrongType {
-                key: key.to_string(),
-                value: raw.to_string(),
-                expected: e.message().to_string(),
-            })
-        })?;
+        let updated: Config = root
+            .try_into()
+            .map_err(|e: toml::de::Error| value_error(self, key, key, raw, e.message()))?;
         *self = updated;
         Ok(())
     }
@@ -266,12 +256,20 @@ pub(super) fn full_tree(config: &Config) -> toml::Value {
     super::skip::with_every_key(|| toml::Value::try_from(config).expect("Config serialises"))
 }
 
-/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it.
+/// [`full_tree`] for the tests of the configuration.
+#[cfg(test)]
+pub(super) fn full_tree_for_tests(config: &Config) -> toml::Value {
+    full_tree(config)
+}
+
+/// Overlays `patch` on `base`, table by table; a key that `base` lacks is an error naming it
+/// and the nearest of `keys` (every dotted key of the whole tree).
 fn merge(
     base: &mut toml::Value,
     patch: toml::Value,
     prefix: &str,
     source_name: &str,
+    keys: &[String],
 ) -> Result<(), ConfigError> {
     match (base, patch) {
         (toml::Value::Table(b), toml::Value::Table(p)) => {
@@ -282,22 +280,15 @@ fn merge(
                     format!("{prefix}.{k}")
                 };
                 match b.get_mut(&k) {
-                    Some(slot) => merge(slot, v, &path, source_name)?,
+                    Some(slot) => merge(slot, v, &path, source_name, keys)?,
                     None => {
-                        let mut allowed: Vec<&str> = b.keys().map(String::as_str).collect();
-                        allowed.sort_unstable();
-                        return Err(ConfigError::UnknownKey {
-                            key: format!("{path} (in {source_name})"),
-                            allowed: format!(
-                                "{}: {}",
-                                if prefix.is_empty() {
-                                    "top-level keys"
-                                } else {
-                                    prefix
-                                },
-                                allowed.join(", ")
-                            ),
-                        });
+                        return Err(unknown_key(
+                            format!("{path} (in {source_name})"),
+                            &path,
+                            prefix,
+                            b,
+                            keys,
+                        ));
                     }
                 }
             }
@@ -305,7 +296,7 @@ fn merge(
         }
         (slot, value) => {
             let shown = value.to_string();
-            *slot = coerce(slot, value).map_err(|expected| ConfigError::WrongType {
+            *slot = coerce(prefix, slot, value).map_err(|expected| ConfigError::WrongType {
                 key: format!("{prefix} (in {source_name})"),
                 value: shown,
                 expected,
@@ -315,9 +306,9 @@ fn merge(
     }
 }
 
-/// Converts `value` to the type of `slot` where that loses nothing (an integer where a float is
-/// expected); otherwise says what type was expected.
-fn coerce(slot: &toml::Value, value: toml::Value) -> Result<toml::Value, String> {
+/// Converts `value` to the type of `slot` (the value of `key`) where that loses nothing (an
+/// integer where a float is expected); otherwise says what type was expected.
+fn coerce(key: &str, slot: &toml::Value, value: toml::Value) -> Result<toml::Value, String> {
     use toml::Value as V;
     match (slot, value) {
         (V::Float(_), V::Integer(i)) => Ok(V::Float(i as f64)),
@@ -332,7 +323,7 @@ fn coerce(slot: &toml::Value, value: toml::Value) -> Result<toml::Value, String>
             V::Integer(_) => "an integer".to_string(),
             V::Boolean(_) => "true or false".to_string(),
             V::String(s) => format!("a string (currently {s:?})"),
-            V::Array(_) => "an array, e.g. [1, 1, -1]".to_string(),
+            V::Array(_) => hints::list_expected(key),
             V::Table(_) => "a table (name a field inside it)".to_string(),
             V::Datetime(_) => "a datetime".to_string(),
         }),
@@ -366,8 +357,8 @@ fn covers(set: &str, key: &str) -> bool {
 }
 
 /// serde's "unknown variant `krumm`, expected one of `a`, `b`" as an [`ConfigError::UnknownValue`]
-/// that lists the choices and names the nearest one (edit distance at most a third of its
-/// length, at least 1); `None` for any other message.
+/// that lists the choices and names the nearest one ([`hints::nearest`]); `None` for any other
+/// message.
 fn unknown_choice(key: &str, raw: &str, message: &str) -> Option<ConfigError> {
     let rest = message.strip_prefix("unknown variant `")?;
     let (value, rest) = rest.split_once('`')?;
@@ -379,13 +370,8 @@ fn unknown_choice(key: &str, raw: &str, message: &str) -> Option<ConfigError> {
         .map(|c| c.trim().trim_start_matches("or ").trim_matches('`'))
         .filter(|c| !c.is_empty())
         .collect();
-    let lowered = value.to_ascii_lowercase();
-    let nearest = choices
-        .iter()
-        .map(|c| (strsim::levenshtein(&lowered, c), *c))
-        .min()
-        .filter(|(d, c)| *d <= (c.len() / 3).max(1))
-        .map(|(_, c)| format!("; did you mean `{c}`?"))
+    let nearest = hints::nearest(value, choices.iter().copied())
+        .map(|c| format!("; did you mean `{c}`?"))
         .unwrap_or_default();
     let listed = choices
         .iter()
@@ -396,5 +382,174 @@ fn unknown_choice(key: &str, raw: &str, message: &str) -> Option<ConfigError> {
         key: key.to_string(),
         value: if value.is_empty() { raw } else { value }.to_string(),
         help: format!("{nearest}; the choices are: {listed}"),
+    })
+}
+
+/// An unknown key: `shown` is how the message names it (`world.robotz`, or with its file),
+/// `key` the dotted key, `walked` the table that lacks it and `table` that table's keys; the
+/// nearest of `keys` (every dotted key) is suggested.
+fn unknown_key(
+    shown: String,
+    key: &str,
+    walked: &str,
+    table: &toml::Table,
+    keys: &[String],
+) -> ConfigError {
+    let mut allowed: Vec<&str> = table.keys().map(String::as_str).collect();
+    allowed.sort_unstable();
+    let guess = hints::nearest_key(key, keys)
+        .map(|k| format!("did you mean `{k}`? "))
+        .unwrap_or_default();
+    ConfigError::UnknownKey {
+        key: shown,
+        allowed: format!(
+            "{guess}{}: {}",
+            if walked.is_empty() {
+                "top-level keys"
+            } else {
+                walked
+            },
+            allowed.join(", ")
+        ),
+    }
+}
+
+/// The value of an override: TOML, or a bare word taken as a string. A value that starts as
+/// TOML does (`[`, `{`, a quote) but does not parse is an error naming the parser's complaint
+/// and what `key` (whose current value is `slot`) takes, rather than a string of the wrong
+/// type.
+fn parse_value(
+    assignment: &str,
+    key: &str,
+    raw: &str,
+    slot: &toml::Value,
+) -> Result<toml::Value, ConfigError> {
+    const PREFIX: &str = "v = ";
+    match toml::from_str::<toml::Table>(&format!("{PREFIX}{raw}")) {
+        Ok(mut t) => Ok(t.remove("v").expect("parsed table has v")),
+        Err(e) if raw.starts_with(['[', '{', '"', '\'']) => {
+            let at = e
+                .span()
+                .map(|s| format!(" at character {}", s.start.saturating_sub(PREFIX.len()) + 1))
+                .unwrap_or_default();
+            let expected = match slot {
+                toml::Value::Array(_) => hints::list_expected(key),
+                toml::Value::String(_) => format!("a string, e.g. --set {key}=word"),
+                _ => "a single value".to_string(),
+            };
+            let count = |c: char| raw.matches(c).count();
+            let open = count('[') != count(']')
+                || count('{') != count('}')
+                || count('"') % 2 == 1
+                || count('\'') % 2 == 1;
+            Err(ConfigError::Override {
+                assignment: assignment.to_string(),
+                message: format!(
+                    "the value `{raw}` is not valid TOML ({}{at}{}); `{key}` takes {expected}",
+                    e.message().trim().trim_end_matches('.'),
+                    if open {
+                        ": a bracket, brace or quote is left open"
+                    } else {
+                        ""
+                    },
+                ),
+            })
+        }
+        Err(_) => Ok(toml::Value::String(raw.to_string())),
+    }
+}
+
+/// serde's complaint (`message`) about the value `raw` of `key` in the user's terms: a typo of
+/// a choice, a number out of its range (the range [`Config::validate`] allows, read from
+/// `current`), an entry of a list that lacks or misnames a field. `shown` is how the message
+/// names the key.
+fn value_error(current: &Config, key: &str, shown: &str, raw: &str, message: &str) -> ConfigError {
+    if let Some(e) = unknown_choice(shown, raw, message) {
+        return e;
+    }
+    let entries = hints::list_example(key).is_some_and(|e| e.starts_with("[{"));
+    let example = || match hints::list_example(key) {
+        Some(e) => format!("e.g. --set '{key}={e}'"),
+        None => format!("see `swarmfl config` for `{key}`"),
+    };
+    let bad_entry = |problem: String, fix: String| ConfigError::BadEntry {
+        key: shown.to_string(),
+        problem,
+        fix,
+    };
+    match hints::read_serde(message) {
+        SerdeMessage::InvalidValue(value, expected) if !entries => ConfigError::OutOfRange {
+            key: shown.to_string(),
+            value: value.to_string(),
+            allowed: super::validate::allowed(current, key)
+                .unwrap_or_else(|| hints::type_in_words(expected)),
+        },
+        SerdeMessage::InvalidValue(value, expected)
+        | SerdeMessage::InvalidType(value, expected) => bad_entry(
+            format!(
+                "an entry holds {value}, where {} is expected",
+                hints::type_in_words(expected)
+            ),
+            example(),
+        ),
+        SerdeMessage::MissingField(field) => bad_entry(
+            format!("an entry lacks the field `{field}`"),
+            format!("every entry needs it, {}", example()),
+        ),
+        SerdeMessage::UnknownField(field, fields) => bad_entry(
+            format!("an entry has the unknown field `{field}`"),
+            format!(
+                "{}the fields are: {}",
+                hints::nearest(field, fields.iter().copied())
+                    .map(|f| format!("did you mean `{f}`? "))
+                    .unwrap_or_default(),
+                fields.join(", ")
+            ),
+        ),
+        SerdeMessage::Other(m) => ConfigError::WrongType {
+            key: shown.to_string(),
+            value: raw.to_string(),
+            expected: m.to_string(),
+        },
+    }
+}
+
+/// Which key of a file's `table` the configuration tree cannot take (serde's own message names
+/// no key): each key's value is laid alone on `config`'s tree, and the first that fails is
+/// told as [`value_error`] tells an override. `None` when each key alone is fine.
+fn locate(
+    config: &Config,
+    table: &toml::Table,
+    source_name: &str,
+    keys: &[String],
+) -> Option<ConfigError> {
+    let mut set = std::collections::BTreeSet::new();
+    collect_keys("", table, &mut set);
+    let whole = toml::Value::Table(table.clone());
+    set.into_iter().find_map(|key| {
+        let mut value = &whole;
+        for part in key.split('.') {
+            value = value.get(part)?;
+        }
+        let mut single = toml::Value::Table(toml::Table::new());
+        let mut slot = &mut single;
+        for part in key.split('.') {
+            slot = slot
+                .as_table_mut()?
+                .entry(part)
+                .or_insert(toml::Value::Table(toml::Table::new()));
+        }
+        *slot = value.clone();
+        let mut base = full_tree(config);
+        merge(&mut base, single, "", source_name, keys).ok()?;
+        let e = base.try_into::<Config>().err()?;
+        let shown = format!("{key} (in {source_name})");
+        Some(value_error(
+            config,
+            &key,
+            &shown,
+            &value.to_string(),
+            e.message(),
+        ))
     })
 }

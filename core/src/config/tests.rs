@@ -769,3 +769,150 @@ fn the_threshold_gate_needs_a_robust_rule_and_stays_out_of_records_when_off() {
         "off, the key is not recorded"
     );
 }
+
+/// The message of `--set assignment` on the smoke preset.
+fn set_err(assignment: &str) -> String {
+    Config::resolve(Some("smoke"), None, &[assignment.to_string()])
+        .unwrap_err()
+        .to_string()
+}
+
+/// Each message says the key, the value, what is expected and the fix, in the user's words.
+#[test]
+fn rough_values_get_messages_in_the_users_terms() {
+    // A negative count: the key's range, not serde's `expected u32`.
+    assert_eq!(
+        set_err("world.robots=-3"),
+        "configuration key `world.robots`: value -3 is out of range; allowed: an integer in \
+         [1, 10000]"
+    );
+    // A list left open: not a string of the wrong type, but TOML that does not parse.
+    let e = set_err(r#"faults.partitions=[{kind="split""#);
+    assert!(
+        e.starts_with(r#"invalid override `faults.partitions=[{kind="split"`: the value `[{kind="split"` is not valid TOML ("#),
+        "{e}"
+    );
+    assert!(
+        e.contains(": a bracket, brace or quote is left open); `faults.partitions` takes an array of tables, e.g. --set 'faults.partitions=[{kind = \"split\", start_s = 10, end_s = 20}]'"),
+        "{e}"
+    );
+    // Balanced but not TOML: the parser's complaint alone.
+    let e = set_err("contract.reward_weights=[1,,2]");
+    assert!(
+        e.starts_with("invalid override `contract.reward_weights=[1,,2]`: the value `[1,,2]` is not valid TOML (")
+            && !e.contains("left open"),
+        "{e}"
+    );
+    // An entry without its end.
+    assert_eq!(
+        set_err(r#"faults.partitions=[{kind="split", start_s=10}]"#),
+        "configuration key `faults.partitions`: an entry lacks the field `end_s`; every entry \
+         needs it, e.g. --set 'faults.partitions=[{kind = \"split\", start_s = 10, end_s = 20}]'"
+    );
+    // A misspelt field of an entry.
+    let e = set_err(r#"faults.crashes=[{robot=0, start_s=1, ends=2}]"#);
+    assert!(
+        e.starts_with("configuration key `faults.crashes`: an entry has the unknown field `ends`; did you mean `end_s`? the fields are: robot, start_s, end_s"),
+        "{e}"
+    );
+    // A negative robot inside an entry.
+    let e = set_err("faults.crashes=[{robot=-1, start_s=1, end_s=2}]");
+    assert!(
+        e.starts_with("configuration key `faults.crashes`: an entry holds -1, where a whole number from 0 to 4294967295 is expected; e.g. --set 'faults.crashes=[{robot = 0, start_s = 10, end_s = 20}]'"),
+        "{e}"
+    );
+    // A scalar where a list is expected names the list's own example.
+    assert_eq!(
+        set_err("contract.reward_weights=3"),
+        "configuration key `contract.reward_weights`: value `3` has the wrong type; expected an \
+         array, e.g. --set 'contract.reward_weights=[1, 1, -1]'"
+    );
+    // A huge number is written compactly, in a fault's window too.
+    assert_eq!(
+        set_err("run.duration_s=1e300"),
+        "configuration key `run.duration_s`: value 1e300 is out of range; allowed: a number in \
+         (0, 10000000]"
+    );
+    let e = set_err("faults.crashes=[{robot=0, start_s=-1e300, end_s=20}]");
+    assert!(
+        e.contains("`faults.crashes[0]`: value [-1e300, 20) is out of range"),
+        "{e}"
+    );
+}
+
+/// An unknown key names the nearest one: a typo of the field or of its table, or the same
+/// field in another table; a file's too.
+#[test]
+fn an_unknown_key_suggests_the_nearest() {
+    for (given, nearest) in [
+        ("world.robotz=3", "world.robots"),
+        ("wrld.robots=3", "world.robots"),
+        ("robots=3", "world.robots"),
+        ("contract.rulee=median", "contract.rule"),
+    ] {
+        let e = set_err(given);
+        assert!(
+            e.contains(&format!("did you mean `{nearest}`?")),
+            "{given}: {e}"
+        );
+    }
+    let e = set_err("world.zzzzzzzzzz=3");
+    assert!(!e.contains("did you mean"), "{e}");
+    let e = Config::from_toml_str("[world]\nrobotz = 3\n", "f.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.starts_with("unknown configuration key `world.robotz (in f.toml)`; did you mean `world.robots`? world: "),
+        "{e}"
+    );
+}
+
+/// A file's value that the tree cannot take names its key and file (serde's own message names
+/// neither).
+#[test]
+fn a_file_value_of_the_wrong_kind_names_its_key() {
+    let e = Config::from_toml_str("[world]\nrobots = -3\n", "f.toml")
+        .unwrap_err()
+        .to_string();
+    assert_eq!(
+        e,
+        "configuration key `world.robots (in f.toml)`: value -3 is out of range; allowed: an \
+         integer in [1, 10000]"
+    );
+    let e = Config::from_toml_str(
+        "[faults]\npartitions = [{kind = \"split\", start_s = 10}]\n",
+        "f.toml",
+    )
+    .unwrap_err()
+    .to_string();
+    assert!(
+        e.starts_with(
+            "configuration key `faults.partitions (in f.toml)`: an entry lacks the field `end_s`"
+        ),
+        "{e}"
+    );
+}
+
+/// Every list key has an example, and each example is accepted as it is shown.
+#[test]
+fn every_list_key_has_an_example_that_is_accepted() {
+    let tree = super::overrides::full_tree_for_tests(&Preset::Smoke.config());
+    let lists: Vec<String> = super::hints::dotted_keys(&tree)
+        .into_iter()
+        .filter(|k| {
+            let mut v = &tree;
+            for part in k.split('.') {
+                v = &v[part];
+            }
+            v.is_array()
+        })
+        .collect();
+    assert!(lists.len() >= 8, "{lists:?}");
+    for key in lists {
+        let example = super::hints::list_example(&key)
+            .unwrap_or_else(|| panic!("{key} has no example in hints::list_example"));
+        let mut c = Preset::Smoke.config();
+        c.set(&format!("{key}={example}"))
+            .unwrap_or_else(|e| panic!("{key}={example}: {e}"));
+    }
+}

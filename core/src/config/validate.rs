@@ -12,6 +12,7 @@ use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
 use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
+use crate::types::show_f64;
 
 /// A check that relates several keys: the first violation, if any.
 type Check = fn(&Config) -> Result<(), ConfigError>;
@@ -153,11 +154,26 @@ fn out_of_range(key: &str, value: String, allowed: String) -> Result<(), ConfigE
     })
 }
 
+/// What [`Step::Number`] allows.
+fn number_range(lo: f64, hi: f64) -> String {
+    format!("a number in [{}, {}]", show_f64(lo), show_f64(hi))
+}
+
+/// What [`Step::Positive`] allows.
+fn positive_range(hi: f64) -> String {
+    format!("a number in (0, {}]", show_f64(hi))
+}
+
+/// What [`Step::Integer`] allows.
+fn integer_range(lo: u64, hi: u64) -> String {
+    format!("an integer in [{lo}, {hi}]")
+}
+
 fn number(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
     if value.is_finite() && value >= lo && value <= hi {
         Ok(())
     } else {
-        out_of_range(key, value.to_string(), format!("a number in [{lo}, {hi}]"))
+        out_of_range(key, show_f64(value), number_range(lo, hi))
     }
 }
 
@@ -165,7 +181,7 @@ fn positive(key: &str, value: f64, hi: f64) -> Result<(), ConfigError> {
     if value.is_finite() && value > 0.0 && value <= hi {
         Ok(())
     } else {
-        out_of_range(key, value.to_string(), format!("a number in (0, {hi}]"))
+        out_of_range(key, show_f64(value), positive_range(hi))
     }
 }
 
@@ -173,12 +189,19 @@ fn integer(key: &str, value: u64, lo: u64, hi: u64) -> Result<(), ConfigError> {
     if value >= lo && value <= hi {
         Ok(())
     } else {
-        out_of_range(
-            key,
-            value.to_string(),
-            format!("an integer in [{lo}, {hi}]"),
-        )
+        out_of_range(key, value.to_string(), integer_range(lo, hi))
     }
+}
+
+/// What `key` allows when the table has a row for it (`an integer in [1, 10000]`), as
+/// [`Config::validate`] says it; the bounds that depend on other keys are `c`'s.
+pub(super) fn allowed(c: &Config, key: &str) -> Option<String> {
+    table(c).into_iter().find_map(|step| match step {
+        Step::Number(k, _, lo, hi) if k == key => Some(number_range(lo, hi)),
+        Step::Positive(k, _, hi) if k == key => Some(positive_range(hi)),
+        Step::Integer(k, _, lo, hi) if k == key => Some(integer_range(lo, hi)),
+        _ => None,
+    })
 }
 
 /// The preset names output folders (`runs/<preset>-seed<seed>`), so it must be one of the
@@ -320,7 +343,7 @@ fn mixed_by_place_fits(c: &Config) -> Result<(), ConfigError> {
     }
     out_of_range(
         "world.arena_side_m",
-        w.arena_side_m.to_string(),
+        show_f64(w.arena_side_m),
         format!(
             "at least {need} m {place} (Flow-FL's mixed arena: flocking beyond |x| = 2 m toward \
              goals at y = +-2.5 m); enlarge the arena or set world.mixed.assign=share"
@@ -336,7 +359,7 @@ fn inside(c: &Config, key: &str, value: f64, margin: f64) -> Result<(), ConfigEr
     }
     out_of_range(
         key,
-        value.to_string(),
+        show_f64(value),
         format!("inside the arena: |value| <= world.arena_side_m / 2 - {margin} = {half} m"),
     )
 }
@@ -437,7 +460,7 @@ fn flowfl_foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
     if (c.run.tick_s - 0.1).abs() > 1e-12 {
         return out_of_range(
             "run.tick_s",
-            c.run.tick_s.to_string(),
+            show_f64(c.run.tick_s),
             "0.1 with world.foraging.rule = \"flowfl\" (Flow-FL's probabilities are per tick \
              of 0.1 s); set run.tick_s=0.1 or use rule \"simple\""
                 .to_string(),
@@ -449,7 +472,7 @@ fn flowfl_foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
     }
     out_of_range(
         "world.arena_side_m",
-        c.world.arena_side_m.to_string(),
+        show_f64(c.world.arena_side_m),
         format!(
             "at least {need} m with world.foraging.rule = \"flowfl\" (Flow-FL's foraging arena: \
              nest strip, items to +-1.7 m); enlarge the arena or use rule \"simple\""
@@ -797,7 +820,7 @@ fn baseline_supports(config: &Config) -> Result<(), ConfigError> {
     if timeout != 0.0 && timeout != DEFAULT_ROUND_TIMEOUT_S {
         return refuse(
             "contract.round_timeout_s",
-            timeout.to_string(),
+            show_f64(timeout),
             format!("0 or the presets' {DEFAULT_ROUND_TIMEOUT_S} (no round deadline applies)"),
         );
     }

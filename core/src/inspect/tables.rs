@@ -15,7 +15,7 @@ use super::expr::Env;
 use super::index::RunIndex;
 use crate::aggregation;
 use crate::config::Aggregation;
-use crate::contract::Verdict;
+use crate::contract::{Call, Outcome, Verdict};
 use crate::event::{Event, Record};
 use crate::log::LogReader;
 use crate::replay::{header_config, ReplayError};
@@ -283,6 +283,53 @@ impl RunIndex {
         t.push("robot", Column::U64(robot));
         t.push("balance_tokens", Column::F64(balance));
         t.push("byzantine", Column::Bool(byz));
+        Ok(t)
+    }
+
+    /// Every model submission on the final canonical chain, refused ones included (the
+    /// submissions table holds only those a round counted): `block`, `time_s`, `robot`,
+    /// `byzantine`, `samples` (claimed), `outcome` (the receipt's: `accepted`, `aggregated`,
+    /// `outlier`, `duplicate`, `insufficient_stake`, `malformed`, ...) and `reason` (a
+    /// malformed or refused call's reason, else empty).
+    pub fn outcomes_table(&self) -> Result<Table, InspectError> {
+        chain_only(self, "outcomes")?;
+        let (mut block, mut time, mut robot, mut byz) =
+            (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let (mut samples, mut outcome, mut reason) = (Vec::new(), Vec::new(), Vec::new());
+        let ledger = &self.final_state.ledger;
+        for row in &self.chain {
+            let entry = ledger
+                .block(&row.hash)
+                .expect("canonical blocks are stored");
+            for (hash, receipt) in entry.block.txs.iter().zip(entry.receipts.iter()) {
+                let Some(tx) = ledger.tx(hash) else { continue };
+                let claimed = match &tx.tx.call {
+                    Call::SubmitModel { samples, .. } | Call::SubmitUpdate { samples, .. } => {
+                        *samples
+                    }
+                    Call::Transfer { .. } => continue,
+                };
+                block.push(row.height);
+                time.push(row.time.secs());
+                robot.push(u64::from(tx.tx.sender));
+                byz.push(is_byzantine(&self.byzantine, tx.tx.sender));
+                samples.push(claimed);
+                outcome.push(receipt.name().to_string());
+                reason.push(match receipt {
+                    Outcome::Malformed(why) => why.clone(),
+                    Outcome::Refused(r) => r.reason(),
+                    _ => String::new(),
+                });
+            }
+        }
+        let mut t = Table::default();
+        t.push("block", Column::U64(block));
+        t.push("time_s", Column::F64(time));
+        t.push("robot", Column::U64(robot));
+        t.push("byzantine", Column::Bool(byz));
+        t.push("samples", Column::U64(samples));
+        t.push("outcome", Column::Str(outcome));
+        t.push("reason", Column::Str(reason));
         Ok(t)
     }
 

@@ -11,10 +11,16 @@ use crate::cli::ReplayArgs;
 /// Runs `swarmfl replay` and prints what it verified.
 pub fn command(args: ReplayArgs) -> anyhow::Result<ExitCode> {
     let ReplayArgs { log, resimulate } = args;
-    // A run with plug-ins (the Python package's attacks) is replayed from Python, which has
-    // them: the command names them rather than fail somewhere in the log.
+    // A re-simulation runs every plug-in, a fold only a plug-in rule (the contract's
+    // aggregates); the Python package has them, the command names them rather than fail
+    // somewhere in the log. A plug-in attack's log folds here: its submissions are records.
     let reader = LogReader::open(&log).map_err(replay::ReplayError::from)?;
-    replay::check_plugins(&reader, &log.display().to_string(), &Plugins::none())?;
+    let name = log.display().to_string();
+    if resimulate {
+        replay::check_plugins(&reader, &name, &Plugins::none())?;
+    } else {
+        replay::check_fold_plugins(&reader, &name, &Plugins::none())?;
+    }
     drop(reader);
     let report = if resimulate {
         replay::resimulate(&log)?

@@ -592,7 +592,20 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
         block,
         out,
     } = args;
-    let log = log.as_path();
+    let title = snapshot(&log, time, block, &out)?;
+    println!("wrote {} ({title}; from {})", out.display(), log.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Draws the world of the log at `log` at simulated `time` (seconds) or right after `block` of
+/// its final canonical chain (exactly one of them) into `out` (SVG or PNG by its extension);
+/// returns the picture's title.
+pub fn snapshot(
+    log: &Path,
+    time: Option<f64>,
+    block: Option<u64>,
+    out: &Path,
+) -> anyhow::Result<String> {
     let (world, config, seed, title) = match (time, block) {
         (_, Some(height)) => {
             let index = swarmfl_core::inspect::index_run(log, Some(height))?;
@@ -612,24 +625,26 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
             if !(time.is_finite() && time >= 0.0) {
                 anyhow::bail!("--time must be a non-negative number of seconds, got {time}");
             }
-            let (state, config, seed) = replay::state_at_time(log, SimTime::from_secs(time))?;
+            // The world alone: a picture needs no ledger or contract, so a log whose plug-in
+            // rule this process cannot run is drawn from its records.
+            let (world, config, seed) = replay::world_at_time(log, SimTime::from_secs(time))?;
             // The fold stops at the first tick at or after the time asked; a world that never
             // got there is the run's end, and a picture of it under another time would lie.
-            if state.world.time() < SimTime::from_secs(time) {
+            if world.time() < SimTime::from_secs(time) {
                 anyhow::bail!(
                     "--time {time} is past the end of {} (its last tick is at t = {}): give a \
                      time from 0 to {}, or --block HEIGHT for a block of its final chain",
                     log.display(),
-                    state.world.time(),
-                    state.world.time().secs()
+                    world.time(),
+                    world.time().secs()
                 );
             }
             let title = format!(
                 "preset {}, seed {seed}: t = {}",
                 config.preset,
-                state.world.time()
+                world.time()
             );
-            (state.world, config, seed, title)
+            (world, config, seed, title)
         }
         (None, None) => anyhow::bail!("give --time SECONDS or --block HEIGHT"),
     };
@@ -643,9 +658,8 @@ pub fn command(args: SnapshotArgs) -> anyhow::Result<ExitCode> {
             }
         })
         .collect();
-    draw(&world, &marks, &title, &out)?;
-    println!("wrote {} ({title}; from {})", out.display(), log.display());
-    Ok(ExitCode::SUCCESS)
+    draw(&world, &marks, &title, out)?;
+    Ok(title)
 }
 
 #[cfg(test)]

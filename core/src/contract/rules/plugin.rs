@@ -87,8 +87,10 @@ pub fn missing(name: &str, digest: Option<&str>) -> String {
     format!(
         "contract.rule = \"plugin\" names the plug-in rule {which} (contract.rule_plugin), which \
          is not given: plug-in rules run only from the Python package (swarmfl.run(..., \
-         rule=...), and swarmfl.open/replay/fork(..., rule=...) for its logs); the swarmfl \
-         command cannot run plug-ins"
+         rule=...), and for its logs swarmfl.open/replay/fork(..., rule=...), with \
+         swarmfl.open(..., rule=...).view(OUT) and .snapshot(OUT, ...) to draw one: every \
+         reading of a log re-executes the contract, whose aggregates the rule computes); the \
+         swarmfl command cannot run plug-ins"
     )
 }
 

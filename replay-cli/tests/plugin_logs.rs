@@ -1,0 +1,173 @@
+//! Issue #53: the command reads a plug-in attack's log from its records (a fold, the viewer, a
+//! snapshot, the tables) without the attack, which only a re-simulation runs; a plug-in rule's
+//! log, whose contract every fold re-executes, still gives its world (a snapshot at a time).
+//! The logs are made in this process with plug-ins written in Rust (as the Python package
+//! offers its own); the command, another process, has none.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+use std::sync::Arc;
+
+use swarmfl_cli::api::{run_with_plugins, Flush};
+use swarmfl_core::byzantine::plugin::{PluginId, Plugins};
+use swarmfl_core::byzantine::{Action, Attack, View};
+use swarmfl_core::config::Config;
+use swarmfl_core::contract::rules::plugin::RulePlugin;
+use swarmfl_core::contract::rules::Input;
+use swarmfl_core::rng::Rng;
+
+/// Submits the shared model back, claiming the configured sample count.
+struct Echo;
+
+impl Attack for Echo {
+    fn act(&self, view: &View, _rng: &mut Rng) -> Action {
+        Action::Submit {
+            weights: view.shared(),
+            samples: view.config.claimed_samples,
+        }
+    }
+}
+
+/// The mean of the accepted models, truncated toward zero.
+struct Mean;
+
+impl RulePlugin for Mean {
+    fn aggregate(&self, current: &[i64], inputs: &[Input], _f: usize) -> Result<Vec<i64>, String> {
+        let n = inputs.len() as i64;
+        Ok((0..current.len())
+            .map(|i| inputs.iter().map(|m| m.weights[i]).sum::<i64>() / n)
+            .collect())
+    }
+}
+
+fn swarmfl(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
+        .args(args)
+        .output()
+        .expect("running swarmfl")
+}
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("swarmfl-plugin-{name}-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+#[test]
+fn a_plugin_attacks_log_is_read_from_its_records_and_only_resimulation_needs_the_attack() {
+    let dir = scratch("attack");
+    let run = dir.join("run");
+    let overrides: Vec<String> = [
+        "run.duration_s=60",
+        "byzantine.kind=plugin",
+        "byzantine.plugin=echo",
+        "byzantine.count=2",
+    ]
+    .map(String::from)
+    .to_vec();
+    let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
+    let mut plugins = Plugins::none();
+    plugins.add_attack(PluginId::attack("echo", "00", "a test"), Arc::new(Echo));
+    let outcome =
+        run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    let log = run.join("run.swlog");
+    let log = log.to_str().unwrap();
+    let html = dir.join("v.html");
+    let svg = dir.join("s.svg");
+    let csv = dir.join("csv");
+    for args in [
+        vec!["replay", log],
+        vec!["view", log, "--out", html.to_str().unwrap()],
+        vec![
+            "snapshot",
+            log,
+            "--time",
+            "30",
+            "--out",
+            svg.to_str().unwrap(),
+        ],
+        vec!["inspect", "--block", "1", log],
+        vec!["export", log, "--out", csv.to_str().unwrap()],
+    ] {
+        let out = swarmfl(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(out.status.success(), "{args:?}: {err}");
+    }
+    let out = swarmfl(&["replay", log]);
+    let hash = outcome.summary["final_hash"].as_str().unwrap();
+    assert!(
+        String::from_utf8_lossy(&out.stdout).contains(hash),
+        "the fold ends at the run's final hash"
+    );
+    // A re-simulation runs the attack: the command says it cannot.
+    let out = swarmfl(&["replay", log, "--resimulate"]);
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert!(
+        err.contains("plug-in attack `echo`") && err.contains("cannot run plug-ins"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
+#[test]
+fn a_plugin_rules_log_gives_its_world_to_the_command_and_says_where_the_rest_is_drawn() {
+    let dir = scratch("rule");
+    let run = dir.join("run");
+    let overrides: Vec<String> = [
+        "run.duration_s=60",
+        "contract.rule=plugin",
+        "contract.rule_plugin=mean",
+    ]
+    .map(String::from)
+    .to_vec();
+    let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
+    let mut plugins = Plugins::none();
+    plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
+    run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    let log = run.join("run.swlog");
+    let log = log.to_str().unwrap();
+    // The world is records: the command draws it at a time, as this process (which has the
+    // rule) does.
+    let svg = dir.join("s.svg");
+    let out = swarmfl(&[
+        "snapshot",
+        log,
+        "--time",
+        "30",
+        "--out",
+        svg.to_str().unwrap(),
+    ]);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let here = dir.join("here.svg");
+    swarmfl_cli::api::snapshot(run.join("run.swlog").as_path(), Some(30.0), None, &here).unwrap();
+    assert_eq!(std::fs::read(&svg).unwrap(), std::fs::read(&here).unwrap());
+    // Tokens, rounds and blocks need the rule's aggregates: the command names where to draw them.
+    let html = dir.join("v.html");
+    for args in [
+        vec!["view", log, "--out", html.to_str().unwrap()],
+        vec![
+            "snapshot",
+            log,
+            "--block",
+            "1",
+            "--out",
+            svg.to_str().unwrap(),
+        ],
+    ] {
+        let out = swarmfl(&args);
+        let err = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success(), "{args:?}");
+        assert!(
+            err.contains("plug-in rule `mean`")
+                && err.contains("swarmfl.open(..., rule=...).view(OUT) and .snapshot(OUT, ...)"),
+            "{args:?}: {err}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).unwrap();
+}
