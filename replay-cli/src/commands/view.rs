@@ -19,6 +19,12 @@
 //! stored in millimetres and headings in degrees (integers), radio links as a bit set per
 //! frame: a paper run (5000 s, 15 robots) makes a file of about 1 MB.
 //!
+//! A log whose contract runs a plug-in rule this process has not loaded (the command loads
+//! none) cannot be indexed: the rule computes its tokens, rounds and chain. Its page
+//! (`world_page`) holds the world alone, folded from the ticks with the world's digest checked
+//! at every checkpoint, and a note in place of the contract's panes naming the rule and the
+//! Python call that draws them.
+//!
 //! The page writes its state into `<pre id="status">` (JSON: the time shown, the canonical
 //! height, every robot's position and tokens, script errors), so a headless browser's
 //! `--dump-dom` can check it against the log (`scripts/view_check.sh`).
