@@ -399,7 +399,11 @@ fn world_page(log: &Path, rule: &str) -> anyhow::Result<Page> {
         refolds += 1;
     };
     if let Some(cut) = &fold.truncated {
-        eprintln!("warning: {name} is cut short ({cut}): the page shows its intact records");
+        eprintln!("warning: {cut}");
+        eprintln!(
+            "warning: using the intact prefix: the world up to t = {:.3} s",
+            fold.world.time().secs()
+        );
     }
     let config = &fold.config;
     let title = format!(
