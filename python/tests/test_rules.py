@@ -108,10 +108,16 @@ def test_the_command_refuses_a_plugin_rule_by_name(medians, tmp_path):
 
 def test_a_rule_log_is_drawn_from_python_with_its_rule(medians, tmp_path):
     builtin, plugin = medians
-    # The command cannot run the rule, which the contract's tokens and rounds need: it says
-    # where the log can be drawn. Its world is records: the command draws it at a time.
+    # The command cannot run the rule, which the contract's tokens and rounds need: its page
+    # holds the world (records) and a note saying where the rest is drawn; a block's picture
+    # is refused, naming the same call. Its world is records: the command draws it at a time.
     p = subprocess.run([str(BIN), "view", str(plugin.log), "--out", str(tmp_path / "c.html")],
                        capture_output=True, text=True)
+    assert p.returncode == 0, p.stderr
+    assert "swarmfl.open(LOG, rule=...).view(OUT)" in p.stdout, p.stdout
+    assert "swarmfl.open(LOG, rule=...).view(OUT)" in (tmp_path / "c.html").read_text()
+    p = subprocess.run([str(BIN), "snapshot", str(plugin.log), "--block", "3", "--out",
+                        str(tmp_path / "c3.svg")], capture_output=True, text=True)
     assert p.returncode != 0
     assert "swarmfl.open(..., rule=...).view(OUT)" in p.stderr, p.stderr
     assert "cannot run plug-ins" in p.stderr and "panicked" not in p.stderr, p.stderr

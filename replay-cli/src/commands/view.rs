@@ -19,6 +19,12 @@
 //! stored in millimetres and headings in degrees (integers), radio links as a bit set per
 //! frame: a paper run (5000 s, 15 robots) makes a file of about 1 MB.
 //!
+//! A log whose contract runs a plug-in rule this process has not loaded (the command loads
+//! none) cannot be indexed: the rule computes its tokens, rounds and chain. Its page
+//! (`world_page`) holds the world alone, folded from the ticks with the world's digest checked
+//! at every checkpoint, and a note in place of the contract's panes naming the rule and the
+//! Python call that draws them.
+//!
 //! The page writes its state into `<pre id="status">` (JSON: the time shown, the canonical
 //! height, every robot's position and tokens, script errors), so a headless browser's
 //! `--dump-dom` can check it against the log (`scripts/view_check.sh`).
@@ -31,13 +37,14 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use anyhow::Context;
-use swarmfl_core::config::{Aggregation, Behaviour, Config, MixedAssign};
+use swarmfl_core::config::{Aggregation, Behaviour, Config, MixedAssign, Rule};
+use swarmfl_core::contract::rules::plugin as rule_plugin;
 use swarmfl_core::event::{CheckpointCause, Event, Record};
 use swarmfl_core::inspect::{self, expr::Env, Column};
 use swarmfl_core::log::{LogReader, Next};
 use swarmfl_core::replay;
-use swarmfl_core::state::State;
-use swarmfl_core::world::{foraging_flowfl, Behaviours, Forager, Obstacle};
+use swarmfl_core::state::{apply_tick, SimError, State};
+use swarmfl_core::world::{foraging_flowfl, Behaviours, Forager, Obstacle, World};
 use swarmfl_core::Digest;
 
 use crate::cli::ViewArgs;
@@ -47,6 +54,16 @@ use crate::commands::inspect::warn_if_truncated;
 pub fn command(args: ViewArgs) -> anyhow::Result<ExitCode> {
     let ViewArgs { log, out } = args;
     let v = view(&log, &out)?;
+    if let Some(note) = &v.rule_note {
+        println!(
+            "wrote {} ({:.1} MB: {} frames, one every {} s): the world only. {note}",
+            out.display(),
+            v.bytes as f64 / 1.0e6,
+            v.frames,
+            v.frame_s,
+        );
+        return Ok(ExitCode::SUCCESS);
+    }
     if let Some((kind, count)) = v.aggregations {
         println!(
             "wrote {} ({:.1} MB: {} frames, one every {} s; a {kind} run has no blocks: its {count} \
@@ -90,14 +107,24 @@ pub struct ViewOutcome {
     /// A baseline run's aggregation (`gossip`, `central`) and its aggregations in the page;
     /// `None` for a chain run.
     pub aggregations: Option<(&'static str, usize)>,
+    /// For a log whose plug-in rule is not loaded, the page's note on what it shows (the world)
+    /// and where the contract's results are drawn; `None` for every other log.
+    pub rule_note: Option<String>,
 }
 
 /// Writes the viewer of `log` into `out`.
 pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
-    let mut fold = Fold::open(log)?;
-    fold.advance()?;
-    let page = fold.page(None)?;
-    warn_if_truncated(fold.index()?);
+    let page = match unloaded_rule(log)? {
+        // The contract's results need the rule: the page draws the world from its records.
+        Some(rule) => world_page(log, &rule)?,
+        None => {
+            let mut fold = Fold::open(log)?;
+            fold.advance()?;
+            let page = fold.page(None)?;
+            warn_if_truncated(fold.index()?);
+            page
+        }
+    };
     let html = page.html();
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
@@ -111,6 +138,7 @@ pub fn view(log: &Path, out: &Path) -> anyhow::Result<ViewOutcome> {
         bytes: html.len(),
         frame_s: page.frame_ms as f64 / 1000.0,
         aggregations: page.aggregations,
+        rule_note: page.rule_note,
     })
 }
 
@@ -143,17 +171,41 @@ pub struct Page {
     pub frame_ms: u64,
     /// A baseline run's aggregation and its aggregations in the data; `None` for a chain run.
     pub aggregations: Option<(&'static str, usize)>,
+    /// A log whose plug-in rule is not loaded: the note the page shows instead of the
+    /// contract's panes (see [`world_page`]); `None` for every other log.
+    pub rule_note: Option<String>,
 }
 
 impl Page {
     /// The self-contained page: the viewer with this data.
     pub fn html(&self) -> String {
-        TEMPLATE
+        let html = TEMPLATE
             .replace("__TITLE__", &html_escape(&self.title))
             // `</` cannot appear inside the data: JSON strings escape it.
-            .replace("__DATA__", &self.data.replace("</", "<\\/"))
+            .replace("__DATA__", &self.data.replace("</", "<\\/"));
+        match &self.rule_note {
+            // The note takes the place of the contract's panes, which stay hidden (the page
+            // of every other log is the template's, byte for byte).
+            Some(note) => html.replacen(
+                RULE_NOTE_ANCHOR,
+                &format!(
+                    "{RULE_NOTE_STYLE}<div class=\"note\" id=\"ruleNote\">{}</div>\n{RULE_NOTE_ANCHOR}",
+                    html_escape(note)
+                ),
+                1,
+            ),
+            None => html,
+        }
     }
 }
+
+/// Where a plug-in rule's note goes: the top of the side column, before the contract's panes.
+const RULE_NOTE_ANCHOR: &str = "<div class=\"label\" id=\"tokensLabel\">";
+
+/// Hides the contract's panes (and the block slider) of a page drawn without its plug-in rule.
+const RULE_NOTE_STYLE: &str = "<style>#tokensLabel, #tokens, #lossLabel, #loss, #chainLabel, \
+     #reorgs, #chain, #chainNote, #blockBox { display: none; } #ruleNote { border: 1px solid \
+     #a86; background: #f8e8e0; padding: 6px 8px; max-width: 540px; }</style>";
 
 /// The viewer's fold of a log, kept between pages: each record is read and folded once, so the
 /// live view's page after the log grew costs the new records (and the page's own size), not
@@ -278,6 +330,7 @@ impl Fold {
             title,
             data,
             frame_ms: grid.frame_ms,
+            rule_note: None,
         })
     }
 
@@ -306,6 +359,215 @@ impl Fold {
         *self = fresh;
         Ok(())
     }
+}
+
+/// The plug-in rule `log`'s contract runs when it is not loaded in this process (the `swarmfl`
+/// command loads none): its name. `None` when the log runs a built-in rule, a baseline, or a
+/// plug-in rule registered here (the Python package's `Run.view`).
+fn unloaded_rule(log: &Path) -> anyhow::Result<Option<String>> {
+    let reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+    let config = replay::header_config(&reader, &log.display().to_string())?;
+    let name = &config.contract.rule_plugin;
+    Ok((config.learn.aggregation == Aggregation::Chain
+        && config.rule() == Rule::Plugin
+        && rule_plugin::current(name).is_none())
+    .then(|| name.clone()))
+}
+
+/// The page of a log whose plug-in rule `rule` is not loaded, from its records: the world (every
+/// tick folded, its digest checked at every checkpoint) with its uniform frames, robots,
+/// Byzantine marks and radio links. The contract's results (tokens, rounds, loss, which blocks
+/// form the final chain) are recomputed by the rule, so the page shows a note in their place.
+fn world_page(log: &Path, rule: &str) -> anyhow::Result<Page> {
+    let reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+    let name = log.display().to_string();
+    let mut grid = Grid::of(&replay::header_config(&reader, &name)?);
+    // A reconfiguration of the tick or the duration moves the grid: fold again on the last one.
+    let mut refolds = 0;
+    let fold = loop {
+        let fold = fold_world(log, grid)?;
+        let last = Grid::of(&fold.config);
+        if last == grid {
+            break fold;
+        }
+        anyhow::ensure!(
+            refolds < MAX_REFOLDS,
+            "{name}: the frame grid of the view moved {MAX_REFOLDS} times (reconfigurations of \
+             run.tick_s or run.duration_s)"
+        );
+        grid = last;
+        refolds += 1;
+    };
+    if let Some(cut) = &fold.truncated {
+        eprintln!("warning: {cut}");
+        eprintln!(
+            "warning: using the intact prefix: the world up to t = {:.3} s",
+            fold.world.time().secs()
+        );
+    }
+    let config = &fold.config;
+    let title = format!(
+        "preset {}, seed {}, {} robots, {} s — {name}",
+        config.preset, fold.seed, config.world.robots, config.run.duration_s,
+    );
+    let note = format!(
+        "This run's aggregation rule is the plug-in `{rule}`, not loaded: contract results \
+         (tokens, rounds, loss, which blocks form the final chain) need it; load it from Python: \
+         swarmfl.open(LOG, rule=...).view(OUT). This page shows the world from the log's \
+         records: robots, trajectories, Byzantine marks and radio links. Verified: the log's \
+         hash chain{}, and the world's digest at each of its {} checkpoints (their ledger and \
+         contract digests need the rule). The log records {} sealings by any node (genesis \
+         apart), up to height {}.",
+        if fold.truncated.is_none() {
+            " and footer"
+        } else {
+            ""
+        },
+        fold.checkpoints,
+        fold.walk.sealings,
+        fold.top_height,
+    );
+    let n = config.world.robots as usize;
+    let byzantine = swarmfl_core::byzantine::byzantine_robots(config, fold.seed);
+    let balances = format!("[[{}]]", vec!["0"; n].join(","));
+    let extra = format!(
+        ",\"plugin_rule\":{{\"name\":{},\"note\":{}}}",
+        serde_json::to_string(rule)?,
+        serde_json::to_string(&note)?
+    );
+    let shown: Vec<usize> = (0..fold.walk.frames.t.len()).collect();
+    let data = data_json(
+        &Parts {
+            config,
+            world: &fold.world,
+            byzantine: &byzantine,
+            chain: "[[0,0]]",
+            balances: &balances,
+            rounds: "[]",
+            truncated: &fold.truncated,
+            extra: &extra,
+        },
+        &fold.walk,
+        &shown,
+        &title,
+        None,
+    )?;
+    Ok(Page {
+        title,
+        data,
+        frames: shown.len(),
+        sealings: fold.walk.sealings,
+        height: 0,
+        frame_ms: grid.frame_ms,
+        aggregations: None,
+        rule_note: Some(note),
+    })
+}
+
+/// A fold of a log's world alone (see [`world_page`]).
+struct WorldFold {
+    world: World,
+    /// The configuration after the last record.
+    config: Config,
+    seed: u64,
+    /// The uniform frames (every node's head is genesis: blocks need the contract).
+    walk: Walk,
+    /// Checkpoints whose world digest was checked.
+    checkpoints: u64,
+    /// The greatest height of a block checkpoint.
+    top_height: u64,
+    /// Why the log ends where it does; `None` when its footer was read.
+    truncated: Option<String>,
+}
+
+/// Folds the ticks of `log` on `grid`, checking the world's digest at every checkpoint.
+fn fold_world(log: &Path, grid: Grid) -> anyhow::Result<WorldFold> {
+    let name = log.display().to_string();
+    let mut reader = LogReader::open(log).map_err(replay::ReplayError::from)?;
+    let mut config = replay::header_config(&reader, &name)?;
+    let seed = reader.header().seed;
+    let mut world = World::new(&config, seed).map_err(|source| replay::ReplayError::Start {
+        path: name.clone(),
+        cause: SimError::World(source),
+    })?;
+    let n = config.world.robots as usize;
+    let genesis_heads = format!("[{}]", vec!["0"; n].join(","));
+    let mut walk = Walk {
+        grid,
+        next_frame_ms: grid.frame_ms,
+        ids: BTreeMap::new(),
+        blocks: String::from("[[0,-1,0,-1,0]"),
+        reorgs: String::from("["),
+        reorg_count: 0,
+        sealings: 0,
+        heads: Vec::new(),
+        frames: Frames::default(),
+    };
+    let null = || "null".to_string();
+    walk.frames
+        .push_world(&world, 0, None, genesis_heads.clone(), null());
+    let (mut checkpoints, mut top_height) = (0, 0);
+    let truncated = loop {
+        let record = match reader.next_intact().map_err(replay::ReplayError::from)? {
+            Next::Record(record) => record,
+            Next::End => break None,
+            Next::Pending(cut) => break Some(cut.to_string()),
+        };
+        let index = reader.index() - 1;
+        match &record {
+            Record::Event {
+                time,
+                event: Event::Tick(tick),
+            } => {
+                apply_tick(&mut world, *time, tick).map_err(|cause| {
+                    replay::ReplayError::Apply {
+                        path: name.clone(),
+                        index,
+                        kind: record.kind(),
+                        time: *time,
+                        cause,
+                    }
+                })?;
+                let now = time.0 + grid.tick_ms;
+                if now >= walk.next_frame_ms {
+                    walk.frames
+                        .push_world(&world, now, None, genesis_heads.clone(), null());
+                    walk.next_frame_ms = (now / grid.frame_ms + 1) * grid.frame_ms;
+                }
+            }
+            Record::Checkpoint(cp) => {
+                if cp.world != world.digest() {
+                    return Err(replay::ReplayError::Diverged {
+                        path: name,
+                        index,
+                        kind: record.kind(),
+                        time: cp.time,
+                        component: "world".to_string(),
+                        detail: " between the log's checkpoint and the replayed world".to_string(),
+                    }
+                    .into());
+                }
+                checkpoints += 1;
+                if let CheckpointCause::Block { height, .. } = cp.cause {
+                    walk.sealings += 1;
+                    top_height = top_height.max(height);
+                }
+            }
+            Record::Event { .. } => {}
+        }
+        if let Some(next) = replay::reconfigured(&record) {
+            config = next;
+        }
+    };
+    Ok(WorldFold {
+        world,
+        config,
+        seed,
+        walk,
+        checkpoints,
+        top_height,
+        truncated,
+    })
 }
 
 /// Where the uniform frames fall: every `frame_ms`, a whole number of ticks (every tick of a
@@ -476,13 +738,56 @@ fn page_data(
     title: &str,
     live: Option<(LiveState, u64)>,
 ) -> anyhow::Result<String> {
-    let grid = walk.grid;
-    let (duration_ms, frame_ms) = (grid.total_ticks * grid.tick_ms, grid.frame_ms);
-    let config = &index.config;
     let (chain, balances) = chain_json(index, &walk.ids);
     let rounds = rounds_json(index, heldout)?;
-    let state = &index.final_state;
-    let arena = state.world.arena();
+    data_json(
+        &Parts {
+            config: &index.config,
+            world: &index.final_state.world,
+            byzantine: &index.byzantine,
+            chain: &chain,
+            balances: &balances,
+            rounds: &rounds,
+            truncated: &index.truncated,
+            extra: "",
+        },
+        walk,
+        shown,
+        title,
+        live,
+    )
+}
+
+/// What the page's data holds besides the frames: a chain run's index gives it all; a log
+/// whose plug-in rule is not loaded gives its world alone ([`world_page`]).
+struct Parts<'a> {
+    config: &'a Config,
+    /// The world at the end of the records folded.
+    world: &'a World,
+    byzantine: &'a [bool],
+    /// JSON text: the final canonical chain, the balances after each of its blocks, the rounds.
+    chain: &'a str,
+    balances: &'a str,
+    rounds: &'a str,
+    truncated: &'a Option<String>,
+    /// JSON members appended to the data object (each with its leading comma); empty for every
+    /// log but a plug-in rule's drawn without the rule.
+    extra: &'a str,
+}
+
+/// The page's data object as JSON text from its parts and frames.
+fn data_json(
+    parts: &Parts,
+    walk: &Walk,
+    shown: &[usize],
+    title: &str,
+    live: Option<(LiveState, u64)>,
+) -> anyhow::Result<String> {
+    let grid = walk.grid;
+    let (duration_ms, frame_ms) = (grid.total_ticks * grid.tick_ms, grid.frame_ms);
+    let config = parts.config;
+    let (chain, balances, rounds) = (parts.chain, parts.balances, parts.rounds);
+    let arena = parts.world.arena();
     let obstacles: Vec<String> = arena
         .obstacles
         .iter()
@@ -491,14 +796,14 @@ fn page_data(
             Obstacle::Box { x, y, half_side_m } => format!("[\"b\",{x},{y},{half_side_m}]"),
         })
         .collect();
-    let byzantine: Vec<&str> = index
+    let byzantine: Vec<&str> = parts
         .byzantine
         .iter()
         .map(|&b| if b { "1" } else { "0" })
         .collect();
     // Behaviours: each robot's name, the nest `[x, y, r]` and food `[x, y]` of the `simple`
     // rule (null and empty without).
-    let behaviours = state.world.behaviours();
+    let behaviours = parts.world.behaviours();
     let names: Vec<String> = (0..config.world.robots as usize)
         .map(|i| {
             let b = behaviours.map_or(Behaviour::Avoidance, |b| b.of[i]);
@@ -559,7 +864,7 @@ fn page_data(
          \"behaviour\":[{}],\"nest\":{nest},\"food\":[{}],\"food_radius\":{food_radius}{flowfl},\
          \"t\":[{}],\"pose\":[{}],\"links\":[{}],\"heads\":[{}],\"forager\":[{}],\"of\":[{}],\"versions\":[{}],\
          \"blocks\":{}],\"aggregation\":\"{}\",\"chain\":{chain},\"balances\":{balances},\"rounds\":{rounds},\"reorgs\":{}],\
-         \"truncated\":{},\"live\":{live}}}",
+         \"truncated\":{},\"live\":{live}{}}}",
         serde_json::to_string(title)?,
         config.world.robots,
         arena.half_side_m,
@@ -579,7 +884,8 @@ fn page_data(
         walk.blocks,
         config.learn.aggregation.name(),
         walk.reorgs,
-        serde_json::to_string(&index.truncated)?,
+        serde_json::to_string(parts.truncated)?,
+        parts.extra,
     ))
 }
 
@@ -782,7 +1088,40 @@ impl Frames {
         time_ms: u64,
         block: Option<(Digest, u64)>,
     ) {
-        let world = &state.world;
+        let n = state.world.poses().len();
+        let heads: Vec<String> = (0..n as u32)
+            .map(|r| {
+                let h = state.ledger.head(r).0;
+                ids.get(&h).map_or("0".to_string(), |id| id.to_string())
+            })
+            .collect();
+        let versions = if state.aggregation.kind() == Aggregation::Chain {
+            "null".to_string()
+        } else {
+            let v: Vec<String> = (0..n as u32)
+                .map(|r| state.aggregation.current(r).round.to_string())
+                .collect();
+            format!("[{}]", v.join(","))
+        };
+        self.push_world(
+            &state.world,
+            time_ms,
+            block,
+            format!("[{}]", heads.join(",")),
+            versions,
+        );
+    }
+
+    /// Adds the frame of `world` at `time_ms` with every node's head block (`heads`, JSON) and
+    /// a baseline's model versions (`versions`, JSON); `block` as in [`Frames::push`].
+    fn push_world(
+        &mut self,
+        world: &World,
+        time_ms: u64,
+        block: Option<(Digest, u64)>,
+        heads: String,
+        versions: String,
+    ) {
         let n = world.poses().len();
         self.block.push(block);
         self.t.push(time_ms);
@@ -815,13 +1154,7 @@ impl Frames {
             .map(|&b| char::from_digit(u32::from(b), 16).expect("a nibble"))
             .collect();
         self.links.push(format!("\"{hex}\""));
-        let heads: Vec<String> = (0..n as u32)
-            .map(|r| {
-                let h = state.ledger.head(r).0;
-                ids.get(&h).map_or("0".to_string(), |id| id.to_string())
-            })
-            .collect();
-        self.heads.push(format!("[{}]", heads.join(",")));
+        self.heads.push(heads);
         let behaviours = world
             .behaviours()
             .filter(|b| b.nest.is_some() || b.flowfl.is_some());
@@ -865,14 +1198,6 @@ impl Frames {
             None => String::new(),
         };
         self.of.push(format!("\"{of}\""));
-        let versions = if state.aggregation.kind() == Aggregation::Chain {
-            "null".to_string()
-        } else {
-            let v: Vec<String> = (0..n as u32)
-                .map(|r| state.aggregation.current(r).round.to_string())
-                .collect();
-            format!("[{}]", v.join(","))
-        };
         self.versions.push(versions);
     }
 }
