@@ -4,28 +4,11 @@
 //! chain recomputed.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
 use swarmfl_core::log::{Header, LogReader, LogWriter};
 
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// A fresh folder of this test process under the system's temporary folder.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-damaged-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{scratch, swarmfl, text};
 
 /// A 60 s smoke run of seed 7 into `out` (a few hundred records) with `extra` overrides; its
 /// log's path.

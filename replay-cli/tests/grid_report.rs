@@ -3,26 +3,9 @@
 //! values and lists the files it wrote; `ranking` tells the rules' runs apart.
 
 use std::path::PathBuf;
-use std::process::{Command, Output};
 
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// A fresh folder of this test process under the system's temporary folder.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-grid-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{scratch, swarmfl, text};
 
 #[test]
 fn a_grid_over_rules_and_counts_is_reported_and_ranked_by_its_values() {

@@ -1,14 +1,10 @@
 //! Arguments from the security review (issue #37) that crashed `swarmfl` or made it pass
 //! without checking anything: each must now be refused with a clear error and exit code 2.
 
-use std::process::{Command, Output};
+use std::process::Output;
 
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
+mod common;
+use common::swarmfl;
 
 /// Asserts that `out` is a refusal (exit code 2, not a crash or a pass) whose stderr contains
 /// `needle`.

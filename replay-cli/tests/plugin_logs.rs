@@ -5,8 +5,6 @@
 //! The logs are made in this process with plug-ins written in Rust (as the Python package
 //! offers its own); the command, another process, has none.
 
-use std::path::PathBuf;
-use std::process::{Command, Output};
 use std::sync::Arc;
 
 use swarmfl_cli::api::{run_with_plugins, Flush};
@@ -16,6 +14,9 @@ use swarmfl_core::config::Config;
 use swarmfl_core::contract::rules::plugin::RulePlugin;
 use swarmfl_core::contract::rules::Input;
 use swarmfl_core::rng::Rng;
+
+mod common;
+use common::{scratch, swarmfl};
 
 /// Submits the shared model back, claiming the configured sample count.
 struct Echo;
@@ -39,20 +40,6 @@ impl RulePlugin for Mean {
             .map(|i| inputs.iter().map(|m| m.weights[i]).sum::<i64>() / n)
             .collect())
     }
-}
-
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-plugin-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 #[test]

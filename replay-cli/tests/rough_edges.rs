@@ -1,31 +1,11 @@
 //! The rough edges a new user hit (issue #35, "Messages and numbers"): each defect, driven
 //! through the `swarmfl` binary as a user types it.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// A fresh folder of this test process under the system's temporary folder.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-rough-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{scratch, stderr, stdout, swarmfl};
 
 /// `swarmfl run --preset smoke --seed SEED --out OUT` with `extra` arguments after it.
 fn smoke_run(out: &Path, seed: &str, extra: &[&str]) -> Output {

@@ -2,33 +2,11 @@
 //! another configuration is replaced without being asked, and a fork never writes over its
 //! parent. Driven through the `swarmfl` binary as a user types it, in a scratch folder.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
+use std::process::Output;
 
-/// `swarmfl ARGS` run in the folder `cwd` (the default `runs/` is relative to it).
-fn swarmfl(cwd: &Path, args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .current_dir(cwd)
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn stderr(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stderr).into_owned()
-}
-
-fn stdout(out: &Output) -> String {
-    String::from_utf8_lossy(&out.stdout).into_owned()
-}
-
-/// A fresh folder of this test process under the system's temporary folder.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-folders-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{scratch, stderr, stdout, swarmfl_in as swarmfl};
 
 /// The folders under `dir`, sorted.
 fn folders(dir: &Path) -> Vec<String> {

@@ -2,26 +2,9 @@
 //! written, and bad input is refused with the file or the fix named.
 
 use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
 
-fn swarmfl(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_swarmfl"))
-        .args(args)
-        .output()
-        .expect("running swarmfl")
-}
-
-fn text(bytes: &[u8]) -> String {
-    String::from_utf8_lossy(bytes).into_owned()
-}
-
-/// A fresh folder of this test process under the system's temporary folder.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("swarmfl-traffic-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+mod common;
+use common::{scratch, swarmfl, text};
 
 /// A 60 s smoke run of `aggregation` into `out`.
 fn short_run(out: &Path, aggregation: &str) {
