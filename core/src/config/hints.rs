@@ -35,26 +35,10 @@ pub(super) fn nearest_key<'a>(key: &str, keys: &'a [String]) -> Option<&'a str> 
     }
 }
 
-/// Every dotted key of `tree` whose value is not a table (`world.robots`, `faults.partitions`).
+/// Every dotted key of `tree` whose value is not a table (`world.robots`, `faults.partitions`),
+/// sorted.
 pub(super) fn dotted_keys(tree: &toml::Value) -> Vec<String> {
-    fn walk(prefix: &str, value: &toml::Value, out: &mut Vec<String>) {
-        match value {
-            toml::Value::Table(t) => {
-                for (k, v) in t {
-                    let key = if prefix.is_empty() {
-                        k.clone()
-                    } else {
-                        format!("{prefix}.{k}")
-                    };
-                    walk(&key, v, out);
-                }
-            }
-            _ => out.push(prefix.to_string()),
-        }
-    }
-    let mut out = Vec::new();
-    walk("", tree, &mut out);
-    out
+    super::tree::toml_leaves(tree).into_keys().collect()
 }
 
 /// An example value of each list key, as `--set` takes it (checked by a test: each one is

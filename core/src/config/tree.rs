@@ -778,30 +778,7 @@ impl Config {
 
     /// Every leaf of the configuration as `dotted.key -> value as TOML text`, sorted by key.
     pub fn flat_values(&self) -> BTreeMap<String, String> {
-        fn flatten(prefix: &str, value: &toml::Value, out: &mut BTreeMap<String, String>) {
-            match value {
-                toml::Value::Table(t) => {
-                    for (k, v) in t {
-                        let key = if prefix.is_empty() {
-                            k.clone()
-                        } else {
-                            format!("{prefix}.{k}")
-                        };
-                        flatten(&key, v, out);
-                    }
-                }
-                v => {
-                    out.insert(prefix.to_string(), v.to_string());
-                }
-            }
-        }
-        let mut out = BTreeMap::new();
-        flatten(
-            "",
-            &toml::Value::try_from(self).expect("Config serialises"),
-            &mut out,
-        );
-        out
+        toml_leaves(&toml::Value::try_from(self).expect("Config serialises"))
     }
 
     /// The dotted keys whose values differ between `self` and `other`, sorted.
@@ -813,4 +790,29 @@ impl Config {
             .cloned()
             .collect()
     }
+}
+
+/// Every leaf of a TOML tree (a value that is not a table) as `dotted.key -> value as TOML
+/// text`, sorted by key: `world.robots -> 15`, `faults.partitions -> [...]`.
+pub(crate) fn toml_leaves(tree: &toml::Value) -> BTreeMap<String, String> {
+    fn walk(prefix: &str, value: &toml::Value, out: &mut BTreeMap<String, String>) {
+        match value {
+            toml::Value::Table(t) => {
+                for (k, v) in t {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(&key, v, out);
+                }
+            }
+            v => {
+                out.insert(prefix.to_string(), v.to_string());
+            }
+        }
+    }
+    let mut out = BTreeMap::new();
+    walk("", tree, &mut out);
+    out
 }
