@@ -13,12 +13,16 @@ use std::time::Duration;
 use pyo3::exceptions::PyException;
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyList};
-use swarmfl_cli::api::{Shard, SweepOptions, TaskDone};
 use swarmfl_core::config::{Aggregation, Config};
 use swarmfl_core::inspect::{self, timeline, Column, Expr, RunIndex, Table};
 use swarmfl_core::types::SimTime;
+use swarmfl_study::progress::Quiet;
+use swarmfl_study::run::Flush;
+use swarmfl_study::run_dir::Chosen;
+use swarmfl_study::sweep::{Shard, SweepOptions, TaskDone};
 
 use crate::plugins;
+use crate::watch::Lines;
 
 pyo3::create_exception!(
     _swarmfl,
@@ -156,13 +160,13 @@ fn run(
     let (plugins, failure) = plugins::plugins(attack, rule);
     let outcome = on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
-        swarmfl_cli::api::run_with_plugins(
+        swarmfl_study::run::run_with_plugins(
             config,
             seed,
             &out,
-            quiet,
+            &Lines { quiet },
             &plugins,
-            swarmfl_cli::api::Flush::WhenFull,
+            Flush::WhenFull,
             check,
         )
     })?;
@@ -222,7 +226,16 @@ fn fork(
     let (plugins, failure) = plugins::plugins(attack, rule);
     on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
-        swarmfl_cli::api::fork_with_plugins(&log, at, &overrides, &out, quiet, &plugins, check)
+        swarmfl_study::fork::fork_with(
+            &log,
+            at,
+            &overrides,
+            (&out, Chosen::Explicit),
+            &Lines { quiet },
+            &plugins,
+            check,
+        )
+        .map(|_| ())
     })
 }
 
@@ -278,7 +291,7 @@ fn sweep(
                 let _ = tx.send(t.clone());
                 !stop.load(Ordering::SeqCst)
             };
-            swarmfl_cli::api::sweep(opts, Some(&hook))
+            swarmfl_study::sweep::sweep(opts, &Quiet, Some(&hook))
         });
         loop {
             let next = py.detach(|| {
@@ -336,7 +349,7 @@ type SweepResult = (usize, usize, usize, Vec<(String, u64, String)>, f64);
 #[pyfunction]
 fn results<'py>(py: Python<'py>, dir: PathBuf) -> PyResult<Bound<'py, PyList>> {
     let frame = py
-        .detach(|| swarmfl_cli::api::results_frame(&dir))
+        .detach(|| swarmfl_study::report::results_frame(&dir))
         .map_err(err)?;
     columns(py, frame.iter().map(|(n, c)| (n.as_str(), c)))
 }
@@ -345,7 +358,7 @@ fn results<'py>(py: Python<'py>, dir: PathBuf) -> PyResult<Bound<'py, PyList>> {
 /// path of its report.md.
 #[pyfunction]
 fn report(py: Python<'_>, dir: PathBuf, out: PathBuf) -> PyResult<PathBuf> {
-    py.detach(|| swarmfl_cli::api::report(&dir, &out))
+    py.detach(|| swarmfl_study::report::report(&dir, &out))
         .map_err(err)
 }
 
@@ -363,8 +376,11 @@ fn config_toml(
 /// Writes the CSV tables of a log into a directory, as `swarmfl export` does.
 #[pyfunction]
 fn export(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<()> {
-    py.detach(|| swarmfl_cli::api::export(&log, &out))
-        .map_err(err)
+    let line = py
+        .detach(|| swarmfl_study::export::export(&log, &out, &Lines { quiet: false }))
+        .map_err(err)?;
+    println!("{line}");
+    Ok(())
 }
 
 /// Writes the viewer of a log (one HTML file), as `swarmfl view` does; returns `(frames,
@@ -372,7 +388,7 @@ fn export(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<()> {
 #[pyfunction]
 fn view(py: Python<'_>, log: PathBuf, out: PathBuf) -> PyResult<(usize, u64, u64, usize)> {
     let v = py
-        .detach(|| swarmfl_cli::api::view(&log, &out))
+        .detach(|| swarmfl_study::view::view(&log, &out, &Lines { quiet: false }))
         .map_err(err)?;
     Ok((v.frames, v.sealings, v.height, v.bytes))
 }
@@ -388,8 +404,10 @@ fn snapshot(
     time_s: Option<f64>,
     block: Option<u64>,
 ) -> PyResult<String> {
-    py.detach(|| swarmfl_cli::api::snapshot(&log, time_s, block, &out))
-        .map_err(err)
+    py.detach(|| {
+        swarmfl_study::snapshot::snapshot(&log, time_s, block, &out, &Lines { quiet: false })
+    })
+    .map_err(err)
 }
 
 /// Every robot's pose every `every_s` simulated seconds (`inspect::poses_table`).

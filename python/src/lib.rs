@@ -1,5 +1,6 @@
-//! The `swarmfl._swarmfl` extension module: thin PyO3 bindings over the command's library
-//! (`swarmfl_cli::api`) and the core's tables (`swarmfl_core::inspect`). Nothing is computed
+//! The `swarmfl._swarmfl` extension module: thin PyO3 bindings over the study crate
+//! (`swarmfl_study`: runs, forks, sweeps, reports, exports, pictures) and the core's tables
+//! (`swarmfl_core::inspect`). Nothing is computed
 //! here that the command does not compute the same way; the Python side (`swarmfl/`) only turns
 //! the columns into pandas data frames.
 //!
@@ -10,3 +11,5 @@
 mod bindings;
 #[cfg(feature = "python")]
 mod plugins;
+#[cfg(feature = "python")]
+mod watch;

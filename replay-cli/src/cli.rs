@@ -709,7 +709,7 @@ mod tests {
             .find_subcommand_mut("sweep")
             .expect("a sweep subcommand");
         let help = sweep.render_long_help().to_string();
-        for name in crate::experiments::EXPERIMENTS {
+        for name in swarmfl_study::experiments::EXPERIMENTS {
             let in_table = super::SWEEP_HELP.lines().any(|line| {
                 let line = line.trim_start();
                 line.starts_with(&format!("{name} "))

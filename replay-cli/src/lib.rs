@@ -1,18 +1,12 @@
-//! The `swarmfl` command as a library: the binary (`main.rs`) is [`main`], and the Python
-//! package (`python/`) calls the same functions through [`api`], so a run, an export or a sweep
-//! made from Python writes exactly what the command writes.
+//! The `swarmfl` command as a library: the binary (`main.rs`) is [`main`]; the integration
+//! tests reach its parts through it. The work is the core's and the study crate's
+//! (`swarmfl-study`, which the Python package calls too); this crate parses arguments,
+//! dispatches, draws progress, prints and maps errors to exit codes.
 
 mod cli;
 mod commands;
 mod exit;
-mod experiments;
-mod grid;
-mod png;
 mod progress;
-mod results;
-mod run_dir;
-
-pub mod api;
 
 use std::process::ExitCode;
 

@@ -7,13 +7,14 @@
 
 use std::sync::Arc;
 
-use swarmfl_cli::api::{run_with_plugins, Flush};
 use swarmfl_core::byzantine::plugin::{PluginId, Plugins};
 use swarmfl_core::byzantine::{Action, Attack, View};
 use swarmfl_core::config::Config;
 use swarmfl_core::contract::rules::plugin::RulePlugin;
 use swarmfl_core::contract::rules::Input;
 use swarmfl_core::rng::Rng;
+use swarmfl_study::progress::Quiet;
+use swarmfl_study::run::{run_with_plugins, Flush};
 
 mod common;
 use common::{scratch, swarmfl};
@@ -57,8 +58,16 @@ fn a_plugin_attacks_log_is_read_from_its_records_and_only_resimulation_needs_the
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_attack(PluginId::attack("echo", "00", "a test"), Arc::new(Echo));
-    let outcome =
-        run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    let outcome = run_with_plugins(
+        config,
+        7,
+        &run,
+        &Quiet,
+        &plugins,
+        Flush::WhenFull,
+        || Ok(()),
+    )
+    .unwrap();
     let log = run.join("run.swlog");
     let log = log.to_str().unwrap();
     let html = dir.join("v.html");
@@ -113,7 +122,16 @@ fn a_plugin_rules_log_gives_its_world_to_the_command_and_says_where_the_rest_is_
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
-    run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    run_with_plugins(
+        config,
+        7,
+        &run,
+        &Quiet,
+        &plugins,
+        Flush::WhenFull,
+        || Ok(()),
+    )
+    .unwrap();
     let log = run.join("run.swlog");
     let log = log.to_str().unwrap();
     // The world is records: the command draws it at a time, as this process (which has the
@@ -133,7 +151,14 @@ fn a_plugin_rules_log_gives_its_world_to_the_command_and_says_where_the_rest_is_
         String::from_utf8_lossy(&out.stderr)
     );
     let here = dir.join("here.svg");
-    swarmfl_cli::api::snapshot(run.join("run.swlog").as_path(), Some(30.0), None, &here).unwrap();
+    swarmfl_study::snapshot::snapshot(
+        run.join("run.swlog").as_path(),
+        Some(30.0),
+        None,
+        &here,
+        &Quiet,
+    )
+    .unwrap();
     assert_eq!(std::fs::read(&svg).unwrap(), std::fs::read(&here).unwrap());
     // A block of the final chain needs the rule's aggregates: the command names where to draw it.
     let out = swarmfl(&[
@@ -176,7 +201,16 @@ fn the_viewer_draws_a_plugin_rules_log_from_its_records_and_notes_what_needs_the
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
-    run_with_plugins(config, 7, &run, true, &plugins, Flush::WhenFull, || Ok(())).unwrap();
+    run_with_plugins(
+        config,
+        7,
+        &run,
+        &Quiet,
+        &plugins,
+        Flush::WhenFull,
+        || Ok(()),
+    )
+    .unwrap();
     let log = run.join("run.swlog");
     let html = dir.join("v.html");
     let out = swarmfl(&[

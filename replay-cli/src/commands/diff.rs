@@ -112,8 +112,8 @@ fn diff(a: &Path, b: Option<&Path>, resimulate: bool) -> anyhow::Result<u8> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::commands::run;
     use swarmfl_core::config::Config;
+    use swarmfl_study::run;
 
     #[test]
     fn diff_resimulate_exits_125_on_a_log_it_cannot_read_and_1_on_divergence() {
@@ -124,7 +124,13 @@ mod tests {
             &["run.duration_s=30".into(), "world.robots=4".into()],
         )
         .unwrap();
-        let out = run::run(config.clone(), 1, &dir.join("a"), true).unwrap();
+        let out = run::run(
+            config.clone(),
+            1,
+            &dir.join("a"),
+            &swarmfl_study::progress::Quiet,
+        )
+        .unwrap();
         assert_eq!(diff(&out.log_path, None, true).unwrap(), 0);
         // Truncated, foreign and missing logs: git bisect's "skip", never "bad".
         let bytes = std::fs::read(&out.log_path).unwrap();

@@ -284,16 +284,7 @@ fn print_robot_view(r: &BlockReport) {
 
 /// Says on stderr that a log is truncated and that what follows is of its intact prefix.
 pub fn warn_if_truncated(index: &inspect::RunIndex) {
-    if let Some(why) = &index.truncated {
-        eprintln!("warning: {why}");
-        eprintln!(
-            "warning: using the intact prefix: {} records, the chain up to block {} (t = {:.3} s); \
-             the run's later blocks are missing",
-            index.records,
-            index.last_height(),
-            index.chain.last().map_or(0.0, |r| r.time.secs())
-        );
-    }
+    swarmfl_study::progress::warn_if_truncated(&crate::progress::Bar::new(false), index);
 }
 
 /// `inspect --time T` of a baseline run: each robot's replica, bytes and model at the last

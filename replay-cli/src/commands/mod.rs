@@ -1,8 +1,7 @@
 //! One module per subcommand, each with a `command` function that takes the subcommand's
-//! arguments (see `cli`) and returns its exit code. Modules shared by several commands: `run`
-//! (a run into a directory: `fork`, `sweep`, `fixtures` and `bench` make runs too),
-//! `inspect` (the warning for a truncated log) and `ranking` (the logs under a sweep's results,
-//! which `traffic` reads too).
+//! arguments (see `cli`), calls the core or the study crate (`swarmfl-study`) and prints; it
+//! returns the exit code. Shared by several commands: `run` (a run's printed summary: `fork`
+//! prints it too) and `inspect` (the warning for a truncated log).
 
 pub mod bench;
 pub mod bisect;

@@ -97,10 +97,10 @@ pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
         "swarmfl-bench-scale-{}-{robots}",
         std::process::id()
     ));
-    let cpu0 = crate::commands::run::process_cpu_s();
+    let cpu0 = swarmfl_study::run::process_cpu_s();
     // Progress on stderr (inherited from the parent): a large swarm takes minutes.
-    let outcome = crate::commands::run::run(config, SEED, &dir, false);
-    let cpu_s = crate::commands::run::process_cpu_s() - cpu0;
+    let outcome = swarmfl_study::run::run(config, SEED, &dir, &crate::progress::Bar::new(false));
+    let cpu_s = swarmfl_study::run::process_cpu_s() - cpu0;
     // The directory goes whatever happened; the run's error, if any, is the one reported.
     let removed = std::fs::remove_dir_all(&dir);
     let summary = outcome?.summary;

@@ -44,7 +44,7 @@ pub fn bench_workload() -> anyhow::Result<Vec<Sample>> {
 /// CPU time of the calling thread in milliseconds (immune to other processes sharing the
 /// cores, unlike wall time).
 fn thread_cpu_ms() -> f64 {
-    crate::commands::run::thread_cpu_s() * 1e3
+    swarmfl_study::run::thread_cpu_s() * 1e3
 }
 
 /// Median wall time, median thread CPU time (ms) and the validation loss of the last run.

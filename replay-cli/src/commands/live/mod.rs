@@ -2,7 +2,7 @@
 //! run goes, its frames following the log as it grows.
 //!
 //! Two threads beside the run, and neither touches it: they only read the log file, which the
-//! run flushes every [`super::run::Flush`] interval, so the log and the summary are the bytes of
+//! run flushes every [`swarmfl_study::run::Flush`] interval, so the log and the summary are the bytes of
 //! a run without `--live`.
 //! - The builder folds the log's intact prefix into the viewer's data with the code of
 //!   `swarmfl view` (a [`Fold`] kept between builds: each build reads and folds only the
@@ -25,7 +25,7 @@ use std::sync::{Arc, Mutex};
 use std::thread::JoinHandle;
 use std::time::{Duration, Instant};
 
-use crate::commands::view::{Fold, LiveState, Page};
+use swarmfl_study::view::{Fold, LiveState, Page};
 
 pub mod http;
 

@@ -12,7 +12,7 @@
 use std::path::Path;
 
 use super::measure::PointStats;
-use crate::commands::report::plots::{self, Kind, Plot, Series};
+use crate::report::plots::{self, Kind, Plot, Series};
 
 /// Draws every figure into `out`; returns whether their text could be drawn.
 pub fn draw_all(points: &[PointStats], out: &Path) -> anyhow::Result<bool> {

@@ -14,7 +14,7 @@ use std::collections::BTreeMap;
 
 use swarmfl_core::inspect::RankedSubmission;
 
-use crate::commands::report::stats::Stat;
+use crate::report::stats::Stat;
 
 /// One group of submitters: the Byzantine robots or the honest ones.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]

@@ -23,23 +23,14 @@ mod measure;
 use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 use anyhow::Context;
 use swarmfl_core::config::RankKey;
 use swarmfl_core::inspect::{self, RankedSubmission, Table};
 
-use crate::cli::RankingArgs;
-use crate::commands::inspect::warn_if_truncated;
-use crate::commands::sweep::TMP_DIR;
+use crate::progress::{warn_if_truncated, Watch};
+use crate::sweep::TMP_DIR;
 use measure::{Group, Point, PointStats, RoundMeasure, RunMeasure};
-
-/// Runs `swarmfl ranking`.
-pub fn command(args: RankingArgs) -> anyhow::Result<ExitCode> {
-    let summary = ranking(&args.inputs, &args.out, args.submissions)?;
-    print!("{summary}");
-    Ok(ExitCode::SUCCESS)
-}
 
 /// One measured run.
 struct Run {
@@ -57,11 +48,17 @@ struct Run {
 
 /// Measures every log found under `inputs` and writes the files into `out`; returns the table
 /// printed on stdout (per point: runs, Byzantine and honest token gains and their difference).
-pub fn ranking(inputs: &[PathBuf], out: &Path, submissions: bool) -> anyhow::Result<String> {
+/// A truncated log is warned of on `watch`.
+pub fn ranking(
+    inputs: &[PathBuf],
+    out: &Path,
+    submissions: bool,
+    watch: &dyn Watch,
+) -> anyhow::Result<String> {
     let logs = find_logs(inputs)?;
     let mut runs = Vec::with_capacity(logs.len());
     for (path, name) in &logs {
-        runs.push(measure_log(path, name, submissions)?);
+        runs.push(measure_log(path, name, submissions, watch)?);
     }
     tell_apart(&mut runs)?;
     let keys: Vec<String> = runs
@@ -135,7 +132,7 @@ fn tell_apart(runs: &mut [Run]) -> anyhow::Result<()> {
 /// path order, each with its path relative to its input. A sweep's in-progress logs (its
 /// `.tmp` folders) are passed over, unless `.tmp` itself is an input. None found is an error
 /// that names the inputs.
-pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
+pub fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
     let mut out = Vec::new();
     for input in inputs {
         if input.is_file() {
@@ -186,9 +183,14 @@ pub(crate) fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, Stri
 }
 
 /// Folds one log and measures it.
-fn measure_log(path: &Path, name: &str, submissions: bool) -> anyhow::Result<Run> {
+fn measure_log(
+    path: &Path,
+    name: &str,
+    submissions: bool,
+    watch: &dyn Watch,
+) -> anyhow::Result<Run> {
     let index = inspect::index_run(path, None)?;
-    warn_if_truncated(&index);
+    warn_if_truncated(watch, &index);
     let rows: Vec<RankedSubmission> = index.ranked_submissions()?;
     let config = &index.config;
     let params = index.final_state.ledger.params();

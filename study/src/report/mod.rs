@@ -1,4 +1,4 @@
-//! `swarmfl report`: merges a sweep's result files and computes, per experiment and
+//! A sweep's report (`swarmfl report`): merges a sweep's result files and computes, per experiment and
 //! configuration point, means and 95 % confidence intervals over runs, then draws the paper's
 //! figures and writes `report.md` with a table of the numbers.
 //!
@@ -31,24 +31,14 @@ mod style;
 mod tables;
 
 use std::path::{Path, PathBuf};
-use std::process::ExitCode;
 
 use anyhow::Context;
 
-use crate::cli::ReportArgs;
-
 pub use frame::{results_frame, Frame};
-
-/// Runs `swarmfl report`: prints every file it wrote, one a line.
-pub fn command(args: ReportArgs) -> anyhow::Result<ExitCode> {
-    let files = make(&args.dir, &args.out)?;
-    print!("{}", written_list(&args.out, &files));
-    Ok(ExitCode::SUCCESS)
-}
 
 /// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's
 /// path, one a line.
-pub(crate) fn written_list(out: &Path, files: &[PathBuf]) -> String {
+pub fn written_list(out: &Path, files: &[PathBuf]) -> String {
     let mut text = format!("wrote {} files into {}:\n", files.len(), out.display());
     for f in files {
         text.push_str(&format!("  {}\n", f.display()));
@@ -65,7 +55,7 @@ pub fn report(dir: &Path, out: &Path) -> anyhow::Result<PathBuf> {
 
 /// [`report`], returning every file written (the CSVs, each figure's SVG and PNG, and
 /// `report.md` last).
-fn make(dir: &Path, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
+pub fn make(dir: &Path, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     let (results, mut notes) = load::load(dir)?;
     anyhow::ensure!(
         !results.is_empty(),
