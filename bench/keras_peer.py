@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Times the `swarmfl bench train` workload in TensorFlow/Keras, for a side-by-side figure.
 
-Workload (identical sizes and hyper-parameters to replay-cli/src/bench_train.rs): the paper's
+Workload (identical sizes and hyper-parameters to replay-cli/src/commands/bench/train.rs): the paper's
 model (LSTM(16) -> Dropout(0.2) -> Dense(96) -> Reshape(48, 2)), 300 synthetic trajectories of
 80 waypoints (a robot at 0.025 m/s, tick 0.1 s, random turns, 5 x 5 m arena), the first 240 to
 train and the last 60 to validate, model.fit(batch_size=20, epochs=20, shuffle=False) with SGD
