@@ -1,15 +1,25 @@
 //! The layering test: imports run one way.
 //!
-//! It reads the module paths that each source file of core and of the CLI names (`use` trees and
-//! paths in code; comments, string literals and `#[cfg(test)]` items excluded) and fails, naming
-//! the file and line, when
+//! Modules: it reads the module paths that each source file of core, of the study crate and of
+//! the CLI names (`use` trees and paths in code; comments, string literals and `#[cfg(test)]`
+//! items excluded) and fails, naming the file and line, when
 //! - a top-level module of core names one that the layer order below puts above it, or one that
 //!   the order does not list (a new module must be given its place), or
-//! - modules that share a parent name each other in a loop (in core or in the CLI).
+//! - modules that share a parent name each other in a loop (in core, in study or in the CLI).
 //!
 //! A parent and its own children may name each other (a child uses its parent's types, the parent
 //! re-exports or calls its children): that is one module's inside, not a loop between modules.
-//! ARCHITECTURE.md ("Layers") states the same order; the two change together.
+//!
+//! Crates: `core` < `study` < {`replay-cli`, `python`, `proptests`, `fuzz`} (`CRATES`). Every
+//! `.rs` file of a crate (sources, tests, examples, build script; comments and string literals
+//! excluded, test items included) and its Cargo.toml's dependency tables (`[dependencies]`,
+//! `[dev-dependencies]`, `[build-dependencies]`, their `[target.*]` forms) may name only crates
+//! below it, and the test fails, naming the file and line, on any other: core names no other
+//! crate, study names no front end, and the front ends do not name each other. `proptests` and
+//! `fuzz` are test front ends: they drive core (and may drive study) and nothing names them.
+//! Every workspace member (and excluded crate) of the root Cargo.toml must have its place here.
+//!
+//! ARCHITECTURE.md ("Layers") states the same orders; they change together.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::fmt::Write as _;
@@ -39,6 +49,59 @@ const LAYERS: &[(&str, &[&str])] = &[
     ("analysis", &["replay", "inspect", "fork", "diff", "chaos"]),
 ];
 
+/// The workspace's crates from the bottom up: a crate may name only crates of a lower rank.
+const CRATES: &[Crate] = &[
+    Crate {
+        dir: "core",
+        package: "swarmfl-core",
+        names: &["swarmfl_core"],
+        rank: 0,
+    },
+    Crate {
+        dir: "study",
+        package: "swarmfl-study",
+        names: &["swarmfl_study"],
+        rank: 1,
+    },
+    Crate {
+        dir: "replay-cli",
+        package: "replay-cli",
+        names: &["swarmfl_cli", "replay_cli"],
+        rank: 2,
+    },
+    Crate {
+        dir: "python",
+        package: "swarmfl-python",
+        names: &["_swarmfl", "swarmfl_python"],
+        rank: 2,
+    },
+    // Test front ends: they drive core and may drive study; nothing names them.
+    Crate {
+        dir: "proptests",
+        package: "swarmfl-proptests",
+        names: &["swarmfl_proptests"],
+        rank: 2,
+    },
+    Crate {
+        dir: "fuzz",
+        package: "swarmfl-fuzz",
+        names: &["swarmfl_fuzz"],
+        rank: 2,
+    },
+];
+
+/// The names of each rank of `CRATES`, for messages.
+const CRATE_RANKS: &[&str] = &["core", "study", "front ends"];
+
+/// One crate of the workspace: its folder, its package name, the names its code is called by
+/// (library name, package name with underscores) and its rank in the crate order.
+struct Crate {
+    dir: &'static str,
+    package: &'static str,
+    names: &'static [&'static str],
+    rank: usize,
+}
+
 /// One source file: its path as shown in messages, its module path and its text.
 struct Source {
     shown: String,
@@ -56,13 +119,15 @@ struct Reference {
 fn core_modules_import_only_lower_layers_and_no_modules_import_each_other_in_a_loop() {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let core = read_tree(&root.join("src"), "core/src");
+    let study = read_tree(&root.join("../study/src"), "study/src");
     let cli = read_tree(&root.join("../replay-cli/src"), "replay-cli/src");
     assert!(
-        core.len() > 50 && cli.len() > 10,
+        core.len() > 50 && study.len() > 10 && cli.len() > 10,
         "the source trees were not found"
     );
     let mut problems = layer_violations(&core);
     problems.extend(loops(&core));
+    problems.extend(loops(&study));
     problems.extend(loops(&cli));
     assert!(
         problems.is_empty(),
@@ -141,6 +206,136 @@ fn the_checker_finds_an_import_that_runs_up_and_a_loop() {
     assert!(looped[0].contains("report::defence"), "{}", looped[0]);
 }
 
+#[test]
+fn crates_name_only_crates_below_them() {
+    let workspace = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let mut problems = unplaced_crates(&read(&workspace.join("Cargo.toml")), "Cargo.toml");
+    for krate in CRATES {
+        let dir = workspace.join(krate.dir);
+        let sources = read_crate(&dir, krate.dir);
+        assert!(
+            !sources.is_empty(),
+            "no Rust file under {}: a crate of CRATES (core/tests/layering.rs) is gone; take it \
+             out of CRATES and ARCHITECTURE.md (\"Layers\")",
+            dir.display()
+        );
+        problems.extend(crate_code_violations(krate, &sources));
+        let manifest = format!("{}/Cargo.toml", krate.dir);
+        problems.extend(manifest_violations(
+            krate,
+            &read(&dir.join("Cargo.toml")),
+            &manifest,
+        ));
+    }
+    assert!(
+        problems.is_empty(),
+        "{} crate layering problem(s) (ARCHITECTURE.md, \"Layers\"):\n{}",
+        problems.len(),
+        problems.join("\n")
+    );
+}
+
+#[test]
+fn the_checker_finds_a_crate_that_names_one_not_below_it() {
+    let study = crate_in("study");
+    let problems = crate_code_violations(
+        study,
+        &[source(
+            "study/src/run.rs",
+            &[],
+            "//! Not swarmfl_cli::main in a comment.\nuse swarmfl_core::sim::Sim;\n\
+             use swarmfl_cli::main;\nfn f() { let s = \"swarmfl_cli::x\"; }\n",
+        )],
+    );
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    assert!(
+        problems[0].starts_with("study/src/run.rs:3: crate `study` (study) names `swarmfl_cli`"),
+        "{}",
+        problems[0]
+    );
+
+    let core = crate_in("core");
+    let problems = crate_code_violations(
+        core,
+        &[source(
+            "core/src/sim.rs",
+            &[],
+            "use swarmfl_study::run::run;\nuse crate::types::Digest;\n\
+             #[cfg(test)]\nmod tests {\n    use ::swarmfl_cli as _;\n}\n",
+        )],
+    );
+    assert_eq!(problems.len(), 2, "{problems:?}");
+    assert!(
+        problems[0].starts_with("core/src/sim.rs:1: crate `core` (core) names `swarmfl_study`"),
+        "{}",
+        problems[0]
+    );
+    assert!(
+        problems[1].starts_with("core/src/sim.rs:5: crate `core` (core) names `swarmfl_cli`"),
+        "{}",
+        problems[1]
+    );
+
+    // The two front ends do not name each other; a front end names itself and what is below.
+    let problems = crate_code_violations(
+        crate_in("python"),
+        &[source("python/src/lib.rs", &[], "use swarmfl_cli::run;\n")],
+    );
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    let problems = crate_code_violations(
+        crate_in("replay-cli"),
+        &[source(
+            "replay-cli/tests/a.rs",
+            &[],
+            "use swarmfl_cli::main;\nuse swarmfl_study::run;\nuse swarmfl_core::sim;\n",
+        )],
+    );
+    assert!(problems.is_empty(), "{problems:?}");
+
+    let manifest = "[package]\nname = \"swarmfl-core\"\n\n[dependencies]\nserde.workspace = true\n\
+                    swarmfl-study.workspace = true\n\n[dev-dependencies.cli]\n\
+                    package = \"replay-cli\"\npath = \"../replay-cli\"\n\n[features]\n\
+                    evm = [\"dep:revm\"]\n";
+    let problems = manifest_violations(core, manifest, "core/Cargo.toml");
+    assert_eq!(problems.len(), 2, "{problems:?}");
+    assert!(
+        problems[0].starts_with("core/Cargo.toml:6: crate `core` (core) names `swarmfl-study`"),
+        "{}",
+        problems[0]
+    );
+    assert!(
+        problems[1].starts_with("core/Cargo.toml:8: crate `core` (core) names `replay-cli`"),
+        "{}",
+        problems[1]
+    );
+    let manifest = "[dependencies]\nswarmfl-core.workspace = true\n\n\
+                    [target.'cfg(unix)'.dev-dependencies]\n\
+                    \"swarmfl-python\" = { path = \"../python\" }\n";
+    let problems = manifest_violations(study, manifest, "study/Cargo.toml");
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    assert!(
+        problems[0].starts_with("study/Cargo.toml:5: crate `study` (study) names `swarmfl-python`"),
+        "{}",
+        problems[0]
+    );
+
+    let root = "[workspace]\nmembers = [\"core\", \"study\",\n  \"bench\"]\nexclude = [\"fuzz\"]\n";
+    let problems = unplaced_crates(root, "Cargo.toml");
+    assert_eq!(problems.len(), 1, "{problems:?}");
+    assert!(
+        problems[0].starts_with("Cargo.toml:3: crate `bench` has no place"),
+        "{}",
+        problems[0]
+    );
+}
+
+fn crate_in(dir: &str) -> &'static Crate {
+    CRATES
+        .iter()
+        .find(|c| c.dir == dir)
+        .expect("a crate of CRATES")
+}
+
 fn source(shown: &str, module: &[&str], text: &str) -> Source {
     Source {
         shown: shown.to_string(),
@@ -185,12 +380,176 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) {
         std::fs::read_dir(dir).unwrap_or_else(|e| panic!("cannot list {}: {e}", dir.display()));
     for entry in entries {
         let path = entry.expect("a directory entry").path();
-        if path.is_dir() {
+        let name = path.file_name().map(|n| n.to_string_lossy().into_owned());
+        let skipped = name.is_some_and(|n| n == "target" || n.starts_with('.'));
+        if path.is_dir() && skipped {
+            continue; // Build outputs and hidden folders hold no source of the crate.
+        } else if path.is_dir() {
             collect(&path, out);
         } else if path.extension().is_some_and(|e| e == "rs") {
             out.push(path);
         }
     }
+}
+
+fn read(file: &Path) -> String {
+    std::fs::read_to_string(file).unwrap_or_else(|e| panic!("cannot read {}: {e}", file.display()))
+}
+
+/// Every `.rs` file of a crate (build outputs and hidden folders apart), sorted by path.
+fn read_crate(dir: &Path, shown: &str) -> Vec<Source> {
+    let mut files = Vec::new();
+    collect(dir, &mut files);
+    files.sort();
+    files
+        .into_iter()
+        .map(|file| Source {
+            shown: format!(
+                "{shown}/{}",
+                file.strip_prefix(dir)
+                    .expect("a file under its crate")
+                    .display()
+            ),
+            module: Vec::new(),
+            text: read(&file),
+        })
+        .collect()
+}
+
+/// The crate of `CRATES` that a manifest's dependency key or `package` names.
+fn crate_named(name: &str) -> Option<&'static Crate> {
+    CRATES
+        .iter()
+        .find(|c| c.package == name || c.names.contains(&name))
+}
+
+/// The message for `from` naming `to` (as `name`) at `place`, if the crate order forbids it.
+fn crate_violation(from: &Crate, to: &Crate, name: &str, place: &str) -> Option<String> {
+    (to.dir != from.dir && to.rank >= from.rank).then(|| {
+        format!(
+            "{place}: crate `{}` ({}) names `{name}`, the crate `{}` ({}), which the crate order \
+             does not put below it; move what it needs down into `{}` or a crate below it, or \
+             let the front end pass it in",
+            from.dir, CRATE_RANKS[from.rank], to.dir, CRATE_RANKS[to.rank], from.dir
+        )
+    })
+}
+
+/// Names in a crate's code (comments and string literals apart) of crates not below it.
+fn crate_code_violations(from: &Crate, sources: &[Source]) -> Vec<String> {
+    let mut problems = Vec::new();
+    for file in sources {
+        let mut seen = BTreeSet::new();
+        for (token, line) in tokenize(&strip(&file.text)) {
+            let Some(to) = CRATES.iter().find(|c| c.names.contains(&token.as_str())) else {
+                continue;
+            };
+            if !seen.insert((line, to.dir)) {
+                continue;
+            }
+            let place = format!("{}:{line}", file.shown);
+            problems.extend(crate_violation(from, to, &token, &place));
+        }
+    }
+    problems
+}
+
+/// Dependencies in a crate's manifest on crates not below it.
+fn manifest_violations(from: &Crate, text: &str, shown: &str) -> Vec<String> {
+    let manifest: toml::Table = match toml::from_str(text) {
+        Ok(table) => table,
+        Err(e) => return vec![format!("{shown}: not valid TOML: {e}")],
+    };
+    let mut tables: Vec<&toml::Value> = Vec::new();
+    let kinds = ["dependencies", "dev-dependencies", "build-dependencies"];
+    tables.extend(kinds.iter().filter_map(|k| manifest.get(*k)));
+    if let Some(targets) = manifest.get("target").and_then(toml::Value::as_table) {
+        for target in targets.values() {
+            tables.extend(kinds.iter().filter_map(|k| target.get(*k)));
+        }
+    }
+    let mut problems = Vec::new();
+    for table in tables {
+        for (key, spec) in table.as_table().into_iter().flatten() {
+            let package = spec
+                .get("package")
+                .and_then(toml::Value::as_str)
+                .unwrap_or(key);
+            let by_path = spec
+                .get("path")
+                .and_then(toml::Value::as_str)
+                .and_then(|p| Path::new(p).file_name())
+                .and_then(|dir| CRATES.iter().find(|c| *c.dir == *dir));
+            let Some(to) = crate_named(package).or(by_path) else {
+                continue;
+            };
+            let place = format!("{shown}:{}", manifest_line(text, key));
+            problems.extend(crate_violation(from, to, package, &place));
+        }
+    }
+    problems
+}
+
+/// The line (from 1) where a manifest's dependency tables name `key`; 1 if none is found.
+fn manifest_line(text: &str, key: &str) -> usize {
+    let mut in_dependencies = false;
+    for (n, line) in text.lines().enumerate() {
+        let line = line.trim();
+        if let Some(header) = line.strip_prefix('[') {
+            let header = header.trim_end_matches(']').trim();
+            let last = header
+                .rsplit('.')
+                .next()
+                .unwrap_or(header)
+                .trim_matches('"');
+            if last == key && header.contains("dependencies.") {
+                return n + 1;
+            }
+            in_dependencies = header.ends_with("dependencies");
+            continue;
+        }
+        let named = line
+            .strip_prefix(key)
+            .or_else(|| line.strip_prefix(&format!("\"{key}\"")))
+            .and_then(|rest| rest.trim_start().chars().next())
+            .is_some_and(|c| c == '=' || c == '.');
+        if in_dependencies && named {
+            return n + 1;
+        }
+    }
+    1
+}
+
+/// Workspace members and excluded crates of the root manifest that `CRATES` does not list.
+fn unplaced_crates(text: &str, shown: &str) -> Vec<String> {
+    let manifest: toml::Table = match toml::from_str(text) {
+        Ok(table) => table,
+        Err(e) => return vec![format!("{shown}: not valid TOML: {e}")],
+    };
+    let workspace = manifest.get("workspace");
+    let mut problems = Vec::new();
+    for list in ["members", "exclude"] {
+        let dirs = workspace
+            .and_then(|w| w.get(list))
+            .and_then(toml::Value::as_array)
+            .into_iter()
+            .flatten()
+            .filter_map(toml::Value::as_str);
+        for dir in dirs {
+            if CRATES.iter().any(|c| c.dir == dir) {
+                continue;
+            }
+            let line = text
+                .lines()
+                .position(|l| l.contains(&format!("\"{dir}\"")))
+                .map_or(1, |n| n + 1);
+            problems.push(format!(
+                "{shown}:{line}: crate `{dir}` has no place in the crate order; give it one in \
+                 CRATES (core/tests/layering.rs) and in ARCHITECTURE.md (\"Layers\")"
+            ));
+        }
+    }
+    problems
 }
 
 /// Imports from a top-level module of core to one at its rank or above, or to an unlisted one.
