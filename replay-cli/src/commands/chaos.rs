@@ -165,17 +165,7 @@ fn run(
     let results: Vec<(u64, anyhow::Result<Outcome>)> = (first..=last)
         .into_par_iter()
         .map(|seed| {
-            let config = chaos::draw(seed, duration_s);
-            let outcome = match configs {
-                Some(dir) => {
-                    let path = config_path(dir, seed);
-                    std::fs::write(&path, config.to_toml()).map_err(|e| {
-                        anyhow::anyhow!("--configs: cannot write {}: {e}", path.display())
-                    })
-                }
-                None => Ok(()),
-            }
-            .and_then(|()| chaos::check(config, seed).map_err(anyhow::Error::from));
+            let outcome = run_seed(seed, duration_s, configs);
             progress(seed, &outcome, json);
             (seed, outcome)
         })
@@ -185,27 +175,61 @@ fn run(
         "ran {} seeds instead of {seeds}",
         results.len()
     );
-    let mut report = Report {
-        runs: results.len() as u64,
-        duration_s,
-        first_seed: first,
-        violations: Vec::new(),
-        wall_s: 0.0,
-        blocks_checked: 0,
-        liveness_checked: 0,
-        liveness_stalled: 0,
-        max_deepest_reorg: 0,
-        equivocations_detected: 0,
-        removed_sealers: 0,
-        bounds: Bounds {
-            prefix_bound_blocks: chaos::PREFIX_BOUND_BLOCKS,
-            settle_s: chaos::SETTLE_MS / 1000,
-            liveness_s: chaos::LIVENESS_MS / 1000,
-            deadline_slack_s: chaos::DEADLINE_SLACK_MS / 1000,
-            punish_s: chaos::PUNISH_MS / 1000,
-        },
-    };
+    let mut report = Report::new(results.len() as u64, duration_s, first);
     for (seed, outcome) in results {
+        report.add(seed, outcome)?;
+    }
+    report.wall_s = start.elapsed().as_secs_f64();
+    report.print(json)?;
+    Ok(if report.violations.is_empty() {
+        ExitCode::SUCCESS
+    } else {
+        ExitCode::from(1)
+    })
+}
+
+/// Draws seed `seed`'s configuration (written into `configs` if given) and checks its run.
+fn run_seed(seed: u64, duration_s: f64, configs: Option<&Path>) -> anyhow::Result<Outcome> {
+    let config = chaos::draw(seed, duration_s);
+    match configs {
+        Some(dir) => {
+            let path = config_path(dir, seed);
+            std::fs::write(&path, config.to_toml())
+                .map_err(|e| anyhow::anyhow!("--configs: cannot write {}: {e}", path.display()))
+        }
+        None => Ok(()),
+    }
+    .and_then(|()| chaos::check(config, seed).map_err(anyhow::Error::from))
+}
+
+impl Report {
+    /// The report of `runs` runs of `duration_s` from `first_seed`, before any is added.
+    fn new(runs: u64, duration_s: f64, first_seed: u64) -> Report {
+        Report {
+            runs,
+            duration_s,
+            first_seed,
+            violations: Vec::new(),
+            wall_s: 0.0,
+            blocks_checked: 0,
+            liveness_checked: 0,
+            liveness_stalled: 0,
+            max_deepest_reorg: 0,
+            equivocations_detected: 0,
+            removed_sealers: 0,
+            bounds: Bounds {
+                prefix_bound_blocks: chaos::PREFIX_BOUND_BLOCKS,
+                settle_s: chaos::SETTLE_MS / 1000,
+                liveness_s: chaos::LIVENESS_MS / 1000,
+                deadline_slack_s: chaos::DEADLINE_SLACK_MS / 1000,
+                punish_s: chaos::PUNISH_MS / 1000,
+            },
+        }
+    }
+
+    /// Adds seed `seed`'s outcome; an error, or a run that checked no block, is the campaign's
+    /// error.
+    fn add(&mut self, seed: u64, outcome: anyhow::Result<Outcome>) -> anyhow::Result<()> {
         let outcome = outcome.map_err(|e| e.context(format!("seed {seed}")))?;
         // Every run checks at least its genesis block, so a run that checked none did not check
         // anything and must not count as a pass.
@@ -213,47 +237,50 @@ fn run(
             outcome.blocks_checked > 0,
             "seed {seed}: no block was checked, so the run proves nothing"
         );
-        report.blocks_checked += outcome.blocks_checked;
-        report.liveness_checked += u64::from(outcome.liveness_checked);
-        report.liveness_stalled += u64::from(outcome.liveness_stalled);
-        report.max_deepest_reorg = report.max_deepest_reorg.max(outcome.deepest_reorg);
-        report.equivocations_detected += outcome.equivocations;
-        report.removed_sealers += outcome.removed_sealers;
+        self.blocks_checked += outcome.blocks_checked;
+        self.liveness_checked += u64::from(outcome.liveness_checked);
+        self.liveness_stalled += u64::from(outcome.liveness_stalled);
+        self.max_deepest_reorg = self.max_deepest_reorg.max(outcome.deepest_reorg);
+        self.equivocations_detected += outcome.equivocations;
+        self.removed_sealers += outcome.removed_sealers;
         if let Some(violation) = outcome.violation {
-            report.violations.push(SeedViolation {
+            self.violations.push(SeedViolation {
                 seed,
-                command: replay_command(seed, duration_s),
+                command: replay_command(seed, self.duration_s),
                 violation,
             });
         }
+        Ok(())
     }
-    report.wall_s = start.elapsed().as_secs_f64();
-    if json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
-    } else {
-        println!(
-            "{} runs of {duration_s} s, {} blocks checked, {} equivocations detected, {} sealers \
-             removed, {} stalled (quorum out of reach: stakes or data), {} violations, {:.1} s wall",
-            report.runs,
-            report.blocks_checked,
-            report.equivocations_detected,
-            report.removed_sealers,
-            report.liveness_stalled,
-            report.violations.len(),
-            report.wall_s
-        );
-        for v in &report.violations {
+
+    /// Prints the report on stdout: JSON with `json`, else a summary line and each violation
+    /// with the command that replays it.
+    fn print(&self, json: bool) -> anyhow::Result<()> {
+        let duration_s = self.duration_s;
+        if json {
+            println!("{}", serde_json::to_string_pretty(self)?);
+        } else {
             println!(
-                "seed {}: {} at {} ms: {}\n  replay: {}",
-                v.seed, v.violation.invariant, v.violation.at_ms, v.violation.detail, v.command
+                "{} runs of {duration_s} s, {} blocks checked, {} equivocations detected, \
+                 {} sealers removed, {} stalled (quorum out of reach: stakes or data), \
+                 {} violations, {:.1} s wall",
+                self.runs,
+                self.blocks_checked,
+                self.equivocations_detected,
+                self.removed_sealers,
+                self.liveness_stalled,
+                self.violations.len(),
+                self.wall_s
             );
+            for v in &self.violations {
+                println!(
+                    "seed {}: {} at {} ms: {}\n  replay: {}",
+                    v.seed, v.violation.invariant, v.violation.at_ms, v.violation.detail, v.command
+                );
+            }
         }
+        Ok(())
     }
-    Ok(if report.violations.is_empty() {
-        ExitCode::SUCCESS
-    } else {
-        ExitCode::from(1)
-    })
 }
 
 #[cfg(test)]

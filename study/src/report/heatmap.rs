@@ -428,6 +428,46 @@ fn col_lines(name: &str, cell_w: f64) -> Vec<String> {
     }
 }
 
+/// Where a heatmap's grid and colour bar fall on its canvas (logical px), from its layout.
+struct Placement {
+    l: Layout,
+    scale: Scale,
+    cell_w: f64,
+    cell_h: f64,
+    /// The grid's left and top edges.
+    left: f64,
+    top: f64,
+    /// The colour bar's left edge and height (the grid's).
+    bar_x: f64,
+    bar_h: f64,
+}
+
+impl Placement {
+    /// The placement of `map`'s parts.
+    fn of(map: &Heatmap) -> Placement {
+        let scale = map.scale();
+        let l = map.layout();
+        let cell_w = l.cell_w;
+        let cell_h = map.cell_h();
+        let (nc, nr) = (map.cols.len() as f64, map.rows.len() as f64);
+        let left = MARGIN + l.row_names;
+        let top = MARGIN + l.title_h;
+        let (bar_x, bar_h) = (left + cell_w * nc + BAR_GAP, cell_h * nr);
+        Placement {
+            l,
+            scale,
+            cell_w,
+            cell_h,
+            left,
+            top,
+            bar_x,
+            bar_h,
+        }
+    }
+}
+
+/// Draws `map` on `root` at scale `st`: the cells, the colour bar and (with `text`) the
+/// numbers, names and titles.
 fn draw_on<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     map: &Heatmap,
@@ -435,15 +475,28 @@ fn draw_on<DB: DrawingBackend>(
     st: Style,
 ) -> DrawResult<DB> {
     root.fill(&WHITE)?;
-    let scale = map.scale();
-    let l = map.layout();
-    let cell_w = l.cell_w;
-    let cell_h = map.cell_h();
-    let (nc, nr) = (map.cols.len() as f64, map.rows.len() as f64);
-    let left = MARGIN + l.row_names;
-    let top = MARGIN + l.title_h;
+    let at = Placement::of(map);
+    draw_cells(root, map, &at, text, st)?;
+    draw_bar(root, map, &at, st)?;
+    if !text {
+        return Ok(());
+    }
+    draw_bar_ticks(root, map, &at, st)?;
+    draw_titles(root, map, &at, st)?;
+    draw_names(root, map, &at, st)
+}
+
+/// The cells, each filled with its value's colour (with `text`, its number and name).
+fn draw_cells<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    at: &Placement,
+    text: bool,
+    st: Style,
+) -> DrawResult<DB> {
+    let (scale, cell_w, cell_h) = (at.scale, at.cell_w, at.cell_h);
+    let (left, top) = (at.left, at.top);
     let p = |x: f64, y: f64| (st.px(x), st.px(y));
-    let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     for (r, row) in map.values.iter().enumerate() {
         for (c, v) in row.iter().enumerate() {
             let (x, y) = (left + cell_w * c as f64, top + cell_h * r as f64);
@@ -484,9 +537,18 @@ fn draw_on<DB: DrawingBackend>(
             }
         }
     }
-    // The colour bar, top colour at the top.
-    let bar_x = left + cell_w * nc + BAR_GAP;
-    let bar_h = cell_h * nr;
+    Ok(())
+}
+
+/// The colour bar, top colour at the top, and its outline.
+fn draw_bar<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    at: &Placement,
+    st: Style,
+) -> DrawResult<DB> {
+    let (top, bar_x, bar_h) = (at.top, at.bar_x, at.bar_h);
+    let p = |x: f64, y: f64| (st.px(x), st.px(y));
     let steps = 64;
     for i in 0..steps {
         let t0 = i as f64 / steps as f64;
@@ -503,9 +565,19 @@ fn draw_on<DB: DrawingBackend>(
         [p(bar_x, top), p(bar_x + BAR_W, top + bar_h)],
         BLACK.mix(0.4).stroke_width(st.upx(1.0)),
     ))?;
-    if !text {
-        return Ok(());
-    }
+    Ok(())
+}
+
+/// The colour bar's ticks and their labels.
+fn draw_bar_ticks<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    at: &Placement,
+    st: Style,
+) -> DrawResult<DB> {
+    let (scale, top, bar_x, bar_h) = (at.scale, at.top, at.bar_x, at.bar_h);
+    let p = |x: f64, y: f64| (st.px(x), st.px(y));
+    let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     for (k, label) in map.bar_ticks(scale).into_iter().enumerate() {
         let y = top + bar_h * (1.0 - k as f64 / 4.0);
         root.draw(&PathElement::new(
@@ -518,6 +590,19 @@ fn draw_on<DB: DrawingBackend>(
             anchored(style::CELL, HPos::Left, VPos::Center),
         ))?;
     }
+    Ok(())
+}
+
+/// The title, then what the colour shows and where it is clipped.
+fn draw_titles<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    at: &Placement,
+    st: Style,
+) -> DrawResult<DB> {
+    let l = &at.l;
+    let p = |x: f64, y: f64| (st.px(x), st.px(y));
+    let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     // Title, then what the colour shows and where it is clipped.
     root.draw(&Text::new(
         map.title.clone(),
@@ -534,6 +619,22 @@ fn draw_on<DB: DrawingBackend>(
             anchored(style::CELL, HPos::Left, VPos::Top).color(&BLACK.mix(0.7)),
         ))?;
     }
+    Ok(())
+}
+
+/// The row names, right-aligned against the grid, the rows' title above them; the column
+/// names under the grid, the columns' title under them.
+fn draw_names<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    map: &Heatmap,
+    at: &Placement,
+    st: Style,
+) -> DrawResult<DB> {
+    let (l, cell_w, cell_h, bar_h) = (&at.l, at.cell_w, at.cell_h, at.bar_h);
+    let (left, top) = (at.left, at.top);
+    let nc = map.cols.len() as f64;
+    let p = |x: f64, y: f64| (st.px(x), st.px(y));
+    let anchored = |size: f64, h: HPos, v: VPos| st.font(size).color(&BLACK).pos(Pos::new(h, v));
     // Row names, right-aligned against the grid; the rows' title above them.
     for (r, name) in map.rows.iter().enumerate() {
         root.draw(&Text::new(

@@ -399,6 +399,7 @@ fn band_alpha(series: usize) -> f64 {
     }
 }
 
+/// Draws every series of `plot` (and with `text`, the legend) on `chart`.
 fn draw_series<'a, DB, X, Y>(
     chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
     plot: &Plot,
@@ -412,116 +413,13 @@ where
     Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
 {
     let log_y = plot.kind.log_y();
-    let line_w = st.upx(2.0);
-    let dot = st.px(4.0);
     for (i, s) in plot.series.iter().enumerate() {
-        let colour = COLOURS[i % COLOURS.len()];
         if s.points.is_empty() {
             continue;
         }
         match plot.kind {
-            Kind::Time { .. } => {
-                let lo = |st: &Stat| {
-                    let v = st.mean - st.ci.unwrap_or(0.0);
-                    if (log_y || plot.nonnegative) && v <= y_floor {
-                        y_floor
-                    } else {
-                        v
-                    }
-                };
-                let hi = |st: &Stat| st.mean + st.ci.unwrap_or(0.0);
-                let band: Vec<(f64, f64)> = s
-                    .points
-                    .iter()
-                    .map(|(t, st)| (*t, hi(st)))
-                    .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
-                    .collect();
-                chart.draw_series(std::iter::once(Polygon::new(
-                    band,
-                    colour.mix(band_alpha(plot.series.len())),
-                )))?;
-                let line = chart.draw_series(LineSeries::new(
-                    s.points.iter().map(|(t, st)| (*t, st.mean)),
-                    colour.stroke_width(line_w),
-                ))?;
-                if text {
-                    line.label(s.label.clone()).legend(move |(x, y)| {
-                        PathElement::new(
-                            vec![(x, y), (x + 2 * dot * 3, y)],
-                            colour.stroke_width(line_w),
-                        )
-                    });
-                }
-                // A line of one point draws nothing and a band of one point is a sliver:
-                // such a point gets a marker and an error bar, so a series the legend lists
-                // is always in the plot.
-                if let [(t, one)] = s.points.as_slice() {
-                    if !one.mean.is_finite() {
-                        continue;
-                    }
-                    chart.draw_series(std::iter::once(PathElement::new(
-                        vec![(*t, lo(one)), (*t, hi(one))],
-                        colour.stroke_width(line_w),
-                    )))?;
-                    chart.draw_series(std::iter::once(Circle::new(
-                        (*t, one.mean),
-                        dot,
-                        colour.filled(),
-                    )))?;
-                }
-            }
-            Kind::Versus | Kind::Scaling { .. } => {
-                // Series side by side, so that their error bars do not hide each other: by a
-                // step of the grid, or on a log axis by a factor.
-                let centre = if plot.x_ticks.is_empty() {
-                    0.5
-                } else {
-                    (plot.series.len() as f64 - 1.0) / 2.0
-                };
-                let shift = |x: f64| match plot.kind {
-                    Kind::Scaling { .. } => x * (1.0 + (i as f64 - 0.5) * 0.04),
-                    _ => x + (i as f64 - centre) * 0.08,
-                };
-                // A log axis shows no value at or below 0: such a point is left out and an
-                // interval's lower end stops at the axis.
-                let shown: Vec<(f64, Stat)> = s
-                    .points
-                    .iter()
-                    .filter(|(x, st)| match plot.kind {
-                        Kind::Scaling { .. } => *x > 0.0 && (!log_y || st.mean > 0.0),
-                        _ => true,
-                    })
-                    .map(|(x, st)| (shift(*x), *st))
-                    .collect();
-                let low = |v: f64| {
-                    if matches!(plot.kind, Kind::Scaling { .. }) && (log_y || plot.nonnegative) {
-                        v.max(y_floor)
-                    } else {
-                        v
-                    }
-                };
-                for (x, st) in &shown {
-                    if let Some(ci) = st.ci {
-                        chart.draw_series(std::iter::once(PathElement::new(
-                            vec![(*x, low(st.mean - ci)), (*x, st.mean + ci)],
-                            colour.stroke_width(line_w),
-                        )))?;
-                    }
-                }
-                chart.draw_series(LineSeries::new(
-                    shown.iter().map(|(x, st)| (*x, st.mean)),
-                    colour.mix(0.5).stroke_width(st.upx(1.0)),
-                ))?;
-                let dots = chart.draw_series(
-                    shown
-                        .iter()
-                        .map(|(x, st)| Circle::new((*x, st.mean), dot, colour.filled())),
-                )?;
-                if text {
-                    dots.label(s.label.clone())
-                        .legend(move |(x, y)| Circle::new((x + 2 * dot, y), dot, colour.filled()));
-                }
-            }
+            Kind::Time { .. } => draw_over_time(chart, plot, i, text, y_floor, st)?,
+            Kind::Versus | Kind::Scaling { .. } => draw_points(chart, plot, i, text, y_floor, st)?,
         }
     }
     if text {
@@ -534,6 +432,148 @@ where
             .border_style(BLACK.mix(0.4))
             .position(legend_corner(plot, log_y))
             .draw()?;
+    }
+    Ok(())
+}
+
+/// Series `i` of a plot over time: its mean as a line in its 95 % band (a lone point as a
+/// marker with an error bar), and with `text` its legend entry.
+fn draw_over_time<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    plot: &Plot,
+    i: usize,
+    text: bool,
+    y_floor: f64,
+    st: Style,
+) -> DrawResult<DB>
+where
+    DB: DrawingBackend + 'a,
+    X: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+    Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+{
+    let (s, colour) = (&plot.series[i], COLOURS[i % COLOURS.len()]);
+    let log_y = plot.kind.log_y();
+    let line_w = st.upx(2.0);
+    let dot = st.px(4.0);
+    let lo = |st: &Stat| {
+        let v = st.mean - st.ci.unwrap_or(0.0);
+        if (log_y || plot.nonnegative) && v <= y_floor {
+            y_floor
+        } else {
+            v
+        }
+    };
+    let hi = |st: &Stat| st.mean + st.ci.unwrap_or(0.0);
+    let band: Vec<(f64, f64)> = s
+        .points
+        .iter()
+        .map(|(t, st)| (*t, hi(st)))
+        .chain(s.points.iter().rev().map(|(t, st)| (*t, lo(st))))
+        .collect();
+    chart.draw_series(std::iter::once(Polygon::new(
+        band,
+        colour.mix(band_alpha(plot.series.len())),
+    )))?;
+    let line = chart.draw_series(LineSeries::new(
+        s.points.iter().map(|(t, st)| (*t, st.mean)),
+        colour.stroke_width(line_w),
+    ))?;
+    if text {
+        line.label(s.label.clone()).legend(move |(x, y)| {
+            PathElement::new(
+                vec![(x, y), (x + 2 * dot * 3, y)],
+                colour.stroke_width(line_w),
+            )
+        });
+    }
+    // A line of one point draws nothing and a band of one point is a sliver:
+    // such a point gets a marker and an error bar, so a series the legend lists
+    // is always in the plot.
+    if let [(t, one)] = s.points.as_slice() {
+        if !one.mean.is_finite() {
+            return Ok(());
+        }
+        chart.draw_series(std::iter::once(PathElement::new(
+            vec![(*t, lo(one)), (*t, hi(one))],
+            colour.stroke_width(line_w),
+        )))?;
+        chart.draw_series(std::iter::once(Circle::new(
+            (*t, one.mean),
+            dot,
+            colour.filled(),
+        )))?;
+    }
+    Ok(())
+}
+
+/// Series `i` of a plot against a parameter: a marker with an error bar at each value, joined
+/// by a faint line, shifted beside the other series; with `text` its legend entry.
+fn draw_points<'a, DB, X, Y>(
+    chart: &mut ChartContext<'a, DB, Cartesian2d<X, Y>>,
+    plot: &Plot,
+    i: usize,
+    text: bool,
+    y_floor: f64,
+    st: Style,
+) -> DrawResult<DB>
+where
+    DB: DrawingBackend + 'a,
+    X: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+    Y: plotters::coord::ranged1d::Ranged<ValueType = f64>,
+{
+    let (s, colour) = (&plot.series[i], COLOURS[i % COLOURS.len()]);
+    let log_y = plot.kind.log_y();
+    let line_w = st.upx(2.0);
+    let dot = st.px(4.0);
+    // Series side by side, so that their error bars do not hide each other: by a
+    // step of the grid, or on a log axis by a factor.
+    let centre = if plot.x_ticks.is_empty() {
+        0.5
+    } else {
+        (plot.series.len() as f64 - 1.0) / 2.0
+    };
+    let shift = |x: f64| match plot.kind {
+        Kind::Scaling { .. } => x * (1.0 + (i as f64 - 0.5) * 0.04),
+        _ => x + (i as f64 - centre) * 0.08,
+    };
+    // A log axis shows no value at or below 0: such a point is left out and an
+    // interval's lower end stops at the axis.
+    let shown: Vec<(f64, Stat)> = s
+        .points
+        .iter()
+        .filter(|(x, st)| match plot.kind {
+            Kind::Scaling { .. } => *x > 0.0 && (!log_y || st.mean > 0.0),
+            _ => true,
+        })
+        .map(|(x, st)| (shift(*x), *st))
+        .collect();
+    let low = |v: f64| {
+        if matches!(plot.kind, Kind::Scaling { .. }) && (log_y || plot.nonnegative) {
+            v.max(y_floor)
+        } else {
+            v
+        }
+    };
+    for (x, st) in &shown {
+        if let Some(ci) = st.ci {
+            chart.draw_series(std::iter::once(PathElement::new(
+                vec![(*x, low(st.mean - ci)), (*x, st.mean + ci)],
+                colour.stroke_width(line_w),
+            )))?;
+        }
+    }
+    chart.draw_series(LineSeries::new(
+        shown.iter().map(|(x, st)| (*x, st.mean)),
+        colour.mix(0.5).stroke_width(st.upx(1.0)),
+    ))?;
+    let dots = chart.draw_series(
+        shown
+            .iter()
+            .map(|(x, st)| Circle::new((*x, st.mean), dot, colour.filled())),
+    )?;
+    if text {
+        dots.label(s.label.clone())
+            .legend(move |(x, y)| Circle::new((x + 2 * dot, y), dot, colour.filled()));
     }
     Ok(())
 }

@@ -135,105 +135,8 @@ pub fn markdown(
          All numbers at full precision: `numbers.csv`, `series.csv`; wall-clock times: \
          `timing.csv`.\n"
     );
-    let get = |p: &PointStats, k: &str, digits: usize| {
-        p.metrics
-            .get(k)
-            .map_or_else(|| "n/a".to_string(), |s| s.text(digits))
-    };
     for e in stats {
-        let _ = writeln!(md, "## {}\n", e.name);
-        for f in figures.iter().filter(|f| f.experiment == e.name) {
-            let _ = writeln!(
-                md,
-                "![{}]({}.png)\n\n*{}* ([SVG]({}.svg))\n",
-                f.caption, f.stem, f.caption, f.stem
-            );
-        }
-        if e.name == robustness::EXPERIMENT {
-            let _ = writeln!(
-                md,
-                "Worst case: for each rule, the attack that leaves the highest final held-out \
-                 loss at each Byzantine count, and that loss as a multiple of the rule's clean \
-                 run (`e4-worst-case.csv`).\n\n{}",
-                robustness::worst_case(e).0
-            );
-        }
-        if let (true, Some(b)) = (e.name == benchmark::EXPERIMENT, bench) {
-            let _ = writeln!(md, "{}", benchmark::tables(b).0);
-        }
-        if e.name == defence::EXPERIMENT {
-            let _ = writeln!(
-                md,
-                "When the Byzantine robots held more than `byzantine.switch_token_share` of the \
-                 balances on the final chain (`tokens.byzantine_control`; `smart-then-collude` \
-                 switches then):\n\n{}",
-                defence::control_table(e)
-            );
-        }
-        if scale::is_home(scale_rows, &e.name) {
-            let _ = writeln!(md, "{}", scale::section(scale_rows));
-        }
-        let (keys, coordinates) = point_columns(e);
-        let _ = writeln!(
-            md,
-            "| point | {} | runs | rounds | final loss | final held-out loss | honest gain (tokens) | Byzantine gain (tokens) | chain MB | wall s/run |",
-            keys.join(" | ")
-        );
-        let _ = writeln!(
-            md,
-            "|---|{}---|---|---|---|---|---|---|---|",
-            "---|".repeat(keys.len())
-        );
-        for (p, coordinates) in e.points.iter().zip(&coordinates) {
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
-                p.point,
-                coordinates.join(" | "),
-                p.seeds.len(),
-                get(p, "rounds", 1),
-                get(p, "final_loss", 5),
-                get(p, "final_heldout_loss", 5),
-                get(p, "honest_gain", 2),
-                get(p, "byzantine_gain", 2),
-                get(p, "chain_mb", 2),
-                p.wall_s.map_or_else(|| "n/a".to_string(), |s| s.text(1)),
-            );
-        }
-        let _ = writeln!(
-            md,
-            "\nSettings: preset `{}`; per point the simulated duration and every override \
-             (the point's, then the sweep's `--set`).\n\n| point | duration s | overrides |\n|---|---|---|",
-            e.preset
-        );
-        for p in &e.points {
-            let overrides = overrides_text(p);
-            let _ = writeln!(
-                md,
-                "| {} | {} | {} |",
-                p.point,
-                p.duration_s
-                    .map_or_else(|| "n/a".to_string(), |d| d.to_string()),
-                if overrides.is_empty() {
-                    "(none)".to_string()
-                } else {
-                    format!("`{}`", overrides.replace('|', "\\|"))
-                }
-            );
-        }
-        let mut missing: BTreeMap<&str, usize> = BTreeMap::new();
-        for p in &e.points {
-            for (k, n) in &p.missing {
-                *missing.entry(k).or_default() += n;
-            }
-        }
-        for (section, n) in missing {
-            let _ = writeln!(
-                md,
-                "\nNote: {n} result files have no `{section}` section; the figures and columns that need it are skipped (n/a)."
-            );
-        }
-        let _ = writeln!(md);
+        experiment_section(&mut md, e, figures, scale_rows, bench);
     }
     if !notes.is_empty() {
         let _ = writeln!(md, "## Notes\n");
@@ -242,6 +145,121 @@ pub fn markdown(
         }
     }
     md
+}
+
+/// An experiment's section of `report.md`: its figures, its own tables, then
+/// [`points_tables`].
+fn experiment_section(
+    md: &mut String,
+    e: &ExperimentStats,
+    figures: &[Figure],
+    scale_rows: &[scale::Row],
+    bench: Option<&benchmark::Bench>,
+) {
+    let _ = writeln!(md, "## {}\n", e.name);
+    for f in figures.iter().filter(|f| f.experiment == e.name) {
+        let _ = writeln!(
+            md,
+            "![{}]({}.png)\n\n*{}* ([SVG]({}.svg))\n",
+            f.caption, f.stem, f.caption, f.stem
+        );
+    }
+    if e.name == robustness::EXPERIMENT {
+        let _ = writeln!(
+            md,
+            "Worst case: for each rule, the attack that leaves the highest final held-out \
+             loss at each Byzantine count, and that loss as a multiple of the rule's clean \
+             run (`e4-worst-case.csv`).\n\n{}",
+            robustness::worst_case(e).0
+        );
+    }
+    if let (true, Some(b)) = (e.name == benchmark::EXPERIMENT, bench) {
+        let _ = writeln!(md, "{}", benchmark::tables(b).0);
+    }
+    if e.name == defence::EXPERIMENT {
+        let _ = writeln!(
+            md,
+            "When the Byzantine robots held more than `byzantine.switch_token_share` of the \
+             balances on the final chain (`tokens.byzantine_control`; `smart-then-collude` \
+             switches then):\n\n{}",
+            defence::control_table(e)
+        );
+    }
+    if scale::is_home(scale_rows, &e.name) {
+        let _ = writeln!(md, "{}", scale::section(scale_rows));
+    }
+    points_tables(md, e);
+    let _ = writeln!(md);
+}
+
+/// The table of every point's numbers, the table of every point's settings and a note per
+/// section some result files lack.
+fn points_tables(md: &mut String, e: &ExperimentStats) {
+    let get = |p: &PointStats, k: &str, digits: usize| {
+        p.metrics
+            .get(k)
+            .map_or_else(|| "n/a".to_string(), |s| s.text(digits))
+    };
+    let (keys, coordinates) = point_columns(e);
+    let _ = writeln!(
+        md,
+        "| point | {} | runs | rounds | final loss | final held-out loss | honest gain (tokens) | Byzantine gain (tokens) | chain MB | wall s/run |",
+        keys.join(" | ")
+    );
+    let _ = writeln!(
+        md,
+        "|---|{}---|---|---|---|---|---|---|---|",
+        "---|".repeat(keys.len())
+    );
+    for (p, coordinates) in e.points.iter().zip(&coordinates) {
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            p.point,
+            coordinates.join(" | "),
+            p.seeds.len(),
+            get(p, "rounds", 1),
+            get(p, "final_loss", 5),
+            get(p, "final_heldout_loss", 5),
+            get(p, "honest_gain", 2),
+            get(p, "byzantine_gain", 2),
+            get(p, "chain_mb", 2),
+            p.wall_s.map_or_else(|| "n/a".to_string(), |s| s.text(1)),
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\nSettings: preset `{}`; per point the simulated duration and every override \
+         (the point's, then the sweep's `--set`).\n\n| point | duration s | overrides |\n|---|---|---|",
+        e.preset
+    );
+    for p in &e.points {
+        let overrides = overrides_text(p);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} |",
+            p.point,
+            p.duration_s
+                .map_or_else(|| "n/a".to_string(), |d| d.to_string()),
+            if overrides.is_empty() {
+                "(none)".to_string()
+            } else {
+                format!("`{}`", overrides.replace('|', "\\|"))
+            }
+        );
+    }
+    let mut missing: BTreeMap<&str, usize> = BTreeMap::new();
+    for p in &e.points {
+        for (k, n) in &p.missing {
+            *missing.entry(k).or_default() += n;
+        }
+    }
+    for (section, n) in missing {
+        let _ = writeln!(
+            md,
+            "\nNote: {n} result files have no `{section}` section; the figures and columns that need it are skipped (n/a)."
+        );
+    }
 }
 
 #[cfg(test)]
