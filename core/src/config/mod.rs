@@ -14,6 +14,7 @@
 mod registry;
 
 mod behaviour;
+mod behaviour_fit;
 mod byzantine;
 mod contract;
 mod error;
