@@ -468,28 +468,13 @@ impl<'a> ChainWalk<'a> {
     /// Block `entry` aggregated a round: its paper loss (over the honest models aggregated),
     /// held-out loss, mean honest distance and outlier bound.
     fn close_round(&mut self, entry: &BlockEntry) {
-        let s = &mut self.summary;
-        let (mut weighted, mut samples) = (0.0f64, 0.0f64);
-        for tx in &self.round_txs {
-            match self.metrics.trained.get(tx) {
-                Some(record) if record.val_loss.is_finite() => {
-                    weighted += f64::from(record.train_samples) * record.val_loss;
-                    samples += f64::from(record.train_samples);
-                    s.aggregated_honest += 1;
-                }
-                Some(_) => s.aggregated_honest += 1,
-                None => s.aggregated_byzantine += 1,
-            }
-        }
+        let loss = aggregated_loss(&mut self.summary, self.metrics, &self.round_txs);
         self.round_txs.clear();
+        let s = &mut self.summary;
         s.rounds += 1;
         s.round_times_s
             .push(entry.block.header.timestamp_ms as f64 / 1000.0);
-        s.loss_by_round.push(if samples > 0.0 {
-            weighted / samples
-        } else {
-            f64::NAN
-        });
+        s.loss_by_round.push(loss);
         s.heldout_loss_by_round
             .push(self.heldout.of(&entry.state.weights));
         s.mean_honest_distance_by_round
@@ -513,6 +498,34 @@ impl<'a> ChainWalk<'a> {
         s.final_loss = s.loss_by_round.last().copied();
         s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
         s
+    }
+}
+
+/// The paper's loss of one aggregation of `models`: the sample-weighted mean validation loss
+/// of its honest models (NaN if none has a finite one; Byzantine models have none). Counts each
+/// model under `s.aggregated_honest` or `s.aggregated_byzantine`. The chain's rounds and the
+/// baselines' aggregations (`aggregation/summary.rs`) share it.
+pub(crate) fn aggregated_loss<'a>(
+    s: &mut ContractSummary,
+    metrics: &Metrics,
+    models: impl IntoIterator<Item = &'a TxHash>,
+) -> f64 {
+    let (mut weighted, mut samples) = (0.0f64, 0.0f64);
+    for tx in models {
+        match metrics.trained.get(tx) {
+            Some(record) if record.val_loss.is_finite() => {
+                weighted += f64::from(record.train_samples) * record.val_loss;
+                samples += f64::from(record.train_samples);
+                s.aggregated_honest += 1;
+            }
+            Some(_) => s.aggregated_honest += 1,
+            None => s.aggregated_byzantine += 1,
+        }
+    }
+    if samples > 0.0 {
+        weighted / samples
+    } else {
+        f64::NAN
     }
 }
 
