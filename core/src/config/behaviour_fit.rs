@@ -5,8 +5,8 @@
 
 use super::behaviour::{Avoidance, Behaviour, ForagingRule, MixedAssign, PLACE_LAYOUT_HALF_M};
 use super::error::ConfigError;
+use super::ranges::{integer, number, out_of_range, positive};
 use super::tree::Config;
-use super::validate::{integer, number, out_of_range, positive};
 use crate::types::show_f64;
 
 /// `world.avoidance = "epuck"` weighs the e-puck's eight sensors one by one, and `"khepera"`

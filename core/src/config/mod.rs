@@ -25,6 +25,7 @@ mod preagg;
 mod preagg_fit;
 mod preset;
 mod protocol_fit;
+mod ranges;
 mod skip;
 mod tree;
 mod validate;

@@ -4,15 +4,8 @@
 use super::contract::{ContractEngine, Rule};
 use super::error::ConfigError;
 use super::preagg::{Preaggregator, MAX_STAGES};
+use super::ranges::out_of_range as refuse;
 use super::tree::{Aggregation, Config};
-
-fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: key.to_string(),
-        value,
-        allowed,
-    })
-}
 
 /// The pre-aggregator chain fits the rest of the configuration: a staking rule on the chain's
 /// native contract, at most [`MAX_STAGES`] stages, a bucket size of at least 1 (at most the quorum under

@@ -10,6 +10,9 @@ use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
+use super::ranges::{
+    integer, integer_range, number, number_range, out_of_range, positive, positive_range,
+};
 use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
 use crate::types::show_f64;
@@ -144,53 +147,6 @@ fn table(c: &Config) -> Vec<Step> {
         Across(defences_need_stakes),
         Across(super::preagg_fit::chain_fits),
     ]
-}
-
-pub(super) fn out_of_range(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: key.to_string(),
-        value,
-        allowed,
-    })
-}
-
-/// What [`Step::Number`] allows.
-fn number_range(lo: f64, hi: f64) -> String {
-    format!("a number in [{}, {}]", show_f64(lo), show_f64(hi))
-}
-
-/// What [`Step::Positive`] allows.
-fn positive_range(hi: f64) -> String {
-    format!("a number in (0, {}]", show_f64(hi))
-}
-
-/// What [`Step::Integer`] allows.
-fn integer_range(lo: u64, hi: u64) -> String {
-    format!("an integer in [{lo}, {hi}]")
-}
-
-pub(super) fn number(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value >= lo && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, show_f64(value), number_range(lo, hi))
-    }
-}
-
-pub(super) fn positive(key: &str, value: f64, hi: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value > 0.0 && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, show_f64(value), positive_range(hi))
-    }
-}
-
-pub(super) fn integer(key: &str, value: u64, lo: u64, hi: u64) -> Result<(), ConfigError> {
-    if value >= lo && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, value.to_string(), integer_range(lo, hi))
-    }
 }
 
 /// What `key` allows when the table has a row for it (`an integer in [1, 10000]`), as
