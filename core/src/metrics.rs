@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 use crate::config::Config;
 use crate::contract::{Call, Outcome};
 use crate::learn::{self, ModelShape, TrainData};
-use crate::ledger::{Ledger, TxHash};
+use crate::ledger::{BlockEntry, Ledger, TxHash};
 use crate::types::{Digest, RobotId, SimTime};
 
 /// What a robot did in one learning phase. Logged as an event because only the robot knows it:
@@ -317,126 +317,227 @@ pub fn summarise(
     heldout: &[crate::data::Sample],
     byzantine: &[bool],
 ) -> (ContractSummary, TokenSummary) {
-    let scale = config.contract.weight_scale;
     let heldout = HeldoutLoss::new(config, heldout);
-    let heldout_loss = |weights: &[i64]| heldout.of(weights);
     let best = best_node(ledger);
-    let chain = ledger.canonical_chain(best);
-    let mut s = ContractSummary {
-        rounds: 0,
-        round_times_s: vec![],
-        loss_by_round: vec![],
-        heldout_loss_by_round: vec![],
-        heldout_loss_initial: heldout_loss(&ledger.params().genesis_weights),
-        final_loss: None,
-        final_heldout_loss: None,
-        mean_honest_distance: None,
-        outlier_threshold: config.contract.outlier_threshold,
-        mean_honest_distance_by_round: vec![],
-        outlier_bound_by_round: vec![],
-        honest_outliers: ledger.params().outlier.map(|_| 0),
-        max_claimed_samples: Some(ledger.params().claim_bound.max_samples),
-        rounds_timed_out: ledger.head_state(best).rounds_timed_out,
-        submissions: BTreeMap::new(),
-        aggregated_honest: 0,
-        aggregated_byzantine: 0,
-        skipped: metrics
-            .skipped
-            .iter()
-            .map(|(k, v)| (k.name().to_string(), *v))
-            .collect(),
-    };
-    let (mut honest_distance_sum, mut honest_accepted) = (0.0f64, 0u64);
-    let (mut round_distance_sum, mut round_honest) = (0.0f64, 0u64);
-    let mut round_txs: Vec<TxHash> = Vec::new();
+    let mut walk = ChainWalk::new(config, ledger, metrics, &heldout, byzantine, best);
     let mut control: Option<ControlPoint> = None;
     let any_byzantine = byzantine.iter().any(|&b| b);
-    for hash in chain {
+    for hash in ledger.canonical_chain(best) {
         let entry = ledger.block(hash).expect("canonical blocks are stored");
         if any_byzantine && control.is_none() {
-            let share = byzantine_share(&entry.state.balances, byzantine);
-            if share > config.byzantine.switch_token_share {
-                control = Some(ControlPoint {
-                    height: entry.block.header.height,
-                    time_s: entry.block.header.timestamp_ms as f64 / 1000.0,
-                    share,
-                    heldout_loss: heldout_loss(&entry.state.weights),
-                });
-            }
+            control = control_point(config, entry, byzantine, &heldout);
         }
         for (tx_hash, outcome) in entry.block.txs.iter().zip(entry.receipts.iter()) {
-            let Some(submitted) = ledger.tx(tx_hash).filter(|t| {
-                matches!(
-                    t.tx.call,
-                    Call::SubmitModel { .. } | Call::SubmitUpdate { .. }
-                )
-            }) else {
-                continue;
-            };
-            *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;
-            if outcome.is_accepted() {
-                round_txs.push(*tx_hash);
-            }
-            let honest = !byzantine
-                .get(submitted.tx.sender as usize)
-                .copied()
-                .unwrap_or(false);
-            if let (true, Outcome::Outlier { .. }, Some(n)) =
-                (honest, outcome, s.honest_outliers.as_mut())
-            {
-                *n += 1;
-            }
-            if let (true, Outcome::Accepted { distance_units, .. })
-            | (true, Outcome::Aggregated { distance_units, .. }) = (honest, outcome)
-            {
-                let d = ledger.params().distance_per_weight(*distance_units, scale);
-                honest_distance_sum += d;
-                honest_accepted += 1;
-                round_distance_sum += d;
-                round_honest += 1;
-            }
-            if let Outcome::Aggregated { .. } = outcome {
-                let (mut weighted, mut samples) = (0.0f64, 0.0f64);
-                for tx in &round_txs {
-                    match metrics.trained.get(tx) {
-                        Some(record) if record.val_loss.is_finite() => {
-                            weighted += f64::from(record.train_samples) * record.val_loss;
-                            samples += f64::from(record.train_samples);
-                            s.aggregated_honest += 1;
-                        }
-                        Some(_) => s.aggregated_honest += 1,
-                        None => s.aggregated_byzantine += 1,
-                    }
-                }
-                round_txs.clear();
-                s.rounds += 1;
-                s.round_times_s
-                    .push(entry.block.header.timestamp_ms as f64 / 1000.0);
-                s.loss_by_round.push(if samples > 0.0 {
-                    weighted / samples
-                } else {
-                    f64::NAN
-                });
-                s.heldout_loss_by_round
-                    .push(heldout_loss(&entry.state.weights));
-                s.mean_honest_distance_by_round.push(if round_honest > 0 {
-                    round_distance_sum / round_honest as f64
-                } else {
-                    f64::NAN
-                });
-                (round_distance_sum, round_honest) = (0.0, 0);
-                if ledger.params().outlier.is_some() {
-                    s.outlier_bound_by_round
-                        .push(entry.state.outlier_bound(ledger.params(), scale));
-                }
-            }
+            walk.receipt(entry, tx_hash, outcome);
         }
     }
-    s.mean_honest_distance =
-        (honest_accepted > 0).then(|| honest_distance_sum / honest_accepted as f64);
-    s.final_loss = s.loss_by_round.last().copied();
-    s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
+    let contract = walk.finish();
+    let tokens = token_summary(config, ledger, best, byzantine, control);
+    (contract, tokens)
+}
 
+/// The block `entry` as the moment the Byzantine robots took control of the tokens, if their
+/// share of the balances after it is above `byzantine.switch_token_share`.
+fn control_point(
+    config: &Config,
+    entry: &BlockEntry,
+    byzantine: &[bool],
+    heldout: &HeldoutLoss,
+) -> Option<ControlPoint> {
+    let share = byzantine_share(&entry.state.balances, byzantine);
+    (share > config.byzantine.switch_token_share).then(|| ControlPoint {
+        height: entry.block.header.height,
+        time_s: entry.block.header.timestamp_ms as f64 / 1000.0,
+        share,
+        heldout_loss: heldout.of(&entry.state.weights),
+    })
+}
+
+/// The contract section, folded receipt by receipt along the final canonical chain.
+struct ChainWalk<'a> {
+    ledger: &'a Ledger,
+    metrics: &'a Metrics,
+    heldout: &'a HeldoutLoss,
+    byzantine: &'a [bool],
+    scale: u64,
+    /// The section so far.
+    summary: ContractSummary,
+    /// Sum and count of the accepted honest submissions' distances, over the whole chain.
+    honest_distance_sum: f64,
+    honest_accepted: u64,
+    /// The same within the round under way.
+    round_distance_sum: f64,
+    round_honest: u64,
+    /// The accepted submissions of the round under way.
+    round_txs: Vec<TxHash>,
+}
+
+impl<'a> ChainWalk<'a> {
+    /// A walk that has seen no block yet: the figures known before the first one (the genesis
+    /// model's held-out loss, the contract's parameters, the robots' skipped phases).
+    fn new(
+        config: &Config,
+        ledger: &'a Ledger,
+        metrics: &'a Metrics,
+        heldout: &'a HeldoutLoss,
+        byzantine: &'a [bool],
+        best: RobotId,
+    ) -> ChainWalk<'a> {
+        let s = ContractSummary {
+            rounds: 0,
+            round_times_s: vec![],
+            loss_by_round: vec![],
+            heldout_loss_by_round: vec![],
+            heldout_loss_initial: heldout.of(&ledger.params().genesis_weights),
+            final_loss: None,
+            final_heldout_loss: None,
+            mean_honest_distance: None,
+            outlier_threshold: config.contract.outlier_threshold,
+            mean_honest_distance_by_round: vec![],
+            outlier_bound_by_round: vec![],
+            honest_outliers: ledger.params().outlier.map(|_| 0),
+            max_claimed_samples: Some(ledger.params().claim_bound.max_samples),
+            rounds_timed_out: ledger.head_state(best).rounds_timed_out,
+            submissions: BTreeMap::new(),
+            aggregated_honest: 0,
+            aggregated_byzantine: 0,
+            skipped: metrics
+                .skipped
+                .iter()
+                .map(|(k, v)| (k.name().to_string(), *v))
+                .collect(),
+        };
+        ChainWalk {
+            ledger,
+            metrics,
+            heldout,
+            byzantine,
+            scale: config.contract.weight_scale,
+            summary: s,
+            honest_distance_sum: 0.0,
+            honest_accepted: 0,
+            round_distance_sum: 0.0,
+            round_honest: 0,
+            round_txs: Vec::new(),
+        }
+    }
+
+    /// Folds the receipt of transaction `tx_hash` in block `entry`; only model submissions
+    /// count.
+    fn receipt(&mut self, entry: &BlockEntry, tx_hash: &TxHash, outcome: &Outcome) {
+        let Some(submitted) = self.ledger.tx(tx_hash).filter(|t| {
+            matches!(
+                t.tx.call,
+                Call::SubmitModel { .. } | Call::SubmitUpdate { .. }
+            )
+        }) else {
+            return;
+        };
+        let s = &mut self.summary;
+        *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;
+        if outcome.is_accepted() {
+            self.round_txs.push(*tx_hash);
+        }
+        let honest = !self
+            .byzantine
+            .get(submitted.tx.sender as usize)
+            .copied()
+            .unwrap_or(false);
+        if let (true, Outcome::Outlier { .. }, Some(n)) =
+            (honest, outcome, s.honest_outliers.as_mut())
+        {
+            *n += 1;
+        }
+        if let (true, Outcome::Accepted { distance_units, .. })
+        | (true, Outcome::Aggregated { distance_units, .. }) = (honest, outcome)
+        {
+            let d = self
+                .ledger
+                .params()
+                .distance_per_weight(*distance_units, self.scale);
+            self.honest_distance_sum += d;
+            self.honest_accepted += 1;
+            self.round_distance_sum += d;
+            self.round_honest += 1;
+        }
+        if let Outcome::Aggregated { .. } = outcome {
+            self.close_round(entry);
+        }
+    }
+
+    /// Block `entry` aggregated a round: its paper loss (over the honest models aggregated),
+    /// held-out loss, mean honest distance and outlier bound.
+    fn close_round(&mut self, entry: &BlockEntry) {
+        let loss = aggregated_loss(&mut self.summary, self.metrics, &self.round_txs);
+        self.round_txs.clear();
+        let s = &mut self.summary;
+        s.rounds += 1;
+        s.round_times_s
+            .push(entry.block.header.timestamp_ms as f64 / 1000.0);
+        s.loss_by_round.push(loss);
+        s.heldout_loss_by_round
+            .push(self.heldout.of(&entry.state.weights));
+        s.mean_honest_distance_by_round
+            .push(if self.round_honest > 0 {
+                self.round_distance_sum / self.round_honest as f64
+            } else {
+                f64::NAN
+            });
+        (self.round_distance_sum, self.round_honest) = (0.0, 0);
+        if self.ledger.params().outlier.is_some() {
+            s.outlier_bound_by_round
+                .push(entry.state.outlier_bound(self.ledger.params(), self.scale));
+        }
+    }
+
+    /// The section after the last block: the means and final losses filled in.
+    fn finish(self) -> ContractSummary {
+        let mut s = self.summary;
+        s.mean_honest_distance = (self.honest_accepted > 0)
+            .then(|| self.honest_distance_sum / self.honest_accepted as f64);
+        s.final_loss = s.loss_by_round.last().copied();
+        s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
+        s
+    }
+}
+
+/// The paper's loss of one aggregation of `models`: the sample-weighted mean validation loss
+/// of its honest models (NaN if none has a finite one; Byzantine models have none). Counts each
+/// model under `s.aggregated_honest` or `s.aggregated_byzantine`. The chain's rounds and the
+/// baselines' aggregations (`aggregation/summary.rs`) share it.
+pub(crate) fn aggregated_loss<'a>(
+    s: &mut ContractSummary,
+    metrics: &Metrics,
+    models: impl IntoIterator<Item = &'a TxHash>,
+) -> f64 {
+    let (mut weighted, mut samples) = (0.0f64, 0.0f64);
+    for tx in models {
+        match metrics.trained.get(tx) {
+            Some(record) if record.val_loss.is_finite() => {
+                weighted += f64::from(record.train_samples) * record.val_loss;
+                samples += f64::from(record.train_samples);
+                s.aggregated_honest += 1;
+            }
+            Some(_) => s.aggregated_honest += 1,
+            None => s.aggregated_byzantine += 1,
+        }
+    }
+    if samples > 0.0 {
+        weighted / samples
+    } else {
+        f64::NAN
+    }
+}
+
+/// The tokens section: conservation, each group's mean gain and the balances at node `best`'s
+/// head, and the control point found along its chain.
+fn token_summary(
+    config: &Config,
+    ledger: &Ledger,
+    best: RobotId,
+    byzantine: &[bool],
+    control: Option<ControlPoint>,
+) -> TokenSummary {
     let head = ledger.head_state(best);
     let units = config.contract.token_units as f64;
     let initial = (config.contract.initial_tokens * config.contract.token_units) as f64;
@@ -450,7 +551,7 @@ pub fn summarise(
             .collect();
         (!gains.is_empty()).then(|| gains.iter().sum::<f64>() / gains.len() as f64)
     };
-    let tokens = TokenSummary {
+    TokenSummary {
         total_units_start: ledger.params().total_units(),
         total_units_end: head.total_units(),
         honest_mean_gain: gain(false),
@@ -458,6 +559,5 @@ pub fn summarise(
         balances: head.balances.iter().map(|&b| b as f64 / units).collect(),
         contract_holdings: head.holdings_units as f64 / units,
         byzantine_control: control,
-    };
-    (s, tokens)
+    }
 }

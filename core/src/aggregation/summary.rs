@@ -7,12 +7,11 @@ use std::collections::BTreeMap;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use super::AggregationState;
+use super::{AggregationRecord, AggregationState};
 use crate::config::{Aggregation, Config};
 use crate::data::Sample;
 use crate::ledger::LedgerStats;
-use crate::metrics::HeldoutLoss;
-use crate::metrics::{ContractSummary, Metrics};
+use crate::metrics::{aggregated_loss, ContractSummary, HeldoutLoss, Metrics};
 
 /// The `aggregation` section of `summary.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -99,32 +98,28 @@ pub fn summarise(
     byzantine: &[bool],
 ) -> (ContractSummary, AggregationSummary) {
     let heldout = HeldoutLoss::new(config, heldout);
-    let heldout_loss = |weights: &[i64]| heldout.of(weights);
     let is_byzantine = |r: u32| byzantine.get(r as usize).copied().unwrap_or(false);
-    let records: Vec<_> = state
+    let records: Vec<&AggregationRecord> = state
         .aggregations
         .iter()
         .filter(|a| a.robot.is_none_or(|r| !is_byzantine(r)))
         .collect();
     // Held-out evaluations are independent: computed in parallel, collected in order.
-    let heldout_losses: Vec<f64> = records
-        .par_iter()
-        .map(|a| heldout_loss(&a.weights))
-        .collect();
+    let heldout_losses: Vec<f64> = records.par_iter().map(|a| heldout.of(&a.weights)).collect();
     let honest: Vec<u32> = (0..config.world.robots)
         .filter(|&r| !is_byzantine(r))
         .collect();
     let models = state.models();
     let per_robot: Vec<f64> = honest
         .par_iter()
-        .map(|&r| heldout_loss(&models[r as usize]))
+        .map(|&r| heldout.of(&models[r as usize]))
         .collect();
     let mut s = ContractSummary {
         rounds: records.len() as u64,
         round_times_s: records.iter().map(|a| a.time.secs()).collect(),
         loss_by_round: Vec::with_capacity(records.len()),
         heldout_loss_by_round: heldout_losses,
-        heldout_loss_initial: heldout_loss(state.genesis()),
+        heldout_loss_initial: heldout.of(state.genesis()),
         final_loss: None,
         final_heldout_loss: None,
         // No contract measures distances to a shared model.
@@ -145,31 +140,10 @@ pub fn summarise(
             .collect(),
     };
     for a in &records {
-        let (mut weighted, mut samples) = (0.0f64, 0.0f64);
-        for hash in &a.models {
-            match metrics.trained.get(hash) {
-                Some(record) if record.val_loss.is_finite() => {
-                    weighted += f64::from(record.train_samples) * record.val_loss;
-                    samples += f64::from(record.train_samples);
-                    s.aggregated_honest += 1;
-                }
-                Some(_) => s.aggregated_honest += 1,
-                None => s.aggregated_byzantine += 1,
-            }
-        }
-        s.loss_by_round.push(if samples > 0.0 {
-            weighted / samples
-        } else {
-            f64::NAN
-        });
+        let loss = aggregated_loss(&mut s, metrics, &a.models);
+        s.loss_by_round.push(loss);
     }
-    let written = metrics.trained.len() as u64 + metrics.forged;
-    let duplicates = state.server.duplicates;
-    s.submissions
-        .insert("accepted".to_string(), written.saturating_sub(duplicates));
-    if duplicates > 0 {
-        s.submissions.insert("duplicate".to_string(), duplicates);
-    }
+    count_submissions(&mut s, state, metrics);
     s.final_loss = s.loss_by_round.last().copied();
     s.final_heldout_loss = match state.kind() {
         Aggregation::Central => s.heldout_loss_by_round.last().copied(),
@@ -177,8 +151,26 @@ pub fn summarise(
             (!per_robot.is_empty()).then(|| per_robot.iter().sum::<f64>() / per_robot.len() as f64)
         }
     };
+    (s, baseline_summary(state, per_robot))
+}
+
+/// A baseline's submissions: every model written (trained or forged) is `accepted` but for
+/// the central server's `duplicate`s.
+fn count_submissions(s: &mut ContractSummary, state: &AggregationState, metrics: &Metrics) {
+    let written = metrics.trained.len() as u64 + metrics.forged;
+    let duplicates = state.server.duplicates;
+    s.submissions
+        .insert("accepted".to_string(), written.saturating_sub(duplicates));
+    if duplicates > 0 {
+        s.submissions.insert("duplicate".to_string(), duplicates);
+    }
+}
+
+/// The aggregation section of a baseline run, with each honest robot's final held-out loss
+/// (`per_robot`).
+fn baseline_summary(state: &AggregationState, per_robot: Vec<f64>) -> AggregationSummary {
     let kind = state.kind();
-    let summary = AggregationSummary {
+    AggregationSummary {
         kind,
         conservation: format!(
             "not applicable: the {} aggregation has no tokens",
@@ -190,6 +182,5 @@ pub fn summarise(
         messages_sent: state.stigmergy.messages_sent(),
         messages_lost: state.stigmergy.messages_lost,
         final_heldout_loss_per_robot: per_robot,
-    };
-    (s, summary)
+    }
 }

@@ -14,6 +14,7 @@
 mod registry;
 
 mod behaviour;
+mod behaviour_fit;
 mod byzantine;
 mod contract;
 mod error;
@@ -24,6 +25,7 @@ mod preagg;
 mod preagg_fit;
 mod preset;
 mod protocol_fit;
+mod ranges;
 mod skip;
 mod tree;
 mod validate;

@@ -4,15 +4,8 @@
 use super::contract::{ContractEngine, Rule};
 use super::error::ConfigError;
 use super::preagg::{Preaggregator, MAX_STAGES};
+use super::ranges::out_of_range as refuse;
 use super::tree::{Aggregation, Config};
-
-fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: key.to_string(),
-        value,
-        allowed,
-    })
-}
 
 /// The pre-aggregator chain fits the rest of the configuration: a staking rule on the chain's
 /// native contract, at most [`MAX_STAGES`] stages, a bucket size of at least 1 (at most the quorum under
@@ -20,13 +13,31 @@ fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> 
 /// radius, NNM and ARC given more models than `contract.assumed_f`, and the rule defined for
 /// the number of models the chain leaves.
 pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
+    stage_parameters_fit(c)?;
+    let stages = &c.contract.preaggregators;
+    if stages.is_empty() {
+        return Ok(());
+    }
+    let listed = format!(
+        "[{}]",
+        stages
+            .iter()
+            .map(|p| format!("\"{}\"", p.name()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    chain_has_a_place(c, &listed)?;
+    enough_models_reach_the_rule(c, &listed)
+}
+
+/// The stages' own parameters: a bucket size in `[1, quorum]` under bucketing (at least 1
+/// otherwise) and a clipping radius in `(0, 1e6]`, checked whether or not a chain is set.
+fn stage_parameters_fit(c: &Config) -> Result<(), ConfigError> {
     let k = &c.contract;
-    let stages = &k.preaggregators;
-    let (quorum, f) = (c.quorum(), k.assumed_f);
     // The quorum bounds the bucket size only where bucketing runs: a swarm of 2 robots has a
     // quorum of 1, and the default size must not refuse it.
-    let max_bucket = if stages.contains(&Preaggregator::Bucketing) {
-        quorum.max(1)
+    let max_bucket = if k.preaggregators.contains(&Preaggregator::Bucketing) {
+        c.quorum().max(1)
     } else {
         u32::MAX
     };
@@ -44,29 +55,24 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
             "a number in (0, 1e6] (an update's L2 norm, in weight units)".to_string(),
         );
     }
-    if stages.is_empty() {
-        return Ok(());
-    }
-    let listed = format!(
-        "[{}]",
-        stages
-            .iter()
-            .map(|p| format!("\"{}\"", p.name()))
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    if stages.len() > MAX_STAGES {
+    Ok(())
+}
+
+/// A non-empty chain (`listed`, as the message shows it) of at most [`MAX_STAGES`] stages,
+/// in front of a staking rule on the chain's native contract.
+fn chain_has_a_place(c: &Config, listed: &str) -> Result<(), ConfigError> {
+    let k = &c.contract;
+    if k.preaggregators.len() > MAX_STAGES {
         return refuse(
             "contract.preaggregators",
-            listed,
+            listed.to_string(),
             format!("at most {MAX_STAGES} stages"),
         );
     }
-    let rule = c.rule();
-    if !rule.stakes() {
+    if !c.rule().stakes() {
         return refuse(
             "contract.preaggregators",
-            listed,
+            listed.to_string(),
             "[] with rule fedavg (security off); pre-aggregators stand in front of a staking \
              rule: set contract.security = true, or contract.preaggregators = []"
                 .to_string(),
@@ -75,7 +81,7 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
     if k.engine == ContractEngine::Evm {
         return refuse(
             "contract.preaggregators",
-            listed,
+            listed.to_string(),
             "[] with contract.engine = evm (the Solidity contract has no pre-aggregators); set \
              contract.engine = native"
                 .to_string(),
@@ -84,15 +90,24 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
     if c.learn.aggregation != Aggregation::Chain {
         return refuse(
             "contract.preaggregators",
-            listed,
+            listed.to_string(),
             format!(
                 "[] with learn.aggregation = {} (no contract); set learn.aggregation = chain",
                 c.learn.aggregation.name()
             ),
         );
     }
+    Ok(())
+}
+
+/// Following the quorum's models through the chain (`listed`, as the message shows it): NNM
+/// and ARC each get more models than `contract.assumed_f`, and the rule gets at least as many
+/// as it is defined for.
+fn enough_models_reach_the_rule(c: &Config, listed: &str) -> Result<(), ConfigError> {
+    let k = &c.contract;
+    let (quorum, f) = (c.quorum(), k.assumed_f);
     let mut count = quorum;
-    for (i, &stage) in stages.iter().enumerate() {
+    for (i, &stage) in k.preaggregators.iter().enumerate() {
         if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && f >= count {
             return refuse(
                 "contract.assumed_f",
@@ -106,6 +121,7 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
         }
         count = stage.output_count(count, k.bucket_size);
     }
+    let rule = c.rule();
     let needed = match rule {
         Rule::Paper => 1,
         rule => rule.min_quorum(f),
@@ -113,7 +129,7 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
     if count < needed {
         return refuse(
             "contract.preaggregators",
-            listed,
+            listed.to_string(),
             format!(
                 "a chain leaving at least {needed} models for rule {} with assumed_f {f}; this \
                  one leaves {count} of the quorum's {quorum} (raise contract.quorum_fraction or \

@@ -242,39 +242,7 @@ impl Preset {
             Preset::Smoke => {
                 c.run.duration_s = 600.0;
             }
-            Preset::Flowfl => {
-                // NESTLab/TrajectoryCollection, argos-scripts/experiments/*_batch.argos and
-                // controllers/: the values and their sources are in docs/SPEC.md section 1.
-                // Walls 0.1 m thick centered at +-2 m: 3.9 m between their faces.
-                c.world.arena_side_m = 3.9;
-                c.world.obstacle_spread_half_m = 0.0;
-                c.world.rab_range_m = 2.0;
-                c.world.robot_radius_m = 0.0704;
-                c.world.wheel_base_m = 0.1054;
-                c.world.cruise_speed_mps = 0.05;
-                c.world.random_turn_rate_per_s = 0.0;
-                c.world.rab_robot_occlusion = true;
-                c.data.window_rule = WindowRule::Confirmed;
-                // Flow-FL's `khepera_obstacleavoidance` on ARGoS's Khepera IV ring: a pivot on
-                // one wheel while a front reading is above 0 (`world/khepera.rs`), and
-                // ARGoS's dynamics2d contacts (robots slide along what they push).
-                c.world.avoidance = Avoidance::Khepera;
-                c.world.proximity_range_m = 0.12;
-                c.world.proximity_threshold = 0.0;
-                c.world.slide_on_contact = true;
-                // Flow-FL's flocking (`flocking_batch.argos`, `khepera_flocking.cpp`): one
-                // fixed light at (-2, -1.5) on the west wall, no alignment term, and the
-                // Lennard-Jones interaction capped at 0.2 against the light's 2.5 (0.08).
-                c.world.flocking.goal_x_m = -1.95;
-                c.world.flocking.goal_y_m = -1.5;
-                c.world.flocking.goal_swap_s = 0.0;
-                c.world.flocking.alignment_weight = 0.0;
-                c.world.flocking.cohesion_weight = 0.08;
-                // Flow-FL's foraging (`foraging_batch.argos`): items of radius 0.1 m, and a
-                // rest of at least 2 ticks left with probability 0.1 a tick (about 1 s).
-                c.world.foraging.food_radius_m = 0.1;
-                c.world.foraging.rest_s = 1.0;
-            }
+            Preset::Flowfl => flowfl(&mut c),
             Preset::FlowflFlocking | Preset::FlowflForaging | Preset::FlowflMixed => {
                 c = Preset::Flowfl.config();
                 c.preset = self.name().to_string();
@@ -324,6 +292,43 @@ impl Preset {
         }
         c
     }
+}
+
+/// Flow-FL's data collection (its avoidance experiment) over the paper's values: its arena,
+/// Khepera IV robots and their avoidance, and the flocking and foraging parameters its other
+/// experiments start from.
+fn flowfl(c: &mut Config) {
+    // NESTLab/TrajectoryCollection, argos-scripts/experiments/*_batch.argos and
+    // controllers/: the values and their sources are in docs/SPEC.md section 1.
+    // Walls 0.1 m thick centered at +-2 m: 3.9 m between their faces.
+    c.world.arena_side_m = 3.9;
+    c.world.obstacle_spread_half_m = 0.0;
+    c.world.rab_range_m = 2.0;
+    c.world.robot_radius_m = 0.0704;
+    c.world.wheel_base_m = 0.1054;
+    c.world.cruise_speed_mps = 0.05;
+    c.world.random_turn_rate_per_s = 0.0;
+    c.world.rab_robot_occlusion = true;
+    c.data.window_rule = WindowRule::Confirmed;
+    // Flow-FL's `khepera_obstacleavoidance` on ARGoS's Khepera IV ring: a pivot on
+    // one wheel while a front reading is above 0 (`world/khepera.rs`), and
+    // ARGoS's dynamics2d contacts (robots slide along what they push).
+    c.world.avoidance = Avoidance::Khepera;
+    c.world.proximity_range_m = 0.12;
+    c.world.proximity_threshold = 0.0;
+    c.world.slide_on_contact = true;
+    // Flow-FL's flocking (`flocking_batch.argos`, `khepera_flocking.cpp`): one
+    // fixed light at (-2, -1.5) on the west wall, no alignment term, and the
+    // Lennard-Jones interaction capped at 0.2 against the light's 2.5 (0.08).
+    c.world.flocking.goal_x_m = -1.95;
+    c.world.flocking.goal_y_m = -1.5;
+    c.world.flocking.goal_swap_s = 0.0;
+    c.world.flocking.alignment_weight = 0.0;
+    c.world.flocking.cohesion_weight = 0.08;
+    // Flow-FL's foraging (`foraging_batch.argos`): items of radius 0.1 m, and a
+    // rest of at least 2 ticks left with probability 0.1 a tick (about 1 s).
+    c.world.foraging.food_radius_m = 0.1;
+    c.world.foraging.rest_s = 1.0;
 }
 
 /// The arena of Flow-FL's flocking, foraging and mixed experiments over `flowfl`'s (its
@@ -399,139 +404,164 @@ impl Config {
                 duration_s: 5000.0,
                 tick_s: 0.1,
             },
-            world: WorldConfig {
-                robots: 15,
-                arena_side_m: 5.0,
-                cylinders: 5,
-                cylinder_radius_m: 0.15,
-                boxes: 5,
-                box_side_m: 0.3,
-                obstacle_spread_half_m: 0.0,
-                robot_radius_m: 0.035,
-                wheel_base_m: 0.053,
-                cruise_speed_mps: 0.025,
-                proximity_sensors: 8,
-                proximity_range_m: 0.1,
-                proximity_threshold: 0.2,
-                // The authors' code makes no random turns (`RandomWalk.step` in
-                // `controllers/movement.py` has `self.random()` commented out): its robots turn
-                // only to avoid. docs/SPEC.md section 1, "Data volume".
-                random_turn_rate_per_s: 0.0,
-                random_turn_max_s: 3.0,
-                rab_range_m: 2.5,
-                rab_noise_std_m: 0.01,
-                rab_occlusion: true,
-                rab_packet_drop: 0.0,
-                peer_refresh_s: 0.5,
-                // ARGoS' range-and-bearing medium, which the authors' code ran: other robots'
-                // bodies block the line of sight too.
-                rab_robot_occlusion: true,
-                behaviour: Behaviour::Avoidance,
-                mixed: MixedConfig::default(),
-                flocking: FlockingConfig::default(),
-                foraging: ForagingConfig::default(),
-                // The authors' avoidance on ARGoS's e-puck (`RandomWalk.avoid` in
-                // `controllers/movement.py`, the e-puck proximity ring), and ARGoS's contacts:
-                // a robot pushing against something slides along it. Without both, robots
-                // that make no random turns deadlock. docs/SPEC.md section 1, "Data volume".
-                avoidance: Avoidance::Epuck,
-                slide_on_contact: true,
-            },
-            data: DataConfig {
-                trajectory_ticks: 100,
-                input_waypoints: 32,
-                target_waypoints: 48,
-                expiration_s: 750.0,
-                heldout_samples: 200,
-                // The authors' `controllers/main.py` (ported from Flow-FL): a window is saved
-                // at the next reading after its 100th, and the reading after a gap is dropped.
-                window_rule: WindowRule::Confirmed,
-            },
-            learn: LearnConfig {
-                lstm_units: 16,
-                dropout: 0.2,
-                // Keras' default for `optimizer='SGD'`, what the authors' code ran (the text says
-                // 0.001; the `paper-text` preset keeps that value).
-                learning_rate: 0.01,
-                batch_size: 20,
-                epochs: 20,
-                train_fraction: 0.8,
-                training_period_s: 100.0,
-                training_duration_s: 0.0,
-                min_train_samples: 1,
-                aggregation: Aggregation::Chain,
-                gossip_outlier_filter: false,
-                frame: Frame::World,
-            },
+            world: paper_world(),
+            data: paper_data(),
+            learn: paper_learn(),
             ledger: LedgerConfig {
                 block_period_s: 10.0,
                 wiggle_unit_s: 0.5,
                 bandwidth_bytes_per_s: 0,
                 packet_loss: 0.0,
             },
-            contract: ContractConfig {
-                security: true,
-                initial_tokens: 21,
-                stake_tokens: 5,
-                token_units: 1_000_000_000,
-                weight_scale: 1_000_000_000,
-                quorum_fraction: 0.5,
-                outlier_threshold: 0.05,
-                penalised_ranks: 2,
-                rule: Rule::Paper,
-                rule_plugin: String::new(),
-                assumed_f: 1,
-                round_timeout_s: DEFAULT_ROUND_TIMEOUT_S,
-                max_claimed_samples: 0,
-                reward_weights: Vec::new(),
-                engine: ContractEngine::Native,
-                median: MedianRule::Lower,
-                fedavg_rounding: FedAvgRounding::Nearest,
-                int48_products: false,
-                threshold: ThresholdRule::Inclusive,
-                rank_key: RankKey::Distance,
-                rank_ties: RankTies::Stable,
-                rank_order: RankOrder::Median,
-                payout_rounding: PayoutRounding::Exact,
-                pool: PoolRule::Carry,
-                defence: Defence::None,
-                block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
-                defence_refund_percent: 50,
-                preaggregators: Vec::new(),
-                threshold_gate: false,
-                bucket_size: 2,
-                clip_radius: 1.0,
-                protocol: RoundProtocol::Rounds,
-                buffer_size: super::tree::default_buffer_size(),
-                max_staleness: super::tree::default_max_staleness(),
-                staleness_exponent: super::tree::default_staleness_exponent(),
-                server_step: super::tree::default_server_step(),
-                outlier_rule: OutlierRule::Absolute,
-                outlier_factor: super::tree::default_outlier_factor(),
-                outlier_window: super::tree::default_outlier_window(),
-                outlier_cap: super::tree::default_outlier_cap(),
-            },
-            byzantine: ByzantineConfig {
-                kind: ByzantineKind::None,
-                count: 0,
-                variant: ByzantineVariant::Paper,
-                claimed_samples: 200,
-                faulty_range: 0.5,
-                wait_for_honest: 2,
-                scale: 1.0,
-                sigma: 0.1,
-                alie_z: 1.0,
-                threshold_fraction: 0.99,
-                inflated_samples: u32::MAX,
-                ledger: LedgerBehaviour::Honest,
-                switch_token_share: 0.5,
-                search_evals: 20,
-                plugin: String::new(),
-            },
+            contract: paper_contract(),
+            byzantine: paper_byzantine(),
             faults: FaultsConfig::default(),
             output: OutputConfig {
                 snapshot_every_blocks: 50,
             },
         }
+    }
+}
+
+/// The paper's arena, robots, sensors and behaviour (the authors' ARGoS setup).
+fn paper_world() -> WorldConfig {
+    WorldConfig {
+        robots: 15,
+        arena_side_m: 5.0,
+        cylinders: 5,
+        cylinder_radius_m: 0.15,
+        boxes: 5,
+        box_side_m: 0.3,
+        obstacle_spread_half_m: 0.0,
+        robot_radius_m: 0.035,
+        wheel_base_m: 0.053,
+        cruise_speed_mps: 0.025,
+        proximity_sensors: 8,
+        proximity_range_m: 0.1,
+        proximity_threshold: 0.2,
+        // The authors' code makes no random turns (`RandomWalk.step` in
+        // `controllers/movement.py` has `self.random()` commented out): its robots turn
+        // only to avoid. docs/SPEC.md section 1, "Data volume".
+        random_turn_rate_per_s: 0.0,
+        random_turn_max_s: 3.0,
+        rab_range_m: 2.5,
+        rab_noise_std_m: 0.01,
+        rab_occlusion: true,
+        rab_packet_drop: 0.0,
+        peer_refresh_s: 0.5,
+        // ARGoS' range-and-bearing medium, which the authors' code ran: other robots'
+        // bodies block the line of sight too.
+        rab_robot_occlusion: true,
+        behaviour: Behaviour::Avoidance,
+        mixed: MixedConfig::default(),
+        flocking: FlockingConfig::default(),
+        foraging: ForagingConfig::default(),
+        // The authors' avoidance on ARGoS's e-puck (`RandomWalk.avoid` in
+        // `controllers/movement.py`, the e-puck proximity ring), and ARGoS's contacts:
+        // a robot pushing against something slides along it. Without both, robots
+        // that make no random turns deadlock. docs/SPEC.md section 1, "Data volume".
+        avoidance: Avoidance::Epuck,
+        slide_on_contact: true,
+    }
+}
+
+/// The paper's trajectory windows and held-out set.
+fn paper_data() -> DataConfig {
+    DataConfig {
+        trajectory_ticks: 100,
+        input_waypoints: 32,
+        target_waypoints: 48,
+        expiration_s: 750.0,
+        heldout_samples: 200,
+        // The authors' `controllers/main.py` (ported from Flow-FL): a window is saved
+        // at the next reading after its 100th, and the reading after a gap is dropped.
+        window_rule: WindowRule::Confirmed,
+    }
+}
+
+/// The paper's model and training.
+fn paper_learn() -> LearnConfig {
+    LearnConfig {
+        lstm_units: 16,
+        dropout: 0.2,
+        // Keras' default for `optimizer='SGD'`, what the authors' code ran (the text says
+        // 0.001; the `paper-text` preset keeps that value).
+        learning_rate: 0.01,
+        batch_size: 20,
+        epochs: 20,
+        train_fraction: 0.8,
+        training_period_s: 100.0,
+        training_duration_s: 0.0,
+        min_train_samples: 1,
+        aggregation: Aggregation::Chain,
+        gossip_outlier_filter: false,
+        frame: Frame::World,
+    }
+}
+
+/// The paper's contract: security on, its tokens, quorum, threshold and ranking, every variant option at swarmfl's default.
+fn paper_contract() -> ContractConfig {
+    ContractConfig {
+        security: true,
+        initial_tokens: 21,
+        stake_tokens: 5,
+        token_units: 1_000_000_000,
+        weight_scale: 1_000_000_000,
+        quorum_fraction: 0.5,
+        outlier_threshold: 0.05,
+        penalised_ranks: 2,
+        rule: Rule::Paper,
+        rule_plugin: String::new(),
+        assumed_f: 1,
+        round_timeout_s: DEFAULT_ROUND_TIMEOUT_S,
+        max_claimed_samples: 0,
+        reward_weights: Vec::new(),
+        engine: ContractEngine::Native,
+        median: MedianRule::Lower,
+        fedavg_rounding: FedAvgRounding::Nearest,
+        int48_products: false,
+        threshold: ThresholdRule::Inclusive,
+        rank_key: RankKey::Distance,
+        rank_ties: RankTies::Stable,
+        rank_order: RankOrder::Median,
+        payout_rounding: PayoutRounding::Exact,
+        pool: PoolRule::Carry,
+        defence: Defence::None,
+        block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
+        defence_refund_percent: 50,
+        preaggregators: Vec::new(),
+        threshold_gate: false,
+        bucket_size: 2,
+        clip_radius: 1.0,
+        protocol: RoundProtocol::Rounds,
+        buffer_size: super::tree::default_buffer_size(),
+        max_staleness: super::tree::default_max_staleness(),
+        staleness_exponent: super::tree::default_staleness_exponent(),
+        server_step: super::tree::default_server_step(),
+        outlier_rule: OutlierRule::Absolute,
+        outlier_factor: super::tree::default_outlier_factor(),
+        outlier_window: super::tree::default_outlier_window(),
+        outlier_cap: super::tree::default_outlier_cap(),
+    }
+}
+
+/// No Byzantine robot; each attack's parameters at their defaults.
+fn paper_byzantine() -> ByzantineConfig {
+    ByzantineConfig {
+        kind: ByzantineKind::None,
+        count: 0,
+        variant: ByzantineVariant::Paper,
+        claimed_samples: 200,
+        faulty_range: 0.5,
+        wait_for_honest: 2,
+        scale: 1.0,
+        sigma: 0.1,
+        alie_z: 1.0,
+        threshold_fraction: 0.99,
+        inflated_samples: u32::MAX,
+        ledger: LedgerBehaviour::Honest,
+        switch_token_share: 0.5,
+        search_evals: 20,
+        plugin: String::new(),
     }
 }

@@ -6,6 +6,7 @@
 
 use super::contract::{ContractEngine, OutlierRule, RoundProtocol, Rule};
 use super::error::ConfigError;
+use super::ranges::out_of_range as refuse;
 use super::tree::{Aggregation, Config};
 
 /// The largest `contract.max_staleness`: every node keeps that many past versions of the
@@ -30,14 +31,6 @@ pub const MAX_OUTLIER_WINDOW: u32 = 1024;
 
 /// The largest `contract.outlier_cap`, as `contract.outlier_threshold`'s range.
 pub const MAX_OUTLIER_CAP: f64 = 1.0e6;
-
-fn refuse(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: key.to_string(),
-        value,
-        allowed,
-    })
-}
 
 /// The buffered protocol's keys are in range (checked whatever the protocol, so that a
 /// typo is caught before it is switched on), and the buffered protocol runs only where a

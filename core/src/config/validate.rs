@@ -2,14 +2,17 @@
 //! relate several keys are named functions in the table, in the order they run (the first
 //! violation is the one reported). The checks that concern a domain's support of the
 //! configuration (the robust rules and the variant options, the baseline aggregations, the EVM
-//! engine) read only configuration fields, so they live here too.
+//! engine) read only configuration fields, so they live here too. The rows that check the
+//! behaviours' keys are in `behaviour_fit.rs`, as the protocol's are in `protocol_fit.rs`.
 
-use super::behaviour::{Avoidance, Behaviour, ForagingRule, MixedAssign, PLACE_LAYOUT_HALF_M};
 use super::byzantine::ByzantineKind;
 use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
+use super::ranges::{
+    integer, integer_range, number, number_range, out_of_range, positive, positive_range,
+};
 use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
 use crate::types::show_f64;
@@ -73,16 +76,16 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("world.proximity_sensors", w.proximity_sensors.into(), 1, 64),
         Number("world.proximity_range_m", w.proximity_range_m, 0.001, 10.0),
         Number("world.proximity_threshold", w.proximity_threshold, 0.0, 1.0),
-        Across(ring_rules_have_eight_sensors),
+        Across(super::behaviour_fit::ring_rules_have_eight_sensors),
         Number("world.random_turn_rate_per_s", w.random_turn_rate_per_s, 0.0, 100.0),
         Number("world.random_turn_max_s", w.random_turn_max_s, 0.0, 1000.0),
         Number("world.rab_range_m", w.rab_range_m, 0.0, 10_000.0),
         Number("world.rab_noise_std_m", w.rab_noise_std_m, 0.0, 100.0),
         Number("world.rab_packet_drop", w.rab_packet_drop, 0.0, 1.0),
         Number("world.peer_refresh_s", w.peer_refresh_s, run.tick_s, 1.0e6),
-        Across(mixed_swarm_is_complete),
-        Across(flocking_fits_the_arena),
-        Across(foraging_fits_the_arena),
+        Across(super::behaviour_fit::mixed_swarm_is_complete),
+        Across(super::behaviour_fit::flocking_fits_the_arena),
+        Across(super::behaviour_fit::foraging_fits_the_arena),
         Integer("data.trajectory_ticks", d.trajectory_ticks.into(), 2, 100_000),
         Integer("data.input_waypoints", d.input_waypoints.into(), 1, 10_000),
         Integer("data.target_waypoints", d.target_waypoints.into(), 1, 10_000),
@@ -146,53 +149,6 @@ fn table(c: &Config) -> Vec<Step> {
     ]
 }
 
-fn out_of_range(key: &str, value: String, allowed: String) -> Result<(), ConfigError> {
-    Err(ConfigError::OutOfRange {
-        key: key.to_string(),
-        value,
-        allowed,
-    })
-}
-
-/// What [`Step::Number`] allows.
-fn number_range(lo: f64, hi: f64) -> String {
-    format!("a number in [{}, {}]", show_f64(lo), show_f64(hi))
-}
-
-/// What [`Step::Positive`] allows.
-fn positive_range(hi: f64) -> String {
-    format!("a number in (0, {}]", show_f64(hi))
-}
-
-/// What [`Step::Integer`] allows.
-fn integer_range(lo: u64, hi: u64) -> String {
-    format!("an integer in [{lo}, {hi}]")
-}
-
-fn number(key: &str, value: f64, lo: f64, hi: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value >= lo && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, show_f64(value), number_range(lo, hi))
-    }
-}
-
-fn positive(key: &str, value: f64, hi: f64) -> Result<(), ConfigError> {
-    if value.is_finite() && value > 0.0 && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, show_f64(value), positive_range(hi))
-    }
-}
-
-fn integer(key: &str, value: u64, lo: u64, hi: u64) -> Result<(), ConfigError> {
-    if value >= lo && value <= hi {
-        Ok(())
-    } else {
-        out_of_range(key, value.to_string(), integer_range(lo, hi))
-    }
-}
-
 /// What `key` allows when the table has a row for it (`an integer in [1, 10000]`), as
 /// [`Config::validate`] says it; the bounds that depend on other keys are `c`'s.
 pub(super) fn allowed(c: &Config, key: &str) -> Option<String> {
@@ -214,269 +170,6 @@ fn preset_is_known(c: &Config) -> Result<(), ConfigError> {
         "preset",
         format!("{:?}", c.preset),
         format!("one of {}", Preset::ALL.map(Preset::name).join(", ")),
-    )
-}
-
-/// `world.avoidance = "epuck"` weighs the e-puck's eight sensors one by one, and `"khepera"`
-/// reads four of the Khepera IV's eight by index.
-fn ring_rules_have_eight_sensors(c: &Config) -> Result<(), ConfigError> {
-    let w = &c.world;
-    if w.avoidance != Avoidance::Turn && w.proximity_sensors != 8 {
-        return out_of_range(
-            "world.proximity_sensors",
-            w.proximity_sensors.to_string(),
-            format!(
-                "8 with world.avoidance = \"{}\" (the robot's ring and its rule); set world.proximity_sensors=8 or world.avoidance=turn",
-                w.avoidance.name()
-            ),
-        );
-    }
-    Ok(())
-}
-
-/// Whether any robot of the swarm runs `b` (directly or in a mixed swarm; by place, every
-/// robot may run every behaviour).
-fn runs(c: &Config, b: Behaviour) -> bool {
-    let w = &c.world;
-    w.behaviour == b
-        || (w.behaviour == Behaviour::Mixed
-            && (w.mixed.assign == MixedAssign::Place
-                || (0..w.robots).any(|i| w.mixed.behaviour_of(i, w.robots) == b)))
-}
-
-fn mixed_swarm_is_complete(c: &Config) -> Result<(), ConfigError> {
-    let w = &c.world;
-    let m = &w.mixed;
-    if !m.per_robot.is_empty() && w.behaviour != Behaviour::Mixed {
-        return out_of_range(
-            "world.mixed.per_robot",
-            format!("{} entries", m.per_robot.len()),
-            format!(
-                "empty unless world.behaviour = \"mixed\" (it is \"{}\"); set world.behaviour=mixed",
-                w.behaviour.name()
-            ),
-        );
-    }
-    if m.assign == MixedAssign::Place {
-        return mixed_by_place_fits(c);
-    }
-    if w.behaviour != Behaviour::Mixed {
-        return Ok(());
-    }
-    if !m.per_robot.is_empty() {
-        if m.per_robot.len() != w.robots as usize {
-            return out_of_range(
-                "world.mixed.per_robot",
-                format!("{} entries", m.per_robot.len()),
-                format!(
-                    "one behaviour per robot: {} entries (world.robots)",
-                    w.robots
-                ),
-            );
-        }
-        if let Some(i) = m.per_robot.iter().position(|&b| b == Behaviour::Mixed) {
-            return out_of_range(
-                "world.mixed.per_robot",
-                format!("\"mixed\" at index {i}"),
-                "avoidance, flocking or foraging for each robot".to_string(),
-            );
-        }
-        return Ok(());
-    }
-    for (key, v) in [
-        ("world.mixed.avoidance", m.avoidance),
-        ("world.mixed.flocking", m.flocking),
-        ("world.mixed.foraging", m.foraging),
-    ] {
-        number(key, v, 0.0, 1.0)?;
-    }
-    let sum = m.avoidance + m.flocking + m.foraging;
-    if (sum - 1.0).abs() > 1e-6 {
-        return out_of_range(
-            "world.mixed",
-            format!(
-                "avoidance {} + flocking {} + foraging {} = {sum}",
-                m.avoidance, m.flocking, m.foraging
-            ),
-            "fractions that sum to 1 (e.g. --set world.mixed.avoidance=0.5 --set \
-             world.mixed.flocking=0.25 --set world.mixed.foraging=0.25)"
-                .to_string(),
-        );
-    }
-    Ok(())
-}
-
-/// `world.mixed.assign = "place"` (`world/place.rs`): a mixed swarm, no per-robot list (the
-/// place decides), our own foragers (Flow-FL's `flowfl` foraging lays out its own nest and
-/// lights for the foraging arena), and an arena that holds the flocking bands' goals at
-/// y = +-2.5 m with a robot's body to spare.
-fn mixed_by_place_fits(c: &Config) -> Result<(), ConfigError> {
-    let w = &c.world;
-    let place = "with world.mixed.assign = \"place\"";
-    if w.behaviour != Behaviour::Mixed {
-        return out_of_range(
-            "world.mixed.assign",
-            "\"place\"".to_string(),
-            format!(
-                "\"share\" unless world.behaviour = \"mixed\" (it is \"{}\"); set world.behaviour=mixed",
-                w.behaviour.name()
-            ),
-        );
-    }
-    if !w.mixed.per_robot.is_empty() {
-        return out_of_range(
-            "world.mixed.per_robot",
-            format!("{} entries", w.mixed.per_robot.len()),
-            format!("empty {place} (a robot's place sets its behaviour); set world.mixed.assign=share to list them"),
-        );
-    }
-    if w.foraging.rule == ForagingRule::Flowfl {
-        return out_of_range(
-            "world.foraging.rule",
-            "\"flowfl\"".to_string(),
-            format!("\"simple\" {place} (Flow-FL's foraging is laid out for its foraging arena)"),
-        );
-    }
-    let need = 2.0 * (PLACE_LAYOUT_HALF_M + w.robot_radius_m);
-    if w.arena_side_m >= need {
-        return Ok(());
-    }
-    out_of_range(
-        "world.arena_side_m",
-        show_f64(w.arena_side_m),
-        format!(
-            "at least {need} m {place} (Flow-FL's mixed arena: flocking beyond |x| = 2 m toward \
-             goals at y = +-2.5 m); enlarge the arena or set world.mixed.assign=share"
-        ),
-    )
-}
-
-/// The largest |coordinate| of a point inside the walls, keeping `margin` from them.
-fn inside(c: &Config, key: &str, value: f64, margin: f64) -> Result<(), ConfigError> {
-    let half = c.world.arena_side_m / 2.0 - margin;
-    if value.is_finite() && value.abs() <= half {
-        return Ok(());
-    }
-    out_of_range(
-        key,
-        show_f64(value),
-        format!("inside the arena: |value| <= world.arena_side_m / 2 - {margin} = {half} m"),
-    )
-}
-
-fn flocking_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
-    if !runs(c, Behaviour::Flocking) {
-        return Ok(());
-    }
-    let f = &c.world.flocking;
-    positive(
-        "world.flocking.target_distance_m",
-        f.target_distance_m,
-        100.0,
-    )?;
-    number(
-        "world.flocking.cohesion_weight",
-        f.cohesion_weight,
-        0.0,
-        1.0e6,
-    )?;
-    number(
-        "world.flocking.alignment_weight",
-        f.alignment_weight,
-        0.0,
-        1.0e6,
-    )?;
-    number("world.flocking.goal_weight", f.goal_weight, 0.0, 1.0e6)?;
-    number("world.flocking.goal_swap_s", f.goal_swap_s, 0.0, 1.0e9)?;
-    inside(c, "world.flocking.goal_x_m", f.goal_x_m, 0.0)?;
-    inside(c, "world.flocking.goal_y_m", f.goal_y_m, 0.0)
-}
-
-fn foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
-    if !runs(c, Behaviour::Foraging) {
-        return Ok(());
-    }
-    let f = &c.world.foraging;
-    integer(
-        "world.foraging.food_per_robot",
-        f.food_per_robot.into(),
-        0,
-        100,
-    )?;
-    if f.rule == ForagingRule::Flowfl {
-        return flowfl_foraging_fits_the_arena(c);
-    }
-    positive("world.foraging.nest_radius_m", f.nest_radius_m, 100.0)?;
-    number(
-        "world.foraging.nest_radius_m",
-        f.nest_radius_m,
-        0.0,
-        c.world.arena_side_m / 2.0,
-    )?;
-    inside(c, "world.foraging.nest_x_m", f.nest_x_m, f.nest_radius_m)?;
-    inside(c, "world.foraging.nest_y_m", f.nest_y_m, f.nest_radius_m)?;
-    food_sources_are_counted(c)?;
-    positive("world.foraging.food_radius_m", f.food_radius_m, 100.0)?;
-    number(
-        "world.foraging.food_radius_m",
-        f.food_radius_m,
-        0.0,
-        c.world.arena_side_m / 4.0,
-    )?;
-    number("world.foraging.rest_s", f.rest_s, 0.0, 1.0e7)
-}
-
-/// The number of food sources, from `food_sources` or `food_per_robot x world.robots`.
-fn food_sources_are_counted(c: &Config) -> Result<(), ConfigError> {
-    let f = &c.world.foraging;
-    let (key, value) = if f.food_per_robot > 0 {
-        ("world.foraging.food_per_robot", f.food_per_robot)
-    } else {
-        ("world.foraging.food_sources", f.food_sources)
-    };
-    let count = f.food_count(c.world.robots);
-    if (1..=10_000).contains(&count) {
-        return Ok(());
-    }
-    out_of_range(
-        key,
-        value.to_string(),
-        format!(
-            "a food count in [1, 10000] (food_per_robot x world.robots = {} x {}, or \
-             food_sources when food_per_robot = 0)",
-            f.food_per_robot, c.world.robots
-        ),
-    )
-}
-
-/// Flow-FL's foraging arena (`world/foraging_flowfl.rs`) is laid out in metres from the
-/// center: the nest strip west of x = -1 m, items in [-0.9, 1.7] x [-1.7, 1.7], lights on the
-/// west wall; the arena must hold it with a robot's body to spare.
-fn flowfl_foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
-    let f = &c.world.foraging;
-    food_sources_are_counted(c)?;
-    positive("world.foraging.food_radius_m", f.food_radius_m, 1.0)?;
-    // Its probabilities and times are per tick of ARGoS's 10 ticks a second.
-    if (c.run.tick_s - 0.1).abs() > 1e-12 {
-        return out_of_range(
-            "run.tick_s",
-            show_f64(c.run.tick_s),
-            "0.1 with world.foraging.rule = \"flowfl\" (Flow-FL's probabilities are per tick \
-             of 0.1 s); set run.tick_s=0.1 or use rule \"simple\""
-                .to_string(),
-        );
-    }
-    let need = 2.0 * (super::behaviour::FLOWFL_LAYOUT_HALF_M + c.world.robot_radius_m);
-    if c.world.arena_side_m >= need {
-        return Ok(());
-    }
-    out_of_range(
-        "world.arena_side_m",
-        show_f64(c.world.arena_side_m),
-        format!(
-            "at least {need} m with world.foraging.rule = \"flowfl\" (Flow-FL's foraging arena: \
-             nest strip, items to +-1.7 m); enlarge the arena or use rule \"simple\""
-        ),
     )
 }
 
@@ -657,6 +350,13 @@ fn variant_options_fit_the_rule(config: &Config) -> Result<(), ConfigError> {
     }
 }
 
+/// How a plug-in attack is given its robots from Python (quoted by
+/// [`count_matches_the_misbehaviour`]; kept on one line, whole, so that its braces are text).
+const PLUGIN_COUNT_EXAMPLE: &str =
+    "swarmfl.run(..., attack=MyAttack(), set={\"byzantine.count\": 3})";
+
+/// `byzantine.count` is positive exactly when some robot misbehaves (`byzantine.kind` or
+/// `byzantine.ledger` set), with a hint for Python's plug-in attacks, which set the kind alone.
 fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
     let b = &c.byzantine;
     let misbehaves = b.kind != ByzantineKind::None || b.ledger != LedgerBehaviour::Honest;
@@ -671,8 +371,7 @@ fn count_matches_the_misbehaviour(c: &Config) -> Result<(), ConfigError> {
             format!(
                 "at least 1 with byzantine.kind = \"plugin\": the plug-in attack `{}` \
                  (byzantine.plugin) runs on byzantine.count robots and none is given; give the \
-                 count with the attack, e.g. swarmfl.run(..., attack=MyAttack(), \
-                 set={{\"byzantine.count\": 3}}) in Python",
+                 count with the attack, e.g. {PLUGIN_COUNT_EXAMPLE} in Python",
                 b.plugin
             ),
         );

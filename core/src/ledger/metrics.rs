@@ -339,56 +339,12 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
     let mut last = sample(ledger.now.0, &ledger.nodes, &ledger.blocks);
     last.sent_mean_bytes = t.gossip_bytes as f64 / f64::from(t.robots.max(1));
     let subs: Vec<&Submission> = t.submissions.values().collect();
-    let mean = |v: Vec<u32>| {
-        if v.is_empty() {
-            0.0
-        } else {
-            v.iter().map(|&b| f64::from(b)).sum::<f64>() / v.len() as f64
-        }
-    };
     let mut samples = t.samples.clone();
     if samples.last().map(|s| s.time_s) != Some(last.time_s) {
         samples.push(last.clone());
     }
-    // The final canonical chain: the heaviest head, ties to the lowest node id.
-    let final_node = (0..ledger.nodes.len())
-        .max_by_key(|&i| {
-            (
-                ledger.blocks[&ledger.nodes[i].head].total_difficulty,
-                std::cmp::Reverse(i),
-            )
-        })
-        .unwrap_or(0);
-    let canonical: std::collections::BTreeSet<BlockHash> = ledger
-        .nodes
-        .get(final_node)
-        .map(|n| n.canonical.iter().copied().collect())
-        .unwrap_or_default();
-    let final_txs: std::collections::BTreeSet<TxHash> = canonical
-        .iter()
-        .flat_map(|h| ledger.blocks[h].block.txs.iter().copied())
-        .collect();
-    let mut orphaned_blocks = 0;
-    let mut orphan_txs = std::collections::BTreeSet::new();
-    for (hash, entry) in &ledger.blocks {
-        if !canonical.contains(hash) {
-            orphaned_blocks += 1;
-            orphan_txs.extend(entry.block.txs.iter().copied());
-        }
-    }
-    let reincluded = orphan_txs.iter().filter(|t| final_txs.contains(t)).count() as u64;
-    let mut by_sealer: BTreeMap<u32, (std::collections::BTreeSet<BlockHash>, u32)> =
-        BTreeMap::new();
-    for n in &ledger.nodes {
-        let mut against = std::collections::BTreeSet::new();
-        for (signer, parent) in n.evidence.keys() {
-            by_sealer.entry(*signer).or_default().0.insert(*parent);
-            against.insert(*signer);
-        }
-        for signer in against {
-            by_sealer.entry(signer).or_default().1 += 1;
-        }
-    }
+    let final_node = final_node(ledger);
+    let orphans = Orphans::of(ledger, final_node);
     let final_state = ledger
         .nodes
         .get(final_node)
@@ -398,18 +354,11 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         .get(final_node)
         .map_or_else(Vec::new, |n| ledger.removed_signers(&n.head));
     LedgerStats {
-        equivocations: by_sealer
-            .into_iter()
-            .map(|(sealer, (sites, detected_by))| EquivocationStat {
-                sealer,
-                sites: sites.len() as u64,
-                detected_by,
-            })
-            .collect(),
+        equivocations: equivocations(ledger),
         removed_sealers,
-        orphaned_blocks,
-        orphaned_txs_reincluded: reincluded,
-        orphaned_txs_dropped: orphan_txs.len() as u64 - reincluded,
+        orphaned_blocks: orphans.blocks,
+        orphaned_txs_reincluded: orphans.reincluded,
+        orphaned_txs_dropped: orphans.dropped,
         mempool_replaced: ledger.nodes.iter().map(|n| n.mempool_replaced).sum(),
         mempool_evicted: ledger.nodes.iter().map(|n| n.mempool_evicted).sum(),
         mempool_max: ledger
@@ -433,24 +382,11 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         reorgs: t.reorgs,
         deepest_reorg: t.deepest_reorg,
         submissions: subs.len() as u64,
-        propagation: DelayStats::of(
-            subs.iter()
-                .filter_map(|s| s.all_seen_at.map(|a| a.0 - s.at.0))
-                .collect(),
-        ),
+        propagation: DelayStats::of(delays_ms(&subs, |s| s.all_seen_at)),
         not_propagated: subs.iter().filter(|s| s.all_seen_at.is_none()).count() as u64,
-        inclusion: DelayStats::of(
-            subs.iter()
-                .filter_map(|s| s.included_own_at.map(|a| a.0 - s.at.0))
-                .collect(),
-        ),
-        bytes_per_submission: mean(
-            subs.iter()
-                .filter(|s| s.is_model)
-                .map(|s| s.size_bytes)
-                .collect(),
-        ),
-        bytes_per_tx: mean(subs.iter().map(|s| s.size_bytes).collect()),
+        inclusion: DelayStats::of(delays_ms(&subs, |s| s.included_own_at)),
+        bytes_per_submission: mean_size(subs.iter().filter(|s| s.is_model)),
+        bytes_per_tx: mean_size(subs.iter()),
         chain_bytes_mean: last.mean_bytes,
         chain_bytes_max: last.max_bytes,
         stored_bytes_mean: last.stored_mean_bytes,
@@ -464,6 +400,101 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
             .iter()
             .map(|(k, v)| ((*k).to_string(), *v))
             .collect(),
+    }
+}
+
+/// The node whose head ends the final canonical chain: the heaviest head, ties to the lowest
+/// node id (0 without nodes).
+fn final_node(ledger: &Ledger) -> usize {
+    (0..ledger.nodes.len())
+        .max_by_key(|&i| {
+            (
+                ledger.blocks[&ledger.nodes[i].head].total_difficulty,
+                std::cmp::Reverse(i),
+            )
+        })
+        .unwrap_or(0)
+}
+
+/// The valid blocks off the final canonical chain and the fate of their transactions.
+struct Orphans {
+    /// Blocks not on the final canonical chain.
+    blocks: u64,
+    /// Their distinct transactions that the final chain holds too.
+    reincluded: u64,
+    /// Their distinct transactions that it does not.
+    dropped: u64,
+}
+
+impl Orphans {
+    /// The orphans of `ledger` against the canonical chain of node `final_node`.
+    fn of(ledger: &Ledger, final_node: usize) -> Orphans {
+        let canonical: std::collections::BTreeSet<BlockHash> = ledger
+            .nodes
+            .get(final_node)
+            .map(|n| n.canonical.iter().copied().collect())
+            .unwrap_or_default();
+        let final_txs: std::collections::BTreeSet<TxHash> = canonical
+            .iter()
+            .flat_map(|h| ledger.blocks[h].block.txs.iter().copied())
+            .collect();
+        let mut blocks = 0;
+        let mut orphan_txs = std::collections::BTreeSet::new();
+        for (hash, entry) in &ledger.blocks {
+            if !canonical.contains(hash) {
+                blocks += 1;
+                orphan_txs.extend(entry.block.txs.iter().copied());
+            }
+        }
+        let reincluded = orphan_txs.iter().filter(|t| final_txs.contains(t)).count() as u64;
+        Orphans {
+            blocks,
+            reincluded,
+            dropped: orphan_txs.len() as u64 - reincluded,
+        }
+    }
+}
+
+/// Per sealer that some node holds evidence against: the parents on which it signed twice,
+/// and how many nodes hold such evidence; in sealer order.
+fn equivocations(ledger: &Ledger) -> Vec<EquivocationStat> {
+    let mut by_sealer: BTreeMap<u32, (std::collections::BTreeSet<BlockHash>, u32)> =
+        BTreeMap::new();
+    for n in &ledger.nodes {
+        let mut against = std::collections::BTreeSet::new();
+        for (signer, parent) in n.evidence.keys() {
+            by_sealer.entry(*signer).or_default().0.insert(*parent);
+            against.insert(*signer);
+        }
+        for signer in against {
+            by_sealer.entry(signer).or_default().1 += 1;
+        }
+    }
+    by_sealer
+        .into_iter()
+        .map(|(sealer, (sites, detected_by))| EquivocationStat {
+            sealer,
+            sites: sites.len() as u64,
+            detected_by,
+        })
+        .collect()
+}
+
+/// The delays from each submission until the moment `reached` gives it, in simulated ms, of
+/// the submissions that reached it.
+fn delays_ms(subs: &[&Submission], reached: fn(&Submission) -> Option<SimTime>) -> Vec<u64> {
+    subs.iter()
+        .filter_map(|s| reached(s).map(|a| a.0 - s.at.0))
+        .collect()
+}
+
+/// The mean encoded size of `subs`, in bytes (0 without any).
+fn mean_size<'a>(subs: impl Iterator<Item = &'a &'a Submission>) -> f64 {
+    let v: Vec<u32> = subs.map(|s| s.size_bytes).collect();
+    if v.is_empty() {
+        0.0
+    } else {
+        v.iter().map(|&b| f64::from(b)).sum::<f64>() / v.len() as f64
     }
 }
 
