@@ -124,7 +124,7 @@ impl Watch for Bar {
 
 impl Meter for Progress {
     fn set(&mut self, done: u64, message: &dyn Fn() -> String) {
-        Progress::set(self, done, || message());
+        Progress::set(self, done, message);
     }
 
     fn say(&self, line: &str) {
