@@ -7,25 +7,283 @@
 //! The task list of an experiment with points `p = 0..P` (in the order [`experiment`] lists
 //! them) and `R` runs is point-major: task `i = p * R + (seed - 1)`, seeds `1..=R`.
 
-use swarmfl_core::config::{Behaviour, ByzantineKind, Defence, Rule};
+use swarmfl_core::config::{Behaviour, ByzantineKind, Defence, Preset, Rule};
 
-/// The experiments, in the order `swarmfl sweep --help` lists them.
-pub const EXPERIMENTS: [&str; 14] = [
-    "e0-baselines",
-    "e1-expiration",
-    "e1-faulty",
-    "e2-faulty",
-    "e2-malicious",
-    "e3-smart",
-    "e4-robustness",
-    "e4-benchmark",
-    "e4-gate",
-    "e5-smart-defence",
-    "e2-malicious-authors",
-    "e3-smart-authors",
-    "e6-scale",
-    "e6-scale-1000",
+/// The experiments, in the order `swarmfl sweep --help` lists them: the one list, each named
+/// once, with everything `swarmfl sweep` and `swarmfl report` know of it.
+pub const ALL: [Entry; 14] = [
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E0Baselines,
+        axis: "Byzantine robots",
+        points: baselines_grid,
+        runs: 5,
+        drawn_by: DrawnBy::Baselines,
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E1Expiration,
+        axis: "data expiration (s)",
+        points: expiration_grid,
+        runs: 5,
+        drawn_by: DrawnBy::Standard(Standard {
+            loss: "per data expiration time, no Byzantine robots, no security",
+            legend: Legend::ExpirationS,
+            beside: None,
+        }),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E1Faulty,
+        axis: "faulty robots",
+        points: faulty_point,
+        runs: 10,
+        drawn_by: DrawnBy::Standard(Standard {
+            loss: "with one faulty robot, no security",
+            legend: Legend::OneFaulty,
+            // The same system without the faulty robot.
+            beside: Some(Beside {
+                experiment: Preset::E1Expiration.name(),
+                point: "expiration-750",
+                label: "no Byzantine (e1-expiration 750 s)",
+            }),
+        }),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E2Faulty,
+        axis: "faulty robots",
+        points: byzantine_grid,
+        runs: 20,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of faulty robots, security on",
+        )),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E2Malicious,
+        axis: "malicious robots",
+        points: byzantine_grid,
+        runs: 20,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of malicious robots, security on",
+        )),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E3Smart,
+        axis: "smart robots",
+        points: byzantine_grid,
+        runs: 18,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of smart robots, security on",
+        )),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E4Robustness,
+        axis: "Byzantine robots",
+        points: e4_points,
+        runs: 3,
+        drawn_by: DrawnBy::Robustness,
+    },
+    Entry {
+        id: Id::Own("e4-benchmark"),
+        preset: Preset::E4Robustness,
+        axis: "Byzantine robots",
+        points: bench_points,
+        runs: 3,
+        drawn_by: DrawnBy::Benchmark,
+    },
+    Entry {
+        id: Id::Own("e4-gate"),
+        preset: Preset::E4Robustness,
+        axis: "Byzantine robots",
+        points: gate_points,
+        runs: 3,
+        drawn_by: DrawnBy::Standard(Standard::OTHER),
+    },
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E5SmartDefence,
+        axis: "Byzantine robots",
+        points: e5_points,
+        runs: 3,
+        drawn_by: DrawnBy::Defence,
+    },
+    Entry {
+        id: Id::Own("e2-malicious-authors"),
+        preset: Preset::Authors,
+        axis: "malicious robots",
+        points: || authors_grid(ByzantineKind::Malicious),
+        runs: 20,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of malicious robots, security on, the authors' contract",
+        )),
+    },
+    Entry {
+        id: Id::Own("e3-smart-authors"),
+        preset: Preset::Authors,
+        axis: "smart robots",
+        points: || authors_grid(ByzantineKind::Smart),
+        runs: 18,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of smart robots, security on, the authors' contract",
+        )),
+    },
+    // Issue 32. Two experiments so that each has one number of runs: 3 seeds up to 240
+    // robots, 2 at 1000 (whose runs take minutes each).
+    Entry {
+        id: Id::Preset,
+        preset: Preset::E6Scale,
+        axis: "robots",
+        points: || e6_points(&[15, 60, 240], true),
+        runs: 3,
+        drawn_by: DrawnBy::Scale,
+    },
+    Entry {
+        id: Id::Own("e6-scale-1000"),
+        preset: Preset::E6Scale,
+        axis: "robots",
+        points: || e6_points(&[1000], false),
+        runs: 2,
+        drawn_by: DrawnBy::Scale,
+    },
 ];
+
+/// The names of the experiments of [`ALL`], in its order.
+pub const EXPERIMENTS: [&str; ALL.len()] = {
+    let mut names = [""; ALL.len()];
+    let mut i = 0;
+    while i < ALL.len() {
+        names[i] = ALL[i].name();
+        i += 1;
+    }
+    names
+};
+
+/// A built-in experiment: its name, the preset and grid its tasks run, and the study report
+/// that draws its results.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry {
+    /// The experiment's id (see [`Entry::name`]).
+    pub id: Id,
+    /// The preset every point starts from.
+    pub preset: Preset,
+    /// What the grid varies, for axis labels (`data expiration (s)`, `Byzantine robots`).
+    pub axis: &'static str,
+    /// The grid, in task order.
+    pub points: fn() -> Vec<Point>,
+    /// The paper's runs per point.
+    pub runs: u32,
+    /// The study report that draws its figures and tables (`report/`).
+    pub drawn_by: DrawnBy,
+}
+
+/// Where an experiment's name comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Id {
+    /// Its preset's name: `e2-faulty` runs the preset `e2-faulty`.
+    Preset,
+    /// A name of its own, for a further experiment on a preset (`e4-gate` on `e4-robustness`).
+    Own(&'static str),
+}
+
+/// The study report that draws an experiment's figures and tables.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DrawnBy {
+    /// The standard figures (`report/figures.rs`): loss over time per point, tokens gained
+    /// versus the number of Byzantine robots, chain size over time.
+    Standard(Standard),
+    /// The baselines' figures (`report/figures.rs`): held-out loss per Byzantine condition,
+    /// bytes per robot per aggregation.
+    Baselines,
+    /// Heatmaps of rule x attack per Byzantine count and the worst-case table
+    /// (`report/robustness.rs`).
+    Robustness,
+    /// The robustness benchmark's heatmaps on a heterogeneity axis (`report/benchmark.rs`).
+    Benchmark,
+    /// Figures per defence and the table of Byzantine control (`report/defence.rs`).
+    Defence,
+    /// The scale study's figures and tables, shared by its experiments (`report/scale.rs`).
+    Scale,
+}
+
+/// How the standard figures show an experiment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Standard {
+    /// What the loss figure's lines are, in its caption (`per number of faulty robots,
+    /// security on`).
+    pub loss: &'static str,
+    /// A point's legend label.
+    pub legend: Legend,
+    /// A point of another experiment drawn beside the loss curves, for comparison.
+    pub beside: Option<Beside>,
+}
+
+impl Standard {
+    /// The standard figures of an experiment without a caption of its own (`per
+    /// configuration`): a `--grid` sweep's, `e4-gate`'s.
+    pub const OTHER: Standard = Standard::byzantine("per configuration");
+
+    /// Figures of a grid of Byzantine counts, the loss caption saying `loss`.
+    const fn byzantine(loss: &'static str) -> Standard {
+        Standard {
+            loss,
+            legend: Legend::Byzantine,
+            beside: None,
+        }
+    }
+}
+
+/// What a point's legend label says of its x.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Legend {
+    /// The data expiration in s (`expiration 750 s`). No figure of tokens versus x: x counts
+    /// no robots.
+    ExpirationS,
+    /// The experiment's one point: one faulty robot (`1 faulty robot`).
+    OneFaulty,
+    /// Byzantine robots (`3 Byzantine`).
+    Byzantine,
+}
+
+/// A point of another experiment drawn beside an experiment's loss curves.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Beside {
+    /// The other experiment.
+    pub experiment: &'static str,
+    /// Its point.
+    pub point: &'static str,
+    /// The curve's legend label.
+    pub label: &'static str,
+}
+
+impl Entry {
+    /// The experiment's id: the results' directory name, what `swarmfl sweep` takes.
+    pub const fn name(&self) -> &'static str {
+        match self.id {
+            Id::Preset => self.preset.name(),
+            Id::Own(name) => name,
+        }
+    }
+
+    /// The experiment: its grid built.
+    pub fn experiment(&self) -> Experiment {
+        Experiment {
+            name: self.name().to_string(),
+            preset: self.preset.name().to_string(),
+            axis: self.axis.to_string(),
+            points: (self.points)(),
+            runs: self.runs,
+        }
+    }
+}
+
+/// The built-in experiment named `name`, if there is one.
+pub fn entry(name: &str) -> Option<&'static Entry> {
+    ALL.iter().find(|e| e.name() == name)
+}
 
 /// Byzantine counts of `e4-robustness`: none (each rule's clean reference), a minority (3 of
 /// 15: about 1.4 per 7-model round, near the rules' assumed f) and the largest minority (7 of
@@ -183,125 +441,36 @@ pub struct Experiment {
 
 /// Looks an experiment up by id (docs/SPEC.md section 7).
 pub fn experiment(name: &str) -> anyhow::Result<Experiment> {
-    Ok(match name {
-        "e0-baselines" => Experiment {
-            name: "e0-baselines".into(),
-            preset: "e0-baselines".into(),
-            axis: "Byzantine robots".into(),
-            points: baselines_grid(),
-            runs: 5,
-        },
-        "e1-expiration" => Experiment {
-            name: "e1-expiration".into(),
-            preset: "e1-expiration".into(),
-            axis: "data expiration (s)".into(),
-            points: [250u32, 500, 750, 1000, 1250]
-                .iter()
-                .map(|&s| Point {
-                    name: format!("expiration-{s}"),
-                    x: f64::from(s),
-                    overrides: vec![format!("data.expiration_s={s}.0")],
-                    tags: Vec::new(),
-                })
-                .collect(),
-            runs: 5,
-        },
-        "e1-faulty" => Experiment {
-            name: "e1-faulty".into(),
-            preset: "e1-faulty".into(),
-            axis: "faulty robots".into(),
-            points: vec![Point {
-                name: "faulty-1".into(),
-                x: 1.0,
-                overrides: Vec::new(),
-                tags: Vec::new(),
-            }],
-            runs: 10,
-        },
-        "e2-faulty" => Experiment {
-            name: "e2-faulty".into(),
-            preset: "e2-faulty".into(),
-            axis: "faulty robots".into(),
-            points: byzantine_grid(),
-            runs: 20,
-        },
-        "e2-malicious" => Experiment {
-            name: "e2-malicious".into(),
-            preset: "e2-malicious".into(),
-            axis: "malicious robots".into(),
-            points: byzantine_grid(),
-            runs: 20,
-        },
-        "e3-smart" => Experiment {
-            name: "e3-smart".into(),
-            preset: "e3-smart".into(),
-            axis: "smart robots".into(),
-            points: byzantine_grid(),
-            runs: 18,
-        },
-        "e2-malicious-authors" => Experiment {
-            name: "e2-malicious-authors".into(),
-            preset: "authors".into(),
-            axis: "malicious robots".into(),
-            points: authors_grid(ByzantineKind::Malicious),
-            runs: 20,
-        },
-        "e3-smart-authors" => Experiment {
-            name: "e3-smart-authors".into(),
-            preset: "authors".into(),
-            axis: "smart robots".into(),
-            points: authors_grid(ByzantineKind::Smart),
-            runs: 18,
-        },
-        "e4-robustness" => Experiment {
-            name: "e4-robustness".into(),
-            preset: "e4-robustness".into(),
-            axis: "Byzantine robots".into(),
-            points: e4_points(),
-            runs: 3,
-        },
-        "e4-benchmark" => Experiment {
-            name: "e4-benchmark".into(),
-            preset: "e4-robustness".into(),
-            axis: "Byzantine robots".into(),
-            points: bench_points(),
-            runs: 3,
-        },
-        "e4-gate" => Experiment {
-            name: "e4-gate".into(),
-            preset: "e4-robustness".into(),
-            axis: "Byzantine robots".into(),
-            points: gate_points(),
-            runs: 3,
-        },
-        "e5-smart-defence" => Experiment {
-            name: "e5-smart-defence".into(),
-            preset: "e5-smart-defence".into(),
-            axis: "Byzantine robots".into(),
-            points: e5_points(),
-            runs: 3,
-        },
-        // Issue 32. Two experiments so that each has one number of runs: 3 seeds up to 240
-        // robots, 2 at 1000 (whose runs take minutes each).
-        "e6-scale" => Experiment {
-            name: "e6-scale".into(),
-            preset: "e6-scale".into(),
-            axis: "robots".into(),
-            points: e6_points(&[15, 60, 240], true),
-            runs: 3,
-        },
-        "e6-scale-1000" => Experiment {
-            name: "e6-scale-1000".into(),
-            preset: "e6-scale".into(),
-            axis: "robots".into(),
-            points: e6_points(&[1000], false),
-            runs: 2,
-        },
-        other => anyhow::bail!(
-            "unknown experiment {other:?}; the experiments are {}",
+    match entry(name) {
+        Some(entry) => Ok(entry.experiment()),
+        None => anyhow::bail!(
+            "unknown experiment {name:?}; the experiments are {}",
             EXPERIMENTS.join(", ")
         ),
-    })
+    }
+}
+
+/// The grid of `e1-expiration`: data expiration 250 to 1250 s (`expiration-<s>`).
+fn expiration_grid() -> Vec<Point> {
+    [250u32, 500, 750, 1000, 1250]
+        .iter()
+        .map(|&s| Point {
+            name: format!("expiration-{s}"),
+            x: f64::from(s),
+            overrides: vec![format!("data.expiration_s={s}.0")],
+            tags: Vec::new(),
+        })
+        .collect()
+}
+
+/// The one point of `e1-faulty`: its preset as it is (`faulty-1`).
+fn faulty_point() -> Vec<Point> {
+    vec![Point {
+        name: "faulty-1".into(),
+        x: 1.0,
+        overrides: Vec::new(),
+        tags: Vec::new(),
+    }]
 }
 
 /// The grid of e2 and e3: 0 to 7 Byzantine robots of the preset's kind (`byzantine-<count>`).
@@ -753,6 +922,13 @@ mod tests {
             .collect();
         assert_eq!(attacks.len(), 12);
         assert!(names.iter().all(|n| attacks.contains(n)));
+    }
+
+    /// No two experiments share a name: `experiment` would find the first only.
+    #[test]
+    fn experiment_names_are_unique() {
+        let names: std::collections::BTreeSet<&str> = EXPERIMENTS.into_iter().collect();
+        assert_eq!(names.len(), ALL.len(), "{EXPERIMENTS:?}");
     }
 
     #[test]

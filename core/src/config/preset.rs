@@ -117,7 +117,7 @@ impl Preset {
     ];
 
     /// The preset's name as written on the command line.
-    pub fn name(self) -> &'static str {
+    pub const fn name(self) -> &'static str {
         match self {
             Preset::Paper => "paper",
             Preset::PaperText => "paper-text",

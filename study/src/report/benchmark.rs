@@ -21,11 +21,44 @@ use super::heatmap::{draw, Heatmap, Scale};
 use super::load::RunResult;
 use super::markdown;
 use super::plots::Figure;
-use super::stats::fixed;
-use crate::experiments;
+use super::stats::{fixed, ExperimentStats};
+use super::study::{drawn_by, Drawn, Section, StudyReport};
+use crate::experiments::{self, DrawnBy, Entry};
 
-/// The experiment this module reads.
-pub const EXPERIMENT: &str = "e4-benchmark";
+/// The study report of the experiments drawn by [`DrawnBy::Benchmark`].
+#[derive(Debug)]
+pub struct Benchmark;
+
+impl StudyReport for Benchmark {
+    fn draws(&self, entry: Option<&Entry>) -> bool {
+        entry.is_some_and(|e| e.drawn_by == DrawnBy::Benchmark)
+    }
+
+    fn draw(
+        &self,
+        results: &[RunResult],
+        stats: &[ExperimentStats],
+        out: &Path,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<Drawn> {
+        let mut drawn = Drawn::default();
+        for e in drawn_by(self, stats) {
+            let Some(b) = study(results, &e.name) else {
+                continue;
+            };
+            drawn.figures.extend(draw_all(&b, out, notes)?);
+            let (text, csv) = tables(&b);
+            drawn
+                .files
+                .push((format!("{}-worst-case.csv", b.experiment), csv));
+            drawn.sections.push(Section {
+                experiment: e.name.clone(),
+                text,
+            });
+        }
+        Ok(drawn)
+    }
+}
 
 /// One point's runs.
 #[derive(Clone, Debug)]
@@ -78,6 +111,8 @@ pub struct Worst {
 /// The benchmark read from the results.
 #[derive(Clone, Debug, Default)]
 pub struct Bench {
+    /// The experiment.
+    pub experiment: String,
     /// The heterogeneity axis, least heterogeneous first.
     pub levels: Vec<Level>,
     /// The rules in grid order.
@@ -99,14 +134,41 @@ fn final_heldout(summary: &Value) -> Option<f64> {
         .filter(|v| v.is_finite())
 }
 
-/// Reads the benchmark's results (`None` when there are none).
-pub fn study(results: &[RunResult]) -> Option<Bench> {
-    let grid = experiments::experiment(EXPERIMENT).ok()?;
-    let mut cells: Vec<Cell> = Vec::new();
-    // Heterogeneity per behaviour over its clean runs.
-    let mut measured: BTreeMap<String, Vec<f64>> = BTreeMap::new();
-    let mut genesis: Vec<f64> = Vec::new();
-    for r in results.iter().filter(|r| r.experiment == EXPERIMENT) {
+/// Reads the results of the benchmark `experiment` (`None` when there are none).
+pub fn study(results: &[RunResult], experiment: &str) -> Option<Bench> {
+    let read = read(results, experiment)?;
+    if read.cells.is_empty() {
+        return None;
+    }
+    let mut bench = Bench {
+        experiment: experiment.to_string(),
+        genesis: mean(&read.genesis),
+        ..Bench::default()
+    };
+    bench.axes(&read);
+    bench.worst_cases(&read.cells);
+    Some(bench)
+}
+
+/// What the results of the benchmark hold: its cells, the heterogeneity each behaviour's
+/// clean runs measured, and the genesis model's held-out loss of each run.
+#[derive(Default)]
+struct Read {
+    cells: Vec<Cell>,
+    measured: BTreeMap<String, Vec<f64>>,
+    genesis: Vec<f64>,
+}
+
+/// The mean of `values` (`None` for none).
+fn mean(values: &[f64]) -> Option<f64> {
+    (!values.is_empty()).then(|| values.iter().sum::<f64>() / values.len() as f64)
+}
+
+/// Reads the cells of `experiment`'s results (`None` when it is not built in).
+fn read(results: &[RunResult], experiment: &str) -> Option<Read> {
+    let grid = experiments::experiment(experiment).ok()?;
+    let mut read = Read::default();
+    for r in results.iter().filter(|r| r.experiment == experiment) {
         let Some(point) = grid.points.iter().find(|p| p.name == r.point) else {
             continue;
         };
@@ -125,7 +187,7 @@ pub fn study(results: &[RunResult]) -> Option<Bench> {
             .and_then(Value::as_f64)
             .filter(|g| g.is_finite())
         {
-            genesis.push(g);
+            read.genesis.push(g);
         }
         if count == 0 {
             if let Some(h) = r
@@ -134,7 +196,7 @@ pub fn study(results: &[RunResult]) -> Option<Bench> {
                 .and_then(|w| w.get("data_heterogeneity"))
                 .and_then(Value::as_f64)
             {
-                measured.entry(behaviour.clone()).or_default().push(h);
+                read.measured.entry(behaviour.clone()).or_default().push(h);
             }
         }
         // Results come sorted by point and seed (`load`); found by key all the same, so the
@@ -142,88 +204,87 @@ pub fn study(results: &[RunResult]) -> Option<Bench> {
         let same = |c: &&mut Cell| {
             c.behaviour == behaviour && c.rule == rule && c.attack == attack && c.count == count
         };
-        let at = match cells.iter_mut().position(|c| same(&c)) {
+        let at = match read.cells.iter_mut().position(|c| same(&c)) {
             Some(at) => at,
             None => {
-                cells.push(Cell {
+                read.cells.push(Cell {
                     behaviour,
                     rule,
                     attack,
                     count,
                     losses: Vec::new(),
                 });
-                cells.len() - 1
+                read.cells.len() - 1
             }
         };
         if let Some(loss) = final_heldout(&r.summary) {
-            cells[at].losses.push(loss);
+            read.cells[at].losses.push(loss);
         }
     }
-    if cells.is_empty() {
-        return None;
+    Some(read)
+}
+
+impl Bench {
+    /// The axes in grid order, the levels then sorted by what they measured.
+    fn axes(&mut self, read: &Read) {
+        for c in &read.cells {
+            if !self.levels.iter().any(|l| l.behaviour == c.behaviour) {
+                let measured = read.measured.get(&c.behaviour);
+                self.levels.push(Level {
+                    behaviour: c.behaviour.clone(),
+                    heterogeneity: measured.and_then(|v| mean(v)),
+                    runs: measured.map_or(0, Vec::len),
+                });
+            }
+            if !self.rules.contains(&c.rule) {
+                self.rules.push(c.rule.clone());
+            }
+            if !self.counts.contains(&c.count) {
+                self.counts.push(c.count);
+            }
+        }
+        self.counts.sort_unstable();
+        self.levels.sort_by(|a, b| {
+            a.heterogeneity
+                .unwrap_or(f64::INFINITY)
+                .total_cmp(&b.heterogeneity.unwrap_or(f64::INFINITY))
+        });
     }
-    // Axes in grid order; the levels then sorted by what they measured.
-    let mut bench = Bench {
-        genesis: (!genesis.is_empty()).then(|| genesis.iter().sum::<f64>() / genesis.len() as f64),
-        ..Bench::default()
-    };
-    for c in &cells {
-        if !bench.levels.iter().any(|l| l.behaviour == c.behaviour) {
-            let runs = measured.get(&c.behaviour).map_or(0, Vec::len);
-            bench.levels.push(Level {
-                behaviour: c.behaviour.clone(),
-                heterogeneity: measured
-                    .get(&c.behaviour)
-                    .filter(|v| !v.is_empty())
-                    .map(|v| v.iter().sum::<f64>() / v.len() as f64),
-                runs,
-            });
-        }
-        if !bench.rules.contains(&c.rule) {
-            bench.rules.push(c.rule.clone());
-        }
-        if !bench.counts.contains(&c.count) {
-            bench.counts.push(c.count);
-        }
-    }
-    bench.counts.sort_unstable();
-    bench.levels.sort_by(|a, b| {
-        a.heterogeneity
-            .unwrap_or(f64::INFINITY)
-            .total_cmp(&b.heterogeneity.unwrap_or(f64::INFINITY))
-    });
-    for rule in &bench.rules {
-        for level in &bench.levels {
-            let of = |count: u32| {
-                cells.iter().filter(move |c| {
-                    &c.rule == rule && c.behaviour == level.behaviour && c.count == count
-                })
-            };
-            let clean = of(0).find_map(Cell::loss);
-            for &count in &bench.counts {
-                let runs = of(count).map(|c| c.losses.len()).min().unwrap_or(0);
-                let worst = of(count).filter_map(|c| c.loss().map(|l| (c, l))).fold(
-                    None::<(&Cell, f64)>,
-                    |best, (c, l)| match best {
-                        Some((_, b)) if b >= l => best,
-                        _ => Some((c, l)),
-                    },
-                );
-                if let Some((c, loss)) = worst {
-                    bench.worst.push(Worst {
-                        rule: rule.clone(),
-                        behaviour: level.behaviour.clone(),
-                        count,
-                        clean,
-                        attack: c.attack.clone(),
-                        loss,
-                        runs,
-                    });
+
+    /// Per rule, level and count, the worst case of `cells`.
+    fn worst_cases(&mut self, cells: &[Cell]) {
+        for rule in &self.rules {
+            for level in &self.levels {
+                let of = |count: u32| {
+                    cells.iter().filter(move |c| {
+                        &c.rule == rule && c.behaviour == level.behaviour && c.count == count
+                    })
+                };
+                let clean = of(0).find_map(Cell::loss);
+                for &count in &self.counts {
+                    let runs = of(count).map(|c| c.losses.len()).min().unwrap_or(0);
+                    let worst = of(count).filter_map(|c| c.loss().map(|l| (c, l))).fold(
+                        None::<(&Cell, f64)>,
+                        |best, (c, l)| match best {
+                            Some((_, b)) if b >= l => best,
+                            _ => Some((c, l)),
+                        },
+                    );
+                    if let Some((c, loss)) = worst {
+                        self.worst.push(Worst {
+                            rule: rule.clone(),
+                            behaviour: level.behaviour.clone(),
+                            count,
+                            clean,
+                            attack: c.attack.clone(),
+                            loss,
+                            runs,
+                        });
+                    }
                 }
             }
         }
     }
-    Some(bench)
 }
 
 impl Bench {
@@ -275,15 +336,9 @@ impl Bench {
 }
 
 /// Draws the per-rule and the aggregated heatmaps into `out` and returns them.
-pub fn draw_all(
-    bench: Option<&Bench>,
-    out: &Path,
-    notes: &mut Vec<String>,
-) -> anyhow::Result<Vec<Figure>> {
+fn draw_all(b: &Bench, out: &Path, notes: &mut Vec<String>) -> anyhow::Result<Vec<Figure>> {
     let mut figures = Vec::new();
-    let Some(b) = bench else {
-        return Ok(figures);
-    };
+    let name = &b.experiment;
     let cols: Vec<String> = b.levels.iter().map(Bench::column).collect();
     let rows: Vec<String> = b.counts.iter().map(|&c| Bench::row(c)).collect();
     let shared = b.scale();
@@ -292,14 +347,14 @@ pub fn draw_all(
     let mut maps: Vec<(String, String, Heatmap)> = Vec::new();
     for rule in &b.rules {
         maps.push((
-            format!("{EXPERIMENT}-{rule}"),
+            format!("{name}-{rule}"),
             format!(
-                "{EXPERIMENT}: {rule}, worst-case final held-out loss over the attacks per \
+                "{name}: {rule}, worst-case final held-out loss over the attacks per \
                  Byzantine count (rows) and swarm behaviour (columns); row 0 is the clean run \
                  (mean over runs; one colour scale for every rule)"
             ),
             Heatmap {
-                title: format!("{EXPERIMENT}: {rule}, worst case over attacks"),
+                title: format!("{name}: {rule}, worst case over attacks"),
                 row_title: "Byzantine robots of 15".to_string(),
                 col_title: col_title.to_string(),
                 value_title: value_title.to_string(),
@@ -327,13 +382,13 @@ pub fn draw_all(
         .map(|&c| b.levels.iter().map(|l| b.best(&l.behaviour, c)).collect())
         .collect();
     maps.push((
-        format!("{EXPERIMENT}-best"),
+        format!("{name}-best"),
         format!(
-            "{EXPERIMENT}: the best rule per cell (lowest worst-case final held-out loss over \
+            "{name}: the best rule per cell (lowest worst-case final held-out loss over \
              the attacks) and that loss, per Byzantine count and swarm behaviour"
         ),
         Heatmap {
-            title: format!("{EXPERIMENT}: best rule per cell"),
+            title: format!("{name}: best rule per cell"),
             row_title: "Byzantine robots of 15".to_string(),
             col_title: col_title.to_string(),
             value_title: "the best rule's worst-case final held-out loss (log scale)".to_string(),
@@ -365,7 +420,7 @@ pub fn draw_all(
             ));
         }
         figures.push(Figure {
-            experiment: EXPERIMENT.to_string(),
+            experiment: name.clone(),
             stem,
             caption,
         });
@@ -375,7 +430,8 @@ pub fn draw_all(
 
 /// The report's section: the axis, the best rule per cell and the worst-case table (markdown),
 /// and `e4-benchmark-worst-case.csv`.
-pub fn tables(b: &Bench) -> (String, String) {
+fn tables(b: &Bench) -> (String, String) {
+    let name = &b.experiment;
     let mut md = String::new();
     let _ = writeln!(
         md,
@@ -417,7 +473,7 @@ pub fn tables(b: &Bench) -> (String, String) {
         md,
         "\nWorst case per rule and swarm: the attack with the highest mean final held-out loss \
          at each Byzantine count, its loss and that loss as a multiple of the rule's clean run \
-         in the same swarm (`{EXPERIMENT}-worst-case.csv`).\n"
+         in the same swarm (`{name}-worst-case.csv`).\n"
     );
     let mut columns: Vec<String> = ["rule", "swarm", "clean loss"].map(String::from).into();
     columns.extend(
@@ -479,9 +535,15 @@ mod tests {
     use super::*;
     use serde_json::json;
 
+    /// The experiment the benchmark draws.
+    fn experiment() -> &'static str {
+        let entry = experiments::ALL.iter().find(|e| Benchmark.draws(Some(e)));
+        entry.expect("an experiment drawn by the benchmark").name()
+    }
+
     fn result(point: &str, seed: u64, loss: f64, heterogeneity: f64) -> RunResult {
         RunResult {
-            experiment: EXPERIMENT.to_string(),
+            experiment: experiment().to_string(),
             point: point.to_string(),
             seed,
             summary: json!({"contract": {"final_heldout_loss": loss},
@@ -512,7 +574,7 @@ mod tests {
                 }
             }
         }
-        let b = study(&results).unwrap();
+        let b = study(&results, experiment()).unwrap();
         assert_eq!(
             b.levels
                 .iter()

@@ -7,11 +7,44 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
+use super::load::RunResult;
 use super::plots::{draw, Figure, Kind, Plot, Series};
 use super::stats::{ExperimentStats, PointStats, Stat};
+use super::study::{drawn_by, Drawn, Section, StudyReport};
+use crate::experiments::{DrawnBy, Entry};
 
-/// The experiment this module draws.
-pub const EXPERIMENT: &str = "e5-smart-defence";
+/// The study report of the experiments drawn by [`DrawnBy::Defence`].
+#[derive(Debug)]
+pub struct Defence;
+
+impl StudyReport for Defence {
+    fn draws(&self, entry: Option<&Entry>) -> bool {
+        entry.is_some_and(|e| e.drawn_by == DrawnBy::Defence)
+    }
+
+    fn draw(
+        &self,
+        _results: &[RunResult],
+        stats: &[ExperimentStats],
+        out: &Path,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<Drawn> {
+        let mut drawn = Drawn::default();
+        for e in drawn_by(self, stats) {
+            drawn.figures.extend(draw_all(e, out, notes)?);
+            drawn.sections.push(Section {
+                experiment: e.name.clone(),
+                text: format!(
+                    "When the Byzantine robots held more than `byzantine.switch_token_share` of \
+                     the balances on the final chain (`tokens.byzantine_control`; \
+                     `smart-then-collude` switches then):\n\n{}",
+                    control_table(e)
+                ),
+            });
+        }
+        Ok(drawn)
+    }
+}
 
 fn tag<'a>(p: &'a PointStats, defence: &str) -> Option<&'a str> {
     // Point names are `<defence>--<attack>--<count>`.
@@ -42,16 +75,14 @@ fn series(e: &ExperimentStats, defence: &str, attacks: &[&str], metric: &str) ->
         .collect()
 }
 
-/// Draws the experiment's figures into `out`.
-pub fn draw_all(
-    stats: &[ExperimentStats],
+/// Draws the figures of `e` into `out`.
+fn draw_all(
+    e: &ExperimentStats,
     out: &Path,
     notes: &mut Vec<String>,
 ) -> anyhow::Result<Vec<Figure>> {
     let mut figures = Vec::new();
-    let Some(e) = stats.iter().find(|e| e.name == EXPERIMENT) else {
-        return Ok(figures);
-    };
+    let name = &e.name;
     let defences = defences(e);
     let mut textless = Vec::new();
     let attacks: [(&str, &[&str], &str); 2] = [
@@ -79,12 +110,12 @@ pub fn draw_all(
         }
         let plots = [
             (
-                format!("{EXPERIMENT}-{stem_part}-tokens"),
+                format!("{name}-{stem_part}-tokens"),
                 format!(
-                    "{EXPERIMENT}: tokens gained by honest and by Byzantine robots versus the number of {axis}, per defence (mean, 95 % CI)"
+                    "{name}: tokens gained by honest and by Byzantine robots versus the number of {axis}, per defence (mean, 95 % CI)"
                 ),
                 Plot {
-                    title: format!("{EXPERIMENT}: tokens gained ({axis})"),
+                    title: format!("{name}: tokens gained ({axis})"),
                     x_label: axis,
                     y_label: "tokens gained per robot",
                     kind: Kind::Versus,
@@ -94,12 +125,12 @@ pub fn draw_all(
                 },
             ),
             (
-                format!("{EXPERIMENT}-{stem_part}-heldout"),
+                format!("{name}-{stem_part}-heldout"),
                 format!(
-                    "{EXPERIMENT}: final held-out loss of the shared model versus the number of {axis}, per defence (mean, 95 % CI)"
+                    "{name}: final held-out loss of the shared model versus the number of {axis}, per defence (mean, 95 % CI)"
                 ),
                 Plot {
-                    title: format!("{EXPERIMENT}: final held-out loss ({axis})"),
+                    title: format!("{name}: final held-out loss ({axis})"),
                     x_label: axis,
                     y_label: "held-out loss",
                     kind: Kind::Versus,
@@ -117,7 +148,7 @@ pub fn draw_all(
                 textless.push(stem.clone());
             }
             figures.push(Figure {
-                experiment: EXPERIMENT.to_string(),
+                experiment: name.clone(),
                 stem,
                 caption,
             });
@@ -135,7 +166,7 @@ pub fn draw_all(
 /// A markdown table of the Byzantine takeover of the tokens: per point with Byzantine robots,
 /// in how many runs their share of the balances passed `byzantine.switch_token_share` on the
 /// final chain, when (mean time), and the held-out loss then and at the end.
-pub fn control_table(e: &ExperimentStats) -> String {
+fn control_table(e: &ExperimentStats) -> String {
     let mut md = String::from(
         "| point | runs | runs with control | control at (s) | held-out loss at control | final held-out loss |\n|---|---|---|---|---|---|\n",
     );

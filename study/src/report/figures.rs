@@ -5,34 +5,64 @@
 use std::path::Path;
 
 use super::coords::GridCoords;
+use super::load::RunResult;
 use super::plots::{draw, Figure, Kind, Plot, Series};
 use super::stats::{ExperimentStats, PointStats, Stat};
+use super::study::{drawn_by, Drawn, StudyReport};
+use crate::experiments::{self, DrawnBy, Entry, Legend, Standard, AGGREGATIONS};
 
 /// A figure to draw: file stem, caption and the plot.
 type Planned<'a> = (String, String, Plot<'a>);
 
-/// Draws every figure the statistics allow into `out`, returning them (for report.md), except
-/// for the experiments named in `own_figures` (their modules draw them).
-pub fn draw_all(
+/// The study report of the standard figures: the experiments drawn by
+/// [`DrawnBy::Standard`] and [`DrawnBy::Baselines`], and every experiment that is not built
+/// in (a `--grid` sweep's).
+#[derive(Debug)]
+pub struct StandardFigures;
+
+impl StudyReport for StandardFigures {
+    fn draws(&self, entry: Option<&Entry>) -> bool {
+        entry.is_none_or(|e| matches!(e.drawn_by, DrawnBy::Standard(_) | DrawnBy::Baselines))
+    }
+
+    fn draw(
+        &self,
+        _results: &[RunResult],
+        stats: &[ExperimentStats],
+        out: &Path,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<Drawn> {
+        Ok(Drawn {
+            figures: draw_all(self, stats, out, notes)?,
+            ..Drawn::default()
+        })
+    }
+}
+
+/// How the standard figures show `e`: as its entry says, else as [`Standard::OTHER`].
+fn standard_of(e: &ExperimentStats) -> Standard {
+    match experiments::entry(&e.name).map(|entry| entry.drawn_by) {
+        Some(DrawnBy::Standard(s)) => s,
+        _ => Standard::OTHER,
+    }
+}
+
+/// Draws every figure the statistics allow into `out`, returning them (for report.md), for
+/// the experiments `study` draws.
+fn draw_all(
+    study: &StandardFigures,
     stats: &[ExperimentStats],
-    own_figures: &[&str],
     out: &Path,
     notes: &mut Vec<String>,
 ) -> anyhow::Result<Vec<Figure>> {
     let mut figures = Vec::new();
     let mut textless = Vec::new();
-    let baseline = stats
-        .iter()
-        .find(|e| e.name == "e1-expiration")
-        .and_then(|e| e.points.iter().find(|p| p.point == "expiration-750"));
-    for e in stats
-        .iter()
-        .filter(|e| !own_figures.contains(&e.name.as_str()))
-    {
-        let planned = if e.name == "e0-baselines" {
+    for e in drawn_by(study, stats) {
+        let entry = experiments::entry(&e.name);
+        let planned = if entry.is_some_and(|entry| entry.drawn_by == DrawnBy::Baselines) {
             baselines(e)
         } else {
-            standard(e, baseline)
+            standard(e, beside(e, stats))
         };
         for (stem, caption, plot) in planned {
             if plot.series.iter().all(|s| s.points.is_empty()) {
@@ -57,17 +87,29 @@ pub fn draw_all(
     Ok(figures)
 }
 
-/// The figures of an experiment other than e0: its loss, its tokens (where they apply) and
-/// its chain size. `baseline` is e1-expiration's 750 s point, drawn beside e1-faulty's loss.
-fn standard<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Vec<Planned<'a>> {
-    let mut planned = vec![loss(e, baseline)];
+/// The point drawn beside `e`'s loss curves ([`Standard::beside`]) and its label, when the
+/// statistics have it.
+fn beside<'a>(
+    e: &ExperimentStats,
+    stats: &'a [ExperimentStats],
+) -> Option<(&'static str, &'a PointStats)> {
+    let b = standard_of(e).beside?;
+    let other = stats.iter().find(|o| o.name == b.experiment)?;
+    let point = other.points.iter().find(|p| p.point == b.point)?;
+    Some((b.label, point))
+}
+
+/// The standard figures of an experiment: its loss, its tokens (where they apply) and its
+/// chain size. `beside` is another experiment's point drawn beside the loss, and its label.
+fn standard<'a>(e: &'a ExperimentStats, beside: Option<(&str, &PointStats)>) -> Vec<Planned<'a>> {
+    let mut planned = vec![loss(e, beside)];
     planned.extend(tokens(e));
     planned.push(chain(e));
     planned
 }
 
 /// Loss over time, one line per point.
-fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a> {
+fn loss<'a>(e: &'a ExperimentStats, beside: Option<(&str, &PointStats)>) -> Planned<'a> {
     let mut loss: Vec<Series> = e
         .points
         .iter()
@@ -77,26 +119,13 @@ fn loss<'a>(e: &'a ExperimentStats, baseline: Option<&PointStats>) -> Planned<'a
             points: p.loss.clone(),
         })
         .collect();
-    if e.name == "e1-faulty" {
-        if let Some(b) = baseline {
-            loss.push(Series {
-                label: "no Byzantine (e1-expiration 750 s)".into(),
-                points: b.loss.clone(),
-            });
-        }
+    if let Some((label, b)) = beside {
+        loss.push(Series {
+            label: label.into(),
+            points: b.loss.clone(),
+        });
     }
-    let what = match e.name.as_str() {
-        "e1-expiration" => "per data expiration time, no Byzantine robots, no security",
-        "e1-faulty" => "with one faulty robot, no security",
-        "e2-faulty" => "per number of faulty robots, security on",
-        "e2-malicious" => "per number of malicious robots, security on",
-        "e3-smart" => "per number of smart robots, security on",
-        "e2-malicious-authors" => {
-            "per number of malicious robots, security on, the authors' contract"
-        }
-        "e3-smart-authors" => "per number of smart robots, security on, the authors' contract",
-        _ => "per configuration",
-    };
+    let what = standard_of(e).loss;
     (
         format!("{}-loss", e.name),
         format!(
@@ -128,7 +157,7 @@ fn tokens(e: &ExperimentStats) -> Option<Planned<'_>> {
         .iter()
         .any(|p| p.metrics.contains_key("honest_gain"))
         && e.points.len() > 1
-        && e.name != "e1-expiration"
+        && standard_of(e).legend != Legend::ExpirationS
         && tokens_move;
     if !applies {
         return None;
@@ -262,13 +291,13 @@ fn chain(e: &ExperimentStats) -> Planned<'_> {
 /// robots, one series per aggregation.
 fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
     let mut figures = Vec::new();
-    let aggregations = ["chain", "gossip", "central"];
+    let name = &e.name;
     for (condition, what) in [
         ("clean", "no Byzantine robots"),
         ("faulty-1", "one faulty robot"),
         ("malicious-3", "three malicious robots"),
     ] {
-        let series = aggregations
+        let series = AGGREGATIONS
             .iter()
             .filter_map(|a| {
                 let name = format!("{a}-{condition}");
@@ -283,13 +312,13 @@ fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
             })
             .collect();
         figures.push((
-            format!("e0-baselines-heldout-{condition}"),
+            format!("{name}-heldout-{condition}"),
             format!(
-                "e0-baselines: held-out loss of the aggregated model over time, {what} \
+                "{name}: held-out loss of the aggregated model over time, {what} \
                  (mean, 95 % CI band, log scale; gossip: the robot that merged last)"
             ),
             Plot {
-                title: format!("e0-baselines: held-out loss, {what}"),
+                title: format!("{name}: held-out loss, {what}"),
                 x_label: "time (s)",
                 y_label: "held-out loss",
                 kind: Kind::Time { log_y: true },
@@ -311,7 +340,7 @@ fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
             "stored per robot (MB)",
         ),
     ] {
-        let series = aggregations
+        let series = AGGREGATIONS
             .iter()
             .map(|a| Series {
                 label: a.to_string(),
@@ -324,10 +353,10 @@ fn baselines(e: &ExperimentStats) -> Vec<Planned<'_>> {
             })
             .collect();
         figures.push((
-            format!("e0-baselines-{}", key.replace('_', "-")),
-            format!("e0-baselines: {what} versus the number of Byzantine robots (mean, 95 % CI)"),
+            format!("{name}-{}", key.replace('_', "-")),
+            format!("{name}: {what} versus the number of Byzantine robots (mean, 95 % CI)"),
             Plot {
-                title: format!("e0-baselines: {y_label}"),
+                title: format!("{name}: {y_label}"),
                 x_label: &e.axis,
                 y_label,
                 kind: Kind::Versus,
@@ -346,12 +375,12 @@ fn label(e: &ExperimentStats, i: usize) -> String {
         return g.label(i);
     }
     let (point, x) = (&e.points[i].point, e.points[i].x);
-    if x.is_nan() || e.name == "e0-baselines" {
+    if x.is_nan() {
         return point.to_string();
     }
-    match e.name.as_str() {
-        "e1-expiration" => format!("expiration {x} s"),
-        "e1-faulty" => "1 faulty robot".to_string(),
-        _ => format!("{x} Byzantine"),
+    match standard_of(e).legend {
+        Legend::ExpirationS => format!("expiration {x} s"),
+        Legend::OneFaulty => "1 faulty robot".to_string(),
+        Legend::Byzantine => format!("{x} Byzantine"),
     }
 }

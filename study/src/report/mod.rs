@@ -3,12 +3,13 @@
 //! figures and writes `report.md` with a table of the numbers.
 //!
 //! The steps, one module each: `load` (read and sort the result files), `stats` (means and
-//! intervals; the definitions are there), `plots` (drawing primitives) with `figures` (the
-//! standard figures of each experiment), `robustness` (e4's heatmaps), `benchmark` (the
-//! robustness benchmark's heatmaps on a heterogeneity axis), `defence` (e5's
-//! figures) and `scale` (e6's figures and tables), `coords` (a `--grid` sweep's keys and
-//! values, which name its points in figures and tables), and `tables` (the CSV files and
-//! `report.md`). `swarmfl report` prints every file it wrote.
+//! intervals; the definitions are there), `plots` (drawing primitives), the study reports
+//! listed in `study` (one trait; each experiment's entry in `experiments::ALL` names the one
+//! that draws it): `figures` (the standard figures of each experiment), `robustness` (e4's
+//! heatmaps), `benchmark` (the robustness benchmark's heatmaps on a heterogeneity axis),
+//! `defence` (e5's figures) and `scale` (e6's figures and tables); `coords` (a `--grid`
+//! sweep's keys and values, which name its points in figures and tables), and `tables` (the
+//! CSV files and `report.md`). `swarmfl report` prints every file it wrote.
 //!
 //! Results are sorted by experiment, point (in the grid's order) and seed before any sum, so
 //! the numbers do not depend on file discovery order. `numbers.csv` and `series.csv` hold every
@@ -27,6 +28,7 @@ pub(crate) mod plots;
 mod robustness;
 mod scale;
 pub(crate) mod stats;
+mod study;
 mod style;
 mod tables;
 
@@ -35,6 +37,7 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 pub use frame::{results_frame, Frame};
+use study::STUDIES;
 
 /// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's
 /// path, one a line.
@@ -63,9 +66,9 @@ pub fn make(dir: &Path, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
         dir.display()
     );
     let mut stats = stats::aggregate(&results);
-    let scale_rows = scale::study(&results);
-    let bench = benchmark::study(&results);
-    scale::extend(&mut stats, &scale_rows);
+    for study in STUDIES {
+        study.extend(&results, &mut stats);
+    }
     std::fs::create_dir_all(out).with_context(|| format!("cannot create {}", out.display()))?;
     let mut written = Vec::new();
     let mut write = |name: &str, text: String| -> anyhow::Result<()> {
@@ -78,38 +81,18 @@ pub fn make(dir: &Path, out: &Path) -> anyhow::Result<Vec<PathBuf>> {
     write("numbers.csv", numbers)?;
     write("series.csv", series)?;
     write("timing.csv", tables::timing_csv(&stats))?;
-    // e4-robustness has 225 points: its figures are heatmaps; e5's 39 points are drawn per
-    // defence; e6's per protocol against the swarm's size. The standard figures are for the
-    // others.
-    let own_figures = [
-        robustness::EXPERIMENT,
-        benchmark::EXPERIMENT,
-        defence::EXPERIMENT,
-        scale::EXPERIMENTS[0],
-        scale::EXPERIMENTS[1],
-    ];
-    let mut figures = figures::draw_all(&stats, &own_figures, out, &mut notes)?;
-    figures.extend(robustness::draw_all(&stats, out, &mut notes)?);
-    figures.extend(benchmark::draw_all(bench.as_ref(), out, &mut notes)?);
-    figures.extend(defence::draw_all(&stats, out, &mut notes)?);
-    figures.extend(scale::draw_all(&stats, &scale_rows, out, &mut notes)?);
-    if let Some(e) = stats.iter().find(|e| e.name == robustness::EXPERIMENT) {
-        write("e4-worst-case.csv", robustness::worst_case(e).1)?;
+    // Every study draws its figures before any writes its files.
+    let (mut figures, mut sections, mut own_files) = (Vec::new(), Vec::new(), Vec::new());
+    for study in STUDIES {
+        let drawn = study.draw(&results, &stats, out, &mut notes)?;
+        figures.extend(drawn.figures);
+        own_files.extend(drawn.files);
+        sections.extend(drawn.sections);
     }
-    if let Some(b) = &bench {
-        write(
-            &format!("{}-worst-case.csv", benchmark::EXPERIMENT),
-            benchmark::tables(b).1,
-        )?;
+    for (name, text) in own_files {
+        write(&name, text)?;
     }
-    let md = tables::markdown(
-        &stats,
-        &figures,
-        &scale_rows,
-        bench.as_ref(),
-        &notes,
-        results.len(),
-    );
+    let md = tables::markdown(&stats, &figures, &sections, &notes, results.len());
     write("report.md", md)?;
     let mut files: Vec<PathBuf> = figures
         .iter()

@@ -7,12 +7,48 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::heatmap::{draw, Heatmap};
+use super::load::RunResult;
 use super::plots::Figure;
 use super::stats::{fixed, ExperimentStats};
-use crate::experiments;
+use super::study::{drawn_by, Drawn, Section, StudyReport};
+use crate::experiments::{self, DrawnBy, Entry};
 
-/// The experiment this module draws.
-pub const EXPERIMENT: &str = "e4-robustness";
+/// The worst-case table's CSV file.
+const WORST_CASE_CSV: &str = "e4-worst-case.csv";
+
+/// The study report of the experiments drawn by [`DrawnBy::Robustness`].
+#[derive(Debug)]
+pub struct Robustness;
+
+impl StudyReport for Robustness {
+    fn draws(&self, entry: Option<&Entry>) -> bool {
+        entry.is_some_and(|e| e.drawn_by == DrawnBy::Robustness)
+    }
+
+    fn draw(
+        &self,
+        _results: &[RunResult],
+        stats: &[ExperimentStats],
+        out: &Path,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<Drawn> {
+        let mut drawn = Drawn::default();
+        for e in drawn_by(self, stats) {
+            drawn.figures.extend(draw_all(e, out, notes)?);
+            let (table, csv) = worst_case(e);
+            drawn.files.push((WORST_CASE_CSV.to_string(), csv));
+            drawn.sections.push(Section {
+                experiment: e.name.clone(),
+                text: format!(
+                    "Worst case: for each rule, the attack that leaves the highest final held-out \
+                     loss at each Byzantine count, and that loss as a multiple of the rule's clean \
+                     run (`{WORST_CASE_CSV}`).\n\n{table}"
+                ),
+            });
+        }
+        Ok(drawn)
+    }
+}
 
 /// One cell: a rule against an attack at a count, with the means over its runs.
 #[derive(Clone, Debug)]
@@ -33,7 +69,7 @@ pub struct Cell {
 
 /// The cells of the experiment's results, in grid order.
 pub fn cells(e: &ExperimentStats) -> Vec<Cell> {
-    let Ok(grid) = experiments::experiment(EXPERIMENT) else {
+    let Ok(grid) = experiments::experiment(&e.name) else {
         return Vec::new();
     };
     e.points
@@ -72,16 +108,14 @@ fn axes(cells: &[Cell]) -> (Vec<String>, Vec<String>) {
     (rules, attacks)
 }
 
-/// Draws the heatmaps into `out` and returns them.
-pub fn draw_all(
-    stats: &[ExperimentStats],
+/// Draws the heatmaps of `e` into `out` and returns them.
+fn draw_all(
+    e: &ExperimentStats,
     out: &Path,
     notes: &mut Vec<String>,
 ) -> anyhow::Result<Vec<Figure>> {
     let mut figures = Vec::new();
-    let Some(e) = stats.iter().find(|e| e.name == EXPERIMENT) else {
-        return Ok(figures);
-    };
+    let name = &e.name;
     let cells = cells(e);
     let (rules, attacks) = axes(&cells);
     let counts: Vec<u32> = {
@@ -100,7 +134,7 @@ pub fn draw_all(
             lookup.get(&(rule, attack, key_count)).and_then(|c| f(c))
         };
         let loss = Heatmap {
-            title: format!("{EXPERIMENT}: final held-out loss, {count} Byzantine of 15"),
+            title: format!("{name}: final held-out loss, {count} Byzantine of 15"),
             row_title: "aggregation rule".to_string(),
             col_title: "attack (none: the rule's clean run)".to_string(),
             value_title: "final held-out loss, mean over runs (log scale)".to_string(),
@@ -116,9 +150,7 @@ pub fn draw_all(
         };
         let gap_cols: Vec<String> = attacks.iter().filter(|a| *a != "none").cloned().collect();
         let gap = Heatmap {
-            title: format!(
-                "{EXPERIMENT}: honest minus Byzantine token gain, {count} Byzantine of 15"
-            ),
+            title: format!("{name}: honest minus Byzantine token gain, {count} Byzantine of 15"),
             row_title: "aggregation rule".to_string(),
             col_title: "attack".to_string(),
             value_title: "honest minus Byzantine mean gain, tokens (blue: honest robots gain more)"
@@ -135,17 +167,17 @@ pub fn draw_all(
         };
         for (stem, caption, map) in [
             (
-                format!("{EXPERIMENT}-loss-b{count}"),
+                format!("{name}-loss-b{count}"),
                 format!(
-                    "{EXPERIMENT}: final held-out loss per rule (rows) and attack (columns) with \
+                    "{name}: final held-out loss per rule (rows) and attack (columns) with \
                      {count} Byzantine robots; column `none` is the rule's clean run (mean over runs)"
                 ),
                 loss,
             ),
             (
-                format!("{EXPERIMENT}-tokens-b{count}"),
+                format!("{name}-tokens-b{count}"),
                 format!(
-                    "{EXPERIMENT}: honest minus Byzantine mean token gain per rule and attack with \
+                    "{name}: honest minus Byzantine mean token gain per rule and attack with \
                      {count} Byzantine robots (positive: the contract pays honest robots more)"
                 ),
                 gap,
@@ -158,7 +190,7 @@ pub fn draw_all(
                 notes.push(format!("no font could be loaded: {stem} drawn without text"));
             }
             figures.push(Figure {
-                experiment: EXPERIMENT.to_string(),
+                experiment: name.clone(),
                 stem,
                 caption,
             });
@@ -169,7 +201,7 @@ pub fn draw_all(
 
 /// The worst-case table (markdown) and its CSV: per rule, its clean loss and, per count, the
 /// attack with the highest final held-out loss.
-pub fn worst_case(e: &ExperimentStats) -> (String, String) {
+fn worst_case(e: &ExperimentStats) -> (String, String) {
     let cells = cells(e);
     let (rules, _) = axes(&cells);
     let mut counts: Vec<u32> = cells.iter().map(|c| c.count).filter(|&c| c > 0).collect();

@@ -19,10 +19,54 @@ use serde_json::Value;
 use super::load::RunResult;
 use super::plots::{draw, Figure, Kind, Plot, Series};
 use super::stats::{self, fixed, ExperimentStats, PointStats, Stat};
-use crate::experiments::{self, E6_PROTOCOLS};
+use super::study::{Drawn, Section, StudyReport};
+use crate::experiments::{self, DrawnBy, Entry, E6_PROTOCOLS};
 
-/// The experiments this module draws: the sizes with three seeds, and 1000 robots with two.
-pub const EXPERIMENTS: [&str; 2] = ["e6-scale", "e6-scale-1000"];
+/// The study report of the experiments drawn by [`DrawnBy::Scale`] (the sizes with three
+/// seeds, and 1000 robots with two): one study, its figures and tables in the section of the
+/// first of them in the results.
+#[derive(Debug)]
+pub struct Scale;
+
+impl StudyReport for Scale {
+    fn draws(&self, entry: Option<&Entry>) -> bool {
+        entry.is_some_and(|e| e.drawn_by == DrawnBy::Scale)
+    }
+
+    fn extend(&self, results: &[RunResult], stats: &mut [ExperimentStats]) {
+        extend(stats, &study(results));
+    }
+
+    fn draw(
+        &self,
+        results: &[RunResult],
+        stats: &[ExperimentStats],
+        out: &Path,
+        notes: &mut Vec<String>,
+    ) -> anyhow::Result<Drawn> {
+        let rows = study(results);
+        let mut drawn = Drawn {
+            figures: draw_all(stats, &rows, out, notes)?,
+            ..Drawn::default()
+        };
+        if let Some(home) = home(&rows) {
+            drawn.sections.push(Section {
+                experiment: home.to_string(),
+                text: section(&rows),
+            });
+        }
+        Ok(drawn)
+    }
+}
+
+/// The names of the experiments of the study, in the sweep's order.
+fn experiments() -> Vec<&'static str> {
+    experiments::ALL
+        .iter()
+        .filter(|e| Scale.draws(Some(e)))
+        .map(Entry::name)
+        .collect()
+}
 
 /// Submission outcomes with a column of their own; every other outcome is a refusal.
 const OWN_COLUMNS: [&str; 4] = ["accepted", "aggregated", "outlier", "stale"];
@@ -230,7 +274,7 @@ pub fn study(results: &[RunResult]) -> Vec<Row> {
     let mut rows: Vec<Row> = Vec::new();
     for r in results
         .iter()
-        .filter(|r| EXPERIMENTS.contains(&r.experiment.as_str()))
+        .filter(|r| Scale.draws(experiments::entry(&r.experiment)))
     {
         let same = |row: &Row| row.experiment == r.experiment && row.point == r.point;
         if !rows.last().is_some_and(same) {
@@ -364,8 +408,8 @@ pub fn extend(stats: &mut [ExperimentStats], rows: &[Row]) {
     }
 }
 
-/// The experiment whose section holds the study's figures and table: the first of
-/// [`EXPERIMENTS`] in the results.
+/// The experiment whose section holds the study's figures and table: the first of the
+/// study's experiments in the results.
 fn home(rows: &[Row]) -> Option<&str> {
     rows.first().map(|r| r.experiment.as_str())
 }
@@ -543,8 +587,8 @@ fn versus(v: &Versus, points: &[(&Row, &PointStats)]) -> Planned {
 }
 
 /// Draws the study's figures into `out` (after [`extend`]) and returns them, under the
-/// first of [`EXPERIMENTS`] present.
-pub fn draw_all(
+/// first of its experiments present.
+fn draw_all(
     stats: &[ExperimentStats],
     rows: &[Row],
     out: &Path,
@@ -580,11 +624,6 @@ pub fn draw_all(
     Ok(figures)
 }
 
-/// Whether `experiment`'s section holds the study's table.
-pub fn is_home(rows: &[Row], experiment: &str) -> bool {
-    home(rows) == Some(experiment)
-}
-
 /// The study's tables (markdown): every point, then the points with faulty robots against
 /// their clean point.
 pub fn section(rows: &[Row]) -> String {
@@ -604,7 +643,7 @@ pub fn section(rows: &[Row]) -> String {
          insufficient stake, malformed); gossip counts the models written. Bytes per node, in \
          MB: sent for aggregation (lost ones included) and stored at the end. Wall time: seconds \
          per run on the machine that ran it.\n",
-        EXPERIMENTS.join(", "),
+        experiments().join(", "),
         protocols.join(", ")
     );
     let _ = writeln!(
@@ -881,7 +920,7 @@ mod tests {
             ]
         );
         assert!(figures.iter().all(|f| f.experiment == "e6-scale"));
-        assert!(is_home(&rows, "e6-scale") && !is_home(&rows, "e6-scale-1000"));
+        assert_eq!(home(&rows), Some("e6-scale"));
         for stem in stems {
             let len = std::fs::metadata(dir.join(format!("{stem}.png"))).map_or(0, |m| m.len());
             assert!(len > 1000, "{stem}.png");

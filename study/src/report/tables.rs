@@ -6,7 +6,7 @@ use std::fmt::Write as _;
 
 use super::plots::Figure;
 use super::stats::{ExperimentStats, PointStats, Stat, BIN_S};
-use super::{benchmark, defence, robustness, scale};
+use super::study::Section;
 
 /// A CSV field: quoted (with doubled quotes) when it holds a comma, a quote or a line break.
 fn csv_field(text: &str) -> String {
@@ -115,14 +115,12 @@ pub fn point_columns(e: &ExperimentStats) -> (Vec<String>, Vec<Vec<String>>) {
     }
 }
 
-/// `report.md`: per experiment its figures, its own tables (e4, e5; e6's study, from
-/// `scale_rows`, in the first of its experiments; the benchmark's, from `bench`) and the table
-/// of every point's numbers, then the notes.
+/// `report.md`: per experiment its figures, its study reports' `sections` and the table of
+/// every point's numbers, then the notes.
 pub fn markdown(
     stats: &[ExperimentStats],
     figures: &[Figure],
-    scale_rows: &[scale::Row],
-    bench: Option<&benchmark::Bench>,
+    sections: &[Section],
     notes: &[String],
     files: usize,
 ) -> String {
@@ -136,7 +134,7 @@ pub fn markdown(
          `timing.csv`.\n"
     );
     for e in stats {
-        experiment_section(&mut md, e, figures, scale_rows, bench);
+        experiment_section(&mut md, e, figures, sections);
     }
     if !notes.is_empty() {
         let _ = writeln!(md, "## Notes\n");
@@ -153,8 +151,7 @@ fn experiment_section(
     md: &mut String,
     e: &ExperimentStats,
     figures: &[Figure],
-    scale_rows: &[scale::Row],
-    bench: Option<&benchmark::Bench>,
+    sections: &[Section],
 ) {
     let _ = writeln!(md, "## {}\n", e.name);
     for f in figures.iter().filter(|f| f.experiment == e.name) {
@@ -164,29 +161,8 @@ fn experiment_section(
             f.caption, f.stem, f.caption, f.stem
         );
     }
-    if e.name == robustness::EXPERIMENT {
-        let _ = writeln!(
-            md,
-            "Worst case: for each rule, the attack that leaves the highest final held-out \
-             loss at each Byzantine count, and that loss as a multiple of the rule's clean \
-             run (`e4-worst-case.csv`).\n\n{}",
-            robustness::worst_case(e).0
-        );
-    }
-    if let (true, Some(b)) = (e.name == benchmark::EXPERIMENT, bench) {
-        let _ = writeln!(md, "{}", benchmark::tables(b).0);
-    }
-    if e.name == defence::EXPERIMENT {
-        let _ = writeln!(
-            md,
-            "When the Byzantine robots held more than `byzantine.switch_token_share` of the \
-             balances on the final chain (`tokens.byzantine_control`; `smart-then-collude` \
-             switches then):\n\n{}",
-            defence::control_table(e)
-        );
-    }
-    if scale::is_home(scale_rows, &e.name) {
-        let _ = writeln!(md, "{}", scale::section(scale_rows));
+    for s in sections.iter().filter(|s| s.experiment == e.name) {
+        let _ = writeln!(md, "{}", s.text);
     }
     points_tables(md, e);
     let _ = writeln!(md);
@@ -288,7 +264,7 @@ mod tests {
                 ["krum", "3"]
             ]
         );
-        let md = markdown(&[e], &[], &[], None, &[], 8);
+        let md = markdown(&[e], &[], &[], &[], 8);
         assert!(
             md.contains("| point | contract.rule | byzantine.count | runs | rounds |"),
             "{md}"
