@@ -93,7 +93,7 @@ pub fn chain_fits(c: &Config) -> Result<(), ConfigError> {
     }
     let mut count = quorum;
     for (i, &stage) in stages.iter().enumerate() {
-        if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && f >= count {
+        if stage.needs_more_than_f() && f >= count {
             return refuse(
                 "contract.assumed_f",
                 f.to_string(),
