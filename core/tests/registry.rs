@@ -1,7 +1,8 @@
 //! The plug points' registries (`core/src/config/registry.rs`): each variant is one line of its
-//! list, and each file of a plug point's folder is a registered variant. A new rule, attack,
-//! pre-aggregator or ledger attack whose file is there but whose line is not fails
-//! [`every_plug_point_file_is_registered`]; a line without its dispatch arm does not compile.
+//! list, and each file of a plug point's folder is a registered variant. A line declares its
+//! file (`Krum = "krum" in krum`), so a new rule, attack, pre-aggregator or ledger attack whose
+//! file is there but whose line is not is not even compiled: it fails
+//! [`every_plug_point_file_is_registered`], which names the file and the line to add.
 
 use std::collections::BTreeSet;
 use std::path::Path;
@@ -75,6 +76,19 @@ fn plug_points() -> Vec<PlugPoint> {
     ]
 }
 
+/// `multi-krum` as a variant's name, `MultiKrum`.
+fn camel_case(name: &str) -> String {
+    name.split('-')
+        .map(|word| {
+            let mut chars = word.chars();
+            chars
+                .next()
+                .map(|c| c.to_ascii_uppercase().to_string() + chars.as_str())
+                .unwrap_or_default()
+        })
+        .collect()
+}
+
 /// `ALL[i].index() == i`, every name once, every name parses back to itself, and `ALL` plus
 /// the unlisted variants are every variant the enum has.
 #[test]
@@ -126,13 +140,15 @@ fn every_plug_point_file_is_registered() {
             }
         }
         for file in &files {
+            let stem = file.replace('-', "_");
             assert!(
                 (p.lookup)(file).is_some(),
-                "core/src/{folder}/{}.rs is not a registered {}: add its line to the {} \
-                 registry (core/src/config/)",
-                file.replace('-', "_"),
-                p.label,
-                p.label
+                "core/src/{folder}/{stem}.rs is not a registered {label}, so it is not compiled: \
+                 add its line `{variant} = \"{file}\" in {stem}` to the {label} registry \
+                 (core/src/config/; the type `{stem}::{variant}` in the file implements the \
+                 plug point's trait)",
+                label = p.label,
+                variant = camel_case(file),
             );
         }
         let names = p

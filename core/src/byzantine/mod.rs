@@ -24,26 +24,9 @@
 //! computed in `f64` in index order without fused multiply-add and rounded once to `f32`; the
 //! driver converts them to fixed point as it does honest models.
 
-pub mod alie;
-pub mod collude;
-pub mod extreme_value;
-pub mod faulty;
-pub mod gaussian;
-pub mod inflate_samples;
-pub mod ipm;
 pub mod ledger;
 pub mod line_search;
-pub mod malicious;
-pub mod mimic;
-pub mod min_max;
-pub mod mirror_targets;
-pub mod optimal_alie;
-pub mod optimal_ipm;
 pub mod plugin;
-pub mod poison_data;
-pub mod sign_flip;
-pub mod smart;
-pub mod smart_then_collude;
 
 use crate::config::{ByzantineConfig, ByzantineKind, Config};
 use crate::contract::{ContractParams, ContractState, Submission};
@@ -177,29 +160,30 @@ pub fn agent(
     })
 }
 
-/// The built-in agent of `kind`; `None` for honest robots and for `plugin` (see [`agent`]).
-pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
-    Some(match kind {
-        ByzantineKind::None | ByzantineKind::Plugin => return None,
-        ByzantineKind::Faulty => Box::new(faulty::Faulty),
-        ByzantineKind::Malicious => Box::new(malicious::Malicious),
-        ByzantineKind::Smart => Box::new(smart::Smart),
-        ByzantineKind::SignFlip => Box::new(sign_flip::SignFlip),
-        ByzantineKind::Gaussian => Box::new(gaussian::Gaussian),
-        ByzantineKind::Alie => Box::new(alie::Alie),
-        ByzantineKind::Ipm => Box::new(ipm::Ipm),
-        ByzantineKind::MinMax => Box::new(min_max::MinMax),
-        ByzantineKind::Mimic => Box::new(mimic::Mimic),
-        ByzantineKind::InflateSamples => Box::new(inflate_samples::InflateSamples),
-        ByzantineKind::PoisonData => Box::new(poison_data::PoisonData),
-        ByzantineKind::Collude => Box::new(collude::Collude),
-        ByzantineKind::SmartThenCollude => Box::new(smart_then_collude::SmartThenCollude),
-        ByzantineKind::OptimalAlie => Box::new(optimal_alie::OptimalAlie),
-        ByzantineKind::OptimalIpm => Box::new(optimal_ipm::OptimalIpm),
-        ByzantineKind::ExtremeValue => Box::new(extreme_value::ExtremeValue),
-        ByzantineKind::MirrorTargets => Box::new(mirror_targets::MirrorTargets),
-    })
+/// Writes `pub mod file;` for each attack line of the [`ByzantineKind`] registry
+/// (`config/byzantine.rs`: `Alie = "alie" in alie`) and [`attack`], the `match` from each kind
+/// to a new agent of the type of its name in its file (`alie::Alie`). The lines without a file
+/// are handled here by name, so any other line without one does not compile.
+macro_rules! declare_attacks {
+    (ByzantineKind: $( $Kind:ident $(in $file:ident)? ),+) => {
+        $( $( pub mod $file; )? )+
+
+        /// The built-in agent of `kind`; `None` for honest robots and for `plugin` (see
+        /// [`agent`]).
+        pub fn attack(kind: ByzantineKind) -> Option<Box<dyn Attack>> {
+            match kind {
+                $( ByzantineKind::$Kind => declare_attacks!(@agent $Kind $($file)?), )+
+            }
+        }
+    };
+    // Honest robots have no agent; a plug-in's comes from the program that runs the
+    // simulation (`agent`, `plugin.rs`).
+    (@agent None) => { None };
+    (@agent Plugin) => { None };
+    (@agent $Kind:ident $file:ident) => { Some(Box::new($file::$Kind)) };
 }
+
+crate::config::attack_files!(declare_attacks);
 
 /// Submits `weights` with the configured `byzantine.claimed_samples`.
 pub fn submit(view: &View, weights: Vec<f32>) -> Action {

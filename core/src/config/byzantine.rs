@@ -5,47 +5,48 @@ use serde::{Deserialize, Serialize};
 
 registry! {
     /// The behaviour of Byzantine robots (docs/SPEC.md section 5, and the attacks of
-    /// `byzantine/`, each in the file of its name, dispatched by `byzantine::attack`).
+    /// `byzantine/`, each in the file its line names, `in alie`: `byzantine/alie.rs` and its
+    /// type `alie::Alie`, declared and dispatched from the line by `byzantine::attack`).
     #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
     #[serde(rename_all = "kebab-case")]
-    pub enum ByzantineKind {
+    pub enum ByzantineKind, files attack_files {
         /// No Byzantine robots (the count must be 0).
         None = "none",
         /// Uniformly random weights.
-        Faulty = "faulty",
+        Faulty = "faulty" in faulty,
         /// Resubmits the current shared model.
-        Malicious = "malicious",
+        Malicious = "malicious" in malicious,
         /// Follows the trend of the shared model to be ranked first.
-        Smart = "smart",
+        Smart = "smart" in smart,
         /// Reverses the last aggregation step.
-        SignFlip = "sign-flip",
+        SignFlip = "sign-flip" in sign_flip,
         /// Gaussian noise on the shared model.
-        Gaussian = "gaussian",
+        Gaussian = "gaussian" in gaussian,
         /// A little is enough: the honest mean moved by a few honest standard deviations.
-        Alie = "alie",
+        Alie = "alie" in alie,
         /// Inner-product manipulation: the negated honest mean step.
-        Ipm = "ipm",
+        Ipm = "ipm" in ipm,
         /// Min-max: as far from the honest mean as the honest models are from each other.
-        MinMax = "min-max",
+        MinMax = "min-max" in min_max,
         /// Copies an honest model of the round (over-represents one robot's data).
-        Mimic = "mimic",
+        Mimic = "mimic" in mimic,
         /// A model just inside the outlier threshold, against the honest direction, with a huge
         /// claimed sample count.
-        InflateSamples = "inflate-samples",
+        InflateSamples = "inflate-samples" in inflate_samples,
         /// Trains honestly on corrupted trajectories.
-        PoisonData = "poison-data",
+        PoisonData = "poison-data" in poison_data,
         /// The Byzantine robots agree on one model.
-        Collude = "collude",
+        Collude = "collude" in collude,
         /// `smart` until the Byzantine robots hold a token share, then `collude`.
-        SmartThenCollude = "smart-then-collude",
+        SmartThenCollude = "smart-then-collude" in smart_then_collude,
         /// `alie` with its factor line-searched against the contract's rule on the robot's chain.
-        OptimalAlie = "optimal-alie",
+        OptimalAlie = "optimal-alie" in optimal_alie,
         /// `ipm` with its factor line-searched against the contract's rule on the robot's chain.
-        OptimalIpm = "optimal-ipm",
+        OptimalIpm = "optimal-ipm" in optimal_ipm,
         /// Extreme values: every weight at the edge of int48.
-        ExtremeValue = "extreme-value",
+        ExtremeValue = "extreme-value" in extreme_value,
         /// Trains honestly on trajectories whose targets are mirrored across the heading.
-        MirrorTargets = "mirror-targets",
+        MirrorTargets = "mirror-targets" in mirror_targets,
         /// A plug-in attack named by `byzantine.plugin`, supplied by the program that runs the
         /// simulation (the Python package's `swarmfl.run(attack=...)`); the command cannot run it.
         Plugin = "plugin",

@@ -5,51 +5,52 @@
 use serde::{Deserialize, Serialize};
 
 registry! {
-    /// A contract aggregation rule (`contract.rule`): one line each (its name and the smallest
-    /// quorum it is defined for, [`Rule::min_quorum`]); its arithmetic is `contract/rules/`'s
-    /// file of that name, dispatched by `Rule::aggregate`.
+    /// A contract aggregation rule (`contract.rule`): one line each, its name, its file
+    /// (`in krum`: `contract/rules/krum.rs` and its type `krum::Krum`, declared and dispatched
+    /// from the line by `Rule::aggregate`) and the smallest quorum it is defined for
+    /// ([`Rule::min_quorum`]).
     #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
     #[serde(rename_all = "kebab-case")]
-    pub enum Rule => Quorum {
+    pub enum Rule => Quorum, files rule_files {
         /// Sample-weighted average of every valid model; no stakes, no threshold, no rewards
         /// (the paper's security off).
-        Fedavg = "fedavg" => Quorum::One,
+        Fedavg = "fedavg" in fedavg => Quorum::One,
         /// The paper's contract: outlier threshold, sample-weighted FedAvg of the accepted
         /// models, ranking by distance to the median distance, rewards and penalties.
-        Paper = "paper" => Quorum::One,
+        Paper = "paper" in paper => Quorum::One,
         /// Krum: the model with the smallest sum of squared distances to its `q - f - 2`
         /// nearest.
-        Krum = "krum" => Quorum::TwoFPlusThree,
+        Krum = "krum" in krum => Quorum::TwoFPlusThree,
         /// Multi-Krum: the unweighted mean of the `q - f` models with the best Krum scores.
-        MultiKrum = "multi-krum" => Quorum::TwoFPlusThree,
+        MultiKrum = "multi-krum" in multi_krum => Quorum::TwoFPlusThree,
         /// Coordinate-wise median.
-        Median = "median" => Quorum::TwoFPlusOne,
+        Median = "median" in median => Quorum::TwoFPlusOne,
         /// Coordinate-wise mean after dropping the `f` smallest and `f` largest values.
-        TrimmedMean = "trimmed-mean" => Quorum::TwoFPlusOne,
+        TrimmedMean = "trimmed-mean" in trimmed_mean => Quorum::TwoFPlusOne,
         /// Geometric median by a fixed number of fixed-point Weiszfeld steps.
-        Geomed = "geomed" => Quorum::TwoFPlusOne,
+        Geomed = "geomed" in geomed => Quorum::TwoFPlusOne,
         /// Centered clipping around the shared model, radius the median distance.
-        CenteredClipping = "centered-clipping" => Quorum::TwoFPlusOne,
+        CenteredClipping = "centered-clipping" in centered_clipping => Quorum::TwoFPlusOne,
         /// Bulyan: `q - 2f` models chosen by iterated Krum, then a coordinate-wise trimmed
         /// mean.
-        Bulyan = "bulyan" => Quorum::FourFPlusThree,
+        Bulyan = "bulyan" in bulyan => Quorum::FourFPlusThree,
         /// Minimum-diameter averaging: the mean of the `q - f` models of the smallest diameter.
-        Mda = "mda" => Quorum::TwoFPlusOne,
+        Mda = "mda" in mda => Quorum::TwoFPlusOne,
         /// Mean around the median: per weight, the mean of the `q - f` values nearest the
         /// median.
-        Meamed = "meamed" => Quorum::TwoFPlusOne,
+        Meamed = "meamed" in meamed => Quorum::TwoFPlusOne,
         /// MoNNA: the mean of the `q - f` models nearest the shared model.
-        Monna = "monna" => Quorum::TwoFPlusOne,
+        Monna = "monna" in monna => Quorum::TwoFPlusOne,
         /// SignGuard: norm and sign-statistics filters, then the mean clipped to the median
         /// norm.
-        Signguard = "signguard" => Quorum::TwoFPlusOne,
+        Signguard = "signguard" in signguard => Quorum::TwoFPlusOne,
         /// Divide and conquer: drop the `f` models farthest along the top principal direction.
-        Dnc = "dnc" => Quorum::TwoFPlusOne,
+        Dnc = "dnc" in dnc => Quorum::TwoFPlusOne,
         ; unlisted:
         /// A rule supplied by the program that runs the simulation (the Python package), named
         /// by `contract.rule_plugin`; not in [`Rule::ALL`], which lists the built-in rules. It
         /// is given `f` and the round's models and answers for itself.
-        Plugin = "plugin" => Quorum::One,
+        Plugin = "plugin" in plugin => Quorum::One,
     }
 }
 

@@ -9,22 +9,22 @@ registry! {
     /// What the Byzantine robots do on the ledger.
     #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize)]
     #[serde(rename_all = "kebab-case")]
-    pub enum LedgerBehaviour {
+    pub enum LedgerBehaviour, files ledger_attack_files {
         /// Seal, gossip and submit like everyone.
         #[default]
         Honest = "honest",
         /// Seal two different blocks on one parent, each sent to part of the peers.
-        Equivocate = "equivocate",
+        Equivocate = "equivocate" in equivocate,
         /// Seal but release the blocks late, except to some peers.
-        Withhold = "withhold",
+        Withhold = "withhold" in withhold,
         /// Spam valid-looking transactions (future nonces, same-nonce variants).
-        Flood = "flood",
+        Flood = "flood" in flood,
         /// Re-send old transactions and transactions signed for another chain.
-        Replay = "replay",
+        Replay = "replay" in replay,
         /// Send malformed, forged and oversize blocks and transactions.
-        SpamInvalid = "spam-invalid",
+        SpamInvalid = "spam-invalid" in spam_invalid,
         /// Send blocks stamped far in the future.
-        FutureTimestamp = "future-timestamp",
+        FutureTimestamp = "future-timestamp" in future_timestamp,
     }
 }
 

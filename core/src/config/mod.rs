@@ -43,10 +43,15 @@ pub use contract::{
     PayoutRounding, PoolRule, Quorum, RankKey, RankOrder, RankTies, RoundProtocol, Rule,
     ThresholdRule, MDA_MAX_SUBSETS,
 };
+// The plug points' file lists, for the domains that declare and dispatch them (`registry!`).
+pub(crate) use byzantine::attack_files;
+pub(crate) use contract::rule_files;
 pub use error::ConfigError;
+pub(crate) use ledger::ledger_attack_files;
 pub use ledger::{LedgerBehaviour, WithholdPolicy};
 pub use overrides::{is_reconfigurable, RECONFIGURABLE};
-pub use preagg::Preaggregator;
+pub(crate) use preagg::preagg_files;
+pub use preagg::{Preaggregator, StageOutputs, StageSpec};
 pub use preset::{Preset, AUTHORS_CONTRACT};
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,

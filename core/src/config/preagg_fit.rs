@@ -108,7 +108,7 @@ fn enough_models_reach_the_rule(c: &Config, listed: &str) -> Result<(), ConfigEr
     let (quorum, f) = (c.quorum(), k.assumed_f);
     let mut count = quorum;
     for (i, &stage) in k.preaggregators.iter().enumerate() {
-        if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && f >= count {
+        if stage.needs_more_than_f() && f >= count {
             return refuse(
                 "contract.assumed_f",
                 f.to_string(),

@@ -4,11 +4,17 @@
 //! `index` and `COUNT`, and, for plug points that carry data per variant (a rule's quorum),
 //! a `spec` from the same line.
 //!
-//! So a variant exists exactly when its line does: it cannot be left out of `ALL` (the rule x
-//! attack tests and the studies iterate `ALL`), and the dispatch `match` in its domain
-//! (`contract/rules/mod.rs`, `byzantine/mod.rs`, ...) fails to compile until it has an arm
-//! for the new line. `core/tests/registry.rs` checks the other direction: every file in a
-//! plug point's folder is registered.
+//! A line that names its file (`Krum = "krum" in krum => ..`) also declares that file in its
+//! domain and dispatches the variant to the type of the variant's name there (`krum::Krum`):
+//! the registry then makes a macro (`rule_files!`, named on the enum's line) that hands the
+//! lines to the domain's own declaring macro (`contract/rules/mod.rs`, `contract/preagg/`,
+//! `byzantine/`, `byzantine/ledger/`), which writes the `mod` items and the one `match` from
+//! variant to type, calling the plug point's trait. So a new rule, stage or attack is its file
+//! (its type implementing the trait) and its line, nothing else; the domain's macro refuses to
+//! compile a line without a file unless it is one of the few it handles by name (`none`,
+//! honest robots). `core/tests/registry.rs` checks the other direction: every file in a plug
+//! point's folder is registered, so a file whose line is missing fails a test instead of being
+//! left out of the build unnoticed.
 //!
 //! Variants after `; unlisted:` (the plug-in rule) exist, parse and have a name, but are not in
 //! `ALL` (which lists the built-in ones).
@@ -19,16 +25,55 @@
 /// registry! {
 ///     /// The enum's documentation.
 ///     #[derive(...)]
-///     pub enum Kind => Spec {       // `=> Spec` only when lines carry data
+///     pub enum Kind => Spec, files kind_files {  // `=> Spec` only when lines carry data,
+///                                                // `files ..` only when lines name files
 ///         /// The variant's documentation.
-///         Variant = "name" => Spec::..,
+///         Variant = "name" in file => Spec::..,  // `in file`: core/src/<domain>/file.rs
 ///         ...
 ///         ; unlisted:                // optional: variants left out of `ALL`
-///         Other = "other" => Spec::..,
+///         Other = "other" in other => Spec::..,
 ///     }
 /// }
 /// ```
 macro_rules! registry {
+    // Lines that name their files: the domain's macro of them, then the enum.
+    (
+        $(#[$meta:meta])*
+        $vis:vis enum $Enum:ident $(=> $Spec:ty)?, files $files:ident {
+            $(
+                $(#[$vmeta:meta])*
+                $Variant:ident = $name:literal $(in $file:ident)? $(=> $spec:expr)?,
+            )+
+            $( ; unlisted: $(
+                $(#[$umeta:meta])*
+                $Unlisted:ident = $uname:literal $(in $ufile:ident)? $(=> $uspec:expr)?,
+            )+ )?
+        }
+    ) => {
+        registry! {
+            @files ($) $Enum $files [
+                $( $Variant $(in $file)?, )+ $( $( $Unlisted $(in $ufile)?, )+ )?
+            ]
+        }
+        registry! {
+            $(#[$meta])*
+            $vis enum $Enum $(=> $Spec)? {
+                $( $(#[$vmeta])* $Variant = $name $(=> $spec)?, )+
+                $( ; unlisted: $( $(#[$umeta])* $Unlisted = $uname $(=> $uspec)?, )+ )?
+            }
+        }
+    };
+    // The macro `$files!(then)` that calls `then! { Enum: Variant in file, Other, .. }` with
+    // every line, listed or not, in the registry's order (`$d` is a `$`, which a macro cannot
+    // write itself).
+    (@files ($d:tt) $Enum:ident $files:ident [ $( $Variant:ident $(in $file:ident)?, )+ ]) => {
+        macro_rules! $files {
+            ($d then:ident) => {
+                $d then! { $Enum: $( $Variant $(in $file)? ),+ }
+            };
+        }
+        pub(crate) use $files;
+    };
     // Lines that carry a spec.
     (
         $(#[$meta:meta])*

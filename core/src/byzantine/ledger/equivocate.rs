@@ -10,6 +10,7 @@ use crate::contract::Call;
 use crate::ledger::{BlockHash, LedgerEvent, Tx, WireItem};
 use crate::rng::Rng;
 
+#[derive(Default)]
 pub(super) struct Equivocate;
 
 impl Behaviour for Equivocate {

@@ -20,13 +20,6 @@
 //! - `future-timestamp`: blocks stamped an hour ahead (refused against each node's clock, not
 //!   stored).
 
-mod equivocate;
-mod flood;
-mod future_timestamp;
-mod replay;
-mod spam_invalid;
-mod withhold;
-
 use std::sync::Arc;
 
 use crate::config::{Config, LedgerBehaviour, WithholdPolicy};
@@ -60,18 +53,30 @@ pub trait Behaviour: Send {
     }
 }
 
-fn behaviour(kind: LedgerBehaviour) -> Option<Box<dyn Behaviour>> {
-    match kind {
-        LedgerBehaviour::Honest | LedgerBehaviour::Withhold => None,
-        LedgerBehaviour::Equivocate => Some(Box::new(equivocate::Equivocate)),
-        LedgerBehaviour::Flood => Some(Box::new(flood::Flood::default())),
-        LedgerBehaviour::Replay => Some(Box::new(replay::Replay::default())),
-        LedgerBehaviour::SpamInvalid => Some(Box::new(spam_invalid::SpamInvalid::default())),
-        LedgerBehaviour::FutureTimestamp => {
-            Some(Box::new(future_timestamp::FutureTimestamp::default()))
+/// Writes `mod file;` for each misbehaviour line of the [`LedgerBehaviour`] registry
+/// (`config/ledger.rs`: `Flood = "flood" in flood`) and `behaviour`, the `match` from each
+/// one to a new agent of the type of its name in its file (`flood::Flood`, [`Default`]). The
+/// lines without an agent are handled here by name, so any other line without a file does
+/// not compile.
+macro_rules! declare_ledger_attacks {
+    (LedgerBehaviour: $( $Kind:ident $(in $file:ident)? ),+) => {
+        $( $( mod $file; )? )+
+
+        /// A new agent of `kind`; `None` for the kinds that inject nothing.
+        fn behaviour(kind: LedgerBehaviour) -> Option<Box<dyn Behaviour>> {
+            match kind {
+                $( LedgerBehaviour::$Kind => declare_ledger_attacks!(@agent $Kind $($file)?), )+
+            }
         }
-    }
+    };
+    // Honest robots have no agent; withholding robots act through the network's gossip filter
+    // (`withhold.rs`, [`LedgerAgents::withhold_policy`]) and inject nothing.
+    (@agent Honest) => { None };
+    (@agent Withhold withhold) => { None };
+    (@agent $Kind:ident $file:ident) => { Some(Box::new(<$file::$Kind>::default())) };
 }
+
+crate::config::ledger_attack_files!(declare_ledger_attacks);
 
 /// The ledger agents of a run's Byzantine robots (driver side).
 pub struct LedgerAgents {

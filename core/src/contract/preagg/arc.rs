@@ -25,6 +25,16 @@ pub fn clipped_count(n: usize, f: usize) -> usize {
     2 * f * (n - f) / n
 }
 
+/// The stage as its line in the [`Preaggregator`](crate::config::Preaggregator) registry
+/// names it.
+pub struct Arc;
+
+impl super::Stage for Arc {
+    fn apply(&self, models: &[Staged], stage: &super::StageInput) -> Vec<Staged> {
+        apply(models, stage.current, stage.params.assumed_f as usize)
+    }
+}
+
 /// The models with their `clipped_count` longest updates clipped to the next one's norm.
 pub fn apply(models: &[Staged], current: &[i64], f: usize) -> Vec<Staged> {
     let n = models.len();

@@ -31,6 +31,16 @@ pub fn permutation(n: usize, seed: [u8; 32]) -> Vec<usize> {
     order
 }
 
+/// The stage as its line in the [`Preaggregator`](crate::config::Preaggregator) registry
+/// names it.
+pub struct Bucketing;
+
+impl super::Stage for Bucketing {
+    fn apply(&self, models: &[Staged], stage: &super::StageInput) -> Vec<Staged> {
+        apply(models, stage.params.bucket_size, stage.seed)
+    }
+}
+
 /// The bucket means of `models` shuffled by `seed`, buckets of `s` (at least 1).
 pub fn apply(models: &[Staged], s: u32, seed: [u8; 32]) -> Vec<Staged> {
     let s = (s as usize).max(1);

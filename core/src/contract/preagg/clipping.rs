@@ -14,6 +14,16 @@
 
 use super::{clip_to, Staged};
 
+/// The stage as its line in the [`Preaggregator`](crate::config::Preaggregator) registry
+/// names it.
+pub struct Clipping;
+
+impl super::Stage for Clipping {
+    fn apply(&self, models: &[Staged], stage: &super::StageInput) -> Vec<Staged> {
+        apply(models, stage.current, stage.params.clip_radius_units)
+    }
+}
+
 /// Every update clipped to `radius_units` around `current`.
 pub fn apply(models: &[Staged], current: &[i64], radius_units: u64) -> Vec<Staged> {
     models

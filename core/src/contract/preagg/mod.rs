@@ -3,7 +3,10 @@
 //! to new models (one per model, or one per bucket), the next stage or the rule reads those.
 //!
 //! One file per stage, each with its formula and reference: [`nnm`], [`bucketing`],
-//! [`clipping`], [`arc`]. Every stage is integer arithmetic on the contract's fixed-point
+//! [`clipping`], [`arc`], declared and dispatched by its line in the [`Preaggregator`]
+//! registry (`config/preagg.rs`: `Nnm = "nnm" in nnm => ..`), which makes `declare_stages!`
+//! (below) write `pub mod nnm;` and the arm that calls `nnm::Nnm`'s [`Stage`]: a new stage is
+//! its file and its line. Every stage is integer arithmetic on the contract's fixed-point
 //! weights with the rules' conventions (`rules/mod.rs`): squared distances exact in `u128`,
 //! norms `floor(sqrt(.))`, means and scalings rounded half away from zero, ties to the earlier
 //! model. The clipping stages clip *updates* `w_k - w(t)` around the shared model the round was
@@ -23,17 +26,50 @@
 //!   `min(q, ceil(used * q / q_out))`. A Byzantine model that a stage mixed into an honest
 //!   neighbourhood therefore earns nothing unless it is itself near the result.
 
-pub mod arc;
-pub mod bucketing;
-pub mod clipping;
-pub mod nnm;
-
 use serde::{Deserialize, Serialize};
 
 use super::payout;
 use super::rules::{self, Aggregate, Input};
 use crate::config::{ContractOptions, Preaggregator, Rule};
 use crate::types::Digest;
+
+/// Writes `pub mod file;` for each line of the [`Preaggregator`] registry and
+/// `Preaggregator::implementation`, the `match` from each stage to the type of its name in its
+/// file (`nnm::Nnm`). Every stage's line names its file: a line without one does not compile.
+macro_rules! declare_stages {
+    (Preaggregator: $( $Variant:ident in $file:ident ),+) => {
+        $( pub mod $file; )+
+
+        impl Preaggregator {
+            /// The stage's arithmetic: the type its registry line names.
+            fn implementation(self) -> &'static dyn Stage {
+                match self {
+                    $( Preaggregator::$Variant => &$file::$Variant, )+
+                }
+            }
+        }
+    };
+}
+
+crate::config::preagg_files!(declare_stages);
+
+/// A pre-aggregation stage: the type of a stage's file (`nnm::Nnm`) that [`run_chain`] calls,
+/// one call signature for every stage.
+pub trait Stage {
+    /// The models that leave the stage when `models` (non-empty, one length) enter it.
+    fn apply(&self, models: &[Staged], stage: &StageInput) -> Vec<Staged>;
+}
+
+/// What a stage reads beside the models.
+#[derive(Clone, Copy, Debug)]
+pub struct StageInput<'a> {
+    /// The chain's parameters (`assumed_f`, the bucket size, the clipping radius).
+    pub params: &'a PreaggParams,
+    /// The shared model the round was opened on.
+    pub current: &'a [i64],
+    /// The round's shuffle seed ([`shuffle_seed`]).
+    pub seed: [u8; 32],
+}
 
 /// The pre-aggregator chain of a contract, fixed at genesis (see `ContractParams`).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -58,7 +94,7 @@ impl PreaggParams {
         }
         let mut count = quorum;
         for stage in &self.stages {
-            if matches!(stage, Preaggregator::Nnm | Preaggregator::Arc) && self.assumed_f >= count {
+            if stage.needs_more_than_f() && self.assumed_f >= count {
                 return Err(format!(
                     "{} needs more than f = {} models, gets {count}",
                     stage.name(),
@@ -118,14 +154,13 @@ pub fn run_chain(
             samples: s.samples,
         })
         .collect();
-    let f = params.assumed_f as usize;
+    let input = StageInput {
+        params,
+        current,
+        seed,
+    };
     for stage in &params.stages {
-        models = match stage {
-            Preaggregator::Nnm => nnm::apply(&models, f),
-            Preaggregator::Bucketing => bucketing::apply(&models, params.bucket_size, seed),
-            Preaggregator::Clipping => clipping::apply(&models, current, params.clip_radius_units),
-            Preaggregator::Arc => arc::apply(&models, current, f),
-        };
+        models = stage.implementation().apply(&models, &input);
     }
     models
 }

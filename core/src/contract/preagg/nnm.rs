@@ -18,6 +18,16 @@
 use super::{mean_of, Staged};
 use crate::contract::rules::squared_distance;
 
+/// The stage as its line in the [`Preaggregator`](crate::config::Preaggregator) registry
+/// names it.
+pub struct Nnm;
+
+impl super::Stage for Nnm {
+    fn apply(&self, models: &[Staged], stage: &super::StageInput) -> Vec<Staged> {
+        apply(models, stage.params.assumed_f as usize)
+    }
+}
+
 /// Each model mixed with its `n - f` nearest neighbours.
 pub fn apply(models: &[Staged], f: usize) -> Vec<Staged> {
     let n = models.len();

@@ -18,6 +18,15 @@
 use super::meamed::mean_around_median;
 use super::{coordinatewise, krum_scores, Aggregate, Input};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Bulyan;
+
+impl super::AggregationRule for Bulyan {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// Iterated Krum, then the coordinate-wise mean of the `beta` chosen values around the median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();

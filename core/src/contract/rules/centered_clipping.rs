@@ -19,6 +19,15 @@ use crate::contract::payout::div_round_half_away;
 /// Clipping iterations per aggregation.
 pub const ITERATIONS: usize = 3;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct CenteredClipping;
+
+impl super::AggregationRule for CenteredClipping {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.current, round.inputs, round.f)
+    }
+}
+
 /// The center after [`ITERATIONS`] clipped averaging steps from `current`.
 pub fn aggregate(current: &[i64], inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();

@@ -39,6 +39,15 @@ use crate::contract::payout::div_round_half_away;
 /// Power-iteration steps per aggregation.
 pub const POWER_STEPS: usize = 64;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Dnc;
+
+impl super::AggregationRule for Dnc {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The mean of the `q - f` models with the smallest projections on the top direction.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let models = models_of(inputs);

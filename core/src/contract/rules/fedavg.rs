@@ -9,6 +9,15 @@ use super::{Aggregate, Input};
 use crate::config::FedAvgRounding;
 use crate::contract::payout;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Fedavg;
+
+impl super::AggregationRule for Fedavg {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.options.fedavg_rounding)
+    }
+}
+
 /// FedAvg of all inputs; all are used, in submission order.
 pub fn aggregate(inputs: &[Input], rounding: FedAvgRounding) -> Aggregate {
     let models: Vec<(&[i64], u64)> = inputs.iter().map(|s| (s.weights, s.samples)).collect();

@@ -39,6 +39,15 @@ use crate::contract::payout::div_round_half_away;
 /// keeps the last estimate.
 pub const MAX_STEPS: usize = 256;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Geomed;
+
+impl super::AggregationRule for Geomed {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The geometric median: Weiszfeld steps from the coordinate-wise median to a fixed point.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let models = models_of(inputs);

@@ -14,6 +14,15 @@
 
 use super::{krum_scores, models_of, squared_distance, Aggregate, Input};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Krum;
+
+impl super::AggregationRule for Krum {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The Krum choice and its neighbourhood.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let models = models_of(inputs);

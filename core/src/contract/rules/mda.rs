@@ -19,6 +19,15 @@
 use super::{mean, models_of, squared_distance, Aggregate, Input};
 use crate::contract::payout;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Mda;
+
+impl super::AggregationRule for Mda {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The mean of the minimum-diameter `q - f` subset.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();

@@ -14,6 +14,15 @@
 use super::{coordinatewise, median_of, models_of, nearest, Aggregate, Input};
 use crate::contract::payout::div_round_half_away;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Meamed;
+
+impl super::AggregationRule for Meamed {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The coordinate-wise mean of the `q - f` values around the median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();

@@ -7,6 +7,15 @@
 
 use super::{coordinatewise, median_of, models_of, nearest, Aggregate, Input};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Median;
+
+impl super::AggregationRule for Median {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The coordinate-wise median.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let weights = coordinatewise(&models_of(inputs), median_of);

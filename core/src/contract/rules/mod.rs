@@ -1,10 +1,11 @@
 //! Aggregation rules: how a round's accepted submissions become the next shared model, and
 //! which of them the rule *used* (the reward rule pays exactly those).
 //!
-//! One file per rule; [`Rule`] dispatches to each file's `aggregate`. A new rule is one new
-//! file, its `pub mod` here, its line in the [`Rule`] registry (`config/contract.rs`: name and
-//! quorum) and its arm in [`Rule::aggregate`]'s match, which does not compile without it;
-//! `core/tests/registry.rs` fails on a file here that the registry does not list. Every rule is integer arithmetic on fixed-point
+//! One file per rule, declared and dispatched by its line in the [`Rule`] registry
+//! (`config/contract.rs`: `Krum = "krum" in krum => ..`, its name, file and quorum): the line
+//! makes `declare_rules!` (below) write `pub mod krum;` and the arm that calls `krum::Krum`'s
+//! [`AggregationRule`]. A new rule is that file and that line; `core/tests/registry.rs` fails
+//! on a file here that the registry does not list. Every rule is integer arithmetic on fixed-point
 //! weights (`|w_i| < 2^47`, at most 2^16 weights, at most 10 000 submissions), deterministic,
 //! with every rounding and tie stated in its file. Shared conventions:
 //!
@@ -23,24 +24,49 @@
 //!   median, centered clipping, meamed) *use* the `q - f` submissions nearest (L1) to their aggregate
 //!   ([`nearest`]): the `f` farthest are the ones the rule treats as suspect.
 
-pub mod bulyan;
-pub mod centered_clipping;
-pub mod dnc;
-pub mod fedavg;
-pub mod geomed;
-pub mod krum;
-pub mod mda;
-pub mod meamed;
-pub mod median;
-pub mod monna;
-pub mod multi_krum;
-pub mod paper;
-pub mod plugin;
-pub mod signguard;
-pub mod trimmed_mean;
-
 use super::payout::{self, div_round_half_away};
 use crate::config::{ContractOptions, Rule};
+
+/// Writes `pub mod file;` for each line of the [`Rule`] registry and `Rule::implementation`,
+/// the `match` from each variant to the type of its name in its file (`krum::Krum`). Every
+/// rule's line names its file: a line without one does not compile.
+macro_rules! declare_rules {
+    (Rule: $( $Variant:ident in $file:ident ),+) => {
+        $( pub mod $file; )+
+
+        impl Rule {
+            /// The rule's arithmetic: the type its registry line names.
+            fn implementation(self) -> &'static dyn AggregationRule {
+                match self {
+                    $( Rule::$Variant => &$file::$Variant, )+
+                }
+            }
+        }
+    };
+}
+
+crate::config::rule_files!(declare_rules);
+
+/// An aggregation rule: the type of a rule's file (`krum::Krum`) that [`Rule::aggregate`]
+/// calls. One call signature for every rule, as ByzFL's aggregators and Flower's strategies
+/// have: each rule reads from the [`Round`] what it needs.
+pub trait AggregationRule {
+    /// The round's aggregate (the preconditions are [`Rule::aggregate`]'s).
+    fn aggregate(&self, round: &Round) -> Aggregate;
+}
+
+/// A round as a rule reads it (see [`Rule::aggregate`]).
+#[derive(Clone, Copy, Debug)]
+pub struct Round<'a> {
+    /// The shared model the round was opened on.
+    pub current: &'a [i64],
+    /// The accepted submissions in submission order (non-empty, each of `current`'s length).
+    pub inputs: &'a [Input<'a>],
+    /// The assumed Byzantine count (`inputs.len() >= min_quorum(f)`).
+    pub f: usize,
+    /// The authors' variants, which only `fedavg` and `paper` read.
+    pub options: &'a ContractOptions,
+}
 
 /// One accepted submission as a rule sees it.
 #[derive(Clone, Copy, Debug)]
@@ -92,27 +118,13 @@ impl Rule {
             self.name(),
             self.min_quorum(f as u32)
         );
-        let aggregate = match self {
-            Rule::Fedavg => fedavg::aggregate(inputs, options.fedavg_rounding),
-            Rule::Paper => paper::aggregate(inputs, options),
-            Rule::Krum => krum::aggregate(inputs, f),
-            Rule::MultiKrum => multi_krum::aggregate(inputs, f),
-            Rule::Median => median::aggregate(inputs, f),
-            Rule::TrimmedMean => trimmed_mean::aggregate(inputs, f),
-            Rule::Geomed => geomed::aggregate(inputs, f),
-            Rule::CenteredClipping => centered_clipping::aggregate(current, inputs, f),
-            Rule::Bulyan => bulyan::aggregate(inputs, f),
-            Rule::Mda => mda::aggregate(inputs, f),
-            Rule::Meamed => meamed::aggregate(inputs, f),
-            Rule::Monna => monna::aggregate(current, inputs, f),
-            Rule::Signguard => signguard::aggregate(current, inputs, f),
-            Rule::Dnc => dnc::aggregate(inputs, f),
-            // A plug-in is found by the id in the contract's parameters, which
-            // `ContractParams::round_aggregate` passes to `plugin::aggregate`; validation keeps
-            // plug-in rules out of the pre-aggregator chain, the only other caller. Without an
-            // id the round keeps its model rather than panic in a reducer.
-            Rule::Plugin => plugin::fallback(current, inputs, f),
+        let round = Round {
+            current,
+            inputs,
+            f,
+            options,
         };
+        let aggregate = self.implementation().aggregate(&round);
         debug_assert_eq!(aggregate.weights.len(), current.len());
         debug_assert!(aggregate.used.iter().all(|&i| i < inputs.len()));
         aggregate

@@ -18,6 +18,15 @@
 
 use super::{mean, models_of, squared_distance, Aggregate, Input};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Monna;
+
+impl super::AggregationRule for Monna {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.current, round.inputs, round.f)
+    }
+}
+
 /// The mean of the `q - f` submissions nearest the shared model `current`.
 pub fn aggregate(current: &[i64], inputs: &[Input], f: usize) -> Aggregate {
     let models = models_of(inputs);

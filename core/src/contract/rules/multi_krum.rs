@@ -7,6 +7,15 @@
 
 use super::{krum_scores, mean, models_of, Aggregate, Input};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct MultiKrum;
+
+impl super::AggregationRule for MultiKrum {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The mean of the `q - f` best-scored models.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let models = models_of(inputs);

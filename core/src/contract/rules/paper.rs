@@ -16,6 +16,15 @@ use super::{Aggregate, Input};
 use crate::config::{ContractOptions, RankKey};
 use crate::contract::{payout, rank_order};
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Paper;
+
+impl super::AggregationRule for Paper {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.options)
+    }
+}
+
 /// FedAvg of the accepted inputs; all used, in the paper's rank order.
 pub fn aggregate(inputs: &[Input], options: &ContractOptions) -> Aggregate {
     let models: Vec<(&[i64], u64)> = inputs.iter().map(|s| (s.weights, s.samples)).collect();

@@ -94,6 +94,19 @@ pub fn missing(name: &str, digest: Option<&str>) -> String {
     )
 }
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it, when the
+/// plug-in is not at hand: a plug-in is found by the id in the contract's parameters, which
+/// `ContractParams::round_aggregate` passes to [`aggregate`]; validation keeps plug-in rules
+/// out of the pre-aggregator chain, the only other caller. Without an id the round keeps its
+/// model ([`fallback`]) rather than panic in a reducer.
+pub struct Plugin;
+
+impl super::AggregationRule for Plugin {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        fallback(round.current, round.inputs, round.f)
+    }
+}
+
 /// What a round keeps when the plug-in failed: the model it was opened on, and as used the
 /// `q - f` submissions nearest to it (the run stops before this reaches a record).
 pub fn fallback(current: &[i64], inputs: &[Input], f: usize) -> Aggregate {

@@ -35,6 +35,15 @@ use crate::contract::payout::{self, div_round_half_away};
 /// The most 2-means passes per aggregation (it stops earlier when no model moves).
 pub const LLOYD_STEPS: usize = 32;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct Signguard;
+
+impl super::AggregationRule for Signguard {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.current, round.inputs, round.f)
+    }
+}
+
 /// Norm filter, sign clustering, clipped mean.
 pub fn aggregate(current: &[i64], inputs: &[Input], _f: usize) -> Aggregate {
     let q = inputs.len();

@@ -8,6 +8,15 @@
 use super::{coordinatewise, models_of, nearest, Aggregate, Input};
 use crate::contract::payout::div_round_half_away;
 
+/// The rule as its line in the [`Rule`](crate::config::Rule) registry names it.
+pub struct TrimmedMean;
+
+impl super::AggregationRule for TrimmedMean {
+    fn aggregate(&self, round: &super::Round) -> Aggregate {
+        aggregate(round.inputs, round.f)
+    }
+}
+
 /// The coordinate-wise `f`-trimmed mean.
 pub fn aggregate(inputs: &[Input], f: usize) -> Aggregate {
     let q = inputs.len();
