@@ -197,7 +197,11 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
 
 /// The configuration of a committed task under today's presets.
 fn resolve(c: &Committed) -> anyhow::Result<Config> {
-    Ok(Config::resolve(Some(&c.sweep.preset), None, &c.sweep.overrides)?)
+    Ok(Config::resolve(
+        Some(&c.sweep.preset),
+        None,
+        &c.sweep.overrides,
+    )?)
 }
 
 /// Check 2: the report of the committed results equals the committed report files.

@@ -71,7 +71,13 @@ pub struct Timing {
 
 /// The parts of [`Timing`] in the order the driver runs them, by the name `summary.json` gives
 /// them (`<name>_s`, `<name>_cpu_s`).
-pub const TIMING_PARTS: [&str; 5] = ["world", "ledger", "learning", "checkpoint", "log_and_summary"];
+pub const TIMING_PARTS: [&str; 5] = [
+    "world",
+    "ledger",
+    "learning",
+    "checkpoint",
+    "log_and_summary",
+];
 
 impl Timing {
     /// `(wall s, CPU s)` of each part of [`TIMING_PARTS`], in that order.
@@ -244,7 +250,12 @@ pub(crate) mod tests {
     fn a_missing_field_is_named_with_the_file() {
         let path = Path::new("results/e1-faulty/faulty-1/seed1.json");
         let json = to_json(&example()).unwrap();
-        for field in ["\"wall_s\"", "\"point_index\"", "\"canonical_height\"", "\"seed\""] {
+        for field in [
+            "\"wall_s\"",
+            "\"point_index\"",
+            "\"canonical_height\"",
+            "\"seed\"",
+        ] {
             let renamed = json.replace(field, "\"renamed\"");
             let err = ResultFile::parse(renamed.as_bytes(), path)
                 .unwrap_err()

@@ -20,8 +20,8 @@ use crate::experiments::{self, Experiment, Task};
 use crate::grid;
 use crate::progress::Watch;
 use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
-use crate::summary::{ResultFile, SweepTask};
 use crate::run;
+use crate::summary::{ResultFile, SweepTask};
 
 /// A share of the task list: the tasks whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

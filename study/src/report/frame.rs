@@ -43,7 +43,10 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
             keys.push(k.clone());
         }
     }
-    let per_run: Vec<_> = results.iter().map(|r| run_metrics(&r.result.summary)).collect();
+    let per_run: Vec<_> = results
+        .iter()
+        .map(|r| run_metrics(&r.result.summary))
+        .collect();
     let metric_names: BTreeSet<&'static str> = per_run
         .iter()
         .flat_map(|(m, _)| m.keys().copied())

@@ -111,7 +111,10 @@ fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyho
             let h = hash(r);
             format!(
                 "{} (configuration {})",
-                results::show_overrides(&results::extra_overrides(&r.result.sweep, &point_overrides)),
+                results::show_overrides(&results::extra_overrides(
+                    &r.result.sweep,
+                    &point_overrides
+                )),
                 &h[..h.len().min(12)]
             )
         };

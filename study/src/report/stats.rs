@@ -334,7 +334,10 @@ impl Gathered {
         self.ledger(&s.run.ledger);
         let a = &s.run.aggregation;
         self.push("sent_mb_per_robot", Some(a.bytes_sent_per_robot_mean / 1e6));
-        self.push("stored_mb_per_robot", Some(a.bytes_stored_per_robot_mean / 1e6));
+        self.push(
+            "stored_mb_per_robot",
+            Some(a.bytes_stored_per_robot_mean / 1e6),
+        );
         if !s.wall_s.is_nan() {
             self.walls.push(s.wall_s);
         }
