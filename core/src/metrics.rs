@@ -150,19 +150,35 @@ impl Metrics {
     }
 }
 
+/// Numbers written by serde_json, which writes NaN (a round without honest models) and the
+/// infinities as `null`: `null` reads back as NaN, so a summary reads back as written.
+pub fn nans_from_nulls<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    let v = Vec::<Option<f64>>::deserialize(d)?;
+    Ok(v.into_iter().map(|x| x.unwrap_or(f64::NAN)).collect())
+}
+
+/// [`nans_from_nulls`] for one number.
+pub fn nan_from_null<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
 /// The contract section of `summary.json`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ContractSummary {
     /// Aggregation rounds completed on the final canonical chain.
     pub rounds: u64,
     /// Simulated time of the block that closed round r (index r - 1).
+    #[serde(deserialize_with = "nans_from_nulls")]
     pub round_times_s: Vec<f64>,
     /// The paper's metric: sample-weighted mean validation loss of the honest models aggregated
     /// in round r (Byzantine models have no validation loss; NaN if a round had only those).
+    #[serde(deserialize_with = "nans_from_nulls")]
     pub loss_by_round: Vec<f64>,
     /// Loss of the shared model after round r on the fixed held-out set.
+    #[serde(deserialize_with = "nans_from_nulls")]
     pub heldout_loss_by_round: Vec<f64>,
     /// Loss of the genesis model on the held-out set.
+    #[serde(deserialize_with = "nan_from_null")]
     pub heldout_loss_initial: f64,
     /// Last entry of `loss_by_round` (None without a round).
     pub final_loss: Option<f64>,
@@ -180,13 +196,17 @@ pub struct ContractSummary {
     pub outlier_threshold: f64,
     /// The same mean over the accepted honest submissions of round r (index r - 1); NaN for a
     /// round that aggregated Byzantine models only.
-    #[serde(default)]
+    #[serde(default, deserialize_with = "nans_from_nulls")]
     pub mean_honest_distance_by_round: Vec<f64>,
     /// Under the relative outlier rule (`contract.outlier_rule = "relative"`,
     /// `contract/outlier.rs`): the bound in force, as a mean absolute distance per weight, at
     /// the end of the block that closed version r (index r - 1). Empty under the absolute
     /// rule, and then left out.
-    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    #[serde(
+        default,
+        skip_serializing_if = "Vec::is_empty",
+        deserialize_with = "nans_from_nulls"
+    )]
     pub outlier_bound_by_round: Vec<f64>,
     /// Under the relative outlier rule: the honest robots' submissions judged outliers on the
     /// final canonical chain (`submissions.outlier` counts everyone's). `None` under the
@@ -246,6 +266,7 @@ pub struct ControlPoint {
     /// The Byzantine share of the balances after it.
     pub share: f64,
     /// Held-out loss of the shared model after it (compare with `final_heldout_loss`).
+    #[serde(deserialize_with = "nan_from_null")]
     pub heldout_loss: f64,
 }
 

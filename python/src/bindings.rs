@@ -170,7 +170,9 @@ fn run(
             check,
         )
     })?;
-    serde_json::to_string(&outcome.summary).map_err(err)
+    // Through a `Value`, whose keys are sorted as in `summary.json`.
+    let summary = serde_json::to_value(&outcome.summary).map_err(err)?;
+    serde_json::to_string(&summary).map_err(err)
 }
 
 /// Replays the log at `log` (`swarmfl replay [--resimulate]`) offered the plug-in `attack`:

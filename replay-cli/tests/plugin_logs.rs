@@ -92,7 +92,7 @@ fn a_plugin_attacks_log_is_read_from_its_records_and_only_resimulation_needs_the
         assert!(out.status.success(), "{args:?}: {err}");
     }
     let out = swarmfl(&["replay", log]);
-    let hash = outcome.summary["final_hash"].as_str().unwrap();
+    let hash = outcome.summary.run.final_hash.as_str();
     assert!(
         String::from_utf8_lossy(&out.stdout).contains(hash),
         "the fold ends at the run's final hash"

@@ -3,7 +3,7 @@
 //!
 //! It owns running a configuration to a log and a summary ([`run`]), forks ([`fork`]) and
 //! exports ([`export`]), the experiments ([`experiments`], named once) and grids ([`grid`]),
-//! result files ([`results`]), sweeps ([`sweep`]) and rechecks ([`recheck`]), reports
+//! summaries and result files, typed ([`summary`], [`results`]), sweeps ([`sweep`]) and rechecks ([`recheck`]), reports
 //! ([`report`]), ranking ([`ranking`]), traffic ([`traffic`]) and data volume
 //! ([`data_volume`]), and the pictures: figures (in [`report`]), the world ([`snapshot`]) and
 //! the viewer ([`view`]). It prints nothing: a long job shows its progress and says its
@@ -23,6 +23,7 @@ pub mod results;
 pub mod run;
 pub mod run_dir;
 pub mod snapshot;
+pub mod summary;
 pub mod sweep;
 pub mod traffic;
 pub mod view;

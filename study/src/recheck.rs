@@ -30,6 +30,7 @@ use std::sync::Mutex;
 use anyhow::Context;
 use swarmfl_core::config::Config;
 
+use crate::summary::{self, ResultFile, SweepTask};
 use crate::{report, run};
 
 /// The report's files that hold numbers (the figures are drawn from them).
@@ -50,17 +51,12 @@ const WALL_CLOCK_FIELDS: [&str; 2] = ["wall_s", "timing"];
 struct Committed {
     /// The file.
     path: PathBuf,
-    /// Its parsed contents.
-    summary: serde_json::Value,
-    /// The experiment (its results' directory name).
-    experiment: String,
-    /// The preset its configuration starts from (a grid's `sweep.preset`, else the
-    /// experiment's name).
-    preset: String,
-    /// The task's overrides (the point's and the sweep's).
-    overrides: Vec<String>,
-    /// The seed.
-    seed: u64,
+    /// Its contents as written, for the field-by-field comparison with a re-run.
+    json: serde_json::Value,
+    /// The configuration hash it records.
+    config_hash: String,
+    /// The task that made it (its `sweep` section).
+    sweep: SweepTask,
     /// The recorded wall time of the run, seconds.
     wall_s: f64,
 }
@@ -156,42 +152,19 @@ fn collect(dir: &Path, out: &mut Vec<PathBuf>) -> anyhow::Result<()> {
 /// Reads one result file and the task it names.
 fn parse(path: &Path) -> anyhow::Result<Committed> {
     let bytes = std::fs::read(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let summary: serde_json::Value = serde_json::from_slice(&bytes).with_context(|| {
+    let json: serde_json::Value = serde_json::from_slice(&bytes).with_context(|| {
         format!(
             "{} is not valid JSON: restore it from git or re-run its task with `swarmfl sweep`",
             path.display()
         )
     })?;
-    let sweep = &summary["sweep"];
-    let experiment = sweep["experiment"].as_str().with_context(|| {
-        format!(
-            "{}: no sweep.experiment (a result file of `swarmfl sweep` names its task)",
-            path.display()
-        )
-    })?;
-    let seed = sweep["seed"]
-        .as_u64()
-        .with_context(|| format!("{}: no sweep.seed", path.display()))?;
-    let overrides = sweep["overrides"]
-        .as_array()
-        .with_context(|| format!("{}: no sweep.overrides", path.display()))?
-        .iter()
-        .map(|o| {
-            o.as_str()
-                .map(str::to_string)
-                .with_context(|| format!("{}: sweep.overrides holds a non-string", path.display()))
-        })
-        .collect::<anyhow::Result<Vec<_>>>()?;
-    // A grid's results name their preset; a built-in experiment's preset is its name.
-    let preset = sweep["preset"].as_str().unwrap_or(experiment);
+    let made = ResultFile::parse(&bytes, path)?;
     Ok(Committed {
         path: path.to_path_buf(),
-        experiment: experiment.to_string(),
-        preset: preset.to_string(),
-        overrides,
-        seed,
-        wall_s: summary["wall_s"].as_f64().unwrap_or(f64::INFINITY),
-        summary,
+        json,
+        config_hash: made.summary.run.config_hash,
+        sweep: made.sweep,
+        wall_s: made.summary.wall_s,
     })
 }
 
@@ -201,7 +174,7 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
         match resolve(c) {
             Ok(config) => {
                 let today = config.hash().to_hex().to_string();
-                let theirs = c.summary["config_hash"].as_str().unwrap_or("(none)");
+                let theirs = c.config_hash.as_str();
                 if today != theirs {
                     findings.problems.push(format!(
                         "{}: made under configuration {}, today's presets give {} for \
@@ -209,8 +182,8 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
                         c.path.display(),
                         short(theirs),
                         short(&today),
-                        c.experiment,
-                        c.seed
+                        c.sweep.experiment,
+                        c.sweep.seed
                     ));
                 }
             }
@@ -224,7 +197,11 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
 
 /// The configuration of a committed task under today's presets.
 fn resolve(c: &Committed) -> anyhow::Result<Config> {
-    Ok(Config::resolve(Some(&c.preset), None, &c.overrides)?)
+    Ok(Config::resolve(
+        Some(&c.sweep.preset),
+        None,
+        &c.sweep.overrides,
+    )?)
 }
 
 /// Check 2: the report of the committed results equals the committed report files.
@@ -303,13 +280,19 @@ fn choose(
     per_experiment: usize,
     max_task_s: Option<f64>,
 ) -> (Vec<Committed>, Vec<(String, f64)>) {
-    let mut experiments: Vec<&str> = committed.iter().map(|c| c.experiment.as_str()).collect();
+    let mut experiments: Vec<&str> = committed
+        .iter()
+        .map(|c| c.sweep.experiment.as_str())
+        .collect();
     experiments.sort_unstable();
     experiments.dedup();
     let mut chosen = Vec::new();
     let mut not_rerun = Vec::new();
     for e in experiments {
-        let mut of: Vec<&Committed> = committed.iter().filter(|c| c.experiment == e).collect();
+        let mut of: Vec<&Committed> = committed
+            .iter()
+            .filter(|c| c.sweep.experiment == e)
+            .collect();
         of.sort_by(|a, b| a.wall_s.total_cmp(&b.wall_s).then(a.path.cmp(&b.path)));
         let fastest = of.first().map_or(f64::INFINITY, |c| c.wall_s);
         let under = of
@@ -360,16 +343,16 @@ fn rerun(chosen: &[Committed], jobs: usize) -> Vec<String> {
 fn rerun_one(task: &Committed) -> anyhow::Result<Option<String>> {
     let config = resolve(task)?;
     let out = scratch_dir("run")?;
-    let outcome = run::run(config, task.seed, &out, &crate::progress::Quiet);
+    let outcome = run::run(config, task.sweep.seed, &out, &crate::progress::Quiet);
     let _ = std::fs::remove_dir_all(&out);
-    let mut new = outcome?.summary;
     // The sweep section is the task's name, written by `sweep` beside the summary.
-    if let (Some(map), Some(sweep)) = (new.as_object_mut(), task.summary.get("sweep")) {
-        map.insert("sweep".into(), sweep.clone());
-    }
+    let new = ResultFile {
+        summary: outcome?.summary,
+        sweep: task.sweep.clone(),
+    };
     // Through text and back, as the committed file went, so both sides parse the same digits.
-    let new: serde_json::Value = serde_json::from_str(&serde_json::to_string(&new)?)?;
-    Ok(difference(&task.summary, &new, ""))
+    let new: serde_json::Value = serde_json::from_str(&summary::to_json(&new)?)?;
+    Ok(difference(&task.json, &new, ""))
 }
 
 /// The first path where `committed` and `new` differ, wall-clock fields at the top level apart.
@@ -445,6 +428,7 @@ fn short(hash: &str) -> &str {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::results;
     use serde_json::json;
 
     #[test]
@@ -494,11 +478,18 @@ mod tests {
     fn tasks_are_chosen_by_recorded_wall_time_per_experiment() {
         let file = |path: &str, experiment: &str, wall_s: f64| Committed {
             path: PathBuf::from(path),
-            summary: json!({}),
-            experiment: experiment.into(),
-            preset: experiment.into(),
-            overrides: vec![],
-            seed: 1,
+            json: json!({}),
+            config_hash: String::new(),
+            sweep: SweepTask {
+                experiment: experiment.into(),
+                point: "p".into(),
+                seed: 1,
+                task: 0,
+                overrides: vec![],
+                preset: experiment.into(),
+                point_index: 0,
+                x: None,
+            },
             wall_s,
         };
         let all = vec![
@@ -559,9 +550,9 @@ mod tests {
         let file = results.join("e1-faulty/faulty-1/seed1.json");
         let original = std::fs::read_to_string(&file).unwrap();
         // A number of the run edited (the records' hash stays, so only the re-run sees it).
-        let mut edited: serde_json::Value = serde_json::from_str(&original).unwrap();
-        edited["world"]["collisions"] = json!(12345);
-        std::fs::write(&file, serde_json::to_string_pretty(&edited).unwrap()).unwrap();
+        let mut edited = ResultFile::parse(original.as_bytes(), &file).unwrap();
+        edited.summary.run.world.collisions = 12345;
+        results::write_atomic(&file, &edited).unwrap();
         let found = check_study(&dir, 1, None, 1).unwrap().problems;
         assert!(
             found
@@ -570,18 +561,18 @@ mod tests {
             "{found:?}"
         );
         // A wall-clock field edited: not a difference.
-        let mut timed: serde_json::Value = serde_json::from_str(&original).unwrap();
-        timed["wall_s"] = json!(99.0);
-        std::fs::write(&file, serde_json::to_string_pretty(&timed).unwrap()).unwrap();
+        let mut timed = ResultFile::parse(original.as_bytes(), &file).unwrap();
+        timed.summary.wall_s = 99.0;
+        results::write_atomic(&file, &timed).unwrap();
         report::report(&results, &dir).unwrap();
         assert_eq!(
             check_study(&dir, 1, None, 1).unwrap().problems,
             Vec::<String>::new()
         );
         // Another configuration hash: named without a re-run.
-        let mut other: serde_json::Value = serde_json::from_str(&original).unwrap();
-        other["config_hash"] = json!("00112233445566778899");
-        std::fs::write(&file, serde_json::to_string_pretty(&other).unwrap()).unwrap();
+        let mut other = ResultFile::parse(original.as_bytes(), &file).unwrap();
+        other.summary.run.config_hash = "00112233445566778899".into();
+        results::write_atomic(&file, &other).unwrap();
         let found = check_study(&dir, 0, None, 1).unwrap().problems;
         assert!(
             found

@@ -1,10 +1,12 @@
 //! The results directory a sweep writes and a report reads: one file per task,
 //! `DIR/<experiment>/<point>/seed<N>.json` (the run's summary JSON plus a `sweep` section
-//! naming the task), written atomically (temporary file + rename).
+//! naming the task: [`ResultFile`]), written atomically (temporary file + rename).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
+
+use crate::summary::{self, ResultFile, SweepTask};
 
 /// The result file of a task: `DIR/<experiment>/<point>/seed<N>.json`.
 pub fn result_path(dir: &Path, experiment: &str, point: &str, seed: u64) -> PathBuf {
@@ -13,26 +15,21 @@ pub fn result_path(dir: &Path, experiment: &str, point: &str, seed: u64) -> Path
         .join(format!("seed{seed}.json"))
 }
 
-/// Whether a result file exists and parses as a summary (a JSON object with a `seed`).
+/// Whether a result file exists and reads as one ([`ResultFile`]): a truncated or damaged
+/// file, or one an older version wrote without a field this one reads, is a task to redo.
 pub fn is_done(path: &Path) -> bool {
-    std::fs::read(path)
-        .ok()
-        .and_then(|bytes| serde_json::from_slice::<serde_json::Value>(&bytes).ok())
-        .is_some_and(|v| v.get("seed").is_some_and(|s| s.is_u64()))
+    ResultFile::read(path).is_ok()
 }
 
 /// The sweep-wide `--set` overrides a result file was made with: its `sweep.overrides` minus
 /// the point's own (which every result of the point shares).
-pub fn extra_overrides(summary: &serde_json::Value, point_overrides: &[String]) -> Vec<String> {
-    summary["sweep"]["overrides"]
-        .as_array()
-        .map(|a| {
-            a.iter()
-                .filter_map(|v| v.as_str().map(str::to_string))
-                .filter(|o| !point_overrides.contains(o))
-                .collect()
-        })
-        .unwrap_or_default()
+pub fn extra_overrides(sweep: &SweepTask, point_overrides: &[String]) -> Vec<String> {
+    sweep
+        .overrides
+        .iter()
+        .filter(|o| !point_overrides.contains(o))
+        .cloned()
+        .collect()
 }
 
 /// Shows overrides as the user typed them: `--set a=1 --set b=2`, or `no --set`.
@@ -48,8 +45,9 @@ pub fn show_overrides(overrides: &[String]) -> String {
     }
 }
 
-/// Writes `value` to `path` atomically: a temporary file in the same directory, then rename.
-pub fn write_atomic(path: &Path, value: &serde_json::Value) -> anyhow::Result<()> {
+/// Writes `value` to `path` atomically ([`summary::to_json`]'s bytes): a temporary file in the
+/// same directory, then rename.
+pub fn write_atomic(path: &Path, value: &impl serde::Serialize) -> anyhow::Result<()> {
     let dir = path.parent().context("result path has no directory")?;
     std::fs::create_dir_all(dir).with_context(|| format!("cannot create {}", dir.display()))?;
     let name = path
@@ -57,7 +55,7 @@ pub fn write_atomic(path: &Path, value: &serde_json::Value) -> anyhow::Result<()
         .context("result path has no file name")?
         .to_string_lossy();
     let tmp = dir.join(format!(".{name}.tmp-{}", std::process::id()));
-    std::fs::write(&tmp, serde_json::to_string_pretty(value)? + "\n")
+    std::fs::write(&tmp, summary::to_json(value)?)
         .with_context(|| format!("cannot write {}", tmp.display()))?;
     std::fs::rename(&tmp, path)
         .with_context(|| format!("cannot rename {} to {}", tmp.display(), path.display()))?;
@@ -74,11 +72,15 @@ mod tests {
         let path = result_path(&dir, "e2-faulty", "byzantine-3", 7);
         assert!(path.ends_with("e2-faulty/byzantine-3/seed7.json"));
         assert!(!is_done(&path));
-        write_atomic(&path, &serde_json::json!({"seed": 7})).unwrap();
+        let made = crate::summary::tests::example();
+        write_atomic(&path, &made).unwrap();
         assert!(is_done(&path));
-        std::fs::write(&path, "{\"seed\": 7").unwrap();
+        let bytes = std::fs::read_to_string(&path).unwrap();
+        std::fs::write(&path, &bytes[..bytes.len() / 2]).unwrap();
         assert!(!is_done(&path), "a truncated file is not a finished task");
-        write_atomic(&path, &serde_json::json!({"seed": 7, "x": 1})).unwrap();
+        std::fs::write(&path, bytes.replace("\"log_bytes\"", "\"log_size\"")).unwrap();
+        assert!(!is_done(&path), "a file without a field is a task to redo");
+        write_atomic(&path, &made).unwrap();
         assert!(is_done(&path));
         let leftovers: Vec<_> = std::fs::read_dir(path.parent().unwrap())
             .unwrap()

@@ -17,6 +17,7 @@ use swarmfl_core::state::State;
 use swarmfl_core::summary::RunSummary;
 
 use crate::progress::Watch;
+use crate::summary::{self, Summary};
 
 /// Wall time and CPU time per part of the driver, shared with the driver's profiler hook.
 /// The wall time of a part is the driver thread's time in it (for learning: training, or
@@ -55,24 +56,24 @@ impl Profiler for Timing {
 }
 
 impl Timing {
-    fn json(&self) -> serde_json::Value {
+    fn summary(&self) -> summary::Timing {
         let mut t = self.clone();
         t.switch(Part::Log);
         let t = self.0.lock().expect("timing lock");
         let wall = |p: Part| t.totals.get(&p).map_or(0.0, |v| v.0);
         let cpu = |p: Part| t.totals.get(&p).map_or(0.0, |v| v.1);
-        serde_json::json!({
-            "world_s": wall(Part::World),
-            "ledger_s": wall(Part::Ledger),
-            "learning_s": wall(Part::Learning),
-            "checkpoint_s": wall(Part::Checkpoint),
-            "log_and_summary_s": wall(Part::Log),
-            "world_cpu_s": cpu(Part::World),
-            "ledger_cpu_s": cpu(Part::Ledger),
-            "learning_cpu_s": cpu(Part::Learning),
-            "checkpoint_cpu_s": cpu(Part::Checkpoint),
-            "log_and_summary_cpu_s": cpu(Part::Log),
-        })
+        summary::Timing {
+            world_s: wall(Part::World),
+            ledger_s: wall(Part::Ledger),
+            learning_s: wall(Part::Learning),
+            checkpoint_s: wall(Part::Checkpoint),
+            log_and_summary_s: wall(Part::Log),
+            world_cpu_s: cpu(Part::World),
+            ledger_cpu_s: cpu(Part::Ledger),
+            learning_cpu_s: cpu(Part::Learning),
+            checkpoint_cpu_s: cpu(Part::Checkpoint),
+            log_and_summary_cpu_s: cpu(Part::Log),
+        }
     }
 }
 
@@ -133,7 +134,7 @@ pub fn density_warning(config: &Config) -> Option<String> {
 /// What a finished run reports.
 pub struct RunOutcome {
     /// The summary written to `summary.json`.
-    pub summary: serde_json::Value,
+    pub summary: Summary,
     /// The log's path.
     pub log_path: PathBuf,
     /// Blocks sealed by any node on any fork (genesis apart): the log's block checkpoints,
@@ -287,20 +288,16 @@ pub fn write_run(
     let (footer, _) = writer.finish()?;
     let core = RunSummary::new(sim.config(), seed, sim.state(), records, footer.final_hash);
     let wall_s = started.elapsed().as_secs_f64();
-    let mut summary = serde_json::to_value(&core)?;
-    let map = summary.as_object_mut().expect("summary is an object");
-    map.insert("wall_s".into(), serde_json::json!(wall_s));
-    map.insert("log_bytes".into(), serde_json::json!(log_bytes));
-    map.insert("timing".into(), timing.json());
-    if let Some(gas) = evm_gas(sim.state()) {
-        map.insert("evm_gas".into(), gas);
-    }
+    let summary = Summary {
+        run: core,
+        wall_s,
+        log_bytes,
+        timing: timing.summary(),
+        evm_gas: evm_gas(sim.state()),
+    };
     let summary_path = out.join("summary.json");
-    std::fs::write(
-        &summary_path,
-        serde_json::to_string_pretty(&summary)? + "\n",
-    )
-    .with_context(|| format!("cannot write {}", summary_path.display()))?;
+    std::fs::write(&summary_path, summary::to_json(&summary)?)
+        .with_context(|| format!("cannot write {}", summary_path.display()))?;
     Ok(RunOutcome {
         summary,
         log_path,
@@ -310,7 +307,7 @@ pub fn write_run(
 
 /// Without the `evm` feature no run has an EVM, so no gas to report.
 #[cfg(not(feature = "evm"))]
-fn evm_gas(_state: &State) -> Option<serde_json::Value> {
+fn evm_gas(_state: &State) -> Option<std::collections::BTreeMap<String, summary::EvmGas>> {
     None
 }
 
@@ -318,27 +315,27 @@ fn evm_gas(_state: &State) -> Option<serde_json::Value> {
 /// by kind (`accepted` = a submission that did not close its round, `aggregated` = the one that
 /// did, `outlier`, the refusals, `deploy`), with mean, min, max and total.
 #[cfg(feature = "evm")]
-fn evm_gas(state: &State) -> Option<serde_json::Value> {
+fn evm_gas(state: &State) -> Option<std::collections::BTreeMap<String, summary::EvmGas>> {
     let ledger = &state.ledger;
     let head = ledger.head_state(swarmfl_core::metrics::best_node(ledger));
     let evm = head.evm.as_ref()?;
-    let kinds: serde_json::Map<String, serde_json::Value> = evm
+    let kinds = evm
         .gas
         .iter()
         .map(|(kind, g)| {
             (
                 kind.clone(),
-                serde_json::json!({
-                    "calls": g.calls,
-                    "mean_gas": g.mean_gas(),
-                    "min_gas": g.min_gas,
-                    "max_gas": g.max_gas,
-                    "total_gas": g.total_gas,
-                }),
+                summary::EvmGas {
+                    calls: g.calls,
+                    mean_gas: g.mean_gas(),
+                    min_gas: g.min_gas,
+                    max_gas: g.max_gas,
+                    total_gas: g.total_gas,
+                },
             )
         })
         .collect();
-    Some(serde_json::Value::Object(kinds))
+    Some(kinds)
 }
 
 #[cfg(test)]

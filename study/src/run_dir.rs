@@ -242,12 +242,18 @@ fn list(names: &[String]) -> String {
 
 /// `seed S, final hash H...` from the folder's `summary.json`, or why not.
 fn describe(out: &Path) -> String {
+    /// The two fields it names (read alone, so a summary of any version names them).
+    #[derive(serde::Deserialize)]
+    struct Named {
+        seed: u64,
+        final_hash: String,
+    }
     std::fs::read_to_string(out.join("summary.json"))
         .ok()
-        .and_then(|t| serde_json::from_str::<serde_json::Value>(&t).ok())
+        .and_then(|t| serde_json::from_str::<Named>(&t).ok())
         .and_then(|s| {
-            let hash = s.get("final_hash")?.as_str()?.get(..12)?.to_string();
-            Some(format!("seed {}, final hash {hash}...", s.get("seed")?))
+            let hash = s.final_hash.get(..12)?;
+            Some(format!("seed {}, final hash {hash}...", s.seed))
         })
         .unwrap_or_else(|| "no summary: an interrupted run".to_string())
 }

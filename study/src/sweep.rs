@@ -21,6 +21,7 @@ use crate::grid;
 use crate::progress::Watch;
 use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
 use crate::run;
+use crate::summary::{ResultFile, SweepTask};
 
 /// A share of the task list: the tasks whose index is `index` modulo `count`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -144,18 +145,15 @@ fn check_settings(
         .collect();
     files.sort();
     for file in files {
-        let Some(summary) = std::fs::read(&file)
-            .ok()
-            .and_then(|b| serde_json::from_slice::<serde_json::Value>(&b).ok())
-        else {
+        let Ok(made) = ResultFile::read(&file) else {
             // An unreadable result is re-run (and overwritten) like a missing one.
             continue;
         };
-        let theirs = summary["config_hash"].as_str().unwrap_or("(none)");
+        let theirs = made.summary.run.config_hash.as_str();
         if theirs == config_hash {
             continue;
         }
-        let their_overrides = extra_overrides(&summary, point_overrides);
+        let their_overrides = extra_overrides(&made.sweep, point_overrides);
         let why = if their_overrides == overrides {
             format!(
                 "the same {} under another version's presets (configuration {} vs {})",
@@ -451,24 +449,21 @@ fn run_task(
         // Best effort: a leftover temporary directory does not change any result.
         let _ = std::fs::remove_dir_all(&run_dir);
     }
-    let mut summary = outcome?.summary;
-    let map = summary
-        .as_object_mut()
-        .context("the run's summary is not a JSON object")?;
-    map.insert(
-        "sweep".into(),
-        serde_json::json!({
-            "experiment": task.experiment,
-            "point": task.point,
-            "seed": task.seed,
-            "task": task.index,
-            "overrides": task.overrides,
-            "preset": exp.preset,
-            "point_index": task.point_index,
-            "x": point.x,
-        }),
-    );
-    write_atomic(&result, &summary)
+    let made = ResultFile {
+        summary: outcome?.summary,
+        sweep: SweepTask {
+            experiment: task.experiment.clone(),
+            point: task.point.clone(),
+            seed: task.seed,
+            task: task.index,
+            overrides: task.overrides.clone(),
+            preset: exp.preset.clone(),
+            point_index: task.point_index,
+            // serde_json writes a non-finite x as null, as it did.
+            x: Some(point.x).filter(|x| x.is_finite()),
+        },
+    };
+    write_atomic(&result, &made)
 }
 
 #[cfg(test)]
@@ -624,9 +619,8 @@ mod tests {
             "contract.rule=krum+byzantine.count=2",
         ] {
             let file = result_path(&dir, "grid-smoke", point, 1);
-            let s: serde_json::Value =
-                serde_json::from_slice(&std::fs::read(&file).unwrap()).unwrap();
-            assert_eq!(s["sweep"]["preset"], "smoke", "{point}");
+            let made = ResultFile::read(&file).unwrap();
+            assert_eq!(made.sweep.preset, "smoke", "{point}");
         }
         let again = sweep(&opts, &crate::progress::Quiet, None).unwrap();
         assert_eq!((again.ran, again.skipped), (0, 4));
@@ -705,8 +699,9 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("swarmfl-sweep-mix-{}", std::process::id()));
         let point = dir.join("e2-faulty/byzantine-3");
         let point_overrides = vec!["byzantine.count=3".to_string()];
-        let made = serde_json::json!({"seed": 1, "config_hash": "aaaaaaaaaaaaaaaa",
-            "sweep": {"overrides": ["byzantine.count=3", "run.duration_s=300"]}});
+        let mut made = crate::summary::tests::example();
+        made.summary.run.config_hash = "aaaaaaaaaaaaaaaa".into();
+        made.sweep.overrides = vec!["byzantine.count=3".into(), "run.duration_s=300".into()];
         write_atomic(&point.join("seed1.json"), &made).unwrap();
         let same = check_settings(
             &point,

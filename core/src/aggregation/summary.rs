@@ -36,6 +36,7 @@ pub struct AggregationSummary {
     pub messages_lost: u64,
     /// Per honest robot (robot order), the held-out loss of the model it would start from at
     /// the end (chain: the final canonical head's shared model for all).
+    #[serde(deserialize_with = "crate::metrics::nans_from_nulls")]
     pub final_heldout_loss_per_robot: Vec<f64>,
 }
 

@@ -7,8 +7,11 @@ use std::time::Duration;
 
 use anyhow::Context;
 use swarmfl_core::config::Aggregation;
+use swarmfl_core::metrics::ContractSummary;
+use swarmfl_core::summary::RunSummary;
 use swarmfl_study::run::{density_warning, run, run_header, run_with, Flush, RunOutcome};
 use swarmfl_study::run_dir;
+use swarmfl_study::summary::{count, Summary, Timing};
 
 use crate::cli::RunArgs;
 use crate::progress::Bar;
@@ -88,37 +91,37 @@ pub fn print_summary(outcome: &RunOutcome) {
     );
 }
 
-/// How the run's models were aggregated, from its summary (`chain` when it does not say: the
-/// summaries written before the baselines).
-fn aggregation_kind(summary: &serde_json::Value) -> Aggregation {
-    serde_json::from_value(summary["aggregation"]["kind"].clone()).unwrap_or_default()
+/// A number as `summary.json` writes it (`600.0`, `0.05`; `null` when not finite), so the
+/// text shows the figures as the file does.
+fn json(x: f64) -> String {
+    serde_json::Value::from(x).to_string()
+}
+
+/// A number the file holds (`None` when not finite: the file holds it as `null`).
+fn finite(x: f64) -> Option<f64> {
+    x.is_finite().then_some(x)
 }
 
 /// A loss as `run` prints it: four decimals, `-` when there is none.
-fn loss(v: &serde_json::Value) -> String {
-    v.as_f64().map_or("-".to_string(), |x| format!("{x:.4}"))
+fn loss(v: Option<f64>) -> String {
+    v.and_then(finite)
+        .map_or("-".to_string(), |x| format!("{x:.4}"))
 }
 
 /// Megabytes with three decimals, `-` when there are none.
-fn mb(v: &serde_json::Value) -> String {
-    v.as_f64()
-        .map_or("-".to_string(), |x| format!("{:.3}", x / 1e6))
+fn mb(bytes: f64) -> String {
+    finite(bytes).map_or("-".to_string(), |x| format!("{:.3}", x / 1e6))
 }
 
 /// The losses at aggregations 1, 10, 25, 50 and the last, as ` {p}1=... {p}10=...`.
-fn loss_points(contract: &serde_json::Value, prefix: &str) -> String {
-    let rounds = contract["rounds"].as_u64().unwrap_or(0);
-    let losses = contract["loss_by_round"]
-        .as_array()
-        .cloned()
-        .unwrap_or_default();
+fn loss_points(contract: &ContractSummary, prefix: &str) -> String {
+    let rounds = contract.rounds;
+    let losses = &contract.loss_by_round;
     let mut shown = String::new();
     for r in [1u64, 10, 25, 50, rounds] {
         let label = format!("{prefix}{r}=");
         if r >= 1 && r <= rounds && !shown.contains(&format!(" {label}")) {
-            let value = losses
-                .get((r - 1) as usize)
-                .unwrap_or(&serde_json::Value::Null);
+            let value = losses.get((r - 1) as usize).copied();
             shown.push_str(&format!(" {label}{}", loss(value)));
         }
     }
@@ -132,39 +135,34 @@ fn loss_points(contract: &serde_json::Value, prefix: &str) -> String {
 /// `sealings` blocks sealed on all forks): what every run has, then the contract, tokens and
 /// ledger of a chain run or the aggregations and traffic of a baseline (which has no chain,
 /// contract or tokens), then timing and the final hash.
-pub fn summary_text(summary: &serde_json::Value, log: &Path, sealings: u64) -> String {
-    let s = summary;
-    let kind = aggregation_kind(s);
+pub fn summary_text(summary: &Summary, log: &Path, sealings: u64) -> String {
+    let s = &summary.run;
+    let kind = s.aggregation.kind;
+    let world = &s.world;
     let mut out = vec![
         format!("log:        {}", log.display()),
         format!(
             "run:        preset {} seed {}, {} robots, {} simulated s",
-            s["preset"].as_str().unwrap_or("?"),
-            s["seed"],
-            s["robots"],
-            s["sim_time_s"]
+            s.preset,
+            s.seed,
+            s.robots,
+            json(s.sim_time_s)
         ),
-        format!("records:    {} ({} bytes)", s["records"], s["log_bytes"]),
-    ];
-    if let Some(world) = s.get("world") {
-        out.push(format!(
+        format!("records:    {} ({} bytes)", s.records, summary.log_bytes),
+        format!(
             "world:      collisions {}, mean neighbours {:.2}, samples/robot/600 s {:.1}",
-            world["collisions"],
-            world["mean_neighbours"].as_f64().unwrap_or(0.0),
-            world["samples_per_robot_per_600s"].as_f64().unwrap_or(0.0)
-        ));
-    }
+            world.collisions,
+            finite(world.mean_neighbours).unwrap_or(0.0),
+            finite(world.samples_per_robot_per_600s).unwrap_or(0.0)
+        ),
+    ];
     match kind {
         Aggregation::Chain => chain_lines(s, sealings, &mut out),
         Aggregation::Gossip => gossip_lines(s, &mut out),
         Aggregation::Central => central_lines(s, &mut out),
     }
-    if let Some(gas) = s.get("evm_gas") {
-        let mean = |kind: &str| {
-            gas[kind]["mean_gas"]
-                .as_u64()
-                .map_or("-".into(), |g| g.to_string())
-        };
+    if let Some(gas) = &summary.evm_gas {
+        let mean = |kind: &str| gas.get(kind).map_or("-".into(), |g| g.mean_gas.to_string());
         out.push(format!(
             "evm gas:    submission {} (mean), aggregating submission {}, outlier {}, deploy {}; \
              contract wall time is inside ledger_s below",
@@ -174,91 +172,87 @@ pub fn summary_text(summary: &serde_json::Value, log: &Path, sealings: u64) -> S
             mean("deploy")
         ));
     }
-    out.push(format!("timing:     {}", timing_line(&s["timing"], kind)));
     out.push(format!(
-        "final hash: {}",
-        s["final_hash"].as_str().unwrap_or("?")
+        "timing:     {}",
+        timing_line(&summary.timing, kind)
     ));
+    out.push(format!("final hash: {}", s.final_hash));
     out.push(format!(
         "wall time:  {:.2} s",
-        s["wall_s"].as_f64().unwrap_or(0.0)
+        finite(summary.wall_s).unwrap_or(0.0)
     ));
     out.join("\n") + "\n"
 }
 
 /// A chain run's contract, tokens, aggregation traffic and ledger.
-fn chain_lines(s: &serde_json::Value, sealings: u64, out: &mut Vec<String>) {
-    let c = &s["contract"];
+fn chain_lines(s: &RunSummary, sealings: u64, out: &mut Vec<String>) {
+    let c = &s.contract;
     out.push(format!(
         "contract:   {} rounds; loss by round:{}",
-        c["rounds"].as_u64().unwrap_or(0),
+        c.rounds,
         loss_points(c, "r")
     ));
     out.push(format!(
         "            held-out loss {} -> {}; submissions {}",
-        loss(&c["heldout_loss_initial"]),
-        loss(&c["final_heldout_loss"]),
-        c["submissions"]
+        loss(Some(c.heldout_loss_initial)),
+        loss(c.final_heldout_loss),
+        serde_json::to_string(&c.submissions).unwrap_or_default()
     ));
     out.push(format!(
         "            mean honest distance {} (outlier threshold {})",
-        loss(&c["mean_honest_distance"]),
-        c["outlier_threshold"]
+        loss(c.mean_honest_distance),
+        json(c.outlier_threshold)
     ));
-    let t = &s["tokens"];
+    let t = &s.tokens;
     out.push(format!(
         "tokens:     honest mean gain {}, Byzantine mean gain {}, total units {} -> {}",
-        loss(&t["honest_mean_gain"]),
-        loss(&t["byzantine_mean_gain"]),
-        t["total_units_start"],
-        t["total_units_end"]
+        loss(t.honest_mean_gain),
+        loss(t.byzantine_mean_gain),
+        t.total_units_start,
+        t.total_units_end
     ));
-    if let Some(held) = t["contract_holdings"].as_f64().filter(|h| *h > 0.0) {
+    if let Some(held) = finite(t.contract_holdings).filter(|h| *h > 0.0) {
         // Without this a clean run's negative gain reads as a loss: it is stake still locked.
         out.push(format!(
             "            (gains count {held:.3} tokens as spent: the stakes the contract still \
              holds for the round open at the end)"
         ));
     }
-    let a = &s["aggregation"];
-    if a.is_object() {
-        out.push(format!(
-            "aggregation: {}; sent {} MB/robot, stored {} MB/robot; conservation {}",
-            a["kind"].as_str().unwrap_or("?"),
-            mb(&a["bytes_sent_per_robot_mean"]),
-            mb(&a["bytes_stored_per_robot_mean"]),
-            a["conservation"].as_str().unwrap_or("?")
-        ));
-    }
-    let l = &s["ledger"];
+    let a = &s.aggregation;
+    out.push(format!(
+        "aggregation: {}; sent {} MB/robot, stored {} MB/robot; conservation {}",
+        a.kind.name(),
+        mb(a.bytes_sent_per_robot_mean),
+        mb(a.bytes_stored_per_robot_mean),
+        a.conservation
+    ));
+    let l = &s.ledger;
     out.push(format!(
         "ledger:     canonical height {} (blocks of the final chain, genesis apart), {} \
          sealings on all forks (every block any node sealed, as `replay`, `view` and `export` \
          count them), forks {}, reorgs {} (deepest {}), tx delay median {} s p95 {} s, {:.0} \
          B/submission",
-        l["canonical_height"],
+        l.canonical_height,
         sealings,
-        l["forks"],
-        l["reorgs"],
-        l["deepest_reorg"],
-        l["tx_delay_median_s"],
-        l["tx_delay_p95_s"],
-        l["bytes_per_submission"].as_f64().unwrap_or(0.0)
+        l.forks,
+        l.reorgs,
+        l.deepest_reorg,
+        json(l.tx_delay_median_s),
+        json(l.tx_delay_p95_s),
+        finite(l.bytes_per_submission).unwrap_or(0.0)
     ));
 }
 
 /// What a baseline's summary says about the models it averaged: `N honest and M Byzantine
 /// models averaged`, and the models written (`accepted`, with the duplicates dropped if any).
 /// The summary's `contract` section holds a baseline's figures under the chain's names.
-fn baseline_models(c: &serde_json::Value) -> (String, String) {
+fn baseline_models(c: &ContractSummary) -> (String, String) {
     let averaged = format!(
         "{} honest and {} Byzantine models averaged",
-        c["aggregated_honest"].as_u64().unwrap_or(0),
-        c["aggregated_byzantine"].as_u64().unwrap_or(0)
+        c.aggregated_honest, c.aggregated_byzantine
     );
-    let submissions = &c["submissions"];
-    let mut written = submissions["accepted"].as_u64().unwrap_or(0).to_string();
-    if let Some(d) = submissions["duplicate"].as_u64().filter(|d| *d > 0) {
+    let mut written = count(&c.submissions, "accepted").unwrap_or(0).to_string();
+    if let Some(d) = count(&c.submissions, "duplicate").filter(|d| *d > 0) {
         written.push_str(&format!(" ({d} duplicates dropped)"));
     }
     (averaged, written)
@@ -267,8 +261,8 @@ fn baseline_models(c: &serde_json::Value) -> (String, String) {
 /// A gossip run's merges (of honest robots), the models they averaged, the held-out loss of
 /// the honest robots' final models and the radio's bytes and messages. No chain, contract or
 /// tokens exist here, so none are shown.
-fn gossip_lines(s: &serde_json::Value, out: &mut Vec<String>) {
-    let (c, a) = (&s["contract"], &s["aggregation"]);
+fn gossip_lines(s: &RunSummary, out: &mut Vec<String>) {
+    let (c, a) = (&s.contract, &s.aggregation);
     let (averaged, written) = baseline_models(c);
     out.push(
         "aggregation: gossip (Flow-FL: a virtual-stigmergy store shared by neighbour gossip; no \
@@ -277,32 +271,32 @@ fn gossip_lines(s: &serde_json::Value, out: &mut Vec<String>) {
     );
     out.push(format!(
         "merges:     {} by honest robots, {averaged}; loss by merge:{}",
-        c["rounds"].as_u64().unwrap_or(0),
+        c.rounds,
         loss_points(c, "#")
     ));
     out.push(format!(
         "            held-out loss {} -> {} (mean over the honest robots' final models); models \
          written {written}",
-        loss(&c["heldout_loss_initial"]),
-        loss(&c["final_heldout_loss"]),
+        loss(Some(c.heldout_loss_initial)),
+        loss(c.final_heldout_loss),
     ));
     out.push(format!(
         "radio:      sent {} MB/robot, stored {} MB/robot (its replica); messages {} sent, {} \
          lost",
-        mb(&a["bytes_sent_per_robot_mean"]),
-        mb(&a["bytes_stored_per_robot_mean"]),
-        a["messages_sent"],
-        a["messages_lost"]
+        mb(a.bytes_sent_per_robot_mean),
+        mb(a.bytes_stored_per_robot_mean),
+        a.messages_sent,
+        a.messages_lost
     ));
 }
 
 /// A central run's server aggregations (each a model version), the models they averaged, the
 /// held-out loss of the server's model and the bytes uploaded, downloaded and stored. No
 /// chain, contract or tokens exist here, so none are shown.
-fn central_lines(s: &serde_json::Value, out: &mut Vec<String>) {
-    let (c, a) = (&s["contract"], &s["aggregation"]);
+fn central_lines(s: &RunSummary, out: &mut Vec<String>) {
+    let (c, a) = (&s.contract, &s.aggregation);
     let (averaged, written) = baseline_models(c);
-    let versions = c["rounds"].as_u64().unwrap_or(0);
+    let versions = c.rounds;
     out.push(
         "aggregation: central (an ideal server: FedAvg of every upload; no chain, contract or \
          tokens)"
@@ -315,40 +309,31 @@ fn central_lines(s: &serde_json::Value, out: &mut Vec<String>) {
     ));
     out.push(format!(
         "            held-out loss {} -> {} (the server's model); uploads {written}",
-        loss(&c["heldout_loss_initial"]),
-        loss(&c["final_heldout_loss"]),
+        loss(Some(c.heldout_loss_initial)),
+        loss(c.final_heldout_loss),
     ));
     out.push(format!(
         "traffic:    uploaded {} MB/robot, downloaded {} MB/robot, stored {} MB/robot",
-        mb(&a["bytes_sent_per_robot_mean"]),
-        mb(&a["bytes_downloaded_per_robot_mean"]),
-        mb(&a["bytes_stored_per_robot_mean"])
+        mb(a.bytes_sent_per_robot_mean),
+        mb(a.bytes_downloaded_per_robot_mean),
+        mb(a.bytes_stored_per_robot_mean)
     ));
 }
 
-/// The `timing` object of a summary as one line of seconds, wall (CPU): the parts in the
-/// order they run, each `name W s (C s CPU)`; `summary.json` keeps the full numbers. The
-/// driver's ledger part is a baseline's aggregation protocol (`kind`), and is named so.
-fn timing_line(timing: &serde_json::Value, kind: Aggregation) -> String {
-    let Some(map) = timing.as_object() else {
-        return "-".to_string();
-    };
+/// The `timing` of a summary as one line of seconds, wall (CPU): the parts in the order they
+/// run, each `name W s (C s CPU)` (a part whose wall time is not a number left out, its CPU
+/// time when that is not); `summary.json` keeps the full numbers. The driver's ledger part is
+/// a baseline's aggregation protocol (`kind`), and is named so.
+fn timing_line(timing: &Timing, kind: Aggregation) -> String {
     let protocol = match kind {
         Aggregation::Chain => "ledger",
         Aggregation::Gossip | Aggregation::Central => "aggregation",
     };
+    let labels = ["world", protocol, "learning", "checkpoints", "log"];
     let mut parts = Vec::new();
-    for (name, label) in [
-        ("world", "world"),
-        ("ledger", protocol),
-        ("learning", "learning"),
-        ("checkpoint", "checkpoints"),
-        ("log_and_summary", "log"),
-    ] {
-        let wall = map.get(&format!("{name}_s")).and_then(|v| v.as_f64());
-        let cpu = map.get(&format!("{name}_cpu_s")).and_then(|v| v.as_f64());
-        if let Some(wall) = wall {
-            parts.push(match cpu {
+    for (label, (wall, cpu)) in labels.into_iter().zip(timing.parts()) {
+        if let Some(wall) = finite(wall) {
+            parts.push(match finite(cpu) {
                 Some(cpu) => format!("{label} {wall:.2} s ({cpu:.2} s CPU)"),
                 None => format!("{label} {wall:.2} s"),
             });
@@ -370,18 +355,19 @@ pub fn print_next(outcome: &RunOutcome) {
 /// What to do next with the run of `summary` logged at `log`, spelled with the program `me`:
 /// view, replay, and inspect halfway through: at the block halfway up the final chain, or for
 /// a baseline (no blocks) at half its simulated time.
-pub fn next_text(summary: &serde_json::Value, log: &Path, me: &str) -> String {
+pub fn next_text(summary: &Summary, log: &Path, me: &str) -> String {
     let html = log.with_file_name("run.html");
     let log = log.display();
-    let inspect = match aggregation_kind(summary) {
+    let run = &summary.run;
+    let inspect = match run.aggregation.kind {
         Aggregation::Chain => {
-            let height = summary["ledger"]["canonical_height"].as_u64().unwrap_or(0) / 2;
+            let height = run.ledger.canonical_height / 2;
             format!(
                 "{me} inspect {log} --block {height}   # the chain, contract and robots at a block"
             )
         }
         Aggregation::Gossip | Aggregation::Central => {
-            let half_s = (summary["sim_time_s"].as_f64().unwrap_or(0.0) / 2.0).floor();
+            let half_s = (finite(run.sim_time_s).unwrap_or(0.0) / 2.0).floor();
             format!(
                 "{me} inspect {log} --time {half_s}   # the models, losses and bytes at a time (no \
                  chain: no blocks)"
@@ -421,53 +407,90 @@ fn program_name() -> String {
 mod tests {
     use super::*;
 
-    /// A summary as `summary.json` holds it (the figures of a 600 s smoke run) with the
-    /// aggregation `kind`'s own figures.
-    fn summary(kind: &str) -> serde_json::Value {
-        let baseline = kind != "chain";
-        serde_json::json!({
-            "preset": "smoke", "seed": 7, "robots": 15, "sim_time_s": 600.0,
-            "records": 8743, "log_bytes": 1902139,
-            "world": {"collisions": 0, "mean_neighbours": 4.38,
-                      "samples_per_robot_per_600s": 230.4},
-            "contract": {
-                "rounds": if baseline { 12 } else { 34 },
-                "loss_by_round": vec![1.75; if baseline { 12 } else { 34 }],
-                "heldout_loss_initial": 3.0719, "final_heldout_loss": 2.0781,
-                "submissions": if baseline {
-                    serde_json::json!({"accepted": 87, "duplicate": 2})
-                } else {
-                    serde_json::json!({"accepted": 80, "outlier": 3})
-                },
-                "mean_honest_distance": if baseline { serde_json::Value::Null } else { 0.01.into() },
-                "outlier_threshold": 0.05, "aggregated_honest": 84, "aggregated_byzantine": 1,
-            },
-            "tokens": {"honest_mean_gain": 0.0, "byzantine_mean_gain": null,
-                       "total_units_start": 315, "total_units_end": 315},
-            "aggregation": {
-                "kind": kind, "conservation": "not applicable",
-                "bytes_sent_per_robot_mean": 1157000.0, "bytes_stored_per_robot_mean": 214000.0,
-                "bytes_downloaded_per_robot_mean": 85000.0,
-                "messages_sent": 4321, "messages_lost": 12,
-            },
-            "ledger": {"canonical_height": if baseline { 0 } else { 34 }, "forks": 0,
-                       "reorgs": 0, "deepest_reorg": 0, "tx_delay_median_s": 0.0,
-                       "tx_delay_p95_s": 0.0, "bytes_per_submission": 0.0},
-            "timing": {"world_s": 0.15, "ledger_s": 0.06},
-            "final_hash": "f7182768053f1de713500eb01b33fef473e1f9577f1e33703a501c9a8476a708",
-            "wall_s": 2.66,
-        })
+    /// A summary with the figures of a 600 s smoke run (every figure `run` does not print a
+    /// reduced-study run's) and the aggregation `kind`'s own figures.
+    fn summary(kind: Aggregation) -> Summary {
+        let baseline = kind != Aggregation::Chain;
+        let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../reproduction/reduced-study/results/e1-faulty/faulty-1/seed1.json");
+        let mut summary = Summary::read(&file).unwrap();
+        let s = &mut summary.run;
+        (s.preset, s.seed, s.robots, s.sim_time_s) = ("smoke".into(), 7, 15, 600.0);
+        s.records = 8743;
+        s.world.collisions = 0;
+        s.world.mean_neighbours = 4.38;
+        s.world.samples_per_robot_per_600s = 230.4;
+        let c = &mut s.contract;
+        c.rounds = if baseline { 12 } else { 34 };
+        c.loss_by_round = vec![1.75; c.rounds as usize];
+        (c.heldout_loss_initial, c.final_heldout_loss) = (3.0719, Some(2.0781));
+        let submissions: &[(&str, u64)] = if baseline {
+            &[("accepted", 87), ("duplicate", 2)]
+        } else {
+            &[("accepted", 80), ("outlier", 3)]
+        };
+        c.submissions = submissions
+            .iter()
+            .map(|(k, n)| (k.to_string(), *n))
+            .collect();
+        c.mean_honest_distance = (!baseline).then_some(0.01);
+        c.outlier_threshold = 0.05;
+        (c.aggregated_honest, c.aggregated_byzantine) = (84, 1);
+        let t = &mut s.tokens;
+        (t.honest_mean_gain, t.byzantine_mean_gain) = (Some(0.0), None);
+        (t.total_units_start, t.total_units_end) = (315, 315);
+        t.contract_holdings = 0.0;
+        let a = &mut s.aggregation;
+        (a.kind, a.conservation) = (kind, "not applicable".into());
+        a.bytes_sent_per_robot_mean = 1157000.0;
+        a.bytes_stored_per_robot_mean = 214000.0;
+        a.bytes_downloaded_per_robot_mean = 85000.0;
+        (a.messages_sent, a.messages_lost) = (4321, 12);
+        let l = &mut s.ledger;
+        l.canonical_height = if baseline { 0 } else { 34 };
+        (l.forks, l.reorgs, l.deepest_reorg) = (0, 0, 0);
+        (
+            l.tx_delay_median_s,
+            l.tx_delay_p95_s,
+            l.bytes_per_submission,
+        ) = (0.0, 0.0, 0.0);
+        s.final_hash = "f7182768053f1de713500eb01b33fef473e1f9577f1e33703a501c9a8476a708".into();
+        // Two parts timed, the others not numbers (left out).
+        summary.timing = Timing {
+            world_s: 0.15,
+            ledger_s: 0.06,
+            ..nan_timing()
+        };
+        (summary.wall_s, summary.log_bytes) = (2.66, 1902139);
+        summary
+    }
+
+    /// A timing without a number.
+    fn nan_timing() -> Timing {
+        let n = f64::NAN;
+        Timing {
+            world_s: n,
+            ledger_s: n,
+            learning_s: n,
+            checkpoint_s: n,
+            log_and_summary_s: n,
+            world_cpu_s: n,
+            ledger_cpu_s: n,
+            learning_cpu_s: n,
+            checkpoint_cpu_s: n,
+            log_and_summary_cpu_s: n,
+        }
     }
 
     /// The summary and the next steps of `kind`'s summary, as `run` prints them.
-    fn printed(kind: &str) -> String {
+    fn printed(kind: Aggregation) -> String {
         let log = Path::new("runs/x/run.swlog");
         summary_text(&summary(kind), log, 0) + &next_text(&summary(kind), log, "swarmfl")
     }
 
     #[test]
     fn a_baselines_summary_says_what_it_has_and_nothing_of_a_chain() {
-        for kind in ["gossip", "central"] {
+        for kind in [Aggregation::Gossip, Aggregation::Central] {
             let text = printed(kind);
             for chain_only in [
                 "contract:",
@@ -479,7 +502,7 @@ mod tests {
             ] {
                 assert!(
                     !text.contains(chain_only),
-                    "{kind}: {chain_only} in\n{text}"
+                    "{kind:?}: {chain_only} in\n{text}"
                 );
             }
             assert!(text.contains("no chain, contract or tokens"), "{text}");
@@ -498,7 +521,7 @@ mod tests {
                 "{text}"
             );
         }
-        let gossip = printed("gossip");
+        let gossip = printed(Aggregation::Gossip);
         assert!(gossip.contains("aggregation: gossip (Flow-FL"), "{gossip}");
         assert!(
             gossip.contains("merges:     12 by honest robots"),
@@ -512,7 +535,7 @@ mod tests {
             gossip.contains("radio:      sent 1.157 MB/robot, stored 0.214 MB/robot (its replica); messages 4321 sent, 12 lost"),
             "{gossip}"
         );
-        let central = printed("central");
+        let central = printed(Aggregation::Central);
         assert!(
             central.contains("server:     12 aggregations (model versions 1..12)"),
             "{central}"
@@ -525,7 +548,7 @@ mod tests {
 
     #[test]
     fn a_chain_runs_summary_keeps_its_contract_tokens_and_ledger() {
-        let text = printed("chain");
+        let text = printed(Aggregation::Chain);
         assert!(
             text.contains(
                 "contract:   34 rounds; loss by round: r1=1.7500 r10=1.7500 r25=1.7500 r34=1.7500"
@@ -546,18 +569,22 @@ mod tests {
             "{text}"
         );
         // A summary from before the baselines has no aggregation section: a chain run's.
-        let mut old = summary("chain");
+        let mut old = serde_json::to_value(summary(Aggregation::Chain)).unwrap();
         old.as_object_mut().unwrap().remove("aggregation");
+        let old: Summary = serde_json::from_value(old).unwrap();
         let text = summary_text(&old, Path::new("run.swlog"), 0);
         assert!(text.contains("canonical height 34"), "{text}");
     }
 
     #[test]
     fn timing_reads_as_seconds_in_the_order_the_parts_run() {
-        let timing = serde_json::json!({
-            "world_s": 1.5130919520000006, "world_cpu_s": 1.4992536579999949,
-            "learning_s": 16.93136347900006, "learning_cpu_s": 30.87294149599976,
-        });
+        let timing = Timing {
+            world_s: 1.5130919520000006,
+            world_cpu_s: 1.4992536579999949,
+            learning_s: 16.93136347900006,
+            learning_cpu_s: 30.87294149599976,
+            ..nan_timing()
+        };
         assert_eq!(
             timing_line(&timing, Aggregation::Chain),
             "world 1.51 s (1.50 s CPU), learning 16.93 s (30.87 s CPU)"

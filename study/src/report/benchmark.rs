@@ -15,7 +15,7 @@ use std::collections::BTreeMap;
 use std::fmt::Write as _;
 use std::path::Path;
 
-use serde_json::Value;
+use crate::summary::Summary;
 
 use super::heatmap::{draw, Heatmap, Scale};
 use super::load::RunResult;
@@ -126,11 +126,10 @@ pub struct Bench {
 }
 
 /// The final held-out loss of a run: the summary's own, else the last aggregation's.
-fn final_heldout(summary: &Value) -> Option<f64> {
-    let c = summary.get("contract")?;
-    c.get("final_heldout_loss")
-        .and_then(Value::as_f64)
-        .or_else(|| c.get("heldout_loss_by_round")?.as_array()?.last()?.as_f64())
+fn final_heldout(summary: &Summary) -> Option<f64> {
+    let c = &summary.run.contract;
+    c.final_heldout_loss
+        .or_else(|| c.heldout_loss_by_round.last().copied())
         .filter(|v| v.is_finite())
 }
 
@@ -180,22 +179,13 @@ fn read(results: &[RunResult], experiment: &str) -> Option<Read> {
             continue;
         };
         let count = point.x as u32;
-        if let Some(g) = r
-            .summary
-            .get("contract")
-            .and_then(|c| c.get("heldout_loss_initial"))
-            .and_then(Value::as_f64)
-            .filter(|g| g.is_finite())
-        {
+        let run = &r.result.summary.run;
+        if let Some(g) = Some(run.contract.heldout_loss_initial).filter(|g| g.is_finite()) {
             read.genesis.push(g);
         }
-        if count == 0 {
-            if let Some(h) = r
-                .summary
-                .get("world")
-                .and_then(|w| w.get("data_heterogeneity"))
-                .and_then(Value::as_f64)
-            {
+        // JSON holds NaN as `null`: a run without the measure does not count.
+        if let Some(h) = Some(run.world.data_heterogeneity).filter(|h| !h.is_nan()) {
+            if count == 0 {
                 read.measured.entry(behaviour.clone()).or_default().push(h);
             }
         }
@@ -217,7 +207,7 @@ fn read(results: &[RunResult], experiment: &str) -> Option<Read> {
                 read.cells.len() - 1
             }
         };
-        if let Some(loss) = final_heldout(&r.summary) {
+        if let Some(loss) = final_heldout(&r.result.summary) {
             read.cells[at].losses.push(loss);
         }
     }
@@ -533,7 +523,6 @@ fn tables(b: &Bench) -> (String, String) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use serde_json::json;
 
     /// The experiment the benchmark draws.
     fn experiment() -> &'static str {
@@ -541,13 +530,19 @@ mod tests {
         entry.expect("an experiment drawn by the benchmark").name()
     }
 
+    /// A run with the final held-out loss `loss` and the data heterogeneity `heterogeneity`
+    /// (every other figure a reduced-study run's, without the genesis model's loss).
     fn result(point: &str, seed: u64, loss: f64, heterogeneity: f64) -> RunResult {
+        let mut result = crate::summary::tests::example();
+        let run = &mut result.summary.run;
+        run.contract.final_heldout_loss = Some(loss);
+        run.contract.heldout_loss_initial = f64::NAN;
+        run.world.data_heterogeneity = heterogeneity;
         RunResult {
             experiment: experiment().to_string(),
             point: point.to_string(),
             seed,
-            summary: json!({"contract": {"final_heldout_loss": loss},
-                            "world": {"data_heterogeneity": heterogeneity}}),
+            result,
         }
     }
 

@@ -5,7 +5,6 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use serde_json::Value;
 use swarmfl_core::inspect::Column;
 
 use super::load;
@@ -29,16 +28,13 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
     let overrides: Vec<Vec<(String, String)>> = results
         .iter()
         .map(|r| {
-            r.summary["sweep"]["overrides"]
-                .as_array()
-                .map(|a| {
-                    a.iter()
-                        .filter_map(Value::as_str)
-                        .filter_map(|o| o.split_once('='))
-                        .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
-                        .collect()
-                })
-                .unwrap_or_default()
+            r.result
+                .sweep
+                .overrides
+                .iter()
+                .filter_map(|o| o.split_once('='))
+                .map(|(k, v)| (k.trim().to_string(), v.trim().to_string()))
+                .collect()
         })
         .collect();
     let mut keys: Vec<String> = Vec::new();
@@ -47,7 +43,10 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
             keys.push(k.clone());
         }
     }
-    let per_run: Vec<_> = results.iter().map(|r| run_metrics(&r.summary)).collect();
+    let per_run: Vec<_> = results
+        .iter()
+        .map(|r| run_metrics(&r.result.summary))
+        .collect();
     let metric_names: BTreeSet<&'static str> = per_run
         .iter()
         .flat_map(|(m, _)| m.keys().copied())
@@ -66,7 +65,7 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
             "seed".into(),
             Column::U64(results.iter().map(|r| r.seed).collect()),
         ),
-        ("x".into(), number(&|r| r.summary["sweep"]["x"].as_f64())),
+        ("x".into(), number(&|r| r.result.sweep.x)),
     ];
     for key in &keys {
         let values: Vec<Option<&str>> = overrides
@@ -77,7 +76,7 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
     }
     frame.push((
         "duration_s".into(),
-        number(&|r| r.summary["sim_time_s"].as_f64()),
+        number(&|r| Some(r.result.summary.run.sim_time_s)),
     ));
     for name in &metric_names {
         frame.push((
@@ -94,12 +93,14 @@ pub fn results_frame(dir: &Path) -> anyhow::Result<Frame> {
         "wall_s".into(),
         Column::F64(per_run.iter().map(|(_, w)| w.unwrap_or(f64::NAN)).collect()),
     ));
-    for hash in ["final_hash", "config_hash"] {
-        frame.push((
-            hash.into(),
-            text(&|r| r.summary[hash].as_str().unwrap_or("").to_string()),
-        ));
-    }
+    frame.push((
+        "final_hash".into(),
+        text(&|r| r.result.summary.run.final_hash.clone()),
+    ));
+    frame.push((
+        "config_hash".into(),
+        text(&|r| r.result.summary.run.config_hash.clone()),
+    ));
     Ok(frame)
 }
 

@@ -5,10 +5,10 @@
 use std::path::{Path, PathBuf};
 
 use anyhow::Context;
-use serde_json::Value;
 
 use crate::experiments::{self, EXPERIMENTS};
 use crate::results;
+use crate::summary::ResultFile;
 
 /// One run's result file.
 #[derive(Clone, Debug)]
@@ -19,8 +19,8 @@ pub struct RunResult {
     pub point: String,
     /// The seed.
     pub seed: u64,
-    /// The summary JSON.
-    pub summary: Value,
+    /// The file: the run's summary and the task that made it.
+    pub result: ResultFile,
 }
 
 /// Reads every `DIR/<experiment>/<point>/seed<N>.json`, sorted by experiment, point (grid order
@@ -54,24 +54,24 @@ pub fn load(dir: &Path) -> anyhow::Result<(Vec<RunResult>, Vec<String>)> {
                 else {
                     continue;
                 };
-                let parsed = std::fs::read(&file)
-                    .ok()
-                    .and_then(|b| serde_json::from_slice::<Value>(&b).ok());
-                match parsed {
-                    Some(summary) if summary.get("seed").and_then(Value::as_u64) == Some(seed) => {
-                        results.push(RunResult {
-                            experiment: experiment.clone(),
-                            point: point.clone(),
-                            seed,
-                            summary,
-                        })
-                    }
-                    Some(_) => bad.push(format!(
-                        "{}: a JSON file, but not the summary of seed {seed} (its `seed` differs \
-                         or is missing)",
+                let bytes = std::fs::read(&file).unwrap_or_default();
+                match serde_json::from_slice::<ResultFile>(&bytes) {
+                    Ok(result) if result.summary.run.seed == seed => results.push(RunResult {
+                        experiment: experiment.clone(),
+                        point: point.clone(),
+                        seed,
+                        result,
+                    }),
+                    Ok(_) => bad.push(format!(
+                        "{}: a JSON file, but not the summary of seed {seed} (its `seed` differs)",
                         file.display()
                     )),
-                    None => bad.push(format!(
+                    Err(e) if e.is_data() => bad.push(format!(
+                        "{}: a JSON file, but not a result file this version reads: {e} (written \
+                         by another version; re-run the sweep to redo that task)",
+                        file.display()
+                    )),
+                    Err(_) => bad.push(format!(
                         "{}: not readable as JSON (truncated or damaged; delete it and re-run \
                          the sweep to redo that task)",
                         file.display()
@@ -98,7 +98,7 @@ pub fn load(dir: &Path) -> anyhow::Result<(Vec<RunResult>, Vec<String>)> {
 fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyhow::Result<()> {
     for group in results.chunk_by(|a, b| a.experiment == b.experiment && a.point == b.point) {
         let first = &group[0];
-        let hash = |r: &RunResult| r.summary["config_hash"].as_str().unwrap_or("").to_string();
+        let hash = |r: &RunResult| r.result.summary.run.config_hash.clone();
         let Some(other) = group.iter().find(|r| hash(r) != hash(first)) else {
             continue;
         };
@@ -111,7 +111,10 @@ fn check_one_configuration_per_point(dir: &Path, results: &[RunResult]) -> anyho
             let h = hash(r);
             format!(
                 "{} (configuration {})",
-                results::show_overrides(&results::extra_overrides(&r.summary, &point_overrides)),
+                results::show_overrides(&results::extra_overrides(
+                    &r.result.sweep,
+                    &point_overrides
+                )),
                 &h[..h.len().min(12)]
             )
         };
@@ -148,12 +151,7 @@ pub fn sort(results: &mut [RunResult]) {
         let point_rank = experiments::experiment(&r.experiment)
             .ok()
             .and_then(|e| e.points.iter().position(|p| p.name == r.point))
-            .or_else(|| {
-                r.summary["sweep"]["point_index"]
-                    .as_u64()
-                    .map(|i| i as usize)
-            })
-            .unwrap_or(usize::MAX);
+            .unwrap_or(r.result.sweep.point_index);
         (
             exp_rank,
             r.experiment.clone(),

@@ -113,12 +113,15 @@ mod tests {
     use super::*;
     use crate::experiments::{self, EXPERIMENTS};
     use crate::results;
-    use serde_json::Value;
+    use crate::summary::{ResultFile, SweepTask, Timing};
+    use swarmfl_core::config::ByzantineKind;
+    use swarmfl_core::metrics::ControlPoint;
     use swarmfl_core::rng::{self, Purpose};
+    use swarmfl_core::summary::ChainBytesPoint;
 
     /// A synthetic summary that follows the schema of `summary.json` (`summary::RunSummary`) exactly, with values
     /// drawn from the seeded RNG. For tests only: not a result of any run.
-    fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> Value {
+    fn synthetic_summary(experiment: &str, x: f64, seed: u64) -> ResultFile {
         let mut r = rng::stream(seed * 1000 + x as u64, Purpose::Dropout, 0);
         let sim_time_s = 5000.0;
         // e1-expiration's x is the expiration time, e6's the swarm's size.
@@ -138,36 +141,87 @@ mod tests {
             losses.push(loss);
             heldout.push(loss * 1.2);
         }
-        let chain: Vec<Value> = (1..=50)
+        let chain: Vec<ChainBytesPoint> = (1..=50)
             .map(|k| {
                 let mean = f64::from(k) * 2.0e6 * (1.0 + 0.1 * r.uniform());
-                serde_json::json!({"time_s": f64::from(k) * 100.0, "mean": mean, "max": mean * 1.05})
+                ChainBytesPoint {
+                    time_s: f64::from(k) * 100.0,
+                    mean,
+                    max: mean * 1.05,
+                    stored_mean: 0.0,
+                    sent_mean: 0.0,
+                }
             })
             .collect();
-        let robots: Vec<u32> = (0..byzantine).collect();
-        serde_json::json!({
-            "format": 1, "seed": seed, "preset": experiment, "config_hash": "00",
-            "sim_time_s": sim_time_s, "robots": 15, "records": 1000, "final_hash": "ff",
-            "wall_s": 10.0 + r.uniform(), "log_bytes": 12345,
-            "world": {"collisions": 0, "mean_neighbours": 5.0, "samples_per_robot_per_600s": 20.0,
-                      "samples_per_robot_per_600s_std": 1.0, "trajectories_discarded": 0},
-            "byzantine": {"kind": if byzantine == 0 {"none"} else {"faulty"}, "count": byzantine, "robots": robots},
-            "ledger": {"canonical_height": 498, "forks": 12, "reorgs": 30, "deepest_reorg": 2,
-                       "tx_delay_median_s": 1.2, "tx_delay_p95_s": 8.0,
-                       "bytes_per_submission": 16000.0, "chain_bytes": chain},
-            "contract": {"rounds": rounds, "round_times_s": times, "loss_by_round": losses,
-                         "heldout_loss_by_round": heldout, "final_loss": losses.last(),
-                         "submissions": {"accepted": 700, "outlier": 10, "duplicate": 0,
-                                         "insufficient_stake": 3, "malformed": 0}},
-            "tokens": {"total_units_start": 315000000000u64, "total_units_end": 315000000000u64,
-                       "honest_mean_gain": 1.5 + r.uniform(),
-                       "byzantine_mean_gain": if byzantine == 0 { Value::Null } else { serde_json::json!(-4.0 + r.uniform()) },
-                       "balances": vec![21.0; 15],
-                       "byzantine_control": if byzantine >= 5 {
-                           serde_json::json!({"height": 100, "time_s": 1000.0 + r.uniform(), "share": 0.6, "heldout_loss": 0.05})
-                       } else { Value::Null }},
-            "timing": {"world_s": 1.0, "learning_s": 30.0, "ledger_s": 2.0, "log_s": 0.3}
-        })
+        // A reduced-study run's file for every figure the report does not read.
+        let mut made = crate::summary::tests::example();
+        let s = &mut made.summary;
+        let run = &mut s.run;
+        (run.format, run.seed, run.preset) = (1, seed, experiment.to_string());
+        (run.config_hash, run.final_hash) = ("00".into(), "ff".into());
+        (run.sim_time_s, run.robots, run.records) = (sim_time_s, 15, 1000);
+        s.wall_s = 10.0 + r.uniform();
+        s.log_bytes = 12345;
+        let world = &mut run.world;
+        (world.collisions, world.mean_neighbours) = (0, 5.0);
+        world.samples_per_robot_per_600s = 20.0;
+        world.samples_per_robot_per_600s_std = 1.0;
+        world.trajectories_discarded = 0;
+        run.byzantine.kind = if byzantine == 0 {
+            ByzantineKind::None
+        } else {
+            ByzantineKind::Faulty
+        };
+        run.byzantine.count = byzantine;
+        run.byzantine.robots = (0..byzantine).collect();
+        let ledger = &mut run.ledger;
+        (ledger.canonical_height, ledger.forks) = (498, 12);
+        (ledger.reorgs, ledger.deepest_reorg) = (30, 2);
+        (ledger.tx_delay_median_s, ledger.tx_delay_p95_s) = (1.2, 8.0);
+        (ledger.bytes_per_submission, ledger.chain_bytes) = (16000.0, chain);
+        let c = &mut run.contract;
+        c.rounds = rounds as u64;
+        c.final_loss = losses.last().copied();
+        (c.round_times_s, c.loss_by_round) = (times, losses);
+        (c.heldout_loss_by_round, c.final_heldout_loss) = (heldout, None);
+        c.heldout_loss_initial = f64::NAN;
+        c.submissions = [
+            ("accepted", 700),
+            ("outlier", 10),
+            ("duplicate", 0),
+            ("insufficient_stake", 3),
+            ("malformed", 0),
+        ]
+        .map(|(k, n)| (k.to_string(), n))
+        .into();
+        let tokens = &mut run.tokens;
+        (tokens.total_units_start, tokens.total_units_end) = (315000000000, 315000000000);
+        tokens.honest_mean_gain = Some(1.5 + r.uniform());
+        tokens.byzantine_mean_gain = (byzantine != 0).then(|| -4.0 + r.uniform());
+        tokens.balances = vec![21.0; 15];
+        tokens.byzantine_control = (byzantine >= 5).then(|| ControlPoint {
+            height: 100,
+            time_s: 1000.0 + r.uniform(),
+            share: 0.6,
+            heldout_loss: 0.05,
+        });
+        s.timing = Timing {
+            world_s: 1.0,
+            learning_s: 30.0,
+            ledger_s: 2.0,
+            ..Timing::default()
+        };
+        made.sweep = SweepTask {
+            experiment: experiment.to_string(),
+            point: String::new(),
+            seed,
+            task: 0,
+            overrides: Vec::new(),
+            preset: experiment.to_string(),
+            point_index: 0,
+            x: Some(x),
+        };
+        made
     }
 
     /// Writes a synthetic sweep result directory: `runs` seeds per point of each experiment.
@@ -308,17 +362,17 @@ mod tests {
     fn aggregation_follows_the_definition() {
         // Two runs by hand: loss at t = 100 is the mean of the last closed rounds.
         let mk = |seed: u64, times: Vec<f64>, losses: Vec<f64>, gain: f64| {
-            let mut s = synthetic_summary("e2-faulty", 2.0, seed);
-            s["sim_time_s"] = serde_json::json!(300.0);
-            s["contract"]["round_times_s"] = serde_json::json!(times);
-            s["contract"]["final_loss"] = serde_json::json!(losses.last());
-            s["contract"]["loss_by_round"] = serde_json::json!(losses);
-            s["tokens"]["honest_mean_gain"] = serde_json::json!(gain);
+            let mut made = synthetic_summary("e2-faulty", 2.0, seed);
+            let run = &mut made.summary.run;
+            run.sim_time_s = 300.0;
+            run.contract.final_loss = losses.last().copied();
+            (run.contract.round_times_s, run.contract.loss_by_round) = (times, losses);
+            run.tokens.honest_mean_gain = Some(gain);
             RunResult {
                 experiment: "e2-faulty".into(),
                 point: "byzantine-2".into(),
                 seed,
-                summary: s,
+                result: made,
             }
         };
         let results = vec![
@@ -343,20 +397,18 @@ mod tests {
     }
 
     #[test]
-    fn summaries_without_the_learning_sections_are_tolerated() {
+    fn a_summary_without_a_section_is_refused_naming_the_file_and_the_section() {
         let dir = temp("partial");
         let path = results::result_path(&dir, "e1-faulty", "faulty-1", 1);
-        let mut s = synthetic_summary("e1-faulty", 1.0, 1);
-        let map = s.as_object_mut().unwrap();
-        for k in ["contract", "tokens", "ledger", "byzantine", "timing"] {
-            map.remove(k);
-        }
-        results::write_atomic(&path, &s).unwrap();
-        let out = dir.join("report");
-        let md_path = report(&dir, &out).unwrap();
-        let md = std::fs::read_to_string(md_path).unwrap();
-        assert!(md.contains("have no `contract` section"), "{md}");
-        assert!(md.contains("| faulty-1 | 1 | 1 | n/a |"), "{md}");
+        let json = crate::summary::to_json(&synthetic_summary("e1-faulty", 1.0, 1)).unwrap();
+        std::fs::create_dir_all(path.parent().unwrap()).unwrap();
+        std::fs::write(&path, json.replace("\"contract\"", "\"contracts\"")).unwrap();
+        let err = report(&dir, &dir.join("report")).unwrap_err().to_string();
+        assert!(
+            err.contains("faulty-1/seed1.json: a JSON file, but not a result file this version reads: missing field `contract`"),
+            "{err}"
+        );
+        assert!(!dir.join("report/report.md").exists());
         std::fs::remove_dir_all(&dir).unwrap();
     }
 
@@ -379,9 +431,8 @@ mod tests {
         synthetic_dir(&dir, &["e2-faulty"], 2);
         // seed 3 of one point made at another duration: refused, both settings named.
         let mut other = synthetic_summary("e2-faulty", 2.0, 3);
-        other["config_hash"] = "1234567890abcdef".into();
-        other["sweep"] =
-            serde_json::json!({"overrides": ["byzantine.count=2", "run.duration_s=200"]});
+        other.summary.run.config_hash = "1234567890abcdef".into();
+        other.sweep.overrides = vec!["byzantine.count=2".into(), "run.duration_s=200".into()];
         results::write_atomic(
             &results::result_path(&dir, "e2-faulty", "byzantine-2", 3),
             &other,
@@ -426,10 +477,16 @@ mod tests {
                 let mut s = synthetic_summary(&exp.name, count, seed);
                 let mut overrides = p.overrides.clone();
                 overrides.extend(set.iter().cloned());
-                s["sweep"] = serde_json::json!({
-                    "experiment": exp.name, "overrides": overrides, "point": p.name,
-                    "point_index": index, "preset": "smoke", "seed": seed, "x": p.x,
-                });
+                s.sweep = SweepTask {
+                    experiment: exp.name.clone(),
+                    overrides,
+                    point: p.name.clone(),
+                    point_index: index,
+                    preset: "smoke".into(),
+                    seed,
+                    task: 0,
+                    x: Some(p.x).filter(|x| x.is_finite()),
+                };
                 let path = results::result_path(&dir, &exp.name, &p.name, seed);
                 results::write_atomic(&path, &s).unwrap();
             }

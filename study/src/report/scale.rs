@@ -14,13 +14,14 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use serde_json::Value;
+use swarmfl_core::config::ByzantineKind;
 
 use super::load::RunResult;
 use super::plots::{draw, Figure, Kind, Plot, Series};
 use super::stats::{self, fixed, ExperimentStats, PointStats, Stat};
 use super::study::{Drawn, Section, StudyReport};
 use crate::experiments::{self, DrawnBy, Entry, E6_PROTOCOLS};
+use crate::summary::{count, Summary};
 
 /// The study report of the experiments drawn by [`DrawnBy::Scale`] (the sizes with three
 /// seeds, and 1000 robots with two): one study, its figures and tables in the section of the
@@ -114,47 +115,41 @@ pub struct RunNumbers {
 }
 
 impl RunNumbers {
-    /// The numbers of `summary`, the result of `seed`.
-    pub fn of(seed: u64, summary: &Value) -> RunNumbers {
-        let contract = summary.get("contract").filter(|c| c.is_object());
-        let get = |section: Option<&Value>, key: &str| section?.get(key)?.as_f64();
-        let initial = get(contract, "heldout_loss_initial");
-        let submissions = contract
-            .and_then(|c| c.get("submissions"))
-            .and_then(Value::as_object);
+    /// The numbers of `summary`, the result of `seed`. JSON holds NaN as `null`, which the
+    /// table shows as missing: a NaN number counts as absent, a series with one as none.
+    pub fn of(seed: u64, summary: &Summary) -> RunNumbers {
+        let run = &summary.run;
+        let contract = &run.contract;
+        let present = |x: f64| (!x.is_nan()).then_some(x);
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite()).then(|| v.to_vec());
+        let initial = present(contract.heldout_loss_initial);
+        let submissions = &contract.submissions;
         // Folded from +0: `sum` of no values is -0, which the table would print as "-0.0".
         let outcomes = |names: &[&str]| {
-            submissions.map(|m| {
+            Some(
                 names
                     .iter()
-                    .filter_map(|n| m.get(*n).and_then(Value::as_f64))
-                    .fold(0.0, |a, b| a + b)
-            })
+                    .filter_map(|n| count(submissions, n))
+                    .fold(0.0, |a, b| a + b as f64),
+            )
         };
-        let refused = submissions.map(|m| {
-            m.iter()
-                .filter(|(k, _)| !OWN_COLUMNS.contains(&k.as_str()))
-                .filter_map(|(_, v)| v.as_f64())
-                .fold(0.0, |a, b| a + b)
-        });
-        let honest = get(contract, "aggregated_honest");
-        let faulty = get(contract, "aggregated_byzantine");
-        let aggregation = summary.get("aggregation").filter(|a| a.is_object());
-        let mb = |key: &str| get(aggregation, key).map(|b| b / 1e6);
-        let array = |key: &str| -> Option<Vec<f64>> {
-            contract?
-                .get(key)?
-                .as_array()?
+        let refused = Some(
+            submissions
                 .iter()
-                .map(Value::as_f64)
-                .collect()
-        };
-        let by_version = array("heldout_loss_by_round").unwrap_or_default();
+                .filter(|(k, _)| !OWN_COLUMNS.contains(&k.as_str()))
+                .fold(0.0, |a, (_, &b)| a + b as f64),
+        );
+        let honest = contract.aggregated_honest as f64;
+        let faulty = contract.aggregated_byzantine as f64;
+        let aggregation = &run.aggregation;
+        let mb = |bytes: f64| present(bytes).map(|b| b / 1e6);
+        let by_version = finite(&contract.heldout_loss_by_round).unwrap_or_default();
         // A summary without the genesis model's loss has its versions' alone.
         let (mut heldout_times_s, mut heldout_losses) = (Vec::new(), Vec::new());
-        if let (Some(times), Some(losses)) =
-            (array("round_times_s"), array("heldout_loss_by_round"))
-        {
+        if let (Some(times), Some(losses)) = (
+            finite(&contract.round_times_s),
+            finite(&contract.heldout_loss_by_round),
+        ) {
             if let Some(first) = initial {
                 heldout_times_s.push(0.0);
                 heldout_losses.push(first);
@@ -162,26 +157,25 @@ impl RunNumbers {
             heldout_times_s.extend(times);
             heldout_losses.extend(losses);
         }
-        let is_byzantine = summary["byzantine"]["kind"]
-            .as_str()
-            .is_some_and(|k| k != "none");
+        let is_byzantine = run.byzantine.kind != ByzantineKind::None;
         RunNumbers {
             seed,
-            heldout: get(contract, "final_heldout_loss")
+            heldout: contract
+                .final_heldout_loss
                 .or_else(|| by_version.last().copied())
                 .or(initial),
             genesis: initial,
-            versions: get(contract, "rounds"),
+            versions: Some(contract.rounds as f64),
             accepted: outcomes(&["accepted", "aggregated"]),
             outlier: outcomes(&["outlier"]),
             stale: outcomes(&["stale"]),
             refused,
-            aggregated: honest.zip(faulty).map(|(h, f)| h + f),
-            faulty_aggregated: faulty.filter(|_| is_byzantine),
-            faulty_gain: summary["tokens"]["byzantine_mean_gain"].as_f64(),
-            sent_mb: mb("bytes_sent_per_robot_mean"),
-            stored_mb: mb("bytes_stored_per_robot_mean"),
-            wall_s: summary.get("wall_s").and_then(Value::as_f64),
+            aggregated: Some(honest + faulty),
+            faulty_aggregated: Some(faulty).filter(|_| is_byzantine),
+            faulty_gain: run.tokens.byzantine_mean_gain,
+            sent_mb: mb(aggregation.bytes_sent_per_robot_mean),
+            stored_mb: mb(aggregation.bytes_stored_per_robot_mean),
+            wall_s: present(summary.wall_s),
             heldout_times_s,
             heldout_losses,
         }
@@ -281,7 +275,7 @@ pub fn study(results: &[RunResult]) -> Vec<Row> {
             rows.push(new_row(r));
         }
         if let Some(row) = rows.last_mut() {
-            row.runs.push(RunNumbers::of(r.seed, &r.summary));
+            row.runs.push(RunNumbers::of(r.seed, &r.result.summary));
         }
     }
     let ratios: Vec<Vec<f64>> = rows.iter().map(|row| ratios_to_clean(row, &rows)).collect();
@@ -304,15 +298,10 @@ fn new_row(r: &RunResult) -> Row {
     let robots = point
         .as_ref()
         .map(|p| p.x)
-        .or_else(|| r.summary["robots"].as_f64())
-        .unwrap_or(f64::NAN);
-    let faulty = if r.summary["byzantine"]["kind"]
-        .as_str()
-        .is_some_and(|k| k != "none")
-    {
-        r.summary["byzantine"]["count"]
-            .as_u64()
-            .map_or(0, |c| c as u32)
+        .unwrap_or(f64::from(r.result.summary.run.robots));
+    let byzantine = &r.result.summary.run.byzantine;
+    let faulty = if byzantine.kind != ByzantineKind::None {
+        byzantine.count
     } else {
         0
     };
@@ -719,38 +708,48 @@ mod tests {
     use super::super::load::sort;
     use super::super::tables::numbers_csv;
     use super::*;
-    use serde_json::json;
 
-    /// A run's summary with the fields the study reads (every other one left out): `rounds`
-    /// versions at 150 s steps whose held-out losses fall to `heldout` (`None`: no version),
-    /// from the genesis model's 3.0.
+    /// A run's summary with the fields the study reads set (every other one a reduced-study
+    /// run's): `rounds` versions at 150 s steps whose held-out losses fall to `heldout`
+    /// (`None`: no version), from the genesis model's 3.0.
     fn run(
         point: &str,
         seed: u64,
         faulty: u32,
         heldout: Option<f64>,
-        submissions: Value,
+        submissions: &[(&str, u64)],
     ) -> RunResult {
         let rounds = if heldout.is_some() { 2u64 } else { 0 };
         let times: Vec<f64> = (1..=rounds).map(|k| k as f64 * 150.0).collect();
         let losses: Vec<f64> = (0..rounds)
             .map(|k| heldout.unwrap_or(0.0) * (rounds - k) as f64)
             .collect();
+        let mut result = crate::summary::tests::example();
+        let s = &mut result.summary;
+        (s.run.seed, s.run.sim_time_s, s.run.robots) = (seed, 300.0, 240);
+        s.wall_s = 10.0 * seed as f64;
+        s.run.byzantine.kind = if faulty > 0 {
+            ByzantineKind::Faulty
+        } else {
+            ByzantineKind::None
+        };
+        s.run.byzantine.count = faulty;
+        let c = &mut s.run.contract;
+        (c.rounds, c.round_times_s, c.heldout_loss_by_round) = (rounds, times, losses);
+        (c.heldout_loss_initial, c.final_heldout_loss) = (3.0, heldout);
+        c.submissions = submissions
+            .iter()
+            .map(|(k, n)| (k.to_string(), *n))
+            .collect();
+        (c.aggregated_honest, c.aggregated_byzantine) = (14, 0);
+        s.run.tokens.byzantine_mean_gain = (faulty > 0).then_some(-5.0);
+        s.run.aggregation.bytes_sent_per_robot_mean = 2.0e6 * seed as f64;
+        s.run.aggregation.bytes_stored_per_robot_mean = 1.0e6 * seed as f64;
         RunResult {
             experiment: "e6-scale".into(),
             point: point.into(),
             seed,
-            summary: json!({
-                "seed": seed, "sim_time_s": 300.0, "robots": 240, "wall_s": 10.0 * seed as f64,
-                "byzantine": {"kind": if faulty > 0 {"faulty"} else {"none"}, "count": faulty},
-                "contract": {"rounds": rounds, "round_times_s": times,
-                             "heldout_loss_by_round": losses, "heldout_loss_initial": 3.0,
-                             "final_heldout_loss": heldout, "submissions": submissions,
-                             "aggregated_honest": 14, "aggregated_byzantine": 0},
-                "tokens": {"byzantine_mean_gain": if faulty > 0 { json!(-5.0) } else { Value::Null }},
-                "aggregation": {"bytes_sent_per_robot_mean": 2.0e6 * seed as f64,
-                                "bytes_stored_per_robot_mean": 1.0e6 * seed as f64},
-            }),
+            result,
         }
     }
 
@@ -758,24 +757,30 @@ mod tests {
     /// buffered-240-faulty-24 (seeds 1 and 2, one faulty model aggregated in seed 2), in
     /// file order, not grid order.
     fn results() -> Vec<RunResult> {
-        let clean = json!({"accepted": 10, "aggregated": 2, "stale": 1});
-        let hostile = json!({"accepted": 10, "aggregated": 2, "outlier": 6, "stale": 4,
-                             "unknown_base": 1, "duplicate_base": 2});
-        let mut faulty = run("buffered-240-faulty-24", 2, 24, Some(0.02), hostile.clone());
-        faulty.summary["contract"]["aggregated_honest"] = json!(13);
-        faulty.summary["contract"]["aggregated_byzantine"] = json!(1);
+        let clean = [("accepted", 10), ("aggregated", 2), ("stale", 1)];
+        let hostile = [
+            ("accepted", 10),
+            ("aggregated", 2),
+            ("outlier", 6),
+            ("stale", 4),
+            ("unknown_base", 1),
+            ("duplicate_base", 2),
+        ];
+        let mut faulty = run("buffered-240-faulty-24", 2, 24, Some(0.02), &hostile);
+        let contract = &mut faulty.result.summary.run.contract;
+        (contract.aggregated_honest, contract.aggregated_byzantine) = (13, 1);
         let mut results = vec![
             faulty,
-            run("buffered-240", 1, 0, Some(0.02), clean.clone()),
-            run("buffered-240", 2, 0, Some(0.04), clean.clone()),
-            run("buffered-240", 3, 0, Some(0.09), clean),
-            run("buffered-240-faulty-24", 1, 24, Some(0.03), hostile),
+            run("buffered-240", 1, 0, Some(0.02), &clean),
+            run("buffered-240", 2, 0, Some(0.04), &clean),
+            run("buffered-240", 3, 0, Some(0.09), &clean),
+            run("buffered-240-faulty-24", 1, 24, Some(0.03), &hostile),
             run(
                 "rounds-240",
                 1,
                 0,
                 None,
-                json!({"accepted": 200, "outlier": 50}),
+                &[("accepted", 200), ("outlier", 50)],
             ),
         ];
         sort(&mut results);

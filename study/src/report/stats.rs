@@ -9,11 +9,13 @@
 
 use std::collections::BTreeMap;
 
-use serde_json::Value;
+use swarmfl_core::metrics::{ContractSummary, TokenSummary};
+use swarmfl_core::summary::LedgerSummary;
 
 use super::coords::GridCoords;
 use super::load::RunResult;
 use crate::experiments;
+use crate::summary::{count, Summary};
 
 /// Width of the time bins of the curves, in simulated seconds.
 pub const BIN_S: f64 = 100.0;
@@ -120,7 +122,8 @@ pub struct PointStats {
     pub metrics: BTreeMap<&'static str, Stat>,
     /// Wall-clock seconds per run (not deterministic; kept apart).
     pub wall_s: Option<Stat>,
-    /// Results lacking a section the report uses, by section name.
+    /// Results lacking a section the report uses, by section name. Always empty since the
+    /// results are read typed: a result file without a section is refused when read.
     pub missing: BTreeMap<&'static str, usize>,
 }
 
@@ -150,9 +153,15 @@ pub(super) fn loss_at(times: &[f64], losses: &[f64], t: f64) -> Option<f64> {
         .filter(|v| v.is_finite())
 }
 
-/// A JSON array of numbers (None if any entry is not one).
-fn f64s(v: Option<&Value>) -> Option<Vec<f64>> {
-    v?.as_array()?.iter().map(Value::as_f64).collect()
+/// A series of numbers, None if any entry is not finite (JSON holds those as `null`, and a
+/// series with a gap is left out as it was when the reports read the JSON itself).
+fn finite(v: &[f64]) -> Option<Vec<f64>> {
+    v.iter().all(|x| x.is_finite()).then(|| v.to_vec())
+}
+
+/// A count as the metrics hold it.
+fn number(n: Option<u64>) -> Option<f64> {
+    n.map(|n| n as f64)
 }
 
 /// The curve over [`BIN_S`] bins of `per_run` values at each bin's end (runs without a value
@@ -177,16 +186,14 @@ pub fn aggregate(results: &[RunResult]) -> Vec<ExperimentStats> {
     for r in results {
         if out.last().is_none_or(|e| e.name != r.experiment) {
             let exp = experiments::experiment(&r.experiment).ok();
-            let grid_axis = r.summary["sweep"]["preset"]
-                .as_str()
-                .and_then(|_| r.summary["sweep"]["overrides"][0].as_str())
-                .map(|o| o.split_once('=').map_or(o, |(k, _)| k).to_string());
+            let sweep = &r.result.sweep;
+            let grid_axis = sweep
+                .overrides
+                .first()
+                .map(|o| o.split_once('=').map_or(o.as_str(), |(k, _)| k).to_string());
             out.push(ExperimentStats {
                 name: r.experiment.clone(),
-                preset: r.summary["sweep"]["preset"]
-                    .as_str()
-                    .unwrap_or(&r.experiment)
-                    .to_string(),
+                preset: sweep.preset.clone(),
                 axis: exp.map_or_else(
                     || grid_axis.unwrap_or_else(|| "point".to_string()),
                     |e| e.axis.to_string(),
@@ -231,12 +238,12 @@ fn runs_x(results: &[&RunResult], point: &str) -> Option<f64> {
     results
         .iter()
         .find(|r| r.point == point)
-        .and_then(|r| r.summary["sweep"]["x"].as_f64())
+        .and_then(|r| r.result.sweep.x)
 }
 
 /// The scalar metrics of one run's summary by name (what `numbers.csv` averages), and its
 /// wall-clock seconds.
-pub fn run_metrics(summary: &Value) -> (BTreeMap<&'static str, f64>, Option<f64>) {
+pub fn run_metrics(summary: &Summary) -> (BTreeMap<&'static str, f64>, Option<f64>) {
     let mut g = Gathered::default();
     g.run(summary);
     let metrics = g
@@ -251,11 +258,11 @@ pub fn run_metrics(summary: &Value) -> (BTreeMap<&'static str, f64>, Option<f64>
 fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
     let sim_time_s = runs
         .iter()
-        .filter_map(|r| r.summary.get("sim_time_s").and_then(Value::as_f64))
+        .map(|r| r.result.summary.run.sim_time_s)
         .fold(0.0f64, f64::max);
     let mut g = Gathered::default();
     for r in runs {
-        g.run(&r.summary);
+        g.run(&r.result.summary);
     }
     let loss_fns: Vec<Box<dyn Fn(f64) -> Option<f64> + '_>> = g
         .loss_runs
@@ -279,16 +286,9 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
         point: name.to_string(),
         x,
         seeds: runs.iter().map(|r| r.seed).collect(),
-        overrides: runs.first().map_or_else(Vec::new, |r| {
-            r.summary["sweep"]["overrides"]
-                .as_array()
-                .map(|a| {
-                    a.iter()
-                        .filter_map(|o| o.as_str().map(str::to_string))
-                        .collect()
-                })
-                .unwrap_or_default()
-        }),
+        overrides: runs
+            .first()
+            .map_or_else(Vec::new, |r| r.result.sweep.overrides.clone()),
         duration_s: (sim_time_s > 0.0).then_some(sim_time_s),
         loss: curve(sim_time_s, &loss_fns),
         heldout: curve(sim_time_s, &heldout_fns),
@@ -299,7 +299,7 @@ fn point_stats(name: &str, x: f64, runs: &[&RunResult]) -> PointStats {
             .filter_map(|(k, v)| Stat::of(&v).map(|s| (k, s)))
             .collect(),
         wall_s: Stat::of(&g.walls),
-        missing: g.missing,
+        missing: BTreeMap::new(),
     }
 }
 
@@ -317,8 +317,6 @@ struct Gathered {
     chain_runs: Vec<Vec<(f64, f64)>>,
     /// Wall-clock seconds per run.
     walls: Vec<f64>,
-    /// Runs lacking a section, by section name.
-    missing: BTreeMap<&'static str, usize>,
 }
 
 impl Gathered {
@@ -330,88 +328,65 @@ impl Gathered {
     }
 
     /// Adds one run's summary.
-    fn run(&mut self, s: &Value) {
-        for section in ["contract", "tokens", "ledger"] {
-            if s.get(section).is_none_or(Value::is_null) {
-                *self.missing.entry(section).or_insert(0) += 1;
-            }
-        }
-        if let Some(c) = s.get("contract").filter(|c| c.is_object()) {
-            self.contract(c);
-        }
-        if let Some(t) = s.get("tokens").filter(|c| c.is_object()) {
-            self.tokens(t);
-        }
-        if let Some(l) = s.get("ledger").filter(|c| c.is_object()) {
-            self.ledger(l);
-        }
-        if let Some(a) = s.get("aggregation").filter(|a| a.is_object()) {
-            let mb = |key: &str| a.get(key).and_then(Value::as_f64).map(|b| b / 1e6);
-            self.push("sent_mb_per_robot", mb("bytes_sent_per_robot_mean"));
-            self.push("stored_mb_per_robot", mb("bytes_stored_per_robot_mean"));
-        }
-        if let Some(w) = s.get("wall_s").and_then(Value::as_f64) {
-            self.walls.push(w);
+    fn run(&mut self, s: &Summary) {
+        self.contract(&s.run.contract);
+        self.tokens(&s.run.tokens);
+        self.ledger(&s.run.ledger);
+        let a = &s.run.aggregation;
+        self.push("sent_mb_per_robot", Some(a.bytes_sent_per_robot_mean / 1e6));
+        self.push(
+            "stored_mb_per_robot",
+            Some(a.bytes_stored_per_robot_mean / 1e6),
+        );
+        if !s.wall_s.is_nan() {
+            self.walls.push(s.wall_s);
         }
     }
 
     /// The `contract` section: rounds, losses and submissions.
-    fn contract(&mut self, c: &Value) {
-        self.push("rounds", c.get("rounds").and_then(Value::as_f64));
-        self.push("final_loss", c.get("final_loss").and_then(Value::as_f64));
+    fn contract(&mut self, c: &ContractSummary) {
+        self.push("rounds", number(Some(c.rounds)));
+        self.push("final_loss", c.final_loss);
         // The summary's own final held-out loss (gossip: the mean over honest robots), else
         // the last aggregation's.
-        let heldout = f64s(c.get("heldout_loss_by_round"));
+        let heldout = finite(&c.heldout_loss_by_round);
         self.push(
             "final_heldout_loss",
-            c.get("final_heldout_loss")
-                .and_then(Value::as_f64)
+            c.final_heldout_loss
                 .or_else(|| heldout.as_ref().and_then(|h| h.last().copied())),
         );
-        let times = f64s(c.get("round_times_s"));
-        if let (Some(t), Some(l)) = (&times, f64s(c.get("loss_by_round"))) {
+        let times = finite(&c.round_times_s);
+        if let (Some(t), Some(l)) = (&times, finite(&c.loss_by_round)) {
             self.loss_runs.push((t.clone(), l));
         }
         if let (Some(t), Some(h)) = (times, heldout) {
             self.heldout_runs.push((t, h));
         }
-        if let Some(sub) = c.get("submissions") {
-            self.push("accepted", sub.get("accepted").and_then(Value::as_f64));
-            self.push("outlier", sub.get("outlier").and_then(Value::as_f64));
-        }
+        self.push("accepted", number(count(&c.submissions, "accepted")));
+        self.push("outlier", number(count(&c.submissions, "outlier")));
     }
 
     /// The `tokens` section: gains and when the Byzantine robots took control.
-    fn tokens(&mut self, t: &Value) {
-        self.push(
-            "honest_gain",
-            t.get("honest_mean_gain").and_then(Value::as_f64),
-        );
-        self.push(
-            "byzantine_gain",
-            t.get("byzantine_mean_gain").and_then(Value::as_f64),
-        );
-        if let Some(c) = t.get("byzantine_control").filter(|c| c.is_object()) {
-            self.push("control_time_s", c.get("time_s").and_then(Value::as_f64));
-            self.push(
-                "control_heldout_loss",
-                c.get("heldout_loss").and_then(Value::as_f64),
-            );
+    fn tokens(&mut self, t: &TokenSummary) {
+        self.push("honest_gain", t.honest_mean_gain);
+        self.push("byzantine_gain", t.byzantine_mean_gain);
+        if let Some(c) = &t.byzantine_control {
+            self.push("control_time_s", Some(c.time_s));
+            self.push("control_heldout_loss", Some(c.heldout_loss));
         }
     }
 
     /// The `ledger` section: height, forks and the chain size over time.
-    fn ledger(&mut self, l: &Value) {
-        self.push("height", l.get("canonical_height").and_then(Value::as_f64));
-        self.push("forks", l.get("forks").and_then(Value::as_f64));
-        if let Some(samples) = l.get("chain_bytes").and_then(Value::as_array) {
-            let v: Vec<(f64, f64)> = samples
-                .iter()
-                .filter_map(|e| Some((e.get("time_s")?.as_f64()?, e.get("mean")?.as_f64()? / 1e6)))
-                .collect();
-            self.push("chain_mb", v.last().map(|&(_, mb)| mb));
-            self.chain_runs.push(v);
-        }
+    fn ledger(&mut self, l: &LedgerSummary) {
+        self.push("height", number(Some(l.canonical_height)));
+        self.push("forks", number(Some(l.forks)));
+        let v: Vec<(f64, f64)> = l
+            .chain_bytes
+            .iter()
+            .map(|e| (e.time_s, e.mean / 1e6))
+            .collect();
+        self.push("chain_mb", v.last().map(|&(_, mb)| mb));
+        self.chain_runs.push(v);
     }
 }
 
