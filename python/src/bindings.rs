@@ -17,7 +17,7 @@ use swarmfl_core::config::{Aggregation, Config};
 use swarmfl_core::inspect::{self, timeline, Column, Expr, RunIndex, Table};
 use swarmfl_core::types::SimTime;
 use swarmfl_study::progress::Quiet;
-use swarmfl_study::run::Flush;
+use swarmfl_study::run::RunRequest;
 use swarmfl_study::run_dir::Chosen;
 use swarmfl_study::sweep::{Shard, SweepOptions, TaskDone};
 
@@ -160,15 +160,9 @@ fn run(
     let (plugins, failure) = plugins::plugins(attack, rule);
     let outcome = on_worker(py, &failure, |stop| {
         let check = check_stop(stop, &failure, &out);
-        swarmfl_study::run::run_with_plugins(
-            config,
-            seed,
-            &out,
-            &Lines { quiet },
-            &plugins,
-            Flush::WhenFull,
-            check,
-        )
+        RunRequest::new(config, seed, &out)
+            .plugins(&plugins)
+            .run_checked(&Lines { quiet }, check)
     })?;
     // Through a `Value`, whose keys are sorted as in `summary.json`.
     let summary = serde_json::to_value(&outcome.summary).map_err(err)?;

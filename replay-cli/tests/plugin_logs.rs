@@ -14,7 +14,7 @@ use swarmfl_core::contract::rules::plugin::RulePlugin;
 use swarmfl_core::contract::rules::Input;
 use swarmfl_core::rng::Rng;
 use swarmfl_study::progress::Quiet;
-use swarmfl_study::run::{run_with_plugins, Flush};
+use swarmfl_study::run::RunRequest;
 
 mod common;
 use common::{scratch, swarmfl};
@@ -58,16 +58,10 @@ fn a_plugin_attacks_log_is_read_from_its_records_and_only_resimulation_needs_the
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_attack(PluginId::attack("echo", "00", "a test"), Arc::new(Echo));
-    let outcome = run_with_plugins(
-        config,
-        7,
-        &run,
-        &Quiet,
-        &plugins,
-        Flush::WhenFull,
-        || Ok(()),
-    )
-    .unwrap();
+    let outcome = RunRequest::new(config, 7, &run)
+        .plugins(&plugins)
+        .run(&Quiet)
+        .unwrap();
     let log = run.join("run.swlog");
     let log = log.to_str().unwrap();
     let html = dir.join("v.html");
@@ -122,16 +116,10 @@ fn a_plugin_rules_log_gives_its_world_to_the_command_and_says_where_the_rest_is_
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
-    run_with_plugins(
-        config,
-        7,
-        &run,
-        &Quiet,
-        &plugins,
-        Flush::WhenFull,
-        || Ok(()),
-    )
-    .unwrap();
+    RunRequest::new(config, 7, &run)
+        .plugins(&plugins)
+        .run(&Quiet)
+        .unwrap();
     let log = run.join("run.swlog");
     let log = log.to_str().unwrap();
     // The world is records: the command draws it at a time, as this process (which has the
@@ -201,16 +189,10 @@ fn the_viewer_draws_a_plugin_rules_log_from_its_records_and_notes_what_needs_the
     let config = Config::resolve(Some("smoke"), None, &overrides).unwrap();
     let mut plugins = Plugins::none();
     plugins.add_rule(PluginId::rule("mean", "11", "a test"), Arc::new(Mean));
-    run_with_plugins(
-        config,
-        7,
-        &run,
-        &Quiet,
-        &plugins,
-        Flush::WhenFull,
-        || Ok(()),
-    )
-    .unwrap();
+    RunRequest::new(config, 7, &run)
+        .plugins(&plugins)
+        .run(&Quiet)
+        .unwrap();
     let log = run.join("run.swlog");
     let html = dir.join("v.html");
     let out = swarmfl(&[

@@ -343,7 +343,7 @@ fn rerun(chosen: &[Committed], jobs: usize) -> Vec<String> {
 fn rerun_one(task: &Committed) -> anyhow::Result<Option<String>> {
     let config = resolve(task)?;
     let out = scratch_dir("run")?;
-    let outcome = run::run(config, task.sweep.seed, &out, &crate::progress::Quiet);
+    let outcome = run::RunRequest::new(config, task.sweep.seed, &out).run(&crate::progress::Quiet);
     let _ = std::fs::remove_dir_all(&out);
     // The sweep section is the task's name, written by `sweep` beside the summary.
     let new = ResultFile {

@@ -5,6 +5,7 @@
 use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use anyhow::Context;
@@ -142,61 +143,88 @@ pub struct RunOutcome {
     pub sealings: u64,
 }
 
-/// Runs `config` with `seed`, writing the log and summary into `out`.
-pub fn run(config: Config, seed: u64, out: &Path, watch: &dyn Watch) -> anyhow::Result<RunOutcome> {
-    // [`run_until`] with a flag nobody sets: one path from configuration to log.
-    let never = std::sync::atomic::AtomicBool::new(false);
-    run_until(config, seed, out, watch, &never)
-}
-
-/// [`run`], interrupted at the next record once `stop` is set: the error says so, and the log
-/// left in `out` is truncated (no footer, no summary). Python's Ctrl-C and a stopped sweep use it.
-pub fn run_until(
+/// A run to make: a configuration and a seed into a folder, and how. The one path from a
+/// configuration to a log and its summary that `swarmfl run`, `sweep`, `recheck`, `fixtures`,
+/// `bench` and the Python package take:
+/// `RunRequest::new(config, seed, out).stop(&flag).run(&watch)`.
+pub struct RunRequest<'a> {
     config: Config,
     seed: u64,
-    out: &Path,
-    watch: &dyn Watch,
-    stop: &std::sync::atomic::AtomicBool,
-) -> anyhow::Result<RunOutcome> {
-    run_with(config, seed, out, watch, stop, Flush::WhenFull)
-}
-
-/// [`run_until`] with the log flushed as `flush` says (the bytes are the same either way).
-pub fn run_with(
-    config: Config,
-    seed: u64,
-    out: &Path,
-    watch: &dyn Watch,
-    stop: &std::sync::atomic::AtomicBool,
+    out: &'a Path,
+    plugins: Option<&'a Plugins>,
     flush: Flush,
-) -> anyhow::Result<RunOutcome> {
-    run_with_plugins(config, seed, out, watch, &Plugins::none(), flush, || {
-        if stop.load(std::sync::atomic::Ordering::Relaxed) {
-            anyhow::bail!(
-                "interrupted: {} is truncated (no summary); run again to redo it",
-                out.join("run.swlog").display()
-            );
+    stop: Option<&'a AtomicBool>,
+}
+
+impl<'a> RunRequest<'a> {
+    /// A run of `config` with `seed` into `out` (`run.swlog`, `summary.json`): no plug-ins,
+    /// the log flushed when its buffer is full, never stopped.
+    pub fn new(config: Config, seed: u64, out: &'a Path) -> RunRequest<'a> {
+        RunRequest {
+            config,
+            seed,
+            out,
+            plugins: None,
+            flush: Flush::WhenFull,
+            stop: None,
         }
-        Ok(())
-    })
-}
+    }
 
-/// [`run_until`] offered `plugins` (the Python package's attacks): the header records the ones
-/// the configuration uses; `check` runs before every record is written, and its error stops
-/// the run (a plug-in that failed, Ctrl-C), leaving the log truncated.
-pub fn run_with_plugins(
-    config: Config,
-    seed: u64,
-    out: &Path,
-    watch: &dyn Watch,
-    plugins: &Plugins,
-    flush: Flush,
-    mut check: impl FnMut() -> anyhow::Result<()>,
-) -> anyhow::Result<RunOutcome> {
-    let mut header = run_header(&config, seed);
-    header.plugins = plugins.used_by(&config).map_err(anyhow::Error::msg)?;
-    let sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
-    write_run(&header, sim, out, watch, flush, |_| check())
+    /// Offers `plugins` (the Python package's attacks and rules): the header records the ones
+    /// the configuration uses.
+    pub fn plugins(mut self, plugins: &'a Plugins) -> RunRequest<'a> {
+        self.plugins = Some(plugins);
+        self
+    }
+
+    /// Flushes the log as `flush` says (the bytes are the same either way).
+    pub fn flush(mut self, flush: Flush) -> RunRequest<'a> {
+        self.flush = flush;
+        self
+    }
+
+    /// Stops the run at the next record once `stop` is set: the error says so, and the log
+    /// left in the folder is truncated (no footer, no summary). Ctrl-C and a stopped sweep.
+    pub fn stop(mut self, stop: &'a AtomicBool) -> RunRequest<'a> {
+        self.stop = Some(stop);
+        self
+    }
+
+    /// Makes the run, its progress and warnings on `watch`.
+    pub fn run(self, watch: &dyn Watch) -> anyhow::Result<RunOutcome> {
+        self.run_checked(watch, || Ok(()))
+    }
+
+    /// [`RunRequest::run`] with `check` run before every record is written: its error stops
+    /// the run (a plug-in that failed, Ctrl-C seen by the caller), leaving the log truncated.
+    pub fn run_checked(
+        self,
+        watch: &dyn Watch,
+        mut check: impl FnMut() -> anyhow::Result<()>,
+    ) -> anyhow::Result<RunOutcome> {
+        let RunRequest {
+            config,
+            seed,
+            out,
+            plugins,
+            flush,
+            stop,
+        } = self;
+        let none = Plugins::none();
+        let plugins = plugins.unwrap_or(&none);
+        let mut header = run_header(&config, seed);
+        header.plugins = plugins.used_by(&config).map_err(anyhow::Error::msg)?;
+        let sim = Sim::with_plugins(config, seed, DEFAULT_LOOKAHEAD_MS, plugins)?;
+        write_run(&header, sim, out, watch, flush, |_| {
+            if stop.is_some_and(|s| s.load(Ordering::Relaxed)) {
+                anyhow::bail!(
+                    "interrupted: {} is truncated (no summary); run again to redo it",
+                    out.join("run.swlog").display()
+                );
+            }
+            check()
+        })
+    }
 }
 
 /// When the log's buffered bytes reach its file while a run goes. Either way the file ends

@@ -444,7 +444,9 @@ fn run_task(
         ))
     };
     let point = &exp.points[task.point_index];
-    let outcome = run::run_until(config, task.seed, &run_dir, &crate::progress::Quiet, stop);
+    let outcome = run::RunRequest::new(config, task.seed, &run_dir)
+        .stop(stop)
+        .run(&crate::progress::Quiet);
     if !opts.keep_logs {
         // Best effort: a leftover temporary directory does not change any result.
         let _ = std::fs::remove_dir_all(&run_dir);

@@ -124,13 +124,9 @@ mod tests {
             &["run.duration_s=30".into(), "world.robots=4".into()],
         )
         .unwrap();
-        let out = run::run(
-            config.clone(),
-            1,
-            &dir.join("a"),
-            &swarmfl_study::progress::Quiet,
-        )
-        .unwrap();
+        let out = run::RunRequest::new(config.clone(), 1, &dir.join("a"))
+            .run(&swarmfl_study::progress::Quiet)
+            .unwrap();
         assert_eq!(diff(&out.log_path, None, true).unwrap(), 0);
         // Truncated, foreign and missing logs: git bisect's "skip", never "bad".
         let bytes = std::fs::read(&out.log_path).unwrap();

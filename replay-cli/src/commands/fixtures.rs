@@ -68,8 +68,8 @@ pub fn regenerate(dir: &Path) -> anyhow::Result<()> {
         let config = Config::resolve(Some(&spec.preset), None, &spec.overrides)
             .with_context(|| format!("fixture {}", spec.name))?;
         let out = scratch.join(&spec.name);
-        let outcome =
-            swarmfl_study::run::run(config, spec.seed, &out, &swarmfl_study::progress::Quiet)?;
+        let outcome = swarmfl_study::run::RunRequest::new(config, spec.seed, &out)
+            .run(&swarmfl_study::progress::Quiet)?;
         let target: PathBuf = logs.join(format!("{}.swlog", spec.name));
         std::fs::copy(&outcome.log_path, &target)
             .with_context(|| format!("cannot write {}", target.display()))?;

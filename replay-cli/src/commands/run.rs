@@ -9,7 +9,7 @@ use anyhow::Context;
 use swarmfl_core::config::Aggregation;
 use swarmfl_core::metrics::ContractSummary;
 use swarmfl_core::summary::RunSummary;
-use swarmfl_study::run::{density_warning, run, run_header, run_with, Flush, RunOutcome};
+use swarmfl_study::run::{density_warning, run_header, Flush, RunOutcome, RunRequest};
 use swarmfl_study::run_dir;
 use swarmfl_study::summary::{count, Summary, Timing};
 
@@ -58,15 +58,16 @@ pub fn command(args: RunArgs) -> anyhow::Result<ExitCode> {
         eprintln!("{replaced}");
     }
     let outcome = match server {
-        None => run(config, seed, &out, &Bar::new(quiet))?,
+        None => RunRequest::new(config, seed, &out).run(&Bar::new(quiet))?,
         Some(server) => {
             let live = server.start(&out.join("run.swlog"));
             eprintln!(
                 "live view: {} (while the run goes; Ctrl-C stops the run and the view)",
                 live.url()
             );
-            let never = std::sync::atomic::AtomicBool::new(false);
-            let outcome = run_with(config, seed, &out, &Bar::new(quiet), &never, LIVE_FLUSH);
+            let outcome = RunRequest::new(config, seed, &out)
+                .flush(LIVE_FLUSH)
+                .run(&Bar::new(quiet));
             // Whether the run ended or failed, the page gets the log as it is and says so.
             live.finish();
             outcome?

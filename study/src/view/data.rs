@@ -377,7 +377,9 @@ mod tests {
         )
         .unwrap();
         let total = config.world.foraging.food_count(config.world.robots) as usize;
-        let out = crate::run::run(config, 1, &dir.join("run"), &crate::progress::Quiet).unwrap();
+        let out = crate::run::RunRequest::new(config, 1, &dir.join("run"))
+            .run(&crate::progress::Quiet)
+            .unwrap();
         let data = data_of(&out.log_path);
         assert_eq!(data["nest_strip"], -1.0, "the nest strip's east edge");
         assert_eq!(data["nest"], serde_json::Value::Null, "no disk nest");

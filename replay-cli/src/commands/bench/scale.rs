@@ -6,7 +6,7 @@
 //! scaled with the area (`world.cylinders`, `world.boxes` = 5 * N / 15, rounded) and
 //! `run.duration_s` the benchmark's duration; everything else (ledger, contract, learning) is the
 //! preset's. Each size runs in a child process of this same binary (the hidden
-//! `bench-scale-one` command) through [`crate::commands::run::run`], exactly what `swarmfl run` does, so
+//! `bench-scale-one` command) through [`swarmfl_study::run::RunRequest`], exactly what `swarmfl run` does, so
 //! its peak RSS (`VmHWM`) is that size's alone. The child reports the run's wall time, the
 //! process CPU time, the driver's per-part wall and CPU times (the `timing` of `summary.json`)
 //! and its peak RSS; the parent divides by robots x simulated seconds and compares each size
@@ -99,7 +99,8 @@ pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
     ));
     let cpu0 = swarmfl_study::run::process_cpu_s();
     // Progress on stderr (inherited from the parent): a large swarm takes minutes.
-    let outcome = swarmfl_study::run::run(config, SEED, &dir, &crate::progress::Bar::new(false));
+    let outcome = swarmfl_study::run::RunRequest::new(config, SEED, &dir)
+        .run(&crate::progress::Bar::new(false));
     let cpu_s = swarmfl_study::run::process_cpu_s() - cpu0;
     // The directory goes whatever happened; the run's error, if any, is the one reported.
     let removed = std::fs::remove_dir_all(&dir);
