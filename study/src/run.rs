@@ -102,7 +102,7 @@ fn cpu_clock_s(clock: libc::clockid_t) -> f64 {
 }
 
 /// The header of a run of `config` with `seed` offered no plug-ins (the command line's): what
-/// [`run_with_plugins`] writes, and what a run already in the folder is compared with.
+/// [`RunRequest::run`] writes, and what a run already in the folder is compared with.
 pub fn run_header(config: &Config, seed: u64) -> Header {
     Header::new(seed, config.to_toml())
 }
