@@ -9,8 +9,8 @@ use swarmfl_core::inspect::{self, expr::Env, Column};
 use swarmfl_core::world::{foraging_flowfl, Obstacle, World};
 use swarmfl_core::Digest;
 
-use super::fold::{Grid, Walk};
 use super::frames::Frames;
+use super::walk::{Grid, Walk};
 use super::LiveState;
 
 /// The page's data object as JSON text.

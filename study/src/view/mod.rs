@@ -36,6 +36,7 @@
 mod data;
 mod fold;
 mod frames;
+mod walk;
 mod world;
 
 use std::path::Path;

@@ -13,8 +13,9 @@ use swarmfl_core::state::{apply_tick, SimError};
 use swarmfl_core::world::World;
 
 use super::data::{data_json, Parts};
-use super::fold::{Grid, Walk, MAX_REFOLDS};
+use super::fold::MAX_REFOLDS;
 use super::frames::Frames;
+use super::walk::{Grid, Walk};
 use super::Page;
 use crate::progress::Watch;
 
