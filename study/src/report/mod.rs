@@ -37,7 +37,17 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 
 pub use frame::{results_frame, Frame};
-use study::STUDIES;
+use study::StudyReport;
+
+/// Every study report, in the order their figures are drawn, their files written and their
+/// sections placed within an experiment's section of `report.md`.
+pub(crate) const STUDIES: &[&dyn StudyReport] = &[
+    &figures::StandardFigures,
+    &robustness::Robustness,
+    &benchmark::Benchmark,
+    &defence::Defence,
+    &scale::Scale,
+];
 
 /// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's
 /// path, one a line.

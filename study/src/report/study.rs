@@ -1,25 +1,15 @@
 //! The study reports: each draws the figures and tables of the experiments it owns (the
 //! experiment's [`DrawnBy`](crate::experiments::DrawnBy) says which), behind one trait, and
-//! [`STUDIES`] lists them. A new study is its module, implementing [`StudyReport`], plus one
-//! line in [`STUDIES`]; `report::make` runs them in the list's order.
+//! the parent's [`STUDIES`](super::STUDIES) lists them. A new study is its module,
+//! implementing [`StudyReport`], plus one line in that list; `report::make` runs them in the
+//! list's order.
 
 use std::path::Path;
 
 use super::load::RunResult;
 use super::plots::Figure;
 use super::stats::ExperimentStats;
-use super::{benchmark, defence, figures, robustness, scale};
 use crate::experiments::{self, Entry};
-
-/// Every study report, in the order their figures are drawn, their files written and their
-/// sections placed within an experiment's section of `report.md`.
-pub(crate) const STUDIES: &[&dyn StudyReport] = &[
-    &figures::StandardFigures,
-    &robustness::Robustness,
-    &benchmark::Benchmark,
-    &defence::Defence,
-    &scale::Scale,
-];
 
 /// One study's part of a report (its `Debug` names it in messages).
 pub(crate) trait StudyReport: std::fmt::Debug + Sync {
@@ -77,11 +67,15 @@ mod tests {
     use super::*;
 
     /// Each experiment, built in or not, has exactly one study report that draws it: a new
-    /// experiment's [`DrawnBy`](crate::experiments::DrawnBy) needs its report in [`STUDIES`].
+    /// experiment's [`DrawnBy`](crate::experiments::DrawnBy) needs its report in
+    /// [`STUDIES`](super::super::STUDIES).
     #[test]
     fn every_experiment_is_drawn_by_exactly_one_study() {
         for entry in experiments::ALL.iter().map(Some).chain([None]) {
-            let by: Vec<&&dyn StudyReport> = STUDIES.iter().filter(|s| s.draws(entry)).collect();
+            let by: Vec<&&dyn StudyReport> = super::super::STUDIES
+                .iter()
+                .filter(|s| s.draws(entry))
+                .collect();
             assert_eq!(
                 by.len(),
                 1,
