@@ -1,0 +1,128 @@
+use super::*;
+use swarmfl_core::config::Config;
+
+#[test]
+fn task_lists_have_the_papers_sizes_and_point_major_order() {
+    let check = |name: &str, points: usize, runs: u32| {
+        let exp = experiment(name).unwrap();
+        assert_eq!(exp.points.len(), points, "{name}");
+        assert_eq!(exp.runs, runs, "{name}");
+        let list = tasks(&exp, exp.runs, &[]);
+        assert_eq!(list.len(), points * runs as usize, "{name}");
+        for (i, t) in list.iter().enumerate() {
+            assert_eq!(t.index, i);
+            assert_eq!(t.point_index, i / runs as usize);
+            assert_eq!(t.seed, (i % runs as usize) as u64 + 1);
+        }
+    };
+    check("e0-baselines", 9, 5);
+    check("e1-expiration", 5, 5);
+    check("e1-faulty", 1, 10);
+    check("e2-faulty", 8, 20);
+    check("e2-malicious", 8, 20);
+    check("e3-smart", 8, 18);
+    check("e4-benchmark", 3 * 16 * 9, 3);
+    check("e4-gate", 3 * 2 * 5, 3);
+    check("e5-smart-defence", 39, 3);
+    check("e2-malicious-authors", 8, 20);
+    check("e3-smart-authors", 8, 18);
+    check("e6-scale", 11, 3);
+    check("e6-scale-1000", 3, 2);
+    assert!(experiment("e4").is_err());
+}
+
+/// Each point of an `-authors` experiment is its namesake of the paper's experiment with
+/// the authors' contract, and nothing else changed.
+#[test]
+fn the_authors_experiments_differ_from_the_papers_only_in_the_contract() {
+    for (ours, theirs) in [
+        ("e2-malicious", "e2-malicious-authors"),
+        ("e3-smart", "e3-smart-authors"),
+    ] {
+        let (a, b) = (experiment(ours).unwrap(), experiment(theirs).unwrap());
+        assert_eq!(a.runs, b.runs);
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert_eq!((&p.name, p.x), (&q.name, q.x));
+            let mine = Config::resolve(Some(&a.preset), None, &p.overrides).unwrap();
+            let mut authors = Config::resolve(Some(&b.preset), None, &q.overrides).unwrap();
+            assert_ne!(mine.contract, authors.contract, "{theirs} {}", q.name);
+            assert_eq!(authors.contract.reward_weights, [1, 1, 1, 1, 1, -1, -1]);
+            assert_eq!(
+                authors.contract.options(),
+                swarmfl_core::config::ContractOptions::authors()
+            );
+            authors.contract = mine.contract.clone();
+            authors.preset = mine.preset.clone();
+            assert_eq!(mine, authors, "{theirs} {}", q.name);
+        }
+    }
+}
+
+/// e4-robustness's attacks are the 12 it was published with, in that order.
+#[test]
+fn the_e4_attacks_are_the_published_twelve() {
+    let names: Vec<&str> = E4_ATTACKS.iter().map(|k| k.name()).collect();
+    assert_eq!(
+        names,
+        [
+            "faulty",
+            "malicious",
+            "smart",
+            "sign-flip",
+            "gaussian",
+            "alie",
+            "ipm",
+            "min-max",
+            "mimic",
+            "inflate-samples",
+            "poison-data",
+            "collude"
+        ]
+    );
+    let exp = experiment("e4-robustness").unwrap();
+    let attacks: std::collections::BTreeSet<&str> = exp
+        .points
+        .iter()
+        .flat_map(|p| p.tags.iter().filter(|(k, _)| *k == "attack"))
+        .map(|(_, v)| v.as_str())
+        .filter(|&a| a != "none")
+        .collect();
+    assert_eq!(attacks.len(), 12);
+    assert!(names.iter().all(|n| attacks.contains(n)));
+}
+
+/// No two experiments share a name: `experiment` would find the first only.
+#[test]
+fn experiment_names_are_unique() {
+    let names: std::collections::BTreeSet<&str> = EXPERIMENTS.into_iter().collect();
+    assert_eq!(names.len(), ALL.len(), "{EXPERIMENTS:?}");
+}
+
+#[test]
+fn every_point_resolves_to_a_valid_configuration() {
+    for name in EXPERIMENTS {
+        let exp = experiment(name).unwrap();
+        for point in &exp.points {
+            let config = Config::resolve(Some(&exp.preset), None, &point.overrides)
+                .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
+            if name == "e1-expiration" {
+                assert_eq!(config.data.expiration_s, point.x);
+            } else if name.starts_with("e6-scale") {
+                assert_eq!(f64::from(config.world.robots), point.x);
+                let protocol = point.name.split('-').next().unwrap();
+                let buffered = config.contract.protocol.name() == "buffered";
+                assert_eq!(buffered, protocol == "buffered", "{}", point.name);
+                // At most one training a second in the swarm, never slower than the paper's.
+                let period = config.learn.training_period_s;
+                assert!(period >= 100.0, "{}", point.name);
+                assert!(point.x / period <= E6_TRAININGS_PER_S, "{}", point.name);
+            } else {
+                assert_eq!(f64::from(config.byzantine.count), point.x);
+            }
+            if name == "e0-baselines" {
+                let aggregation = point.name.split('-').next().unwrap();
+                assert_eq!(config.learn.aggregation.name(), aggregation);
+            }
+        }
+    }
+}
