@@ -112,8 +112,8 @@ def run(preset: Optional[str] = None, seed: int = 1, set: Optional[Mapping[str, 
 
     ``set`` maps configuration keys to values (``{"byzantine.count": 3, "contract.rule":
     "median"}``); ``config`` names a TOML file overlaid on the preset. Without ``out`` the run
-    goes into a new temporary directory (kept: its path is ``Run.path``). ``quiet=False`` shows
-    the command's progress bar on the terminal. Ctrl-C stops the simulation at its next record
+    goes into a new temporary directory (kept: its path is ``Run.path``). ``quiet=False`` prints
+    progress lines on stderr, as the command does off a terminal. Ctrl-C stops the simulation at its next record
     and raises ``KeyboardInterrupt`` (``out`` then holds a truncated log and no summary).
     ``attack`` is a plug-in attack (a :class:`swarmfl.Attack` instance) that the Byzantine
     robots run (``byzantine.count`` of them: set it); a plug-in that raises or answers badly
@@ -169,8 +169,10 @@ def fork(log: PathLike, at: int, set: Optional[Mapping[str, Any]] = None,
     --set K=V``): re-simulates the parent up to the fork point, checking every record, then
     continues under the new configuration. ``attack`` is the parent's plug-in attack (required,
     with the same source, when the parent has one) or one the overrides switch to; ``rule`` the
-    parent's plug-in rule (required, with the same source, when the parent has one). Returns the
-    fork's :class:`Run` (in ``out``, default a new temporary directory)."""
+    parent's plug-in rule (required, with the same source, when the parent has one).
+    ``quiet=False`` prints the fork point and progress lines on stderr. Returns the fork's
+    :class:`Run` (in ``out``, default a new temporary directory; its summary is
+    ``Run.summary``)."""
     if not isinstance(at, int) or isinstance(at, bool) or at < 0:
         raise SwarmflError(f"at must be a non-negative block height, got {at!r}")
     parent = _log_path(log)
