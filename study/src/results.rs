@@ -1,6 +1,8 @@
 //! The results directory a sweep writes and a report reads: one file per task,
 //! `DIR/<experiment>/<point>/seed<N>.json` (the run's summary JSON plus a `sweep` section
-//! naming the task: [`ResultFile`]), written atomically (temporary file + rename).
+//! naming the task: [`ResultFile`]), written atomically (temporary file + rename); the logs a
+//! sweep keeps beside them, and the `.tmp` folder of those in progress ([`find_logs`], which
+//! `ranking` and `traffic` read).
 
 use std::path::{Path, PathBuf};
 
@@ -62,6 +64,64 @@ pub fn write_atomic(path: &Path, value: &impl serde::Serialize) -> anyhow::Resul
     Ok(())
 }
 
+/// The folder of a sweep's output that holds the logs of runs in progress (without
+/// `--keep-logs`); readers of logs pass over it.
+pub const TMP_DIR: &str = ".tmp";
+
+/// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
+/// path order, each with its path relative to its input. A sweep's in-progress logs (its
+/// `.tmp` folders) are passed over, unless `.tmp` itself is an input. None found is an error
+/// that names the inputs.
+pub fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
+    let mut out = Vec::new();
+    for input in inputs {
+        if input.is_file() {
+            out.push((input.clone(), input.display().to_string()));
+            continue;
+        }
+        anyhow::ensure!(
+            input.is_dir(),
+            "{} is neither a log nor a directory",
+            input.display()
+        );
+        let mut stack = vec![input.clone()];
+        let mut found = Vec::new();
+        while let Some(dir) = stack.pop() {
+            let entries = std::fs::read_dir(&dir)
+                .with_context(|| format!("cannot read {}", dir.display()))?;
+            for entry in entries {
+                let path = entry?.path();
+                if path.is_dir() {
+                    if path.file_name().is_none_or(|n| n != TMP_DIR) {
+                        stack.push(path);
+                    }
+                } else if path.file_name().is_some_and(|n| n == "run.swlog") {
+                    found.push(path);
+                }
+            }
+        }
+        found.sort();
+        for path in found {
+            let name = path
+                .strip_prefix(input)
+                .unwrap_or(&path)
+                .display()
+                .to_string();
+            out.push((path, name));
+        }
+    }
+    anyhow::ensure!(
+        !out.is_empty(),
+        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
+        inputs
+            .iter()
+            .map(|p| p.display().to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -88,5 +148,35 @@ mod tests {
             .collect();
         assert_eq!(leftovers.len(), 1, "no temporary file left: {leftovers:?}");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    /// A sweep's in-progress logs sit in its `.tmp` folder: a search passes over them (they
+    /// are not runs yet), but names them when given `.tmp` itself; none found is an error.
+    #[test]
+    fn find_logs_passes_over_in_progress_logs() {
+        let root = std::env::temp_dir().join(format!("swarmfl-find-logs-{}", std::process::id()));
+        let done = root.join("e4/point/seed1");
+        let running = root.join(TMP_DIR).join("e4-point-seed2-1");
+        std::fs::create_dir_all(&done).unwrap();
+        std::fs::create_dir_all(&running).unwrap();
+        std::fs::write(done.join("run.swlog"), b"").unwrap();
+        std::fs::write(running.join("run.swlog"), b"").unwrap();
+
+        let found = find_logs(std::slice::from_ref(&root)).unwrap();
+        assert_eq!(found.len(), 1);
+        assert_eq!(found[0].0, done.join("run.swlog"));
+        let found = find_logs(&[root.join(TMP_DIR)]).unwrap();
+        assert_eq!(found[0].0, running.join("run.swlog"));
+
+        let empty = root.join("empty");
+        std::fs::create_dir_all(&empty).unwrap();
+        let err = find_logs(std::slice::from_ref(&empty))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("no run.swlog found under") && err.contains("empty"),
+            "{err}"
+        );
+        std::fs::remove_dir_all(&root).unwrap();
     }
 }

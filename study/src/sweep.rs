@@ -19,7 +19,9 @@ use swarmfl_core::config::Config;
 use crate::experiments::{self, Experiment, Task};
 use crate::grid;
 use crate::progress::Watch;
-use crate::results::{extra_overrides, is_done, result_path, show_overrides, write_atomic};
+use crate::results::{
+    extra_overrides, is_done, result_path, show_overrides, write_atomic, TMP_DIR,
+};
 use crate::run;
 use crate::summary::{ResultFile, SweepTask};
 
@@ -418,10 +420,6 @@ fn run_parallel(
         .finish(finished as u64);
     (failed.into_inner().expect("workers finished"), finished)
 }
-
-/// The folder of a sweep's output that holds the logs of runs in progress (without
-/// `--keep-logs`); readers of logs pass over it.
-pub const TMP_DIR: &str = ".tmp";
 
 /// Runs one task and writes its result file.
 fn run_task(

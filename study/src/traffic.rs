@@ -21,10 +21,10 @@ use swarmfl_core::inspect::{self, Table, Traffic};
 use swarmfl_core::SimTime;
 
 use crate::progress::Watch;
-use crate::ranking::find_logs;
 use crate::report::plots::{self, Kind, Plot, Series};
 use crate::report::stats::{fixed, Stat};
 use crate::report::written_list;
+use crate::results::find_logs;
 
 /// One measured log: its name (relative to the input it was found under) and rows.
 pub struct Run {

@@ -29,7 +29,7 @@ use swarmfl_core::config::RankKey;
 use swarmfl_core::inspect::{self, RankedSubmission, Table};
 
 use crate::progress::{warn_if_truncated, Watch};
-use crate::sweep::TMP_DIR;
+use crate::results::find_logs;
 use measure::{Group, Point, PointStats, RoundMeasure, RunMeasure};
 
 /// One measured run.
@@ -126,60 +126,6 @@ fn tell_apart(runs: &mut [Run]) -> anyhow::Result<()> {
         );
     }
     Ok(())
-}
-
-/// Every `run.swlog` named by `inputs` (a log itself, or a directory searched recursively), in
-/// path order, each with its path relative to its input. A sweep's in-progress logs (its
-/// `.tmp` folders) are passed over, unless `.tmp` itself is an input. None found is an error
-/// that names the inputs.
-pub fn find_logs(inputs: &[PathBuf]) -> anyhow::Result<Vec<(PathBuf, String)>> {
-    let mut out = Vec::new();
-    for input in inputs {
-        if input.is_file() {
-            out.push((input.clone(), input.display().to_string()));
-            continue;
-        }
-        anyhow::ensure!(
-            input.is_dir(),
-            "{} is neither a log nor a directory",
-            input.display()
-        );
-        let mut stack = vec![input.clone()];
-        let mut found = Vec::new();
-        while let Some(dir) = stack.pop() {
-            let entries = std::fs::read_dir(&dir)
-                .with_context(|| format!("cannot read {}", dir.display()))?;
-            for entry in entries {
-                let path = entry?.path();
-                if path.is_dir() {
-                    if path.file_name().is_none_or(|n| n != TMP_DIR) {
-                        stack.push(path);
-                    }
-                } else if path.file_name().is_some_and(|n| n == "run.swlog") {
-                    found.push(path);
-                }
-            }
-        }
-        found.sort();
-        for path in found {
-            let name = path
-                .strip_prefix(input)
-                .unwrap_or(&path)
-                .display()
-                .to_string();
-            out.push((path, name));
-        }
-    }
-    anyhow::ensure!(
-        !out.is_empty(),
-        "no run.swlog found under {} (give logs, or a sweep's results made with --keep-logs)",
-        inputs
-            .iter()
-            .map(|p| p.display().to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    Ok(out)
 }
 
 /// Folds one log and measures it.
@@ -569,35 +515,5 @@ mod tests {
                 && err.contains("contract.rule=krum, seed 1"),
             "{err}"
         );
-    }
-
-    /// A sweep's in-progress logs sit in its `.tmp` folder: a search passes over them (they
-    /// are not runs yet), but names them when given `.tmp` itself; none found is an error.
-    #[test]
-    fn find_logs_passes_over_in_progress_logs() {
-        let root = std::env::temp_dir().join(format!("swarmfl-find-logs-{}", std::process::id()));
-        let done = root.join("e4/point/seed1");
-        let running = root.join(TMP_DIR).join("e4-point-seed2-1");
-        std::fs::create_dir_all(&done).unwrap();
-        std::fs::create_dir_all(&running).unwrap();
-        std::fs::write(done.join("run.swlog"), b"").unwrap();
-        std::fs::write(running.join("run.swlog"), b"").unwrap();
-
-        let found = find_logs(std::slice::from_ref(&root)).unwrap();
-        assert_eq!(found.len(), 1);
-        assert_eq!(found[0].0, done.join("run.swlog"));
-        let found = find_logs(&[root.join(TMP_DIR)]).unwrap();
-        assert_eq!(found[0].0, running.join("run.swlog"));
-
-        let empty = root.join("empty");
-        std::fs::create_dir_all(&empty).unwrap();
-        let err = find_logs(std::slice::from_ref(&empty))
-            .unwrap_err()
-            .to_string();
-        assert!(
-            err.contains("no run.swlog found under") && err.contains("empty"),
-            "{err}"
-        );
-        std::fs::remove_dir_all(&root).unwrap();
     }
 }
