@@ -6,7 +6,9 @@
 mod cli;
 mod commands;
 mod exit;
+mod live;
 mod progress;
+mod summary;
 
 use std::process::ExitCode;
 

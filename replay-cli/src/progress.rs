@@ -135,3 +135,8 @@ impl Meter for Progress {
         Progress::finish(*self, done);
     }
 }
+
+/// Says on stderr that a log is truncated and that what follows is of its intact prefix.
+pub fn warn_if_truncated(index: &swarmfl_core::inspect::RunIndex) {
+    swarmfl_study::progress::warn_if_truncated(&Bar::new(false), index);
+}

@@ -8,8 +8,8 @@ use std::time::Instant;
 use swarmfl_core::inspect::{self, timeline, Expr};
 
 use crate::cli::BisectArgs;
-use crate::commands::inspect::warn_if_truncated;
 use crate::exit::EXIT_DIVERGED;
+use crate::progress::warn_if_truncated;
 
 /// Runs `swarmfl bisect`: exit 1 when the predicate holds nowhere.
 pub fn command(args: BisectArgs) -> anyhow::Result<ExitCode> {

@@ -7,8 +7,8 @@ use swarmfl_study::fork::fork;
 use swarmfl_study::run_dir;
 
 use crate::cli::ForkArgs;
-use crate::commands::run::print_summary;
 use crate::progress::Bar;
+use crate::summary::print_summary;
 
 /// Runs `swarmfl fork`.
 pub fn command(args: ForkArgs) -> anyhow::Result<ExitCode> {

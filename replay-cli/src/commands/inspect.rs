@@ -9,6 +9,7 @@ use swarmfl_core::inspect::{self, timeline, BlockReport, SubmissionInfo};
 use swarmfl_core::RobotId;
 
 use crate::cli::InspectArgs;
+use crate::progress::warn_if_truncated;
 
 /// Runs `swarmfl inspect`: `--block H`, or `--time T` for a baseline run.
 pub fn command(args: InspectArgs) -> anyhow::Result<ExitCode> {
@@ -280,11 +281,6 @@ fn print_robot_view(r: &BlockReport) {
             None => println!("  no learning phase yet"),
         }
     }
-}
-
-/// Says on stderr that a log is truncated and that what follows is of its intact prefix.
-pub fn warn_if_truncated(index: &inspect::RunIndex) {
-    swarmfl_study::progress::warn_if_truncated(&crate::progress::Bar::new(false), index);
 }
 
 /// `inspect --time T` of a baseline run: each robot's replica, bytes and model at the last

@@ -1,7 +1,7 @@
 //! One module per subcommand, each with a `command` function that takes the subcommand's
 //! arguments (see `cli`), calls the core or the study crate (`swarmfl-study`) and prints; it
-//! returns the exit code. Shared by several commands: `run` (a run's printed summary: `fork`
-//! prints it too) and `inspect` (the warning for a truncated log).
+//! returns the exit code. Commands do not import each other: what two of them share is outside
+//! `commands/` (`summary`, `progress`, `live`).
 
 pub mod bench;
 pub mod bisect;
@@ -13,7 +13,6 @@ pub mod export;
 pub mod fixtures;
 pub mod fork;
 pub mod inspect;
-pub mod live;
 pub mod presets;
 pub mod ranking;
 pub mod recheck;
