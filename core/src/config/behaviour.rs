@@ -1,6 +1,7 @@
 //! The configuration types of the robots' behaviours (`world.behaviour`, `world.mixed`,
-//! `world.flocking`, `world.foraging`), of the obstacle-avoidance rule (`world.avoidance`) and
-//! of the trajectory window rule (`data.window_rule`).
+//! `world.flocking`, `world.foraging`), of the avoidance walk's home ranges
+//! (`world.home_range`), of the obstacle-avoidance rule (`world.avoidance`) and of the
+//! trajectory window rule (`data.window_rule`).
 //! Their behaviour lives in `world/` (one controller a file) and `data.rs`; docs/SPEC.md
 //! section 1 has every value beside Flow-FL's.
 
@@ -239,6 +240,59 @@ impl Default for ForagingConfig {
             rule: ForagingRule::Simple,
             food_per_robot: 0,
         }
+    }
+}
+
+/// Home ranges of the avoidance walk (`world.home_range`, `world/home_range.rs`): the arena is
+/// split into a square grid of `regions` regions; each robot draws a preference vector over
+/// them from a Dirichlet(`alpha`) in its own stream (`Purpose::HomeRange`) and, every
+/// `goal_period_s`, picks a region from it; outside that region its walk steers toward the
+/// region's centre, obstacle avoidance first. `alpha = "inf"` (the default) is no pull at all:
+/// today's roaming swarm. The whole table is left out of the recorded text at its default, so
+/// records without it keep their hashes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct HomeRangeConfig {
+    /// Number of regions, a square grid over the arena (1, 4, 9, 16, ...; default 9). With the
+    /// knob on, each region's side (`arena_side_m / sqrt(regions)`) must be at least two robot
+    /// diameters ([`MIN_REGION_DIAMETERS`]).
+    pub regions: u32,
+    /// The Dirichlet concentration of each robot's preferences over the regions: `"inf"` (the
+    /// default: no home range, today's roaming swarm) or a positive number; small values (0.1)
+    /// confine each robot to one or two regions, large ones spread it over all of them. Read
+    /// from TOML as `inf`, `"inf"` or a number.
+    pub alpha: f64,
+    /// Seconds between two picks of a robot's current region from its preferences (default
+    /// 60 s: a region of the paper's 3 x 3 grid is 1.67 m wide, about 67 s at its cruise
+    /// speed of 2.5 cm/s, so a robot can reach the region it picked before it picks again).
+    pub goal_period_s: f64,
+}
+
+/// The smallest side of a home-range region, in robot diameters: a robot must be able to turn
+/// and pass another inside its region.
+pub const MIN_REGION_DIAMETERS: f64 = 2.0;
+
+impl Default for HomeRangeConfig {
+    fn default() -> Self {
+        HomeRangeConfig {
+            regions: 9,
+            alpha: f64::INFINITY,
+            goal_period_s: 60.0,
+        }
+    }
+}
+
+impl HomeRangeConfig {
+    /// Whether robots have home ranges (a finite `alpha`); off, the walk is today's.
+    pub fn is_on(&self) -> bool {
+        self.alpha.is_finite()
+    }
+
+    /// The grid's side in regions (`sqrt(regions)`), if `regions` is a positive perfect
+    /// square.
+    pub fn side(&self) -> Option<u32> {
+        let k = (1..=self.regions).find(|k| k.saturating_mul(*k) >= self.regions)?;
+        (k * k == self.regions).then_some(k)
     }
 }
 

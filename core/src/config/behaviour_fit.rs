@@ -3,7 +3,9 @@
 //! shares or places, and the flocking and foraging layouts that must fit inside the arena. Each
 //! runs only when some robot runs its behaviour ([`runs`]).
 
-use super::behaviour::{Avoidance, Behaviour, ForagingRule, MixedAssign, PLACE_LAYOUT_HALF_M};
+use super::behaviour::{
+    Avoidance, Behaviour, ForagingRule, MixedAssign, MIN_REGION_DIAMETERS, PLACE_LAYOUT_HALF_M,
+};
 use super::error::ConfigError;
 use super::ranges::{integer, number, out_of_range, positive};
 use super::tree::Config;
@@ -277,4 +279,66 @@ fn flowfl_foraging_fits_the_arena(c: &Config) -> Result<(), ConfigError> {
              nest strip, items to +-1.7 m); enlarge the arena or use rule \"simple\""
         ),
     )
+}
+
+/// `world.home_range` (`world/home_range.rs`): `alpha` is `"inf"` or a positive number, `regions`
+/// a positive perfect square, `goal_period_s` positive; with the knob on (a finite `alpha`),
+/// only the avoidance behaviour (the paper's world) and regions whose side is at least
+/// [`MIN_REGION_DIAMETERS`] robot diameters.
+pub(super) fn home_range_fits(c: &Config) -> Result<(), ConfigError> {
+    let w = &c.world;
+    let h = &w.home_range;
+    if h.alpha.is_nan() || h.alpha <= 0.0 {
+        return out_of_range(
+            "world.home_range.alpha",
+            show_f64(h.alpha),
+            "a positive number (e.g. --set world.home_range.alpha=0.1: few regions per robot) or \"inf\" (the default: no home range)".to_string(),
+        );
+    }
+    integer("world.home_range.regions", h.regions.into(), 1, 10_000)?;
+    if h.side().is_none() {
+        let k = (f64::from(h.regions).sqrt().round() as u32).max(1);
+        return out_of_range(
+            "world.home_range.regions",
+            h.regions.to_string(),
+            format!(
+                "a square grid: 1, 4, 9, 16, ... (e.g. --set world.home_range.regions={})",
+                k * k
+            ),
+        );
+    }
+    positive("world.home_range.goal_period_s", h.goal_period_s, 1.0e6)?;
+    if !h.is_on() {
+        return Ok(());
+    }
+    if w.behaviour != Behaviour::Avoidance {
+        return out_of_range(
+            "world.home_range.alpha",
+            show_f64(h.alpha),
+            format!(
+                "\"inf\" with world.behaviour = \"{}\": home ranges apply to the avoidance walk only; set world.behaviour=avoidance or world.home_range.alpha=inf",
+                w.behaviour.name()
+            ),
+        );
+    }
+    let k = h.side().expect("checked above");
+    let region = w.arena_side_m / f64::from(k);
+    let smallest = MIN_REGION_DIAMETERS * 2.0 * w.robot_radius_m;
+    if region < smallest {
+        let most = (w.arena_side_m / smallest).floor().max(1.0) as u32;
+        return out_of_range(
+            "world.home_range.regions",
+            h.regions.to_string(),
+            format!(
+                "at most {} in a {} m arena: a region's side ({} m) must be at least {} robot diameters ({} m); set world.home_range.regions={} or fewer",
+                most * most,
+                show_f64(w.arena_side_m),
+                show_f64(region),
+                show_f64(MIN_REGION_DIAMETERS),
+                show_f64(smallest),
+                most * most
+            ),
+        );
+    }
+    Ok(())
 }

@@ -34,8 +34,9 @@ mod validate;
 mod tests;
 
 pub use behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedAssign, MixedConfig,
-    WindowRule, FLOWFL_LAYOUT_HALF_M, PLACE_LAYOUT_HALF_M,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, HomeRangeConfig,
+    MixedAssign, MixedConfig, WindowRule, FLOWFL_LAYOUT_HALF_M, MIN_REGION_DIAMETERS,
+    PLACE_LAYOUT_HALF_M,
 };
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{

@@ -313,6 +313,11 @@ fn coerce(key: &str, slot: &toml::Value, value: toml::Value) -> Result<toml::Val
     match (slot, value) {
         (V::Float(_), V::Integer(i)) => Ok(V::Float(i as f64)),
         (V::Float(_), v @ V::Float(_)) => Ok(v),
+        // `"inf"` as text, for keys whose value may be infinite (`world.home_range.alpha`);
+        // every other float key's range check refuses it by name.
+        (V::Float(_), V::String(s)) if s.trim().eq_ignore_ascii_case("inf") => {
+            Ok(V::Float(f64::INFINITY))
+        }
         (V::Integer(_), v @ V::Integer(_)) => Ok(v),
         (V::Boolean(_), v @ V::Boolean(_)) => Ok(v),
         (V::String(_), v @ V::String(_)) => Ok(v),

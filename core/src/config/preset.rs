@@ -4,8 +4,8 @@
 use std::fmt;
 
 use super::behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, MixedAssign, MixedConfig,
-    WindowRule,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, ForagingRule, HomeRangeConfig,
+    MixedAssign, MixedConfig, WindowRule,
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
@@ -462,6 +462,7 @@ fn paper_world() -> WorldConfig {
         // that make no random turns deadlock. docs/SPEC.md section 1, "Data volume".
         avoidance: Avoidance::Epuck,
         slide_on_contact: true,
+        home_range: HomeRangeConfig::default(),
     }
 }
 

@@ -916,3 +916,135 @@ fn every_list_key_has_an_example_that_is_accepted() {
             .unwrap_or_else(|e| panic!("{key}={example}: {e}"));
     }
 }
+
+#[test]
+fn home_ranges_are_left_out_of_the_recorded_text_at_their_default() {
+    // At the default (alpha "inf") no record moves: the recorded text and its hash are the
+    // preset's, whether the key is set or not; the full tree still lists the keys for --set.
+    for preset in ["paper", "smoke"] {
+        let plain = Config::resolve(Some(preset), None, &[]).unwrap();
+        assert!(!plain.to_toml().contains("home_range"), "{preset}");
+        let set = Config::resolve(
+            Some(preset),
+            None,
+            &[
+                "world.home_range.alpha=inf".into(),
+                "world.home_range.regions=9".into(),
+            ],
+        )
+        .unwrap();
+        assert_eq!(set.to_toml(), plain.to_toml());
+        assert_eq!(set.hash(), plain.hash());
+        assert!(plain
+            .to_toml_full()
+            .contains("[world.home_range]\nalpha = inf"));
+    }
+    // On, the table is recorded and reads back.
+    let on = Config::resolve(None, None, &["world.home_range.alpha=0.1".into()]).unwrap();
+    let text = on.to_toml();
+    assert!(
+        text.contains("[world.home_range]\nregions = 9\nalpha = 0.1\ngoal_period_s = 60.0\n"),
+        "{text}"
+    );
+    let back: Config = toml::from_str(&text).unwrap();
+    assert_eq!(back, on);
+    assert!(on.world.home_range.is_on() && !plain_paper().world.home_range.is_on());
+}
+
+fn plain_paper() -> Config {
+    Preset::Paper.config()
+}
+
+#[test]
+fn home_range_alpha_reads_inf_as_text_or_a_number_in_files_and_overrides() {
+    let alpha = |text: &str| {
+        Config::from_toml_str(text, "home.toml")
+            .map(|c| c.world.home_range.alpha)
+            .map_err(|e| e.to_string())
+    };
+    assert_eq!(
+        alpha("[world.home_range]\nalpha = \"inf\"\n"),
+        Ok(f64::INFINITY)
+    );
+    assert_eq!(
+        alpha("[world.home_range]\nalpha = inf\n"),
+        Ok(f64::INFINITY)
+    );
+    assert_eq!(alpha("[world.home_range]\nalpha = 0.3\n"), Ok(0.3));
+    assert_eq!(alpha("[world.home_range]\nalpha = 2\n"), Ok(2.0));
+    let err = alpha("[world.home_range]\nalpha = \"lots\"\n").unwrap_err();
+    assert!(
+        err.contains("world.home_range.alpha") && err.contains("home.toml"),
+        "{err}"
+    );
+    for set in ["inf", "\"inf\"", "INF"] {
+        let c = Config::resolve(None, None, &[format!("world.home_range.alpha={set}")]).unwrap();
+        assert_eq!(c.world.home_range.alpha, f64::INFINITY, "{set}");
+    }
+    // "inf" as text on another number key is refused by that key's range.
+    check_err(&["run.duration_s=\"inf\""], "run.duration_s");
+}
+
+#[test]
+fn bad_home_ranges_are_refused_naming_the_key_the_value_and_the_fix() {
+    let alpha = "world.home_range.alpha";
+    let regions = "world.home_range.regions";
+    for (set, expect) in [
+        ("world.home_range.alpha=0", format!("`{alpha}`: value 0 ")),
+        (
+            "world.home_range.alpha=-0.5",
+            format!("`{alpha}`: value -0.5 "),
+        ),
+        (
+            "world.home_range.alpha=nan",
+            format!("`{alpha}`: value NaN "),
+        ),
+        (
+            "world.home_range.alpha=-inf",
+            format!("`{alpha}`: value -inf "),
+        ),
+        (
+            "world.home_range.regions=0",
+            format!("`{regions}`: value 0 "),
+        ),
+        (
+            "world.home_range.regions=8",
+            format!("`{regions}`: value 8 "),
+        ),
+        ("world.home_range.regions=8", "regions=9".to_string()),
+        (
+            "world.home_range.goal_period_s=0",
+            "world.home_range.goal_period_s".into(),
+        ),
+    ] {
+        check_err(&[set], &expect);
+    }
+    // Too many regions for the arena: only with the knob on (the default grid never
+    // refuses a configuration that does not use it).
+    let many = ["world.home_range.regions=1600", "world.home_range.alpha=1"];
+    check_err(&many, &format!("`{regions}`: value 1600 "));
+    check_err(&many, "set world.home_range.regions=1225 or fewer");
+    assert!(Config::resolve(None, None, &["world.home_range.regions=1600".into()]).is_ok());
+    assert!(Config::resolve(
+        None,
+        None,
+        &[
+            "world.home_range.regions=1225".into(),
+            "world.home_range.alpha=1".into()
+        ]
+    )
+    .is_ok());
+    // Another behaviour: refused, naming both keys.
+    for behaviour in ["flocking", "foraging", "mixed"] {
+        let set = [
+            &format!("world.behaviour={behaviour}") as &str,
+            "world.home_range.alpha=0.1",
+        ];
+        check_err(&set, &format!("`{alpha}`: value 0.1 "));
+        check_err(
+            &set,
+            "set world.behaviour=avoidance or world.home_range.alpha=inf",
+        );
+    }
+    assert!(Config::resolve(None, None, &["world.behaviour=flocking".into()]).is_ok());
+}

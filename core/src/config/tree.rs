@@ -7,7 +7,7 @@ use std::collections::BTreeMap;
 use serde::{Deserialize, Serialize};
 
 use super::behaviour::{
-    Avoidance, Behaviour, FlockingConfig, ForagingConfig, MixedConfig, WindowRule,
+    Avoidance, Behaviour, FlockingConfig, ForagingConfig, HomeRangeConfig, MixedConfig, WindowRule,
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
@@ -135,6 +135,10 @@ pub struct WorldConfig {
     /// without the key reads as false, how it ran.
     #[serde(default, skip_serializing_if = "is_false")]
     pub slide_on_contact: bool,
+    /// The avoidance walk's home ranges (`alpha = "inf"`, the default: none, today's roaming
+    /// swarm). Left out of the recorded text at its default, so records keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub home_range: HomeRangeConfig,
 }
 
 /// Trajectory recording and the data set of each robot.

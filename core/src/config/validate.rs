@@ -86,6 +86,7 @@ fn table(c: &Config) -> Vec<Step> {
         Across(super::behaviour_fit::mixed_swarm_is_complete),
         Across(super::behaviour_fit::flocking_fits_the_arena),
         Across(super::behaviour_fit::foraging_fits_the_arena),
+        Across(super::behaviour_fit::home_range_fits),
         Integer("data.trajectory_ticks", d.trajectory_ticks.into(), 2, 100_000),
         Integer("data.input_waypoints", d.input_waypoints.into(), 1, 10_000),
         Integer("data.target_waypoints", d.target_waypoints.into(), 1, 10_000),

@@ -869,6 +869,30 @@ mod tests {
     }
 
     #[test]
+    fn home_ranges_give_the_same_records_twice_and_on_one_thread_or_two() {
+        let mut config = short_config();
+        config.run.duration_s = 120.0;
+        config.world.home_range.alpha = 0.1;
+        config.validate().unwrap();
+        let on = |threads: usize| -> Vec<Record> {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool");
+            let config = config.clone();
+            pool.install(move || Sim::new(config, 7).unwrap().collect())
+        };
+        let one = on(1);
+        assert!(one.iter().any(|r| r.kind() == "learn"), "the run trains");
+        assert_eq!(one, on(2));
+        assert_eq!(one, on(1));
+        let mut roaming = config.clone();
+        roaming.world.home_range.alpha = f64::INFINITY;
+        let plain: Vec<Record> = Sim::new(roaming, 7).unwrap().collect();
+        assert_ne!(one, plain, "the knob moves the robots, hence the records");
+    }
+
+    #[test]
     fn folding_the_events_rebuilds_every_checkpoint() {
         let config = short_config();
         let mut state = State::genesis(&config, 9).unwrap();

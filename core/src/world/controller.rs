@@ -22,10 +22,19 @@
 //! turn is cancelled); steps 2 and 3 stay. With `"khepera"` (the `flowfl` preset), step 1 is
 //! Flow-FL's pivot on one wheel (`khepera.rs`) the same way. The steering behaviours
 //! (flocking, foraging) keep their turn, on the readings of the chosen ring.
+//!
+//! With home ranges (`world.home_range.alpha` finite, `home_range.rs`), steps 2 and 3 apply
+//! only inside the robot's current region: outside it, once the front is clear, the robot
+//! heads for the region's centre (`steering::pull`), driving straight for 2 s after each
+//! avoidance move so it rounds the obstacle. Step 1 (avoidance) keeps priority.
 
 use serde::{Deserialize, Serialize};
 
-use super::steering::{avoid, override_walk, walk, RobotController, Steer, Walk, WheelCommand};
+use super::home_range::HomeRanges;
+use super::steering::{
+    avoid, hold_after_avoiding, override_walk, pull, walk, RobotController, Steer, Walk,
+    WheelCommand,
+};
 use super::{
     behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, place, sensor_angle, World,
 };
@@ -56,6 +65,8 @@ pub struct Controllers {
     contacts: Vec<Vec<crate::types::RobotId>>,
     /// Flow-FL's foragers' turning states and last commands (`foraging_flowfl.rs`).
     flowfl: Vec<foraging_flowfl::Wheels>,
+    /// The avoidance walk's home ranges, when `world.home_range` is on.
+    home: Option<HomeRanges>,
 }
 
 impl Controllers {
@@ -87,6 +98,7 @@ impl Controllers {
             flocking: w.flocking.clone(),
             contacts: Vec::new(),
             flowfl: vec![foraging_flowfl::Wheels::default(); w.robots as usize],
+            home: HomeRanges::new(&w.home_range, w.arena_side_m, w.robots, seed),
         }
     }
 
@@ -131,12 +143,31 @@ impl Controllers {
                 Avoidance::Khepera => khepera::avoid(&self.readings, self.threshold, cruise_mps),
             };
             let turn = self.rule == Avoidance::Turn;
-            let avoidance = |c: &mut RobotController| match ruled {
-                Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
-                None if blocked && turn => avoid(c, lean, v),
-                None => walk(c, &walk_params, v),
-            };
             let pose = world.poses()[i];
+            // With home ranges: the centre of the robot's current region, if it is outside.
+            let home = self.home.as_ref().and_then(|h| {
+                let region = h.current(i as u32, world.time().0);
+                (h.region_of(pose.x, pose.y) != region).then(|| h.centre(region))
+            });
+            let pulled = self.home.is_some();
+            let avoidance = |c: &mut RobotController| {
+                let command = match ruled {
+                    Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
+                    None if blocked && turn => avoid(c, lean, v),
+                    None => {
+                        return match home {
+                            Some(centre) => {
+                                pull(c, pose, (centre.0 - pose.x, centre.1 - pose.y), v)
+                            }
+                            None => walk(c, &walk_params, v),
+                        }
+                    }
+                };
+                if pulled {
+                    hold_after_avoiding(c);
+                }
+                command
+            };
             let command = match (behaviour_of(i), behaviours) {
                 (Behaviour::Flocking, _) => {
                     let goal = if by_place {

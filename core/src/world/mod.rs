@@ -20,6 +20,7 @@ mod epuck;
 pub mod flocking;
 pub mod foraging;
 pub mod foraging_flowfl;
+mod home_range;
 mod khepera;
 pub mod physics;
 pub mod place;

@@ -1,6 +1,7 @@
 //! The steering every behaviour shares: the wheel command, one robot's controller state, the
 //! avoidance turn, the random walk (the avoidance behaviour's whole rule, docs/SPEC.md
-//! section 1) and the steer toward a vector that flocking and returning foragers use. A leaf
+//! section 1), the steer toward a vector that flocking and returning foragers use, and the
+//! home-range pull of the avoidance walk (`home_range.rs`). A leaf
 //! of `world/`: `controller.rs`, `flocking.rs` and `foraging.rs` import it, it imports none of
 //! them.
 
@@ -158,6 +159,39 @@ pub(super) fn steer_to(
         c.straight_ticks -= 1;
         return straight;
     }
+    head_to(pose, to, v)
+}
+
+/// The home-range pull (`home_range.rs`): like [`steer_to`] once the front is clear (the
+/// avoidance rule has already had its say this tick): hold straight after an avoidance, then
+/// head for `to`; cancels any random turn.
+pub(super) fn pull(c: &mut RobotController, pose: Pose, to: (f64, f64), v: i16) -> WheelCommand {
+    c.turn_ticks = 0;
+    c.avoiding = None;
+    if c.straight_ticks > 0 {
+        c.straight_ticks -= 1;
+        return WheelCommand {
+            left_mmps: v,
+            right_mmps: v,
+        };
+    }
+    head_to(pose, to, v)
+}
+
+/// After an avoidance move, a pulled robot (`pull`) drives straight [`HOLD_TICKS`] before it
+/// heads for its region again, so it rounds the obstacle instead of turning back into it.
+pub(super) fn hold_after_avoiding(c: &mut RobotController) {
+    c.straight_ticks = HOLD_TICKS;
+}
+
+/// Turn in place when the world-frame vector `to` is more than 90 degrees off the heading,
+/// otherwise drive with the inner wheel slowed in proportion to the angle (straight when
+/// aligned or when `to` is null).
+fn head_to(pose: Pose, to: (f64, f64), v: i16) -> WheelCommand {
+    let straight = WheelCommand {
+        left_mmps: v,
+        right_mmps: v,
+    };
     if to.0 * to.0 + to.1 * to.1 < 1e-12 {
         return straight;
     }

@@ -706,3 +706,78 @@ fn a_mixed_swarm_by_place_follows_the_robots_and_freezes_foragers_outside() {
     };
     assert_ne!(other.digest(), a.digest());
 }
+
+/// The paper's world with home ranges of concentration `alpha` (9 regions).
+fn home_world(alpha: f64) -> Config {
+    let mut c = Preset::Paper.config();
+    c.world.home_range.alpha = alpha;
+    c.validate().expect("valid");
+    c
+}
+
+/// Per robot, the share of the ticks after `skip` that it spends in its two most visited of
+/// the 9 regions of a 3 x 3 grid, over `ticks` ticks of a world-only run.
+fn top_two_shares(config: &Config, seed: u64, skip: u64, ticks: u64) -> Vec<f64> {
+    let mut world = World::new(config, seed).unwrap();
+    let mut controllers = Controllers::new(config, seed);
+    let n = config.world.robots as usize;
+    let half = 0.5 * config.world.arena_side_m;
+    let cell = |v: f64| (((v + half) / (2.0 * half / 3.0)).floor() as i64).clamp(0, 2) as usize;
+    let mut visits = vec![[0u32; 9]; n];
+    for t in 0..ticks {
+        let event = controllers.decide(&world);
+        world.apply(&event);
+        if t >= skip {
+            for (i, p) in world.poses().iter().enumerate() {
+                visits[i][cell(p.y) * 3 + cell(p.x)] += 1;
+            }
+        }
+    }
+    visits
+        .iter()
+        .map(|v| {
+            let mut v = *v;
+            v.sort_unstable();
+            f64::from(v[8] + v[7]) / (ticks - skip) as f64
+        })
+        .collect()
+}
+
+#[test]
+fn small_alpha_confines_each_robot_to_few_regions_and_inf_roams() {
+    // The paper's robots cruise at 2.5 cm/s (a region of the 3 x 3 grid is 1.67 m, ~67 s
+    // across), so 300 s barely moves them: roaming robots too spend ~75 % of it in two
+    // regions. Measured from 600 s (robots have reached a region) to 3600 s, world only.
+    let mean = |s: &[f64]| s.iter().sum::<f64>() / s.len() as f64;
+    for seed in [1, 2] {
+        let home = top_two_shares(&home_world(0.1), seed, 6000, 36000);
+        let roam = top_two_shares(&home_world(f64::INFINITY), seed, 6000, 36000);
+        assert!(
+            home.iter().all(|&s| s > 0.5),
+            "seed {seed}: at alpha 0.1 every robot spends most of its time in two regions: {home:?}"
+        );
+        assert!(mean(&home) > 0.7, "seed {seed}: {home:?}");
+        assert!(mean(&roam) < 0.5, "seed {seed}: roaming spreads: {roam:?}");
+        assert!(
+            mean(&home) > mean(&roam) + 0.25,
+            "seed {seed}: {home:?} vs {roam:?}"
+        );
+    }
+}
+
+#[test]
+fn home_ranges_are_a_pure_function_of_the_seed_and_off_at_the_default() {
+    let on = home_world(0.1);
+    let a = run(&on, 4, 2000);
+    assert_eq!(a.poses(), run(&on, 4, 2000).poses());
+    assert_ne!(a.poses(), run(&on, 5, 2000).poses());
+    // The knob moves the robots; alpha "inf" is today's walk, tick for tick.
+    let off = home_world(f64::INFINITY);
+    let plain = run(&Preset::Paper.config(), 4, 2000);
+    assert_eq!(run(&off, 4, 2000).poses(), plain.poses());
+    assert_ne!(a.poses(), plain.poses());
+    // The same home ranges whatever the goal period's grid: a pick is fixed for a period.
+    let mut slow = on.clone();
+    slow.world.home_range.goal_period_s = 600.0;
+    assert_ne!(run(&slow, 4, 2000).poses(), a.poses());
+}
