@@ -1,0 +1,110 @@
+use super::*;
+use crate::config::Preset;
+use crate::event::Checkpoint;
+
+fn short_config() -> Config {
+    let mut c = Preset::Smoke.config();
+    c.run.duration_s = 30.0;
+    c
+}
+
+#[test]
+fn a_run_is_a_pure_function_of_seed_and_config() {
+    let a: Vec<Record> = Sim::new(short_config(), 3).unwrap().collect();
+    let b: Vec<Record> = Sim::new(short_config(), 3).unwrap().collect();
+    let c: Vec<Record> = Sim::new(short_config(), 4).unwrap().collect();
+    assert_eq!(a, b);
+    assert_ne!(a, c);
+    assert_eq!(a.iter().filter(|r| r.kind() == "tick").count(), 300);
+    assert!(matches!(
+        a.last(),
+        Some(Record::Checkpoint(Checkpoint {
+            cause: CheckpointCause::End,
+            ..
+        }))
+    ));
+}
+
+#[test]
+fn the_speculation_window_does_not_change_a_single_record() {
+    let mut config = short_config();
+    config.run.duration_s = 250.0;
+    let plain: Vec<Record> = Sim::with_lookahead(config.clone(), 5, 0).unwrap().collect();
+    let wide: Vec<Record> = Sim::with_lookahead(config.clone(), 5, 60_000)
+        .unwrap()
+        .collect();
+    let default: Vec<Record> = Sim::new(config, 5).unwrap().collect();
+    assert!(plain.iter().any(|r| r.kind() == "learn"), "the run trains");
+    assert_eq!(plain, wide);
+    assert_eq!(plain, default);
+}
+
+#[test]
+fn background_trainings_give_the_same_records_on_one_pool_thread_or_four() {
+    // On one pool thread the driver must take queued trainings itself (a driver that
+    // only waited would deadlock a pool whose one thread runs it); on four, the
+    // speculated trainings finish in any order.
+    let mut config = short_config();
+    config.run.duration_s = 250.0;
+    let on = |threads: usize| -> Vec<Record> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        let config = config.clone();
+        pool.install(move || Sim::with_lookahead(config, 5, 20_000).unwrap().collect())
+    };
+    let one = on(1);
+    assert!(one.iter().any(|r| r.kind() == "learn"), "the run trains");
+    assert_eq!(one, on(4));
+    assert_eq!(
+        one,
+        Sim::with_lookahead(config, 5, 0)
+            .unwrap()
+            .collect::<Vec<_>>()
+    );
+}
+
+#[test]
+fn home_ranges_give_the_same_records_twice_and_on_one_thread_or_two() {
+    let mut config = short_config();
+    config.run.duration_s = 120.0;
+    config.world.home_range.alpha = 0.1;
+    config.validate().unwrap();
+    let on = |threads: usize| -> Vec<Record> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        let config = config.clone();
+        pool.install(move || Sim::new(config, 7).unwrap().collect())
+    };
+    let one = on(1);
+    assert!(one.iter().any(|r| r.kind() == "learn"), "the run trains");
+    assert_eq!(one, on(2));
+    assert_eq!(one, on(1));
+    let mut roaming = config.clone();
+    roaming.world.home_range.alpha = f64::INFINITY;
+    let plain: Vec<Record> = Sim::new(roaming, 7).unwrap().collect();
+    assert_ne!(one, plain, "the knob moves the robots, hence the records");
+}
+
+#[test]
+fn folding_the_events_rebuilds_every_checkpoint() {
+    let config = short_config();
+    let mut state = State::genesis(&config, 9).unwrap();
+    let mut checked = 0;
+    for record in Sim::new(config, 9).unwrap() {
+        match record {
+            Record::Event { time, event } => state.apply(time, &event).unwrap(),
+            Record::Checkpoint(c) => {
+                assert_eq!(state.checkpoint(c.time, c.cause), c);
+                checked += 1;
+            }
+        }
+    }
+    assert!(
+        checked >= 3,
+        "blocks are sealed every 10 s: {checked} checkpoints"
+    );
+}
