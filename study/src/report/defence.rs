@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::load::RunResult;
-use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::plots::{draw_planned, note_textless, Figure, Kind, Plot, Series};
 use super::stats::{ExperimentStats, PointStats, Stat};
 use super::study::{drawn_by, Drawn, Section, StudyReport};
 use crate::experiments::{DrawnBy, Entry};
@@ -140,26 +140,9 @@ fn draw_all(
                 },
             ),
         ];
-        for (stem, caption, plot) in plots {
-            if plot.series.iter().all(|s| s.points.is_empty()) {
-                continue;
-            }
-            if !draw(&plot, out, &stem)? {
-                textless.push(stem.clone());
-            }
-            figures.push(Figure {
-                experiment: name.clone(),
-                stem,
-                caption,
-            });
-        }
+        draw_planned(plots, name, out, &mut figures, &mut textless)?;
     }
-    if !textless.is_empty() {
-        notes.push(format!(
-            "no font could be loaded: {} drawn without titles, labels or legends",
-            textless.join(", ")
-        ));
-    }
+    note_textless(&textless, notes);
     Ok(figures)
 }
 

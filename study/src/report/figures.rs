@@ -6,13 +6,10 @@ use std::path::Path;
 
 use super::coords::GridCoords;
 use super::load::RunResult;
-use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::plots::{draw_planned, note_textless, Figure, Kind, Planned, Plot, Series};
 use super::stats::{ExperimentStats, PointStats, Stat};
 use super::study::{drawn_by, Drawn, StudyReport};
 use crate::experiments::{self, DrawnBy, Entry, Legend, Standard, AGGREGATIONS};
-
-/// A figure to draw: file stem, caption and the plot.
-type Planned<'a> = (String, String, Plot<'a>);
 
 /// The study report of the standard figures: the experiments drawn by
 /// [`DrawnBy::Standard`] and [`DrawnBy::Baselines`], and every experiment that is not built
@@ -64,26 +61,9 @@ fn draw_all(
         } else {
             standard(e, beside(e, stats))
         };
-        for (stem, caption, plot) in planned {
-            if plot.series.iter().all(|s| s.points.is_empty()) {
-                continue;
-            }
-            if !draw(&plot, out, &stem)? {
-                textless.push(stem.clone());
-            }
-            figures.push(Figure {
-                experiment: e.name.clone(),
-                stem,
-                caption,
-            });
-        }
+        draw_planned(planned, &e.name, out, &mut figures, &mut textless)?;
     }
-    if !textless.is_empty() {
-        notes.push(format!(
-            "no font could be loaded: {} drawn without titles, labels or legends",
-            textless.join(", ")
-        ));
-    }
+    note_textless(&textless, notes);
     Ok(figures)
 }
 

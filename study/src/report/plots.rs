@@ -23,6 +23,44 @@ pub struct Figure {
     pub caption: String,
 }
 
+/// A figure to draw: its file stem, its caption and its plot.
+pub(crate) type Planned<'a> = (String, String, Plot<'a>);
+
+/// Draws each of `planned` that has a point into `out` as a figure of `experiment`, adding it
+/// to `figures`, and its stem to `textless` when it was drawn without text (no font).
+pub(crate) fn draw_planned<'a>(
+    planned: impl IntoIterator<Item = Planned<'a>>,
+    experiment: &str,
+    out: &Path,
+    figures: &mut Vec<Figure>,
+    textless: &mut Vec<String>,
+) -> anyhow::Result<()> {
+    for (stem, caption, plot) in planned {
+        if plot.series.iter().all(|s| s.points.is_empty()) {
+            continue;
+        }
+        if !draw(&plot, out, &stem)? {
+            textless.push(stem.clone());
+        }
+        figures.push(Figure {
+            experiment: experiment.to_string(),
+            stem,
+            caption,
+        });
+    }
+    Ok(())
+}
+
+/// The note that the figures `textless` were drawn without text, if there are any.
+pub(crate) fn note_textless(textless: &[String], notes: &mut Vec<String>) {
+    if !textless.is_empty() {
+        notes.push(format!(
+            "no font could be loaded: {} drawn without titles, labels or legends",
+            textless.join(", ")
+        ));
+    }
+}
+
 /// One labelled series of (x, statistic) points.
 pub(crate) struct Series {
     pub(crate) label: String,

@@ -17,7 +17,7 @@ use std::path::Path;
 use swarmfl_core::config::ByzantineKind;
 
 use super::load::RunResult;
-use super::plots::{draw, Figure, Kind, Plot, Series};
+use super::plots::{self, draw_planned, note_textless, Figure, Kind, Plot, Series};
 use super::stats::{self, fixed, ExperimentStats, PointStats, Stat};
 use super::study::{Drawn, Section, StudyReport};
 use crate::experiments::{self, DrawnBy, Entry, E6_PROTOCOLS};
@@ -422,8 +422,8 @@ fn with_stats<'a>(stats: &'a [ExperimentStats], rows: &'a [Row]) -> Vec<(&'a Row
         .collect()
 }
 
-/// A figure to draw: file stem, caption and the plot.
-type Planned = (String, String, Plot<'static>);
+/// A figure to draw (`plots::Planned`), its plot owning its labels.
+type Planned = plots::Planned<'static>;
 
 /// Per swarm size, the held-out loss over time of each of its points.
 fn heldout_over_time(points: &[(&Row, &PointStats)]) -> Vec<Planned> {
@@ -591,25 +591,8 @@ fn draw_all(
     let mut planned = heldout_over_time(&points);
     planned.extend(VERSUS.iter().map(|v| versus(v, &points)));
     let mut textless = Vec::new();
-    for (stem, caption, plot) in planned {
-        if plot.series.iter().all(|s| s.points.is_empty()) {
-            continue;
-        }
-        if !draw(&plot, out, &stem)? {
-            textless.push(stem.clone());
-        }
-        figures.push(Figure {
-            experiment: home.to_string(),
-            stem,
-            caption,
-        });
-    }
-    if !textless.is_empty() {
-        notes.push(format!(
-            "no font could be loaded: {} drawn without titles, labels or legends",
-            textless.join(", ")
-        ));
-    }
+    draw_planned(planned, home, out, &mut figures, &mut textless)?;
+    note_textless(&textless, notes);
     Ok(figures)
 }
 
