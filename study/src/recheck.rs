@@ -15,7 +15,8 @@
 //! 3. **Re-runs.** A few tasks per experiment (the `--tasks` with the smallest recorded wall
 //!    time, ties by path, so the choice is fixed and CI stays short) are simulated again; the
 //!    new summary must equal the committed file in every field but the wall-clock ones
-//!    (`wall_s` and `timing`). The summary carries the final hash of the records, so one moved
+//!    (`wall_s` and `timing`); a field the committed file does not have at all is new in the
+//!    summary since the study was made and is not compared. The summary carries the final hash of the records, so one moved
 //!    record anywhere in the run fails it. With `--max-task-s S`, only tasks recorded at most
 //!    S seconds are candidates; an experiment with none is listed as not re-run.
 //!
@@ -356,6 +357,9 @@ fn rerun_one(task: &Committed) -> anyhow::Result<Option<String>> {
 }
 
 /// The first path where `committed` and `new` differ, wall-clock fields at the top level apart.
+/// A field only `new` has is not a difference: summaries gain fields as the engine learns to
+/// measure more, and a committed study made before stays valid (every field it has must still
+/// match, the records' hash among them). A field only `committed` has is one.
 fn difference(committed: &serde_json::Value, new: &serde_json::Value, at: &str) -> Option<String> {
     use serde_json::Value;
     match (committed, new) {
@@ -379,8 +383,10 @@ fn difference(committed: &serde_json::Value, new: &serde_json::Value, at: &str) 
                         }
                     }
                     (Some(_), None) => return Some(format!("{path}: no longer in the summary")),
-                    (None, Some(_)) => return Some(format!("{path}: new in the summary")),
-                    (None, None) => {}
+                    // A field the committed file lacks was added to the summary after the
+                    // study was made: new, not a divergence (the records' hash, compared
+                    // field by field above, still catches any moved record).
+                    (None, Some(_)) | (None, None) => {}
                 }
             }
             None
@@ -444,16 +450,21 @@ mod tests {
             difference(&a, &b, "").as_deref(),
             Some("contract.loss[1]: committed 0.25, now 0.3")
         );
+        // A field added to the summary after the study was made is new, not a divergence; a
+        // field the summary no longer has is one.
         let mut c = a.clone();
         c["contract"]["extra"] = json!(1);
+        assert_eq!(difference(&a, &c, ""), None);
         assert_eq!(
-            difference(&a, &c, "").as_deref(),
-            Some("contract.extra: new in the summary")
+            difference(&c, &a, "").as_deref(),
+            Some("contract.extra: no longer in the summary")
         );
         // A nested field named like a wall-clock one is compared.
         let mut d = a.clone();
         d["contract"]["wall_s"] = json!(1);
-        assert!(difference(&a, &d, "").is_some());
+        let mut e = d.clone();
+        e["contract"]["wall_s"] = json!(2);
+        assert!(difference(&d, &e, "").is_some());
     }
 
     #[test]
