@@ -9,9 +9,14 @@
 
 use swarmfl_core::config::{Behaviour, ByzantineKind, Defence, Preset, Rule};
 
+mod heterogeneity;
+pub use heterogeneity::{
+    hetero_rule_name, Front, HETERO_ALPHAS, HETERO_ATTACKS, HETERO_RULES, HETERO_RUNS,
+};
+
 /// The experiments, in the order `swarmfl sweep --help` lists them: the one list, each named
 /// once, with everything `swarmfl sweep` and `swarmfl report` know of it.
-pub const ALL: [Entry; 14] = [
+pub const ALL: [Entry; 15] = [
     Entry {
         id: Id::Preset,
         preset: Preset::E0Baselines,
@@ -102,6 +107,14 @@ pub const ALL: [Entry; 14] = [
         points: gate_points,
         runs: 3,
         drawn_by: DrawnBy::Standard(Standard::OTHER),
+    },
+    Entry {
+        id: Id::Own("e4-heterogeneity"),
+        preset: Preset::E4Robustness,
+        axis: "Byzantine robots",
+        points: heterogeneity::hetero_points,
+        runs: HETERO_RUNS,
+        drawn_by: DrawnBy::Heterogeneity,
     },
     Entry {
         id: Id::Preset,
@@ -203,6 +216,9 @@ pub enum DrawnBy {
     Robustness,
     /// The robustness benchmark's heatmaps on a heterogeneity axis (`report/benchmark.rs`).
     Benchmark,
+    /// The heterogeneity benchmark's heatmaps of rule x home-range alpha, destroyed runs and
+    /// per-seed spread (`report/heterogeneity/`).
+    Heterogeneity,
     /// Figures per defence and the table of Byzantine control (`report/defence.rs`).
     Defence,
     /// The scale study's figures and tables, shared by its experiments (`report/scale/`).

@@ -23,6 +23,7 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e3-smart", 8, 18);
     check("e4-benchmark", 3 * 16 * 9, 3);
     check("e4-gate", 3 * 2 * 5, 3);
+    check("e4-heterogeneity", 4 * 9 * 7, 5);
     check("e5-smart-defence", 39, 3);
     check("e2-malicious-authors", 8, 20);
     check("e3-smart-authors", 8, 18);
@@ -125,4 +126,48 @@ fn every_point_resolves_to_a_valid_configuration() {
             }
         }
     }
+}
+
+/// Every `e4-heterogeneity` point resolves, sets the alpha its name says, and at alpha `inf`
+/// is its `e4-benchmark` (or, gated, `e4-gate`) avoidance namesake: the same configuration, so
+/// the same runs at the same seeds. Byzantine 0 runs no attack, 3 and 5 every attack.
+#[test]
+fn the_heterogeneity_grid_sets_alpha_and_at_inf_is_the_benchmarks_avoidance_column() {
+    let exp = experiment("e4-heterogeneity").unwrap();
+    let bench = experiment("e4-benchmark").unwrap();
+    let gate = experiment("e4-gate").unwrap();
+    let mut namesakes = 0;
+    for p in &exp.points {
+        let config = Config::resolve(Some(&exp.preset), None, &p.overrides)
+            .unwrap_or_else(|e| panic!("{}: {e:#}", p.name));
+        let alpha = p.tag("alpha").unwrap();
+        let want = if alpha == "inf" {
+            f64::INFINITY
+        } else {
+            alpha.parse().unwrap()
+        };
+        assert_eq!(config.world.home_range.alpha, want, "{}", p.name);
+        assert_eq!(config.run.duration_s, 5000.0);
+        assert_eq!(config.byzantine.count, p.x as u32);
+        assert_eq!(p.x == 0.0, p.tag("attack").unwrap() == "none", "{}", p.name);
+        let Some(rest) = p.name.strip_prefix("alpha-inf--") else {
+            continue;
+        };
+        let theirs = format!("avoidance--{rest}");
+        let (grid, preset) = if rest.starts_with("gate+") {
+            (&gate, &gate.preset)
+        } else {
+            (&bench, &bench.preset)
+        };
+        let Some(q) = grid.points.iter().find(|q| q.name == theirs) else {
+            continue;
+        };
+        let mut other = Config::resolve(Some(preset), None, &q.overrides).unwrap();
+        other.preset = config.preset.clone();
+        assert_eq!(config, other, "{} against {theirs}", p.name);
+        namesakes += 1;
+    }
+    assert_eq!(exp.points.len(), 4 * 9 * (1 + 2 * 3));
+    // Eight rules in e4-benchmark (7 points each) and the gated median at 0 and 5 in e4-gate.
+    assert_eq!(namesakes, 8 * 7 + 4);
 }

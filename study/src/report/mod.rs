@@ -22,6 +22,7 @@ mod defence;
 mod figures;
 mod frame;
 mod heatmap;
+mod heterogeneity;
 mod load;
 mod markdown;
 pub(crate) mod plots;
@@ -45,6 +46,7 @@ pub(crate) const STUDIES: &[&dyn StudyReport] = &[
     &figures::StandardFigures,
     &robustness::Robustness,
     &benchmark::Benchmark,
+    &heterogeneity::Heterogeneity,
     &defence::Defence,
     &scale::Scale,
 ];

@@ -65,6 +65,24 @@ pub fn fixed(v: f64, digits: usize) -> String {
     }
 }
 
+/// The 95 % Wilson score interval of a proportion: `k` successes of `n` trials, as
+/// `(low, high)` fractions; `(0, 1)` for no trials. Unlike `k/n +- 1.96 se` it stays inside
+/// [0, 1] and is not empty at 0 of n or n of n.
+pub fn wilson(k: usize, n: usize) -> (f64, f64) {
+    if n == 0 {
+        return (0.0, 1.0);
+    }
+    let (k, n) = (k as f64, n as f64);
+    let z = 1.959_963_984_540_054;
+    let p = k / n;
+    let z2n = z * z / n;
+    let centre = p + z2n / 2.0;
+    let half = z * (p * (1.0 - p) / n + z2n / (4.0 * n)).sqrt();
+    let low = ((centre - half) / (1.0 + z2n)).max(0.0);
+    let high = ((centre + half) / (1.0 + z2n)).min(1.0);
+    (low, high)
+}
+
 /// The 0.975 quantile of Student's t with `df` degrees of freedom: exact table values for
 /// df 1..=30, then interpolation in 1/df between 30, 40, 60, 120 and infinity.
 pub fn t_975(df: usize) -> f64 {
@@ -403,6 +421,23 @@ pub fn grid_coords(points: &[PointStats]) -> Option<GridCoords> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Wilson intervals against published values (Newcombe 1998, table I: 0/10, 5/10 and
+    /// 10/10 at 95 %).
+    #[test]
+    fn wilson_intervals_match_published_values() {
+        let close = |(lo, hi): (f64, f64), want: (f64, f64)| {
+            assert!(
+                (lo - want.0).abs() < 5e-5 && (hi - want.1).abs() < 5e-5,
+                "{lo} {hi}"
+            );
+        };
+        close(wilson(0, 10), (0.0, 0.2775));
+        close(wilson(5, 10), (0.2366, 0.7634));
+        close(wilson(10, 10), (0.7225, 1.0));
+        close(wilson(81, 263), (0.2553, 0.3662));
+        assert_eq!(wilson(0, 0), (0.0, 1.0));
+    }
 
     #[test]
     fn stats_match_hand_computed_values() {
