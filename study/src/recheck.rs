@@ -9,8 +9,8 @@
 //!    configuration hash the file records. A preset or default that changed shows here,
 //!    without running anything.
 //! 2. **The report.** `swarmfl report` over the committed results must give the committed
-//!    `numbers.csv`, `series.csv`, `timing.csv`, `report.md`, `e4-worst-case.csv` and
-//!    `e4-benchmark-worst-case.csv` byte for byte (the figures are drawn from the same
+//!    `numbers.csv`, `series.csv`, `timing.csv`, `report.md`, `e4-worst-case.csv`,
+//!    `e4-benchmark-worst-case.csv` and `e4-heterogeneity-{cells,runs}.csv` byte for byte (the figures are drawn from the same
 //!    numbers and are not compared).
 //! 3. **Re-runs.** A few tasks per experiment (the `--tasks` with the smallest recorded wall
 //!    time, ties by path, so the choice is fixed and CI stays short) are simulated again; the
@@ -35,13 +35,15 @@ use crate::summary::{self, ResultFile, SweepTask};
 use crate::{report, run};
 
 /// The report's files that hold numbers (the figures are drawn from them).
-const REPORT_FILES: [&str; 6] = [
+const REPORT_FILES: [&str; 8] = [
     "numbers.csv",
     "series.csv",
     "timing.csv",
     "report.md",
     "e4-worst-case.csv",
     "e4-benchmark-worst-case.csv",
+    "e4-heterogeneity-cells.csv",
+    "e4-heterogeneity-runs.csv",
 ];
 
 /// Summary fields measured by the wall clock: they differ from run to run by design.

@@ -92,6 +92,15 @@ fn clean_fedavg(md: &mut String, h: &Hetero) {
          genesis model's held-out loss (median over seeds) and the final loss as a fraction of \
          it; learned: the seeds that ended at or below {LEARNED} of genesis.\n"
     );
+    let clean: Vec<(&String, &Cell)> = h
+        .alphas
+        .iter()
+        .filter_map(|a| h.of("fedavg", a, 0).first().map(|&c| (a, c)))
+        .collect();
+    if clean.is_empty() {
+        let _ = writeln!(md, "No clean FedAvg run in the results.\n");
+        return;
+    }
     let columns = [
         "alpha",
         "genesis loss",
@@ -101,10 +110,7 @@ fn clean_fedavg(md: &mut String, h: &Hetero) {
     markdown::header(md, &columns.map(String::from));
     let mut stops = None;
     let mut lowest = None;
-    for a in &h.alphas {
-        let Some(&cell) = h.of("fedavg", a, 0).first() else {
-            continue;
-        };
+    for (a, cell) in clean {
         let mut genesis: Vec<f64> = cell.runs.iter().map(|r| r.genesis).collect();
         genesis.sort_by(f64::total_cmp);
         let sorted = cell.sorted();
@@ -123,7 +129,6 @@ fn clean_fedavg(md: &mut String, h: &Hetero) {
         lowest = Some((a.clone(), median(&sorted), learned, sorted.len()));
     }
     let Some((a, m, learned, n)) = lowest else {
-        let _ = writeln!(md, "\nNo clean FedAvg run in the results.\n");
         return;
     };
     let verdict = match learned {
