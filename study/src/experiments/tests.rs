@@ -28,6 +28,7 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e3-smart-authors", 8, 18);
     check("e6-scale", 11, 3);
     check("e6-scale-1000", 3, 2);
+    check("e4-heterogeneity-measure", 10, 3);
     assert!(experiment("e4").is_err());
 }
 

@@ -7,7 +7,8 @@
 //! listed in `study` (one trait; each experiment's entry in `experiments::ALL` names the one
 //! that draws it): `figures` (the standard figures of each experiment), `robustness` (e4's
 //! heatmaps), `benchmark` (the robustness benchmark's heatmaps on a heterogeneity axis),
-//! `defence` (e5's figures) and `scale` (e6's figures and tables); `coords` (a `--grid`
+//! `defence` (e5's figures), `scale` (e6's figures and tables) and `heterogeneity`
+//! (e4-heterogeneity-measure's tables and figure); `coords` (a `--grid`
 //! sweep's keys and values, which name its points in figures and tables), and `tables` (the
 //! CSV files and `report.md`). `swarmfl report` prints every file it wrote.
 //!
@@ -22,6 +23,7 @@ mod defence;
 mod figures;
 mod frame;
 mod heatmap;
+mod heterogeneity;
 mod load;
 mod markdown;
 pub(crate) mod plots;
@@ -47,6 +49,7 @@ pub(crate) const STUDIES: &[&dyn StudyReport] = &[
     &benchmark::Benchmark,
     &defence::Defence,
     &scale::Scale,
+    &heterogeneity::Heterogeneity,
 ];
 
 /// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's
