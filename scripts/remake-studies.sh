@@ -47,12 +47,15 @@ sweeps_of() {
     e4-gate)
       # 90 runs of 5000 s: median and krum behind the paper's threshold at 0 and 5 Byzantine.
       printf '%s\n' e4-gate ;;
+    e4-heterogeneity-measure)
+      # Issue 55: 30 world-only runs of 3600 s (about 4 CPU-min; 60-robot runs ~10 s each).
+      printf '%s\n' e4-heterogeneity-measure ;;
     e6-scale)
       # 15, 60 and 240 robots (3 seeds) first: a 1000-robot buffered run takes about 10 min
       # on a quiet 2-core machine, gossip at 1000 robots far longer.
       printf '%s\n' e6-scale e6-scale-1000 ;;
     *)
-      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e4-robustness-300s e4-benchmark e4-gate e5-smart-defence e6-scale authors-study authors-study-comment)" >&2
+      echo "remake-studies: no recipe for study '$1' (known: full-study reduced-study e0-baselines e4-robustness-300s e4-benchmark e4-gate e4-heterogeneity-measure e5-smart-defence e6-scale authors-study authors-study-comment)" >&2
       return 1 ;;
   esac
 }

@@ -238,7 +238,9 @@ fn cell(sample: &Sample, tick_s: f64) -> Option<usize> {
     Some(speed_bin * TURN_BINS + turn_bin)
 }
 
-/// Data heterogeneity between robots: how much a sample's robot tells about its features,
+/// Motion heterogeneity between robots (`world.data_heterogeneity` in `summary.json`, a key
+/// kept from before position was measured; position is `world/heterogeneity.rs`): how much
+/// a sample's robot tells about its motion features,
 /// as the bias-corrected Cramer's V (Bergsma 2013, J. Korean Stat. Soc. 42) of the
 /// contingency table of robots (those that hold samples) x feature cells (end-to-end speed x
 /// turn, [`SPEED_BINS`] x [`TURN_BINS`] cells, those that hold samples). 0 when every robot's
@@ -267,9 +269,26 @@ pub fn heterogeneity<'a>(sets: impl Iterator<Item = &'a VecDeque<Sample>>, tick_
         })
         .filter(|h| h.iter().any(|&v| v > 0))
         .collect();
-    let mut pooled = [0u64; CELLS];
+    let rows: Vec<&[u64]> = hists.iter().map(|h| &h[..]).collect();
+    cramers_v(&rows)
+}
+
+/// The bias-corrected Cramer's V (Bergsma 2013, J. Korean Stat. Soc. 42) of a contingency
+/// table given by its rows (equal lengths; rows without counts and columns without counts are
+/// left out): 0 when every row follows the pooled distribution beyond what finite counts
+/// alone give, 1 when each row's counts lie in columns of its own. 0 when fewer than two rows
+/// or two columns hold counts, or fewer than 2 counts in all. Sums run in row then column
+/// order, so the result is a deterministic function of the table.
+pub fn cramers_v(table: &[&[u64]]) -> f64 {
+    let hists: Vec<&[u64]> = table
+        .iter()
+        .copied()
+        .filter(|h| h.iter().any(|&v| v > 0))
+        .collect();
+    let width = hists.iter().map(|h| h.len()).max().unwrap_or(0);
+    let mut pooled = vec![0u64; width];
     for h in &hists {
-        for (p, &v) in pooled.iter_mut().zip(h) {
+        for (p, &v) in pooled.iter_mut().zip(h.iter()) {
             *p += v;
         }
     }

@@ -375,7 +375,7 @@ pub struct TrafficArgs {
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
-    /// e6-scale or e6-scale-1000.
+    /// e6-scale, e6-scale-1000 or e4-heterogeneity-measure.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
@@ -665,6 +665,8 @@ Experiments, points and default runs (seeds 1..=runs):
                  contract (preset authors: docs/CONTRACT.md's options at their values)  20, 18 runs
   e6-scale       {rounds,buffered,gossip}-{15,60,240}, {rounds,buffered}-240-faulty-24 3 runs
   e6-scale-1000  {rounds,buffered,gossip}-1000 (paper density, one training a second)  2 runs
+  e4-heterogeneity-measure  alpha-{inf,10,1,0.3,0.1}-{15,60}: world.home_range.alpha x
+                 size at the paper's density, 3600 s world-only runs (no training)      3 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,

@@ -314,7 +314,8 @@ pub fn write_run(
     let records = writer.records();
     let log_bytes = writer.bytes();
     let (footer, _) = writer.finish()?;
-    let core = RunSummary::new(sim.config(), seed, sim.state(), records, footer.final_hash);
+    let mut core = RunSummary::new(sim.config(), seed, sim.state(), records, footer.final_hash);
+    core.world.position_heterogeneity = Some(sim.position_heterogeneity());
     let wall_s = started.elapsed().as_secs_f64();
     let summary = Summary {
         run: core,

@@ -68,6 +68,19 @@ pub(super) fn list_expected(key: &str) -> String {
     }
 }
 
+/// The keys whose number may also be `"inf"` (read as infinity by `overrides::coerce`).
+const INF_KEYS: [&str; 1] = ["world.home_range.alpha"];
+
+/// What a number key takes: `a number`, or for a key that may be infinite, `a positive
+/// number or "inf"` with an example.
+pub(super) fn number_expected(key: &str) -> String {
+    if INF_KEYS.contains(&key) {
+        format!("a positive number or \"inf\" (e.g. --set {key}=0.1, or {key}=inf for none)")
+    } else {
+        "a number".to_string()
+    }
+}
+
 /// serde's name of an expected type (`u32`, `f64`, `a boolean`) in the user's words.
 pub(super) fn type_in_words(expected: &str) -> String {
     let whole = |max: u64| format!("a whole number from 0 to {max}");

@@ -324,7 +324,7 @@ fn coerce(key: &str, slot: &toml::Value, value: toml::Value) -> Result<toml::Val
         (V::Array(_), v @ V::Array(_)) => Ok(v),
         (V::Table(_), v @ V::Table(_)) => Ok(v),
         (slot, _) => Err(match slot {
-            V::Float(_) => "a number".to_string(),
+            V::Float(_) => hints::number_expected(key),
             V::Integer(_) => "an integer".to_string(),
             V::Boolean(_) => "true or false".to_string(),
             V::String(s) => format!("a string (currently {s:?})"),

@@ -918,6 +918,21 @@ fn every_list_key_has_an_example_that_is_accepted() {
 }
 
 #[test]
+fn a_wrong_home_range_alpha_says_inf_is_allowed() {
+    let e = Config::resolve(None, None, &["world.home_range.alpha=abc".into()])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("world.home_range.alpha") && e.contains("\"inf\""),
+        "{e}"
+    );
+    let e = Config::resolve(None, None, &["world.arena_side_m=abc".into()])
+        .unwrap_err()
+        .to_string();
+    assert!(e.ends_with("expected a number"), "{e}");
+}
+
+#[test]
 fn home_ranges_are_left_out_of_the_recorded_text_at_their_default() {
     // At the default (alpha "inf") no record moves: the recorded text and its hash are the
     // preset's, whether the key is set or not; the full tree still lists the keys for --set.

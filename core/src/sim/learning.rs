@@ -12,6 +12,7 @@ use crate::metrics::{LearnReport, SkipReason};
 use crate::rng::{self, Purpose};
 use crate::state::SimError;
 use crate::types::RobotId;
+use crate::world::heterogeneity::PositionTally;
 
 /// A robot's decision for one learning phase, before its transaction is made.
 pub(super) enum Plan {
@@ -85,6 +86,9 @@ pub(super) struct Learners {
     /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
     /// at the same time.
     pub(super) pending: BTreeMap<(u64, RobotId, u64), Pending>,
+    /// Where the data of each phase lies (`world.position_heterogeneity`): counts only, read
+    /// by no record.
+    pub(super) positions: PositionTally,
 }
 
 impl Learners {
@@ -115,6 +119,11 @@ impl Learners {
                 0
             },
             pending: BTreeMap::new(),
+            positions: PositionTally::new(
+                config.world.home_range.side().unwrap_or(3),
+                config.world.arena_side_m,
+                robots,
+            ),
         })
     }
 }

@@ -35,6 +35,7 @@ use crate::metrics::{LearnAction, LearnReport, SkipReason};
 use crate::rng::{self, Purpose};
 use crate::state::{SimError, State};
 use crate::types::{Digest, RobotId, SimTime};
+use crate::world::heterogeneity::PositionHeterogeneity;
 use crate::world::{Controllers, TickEvent, World};
 
 use learning::{Decided, Learners, Pending, Plan, Waiting};
@@ -232,6 +233,13 @@ impl Sim {
     /// The current reduced state.
     pub fn state(&self) -> &State {
         &self.rec.state
+    }
+
+    /// How the robots' training data differ in position over the learning phases so far
+    /// (`world/heterogeneity.rs`): every robot's phase counts, trained, skipped or Byzantine,
+    /// so a run without training measures the data it would have trained on.
+    pub fn position_heterogeneity(&self) -> PositionHeterogeneity {
+        self.learners.positions.measure()
     }
 
     /// Simulated time reached and total, in milliseconds.
@@ -444,6 +452,9 @@ impl Sim {
         let due_ms = self.learners.next_due_ms[i];
         self.learners.phases[i] += 1;
         self.learners.next_due_ms[i] += self.learners.period_ms;
+        let data = self.rec.state.world.samples(robot);
+        let train = learn::split_point(data.len(), self.config.learn.train_fraction);
+        self.learners.positions.count(i, phase, data, train);
         let captured = self.ahead.upcoming.remove(&(due_ms, robot));
         let speculated = self.ahead.speculated.remove(&(robot, phase));
         self.protocol.phase_begins(&mut self.rec, now, robot);

@@ -108,3 +108,44 @@ fn folding_the_events_rebuilds_every_checkpoint() {
         "blocks are sealed every 10 s: {checked} checkpoints"
     );
 }
+
+/// The position heterogeneity of a world-only run of the paper's world (no robot trains:
+/// every data set is below the minimum) with home ranges of concentration `alpha`.
+fn position_measure(alpha: f64, seed: u64, duration_s: f64) -> PositionHeterogeneity {
+    let mut c = Preset::Paper.config();
+    c.world.home_range.alpha = alpha;
+    c.run.duration_s = duration_s;
+    c.learn.min_train_samples = 1_000_000;
+    c.validate().expect("valid");
+    let mut sim = Sim::new(c, seed).unwrap();
+    for record in sim.by_ref() {
+        assert_ne!(record.kind(), "submit", "a world-only run submits nothing");
+    }
+    sim.position_heterogeneity()
+}
+
+#[test]
+fn position_heterogeneity_rises_as_home_ranges_narrow_and_is_deterministic() {
+    // Issue 55: at alpha 0.1 each robot keeps to one or two regions, so its data lie there;
+    // at alpha 10 its picks spread over all 9 and it crosses the arena every goal period
+    // (measured, 3600 s: per-round V 0.10-0.17 at alpha 10, 0.20-0.24 at 0.1, seeds 1-3).
+    for seed in [1, 2] {
+        let wide = position_measure(10.0, seed, 1800.0);
+        let narrow = position_measure(0.1, seed, 1800.0);
+        assert_eq!(wide.rounds, 18, "one round per 100 s training period");
+        assert_eq!(wide.cells, 9);
+        assert!(
+            narrow.cramers_v > wide.cramers_v + 0.03,
+            "seed {seed}: {narrow:?} vs {wide:?}"
+        );
+        assert!(
+            narrow.js_divergence > wide.js_divergence,
+            "seed {seed}: {narrow:?} vs {wide:?}"
+        );
+        assert!(narrow.run_cramers_v > wide.run_cramers_v, "seed {seed}");
+    }
+    assert_eq!(
+        position_measure(0.1, 3, 600.0),
+        position_measure(0.1, 3, 600.0)
+    );
+}

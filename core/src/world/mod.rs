@@ -20,12 +20,15 @@ mod epuck;
 pub mod flocking;
 pub mod foraging;
 pub mod foraging_flowfl;
+pub mod heterogeneity;
 mod home_range;
 mod khepera;
 pub mod physics;
 pub mod place;
 pub mod sensors;
 pub mod steering;
+
+use std::collections::VecDeque;
 
 use serde::{Deserialize, Serialize};
 
@@ -98,10 +101,17 @@ pub struct WorldStats {
     pub messages_dropped: u64,
     /// Samples in the held-out set.
     pub heldout_samples: u64,
-    /// Data heterogeneity between robots' current data sets (`data::heterogeneity`: the
-    /// bias-corrected Cramer's V of the robots x (speed x turn cell) table).
+    /// Motion heterogeneity between robots' current data sets, at the end of the run
+    /// (`data::heterogeneity`: the bias-corrected Cramer's V of the robots x (speed x turn
+    /// cell) table). The key keeps its first name, `data_heterogeneity`, so committed
+    /// summaries still read; it measures motion, not position (see `position_heterogeneity`).
     #[serde(default)]
     pub data_heterogeneity: f64,
+    /// Position heterogeneity of the data the robots trained on (or would have), over every
+    /// learning phase of the run (`world/heterogeneity.rs`). Set by the driver's caller from
+    /// `Sim::position_heterogeneity`; absent in summaries written before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub position_heterogeneity: Option<heterogeneity::PositionHeterogeneity>,
     /// Items delivered to the nest by foragers (0 without foraging).
     #[serde(default)]
     pub foraging_deliveries: u64,
@@ -528,6 +538,11 @@ impl World {
             .collect()
     }
 
+    /// The robot's current data set, borrowed (unexpired samples, oldest first).
+    pub fn samples(&self, robot: RobotId) -> &VecDeque<Sample> {
+        self.recorders[robot as usize].samples()
+    }
+
     /// Number of samples in the robot's current data set.
     pub fn dataset_len(&self, robot: RobotId) -> usize {
         self.recorders[robot as usize].samples().len()
@@ -583,6 +598,7 @@ impl World {
                 self.params.tick_ms as f64 / 1000.0,
             ),
             foraging_deliveries: self.extra.behaviours.as_ref().map_or(0, |b| b.deliveries),
+            position_heterogeneity: None,
         }
     }
 

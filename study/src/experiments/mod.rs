@@ -16,7 +16,7 @@ pub use heterogeneity::{
 
 /// The experiments, in the order `swarmfl sweep --help` lists them: the one list, each named
 /// once, with everything `swarmfl sweep` and `swarmfl report` know of it.
-pub const ALL: [Entry; 15] = [
+pub const ALL: [Entry; 16] = [
     Entry {
         id: Id::Preset,
         preset: Preset::E0Baselines,
@@ -154,6 +154,16 @@ pub const ALL: [Entry; 15] = [
         runs: 3,
         drawn_by: DrawnBy::Scale,
     },
+    // Issue 55: the measure of position heterogeneity against the home ranges' alpha, in
+    // world-only runs (no robot trains).
+    Entry {
+        id: Id::Own("e4-heterogeneity-measure"),
+        preset: Preset::Paper,
+        axis: "home-range alpha",
+        points: heterogeneity_measure_points,
+        runs: 3,
+        drawn_by: DrawnBy::PositionMeasure,
+    },
     Entry {
         id: Id::Own("e6-scale-1000"),
         preset: Preset::E6Scale,
@@ -223,6 +233,9 @@ pub enum DrawnBy {
     Defence,
     /// The scale study's figures and tables, shared by its experiments (`report/scale/`).
     Scale,
+    /// The position-heterogeneity measure per home-range alpha and swarm size
+    /// (`report/position.rs`).
+    PositionMeasure,
 }
 
 /// How the standard figures show an experiment.
@@ -798,6 +811,37 @@ fn e6_points(sizes: &[u32], faulty: bool) -> Vec<Point> {
                     ("protocol", protocol.to_string()),
                     ("condition", format!("faulty-{E6_FAULTY}")),
                 ],
+            });
+        }
+    }
+    points
+}
+
+/// The home ranges' concentrations of `e4-heterogeneity-measure`, from roaming (`inf`, the
+/// paper's walk) to few regions per robot; a point's x is its place in this list.
+pub const HETEROGENEITY_ALPHAS: [&str; 5] = ["inf", "10", "1", "0.3", "0.1"];
+
+/// The swarm sizes of `e4-heterogeneity-measure`, at the paper's density ([`paper_density`]).
+pub const HETEROGENEITY_SIZES: [u32; 2] = [15, 60];
+
+/// The grid of `e4-heterogeneity-measure` (issue 55): every size of [`HETEROGENEITY_SIZES`] x
+/// alpha of [`HETEROGENEITY_ALPHAS`] (`alpha-<alpha>-<robots>`), 3600 s world-only runs: a
+/// minimum of training samples no data set reaches makes every robot skip every phase, so
+/// nothing trains and the ledger carries no model, while `world.position_heterogeneity`
+/// measures the data each robot would have trained on at each phase.
+fn heterogeneity_measure_points() -> Vec<Point> {
+    let mut points = Vec::new();
+    for robots in HETEROGENEITY_SIZES {
+        for (i, alpha) in HETEROGENEITY_ALPHAS.iter().enumerate() {
+            let mut overrides = paper_density(robots);
+            overrides.push(format!("world.home_range.alpha={alpha}"));
+            overrides.push("run.duration_s=3600".into());
+            overrides.push("learn.min_train_samples=1000000".into());
+            points.push(Point {
+                name: format!("alpha-{alpha}-{robots}"),
+                x: i as f64,
+                overrides,
+                tags: vec![("alpha", alpha.to_string()), ("robots", robots.to_string())],
             });
         }
     }

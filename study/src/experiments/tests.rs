@@ -23,12 +23,13 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e3-smart", 8, 18);
     check("e4-benchmark", 3 * 16 * 9, 3);
     check("e4-gate", 3 * 2 * 5, 3);
-    check("e4-heterogeneity", 4 * 9 * 7, 5);
+    check("e4-heterogeneity", 5 * 9 * 7, 5);
     check("e5-smart-defence", 39, 3);
     check("e2-malicious-authors", 8, 20);
     check("e3-smart-authors", 8, 18);
     check("e6-scale", 11, 3);
     check("e6-scale-1000", 3, 2);
+    check("e4-heterogeneity-measure", 10, 3);
     assert!(experiment("e4").is_err());
 }
 
@@ -108,6 +109,13 @@ fn every_point_resolves_to_a_valid_configuration() {
                 .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
             if name == "e1-expiration" {
                 assert_eq!(config.data.expiration_s, point.x);
+            } else if name == "e4-heterogeneity-measure" {
+                // x is the alpha's place on the axis; no robot trains.
+                let alpha = &point.tags[0].1;
+                assert!(point
+                    .overrides
+                    .contains(&format!("world.home_range.alpha={alpha}")));
+                assert_eq!(config.byzantine.count, 0);
             } else if name.starts_with("e6-scale") {
                 assert_eq!(f64::from(config.world.robots), point.x);
                 let protocol = point.name.split('-').next().unwrap();
@@ -167,7 +175,7 @@ fn the_heterogeneity_grid_sets_alpha_and_at_inf_is_the_benchmarks_avoidance_colu
         assert_eq!(config, other, "{} against {theirs}", p.name);
         namesakes += 1;
     }
-    assert_eq!(exp.points.len(), 4 * 9 * (1 + 2 * 3));
+    assert_eq!(exp.points.len(), 5 * 9 * (1 + 2 * 3));
     // Eight rules in e4-benchmark (7 points each) and the gated median at 0 and 5 in e4-gate.
     assert_eq!(namesakes, 8 * 7 + 4);
 }

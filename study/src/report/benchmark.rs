@@ -1,7 +1,7 @@
 //! `e4-benchmark` (issue #33): the robustness benchmark in the form ByzFL reports it. Per rule
 //! a heatmap of the worst-case final held-out loss over the attacks, Byzantine count against
-//! data heterogeneity (the swarm's behaviour, ordered by the `world.data_heterogeneity` its clean
-//! runs measured); an aggregated heatmap of the best rule per cell; and the worst-case table.
+//! data heterogeneity (the swarm's behaviour, ordered by the motion heterogeneity,
+//! `world.data_heterogeneity`, its clean runs measured); an aggregated heatmap of the best rule per cell; and the worst-case table.
 //!
 //! Worst case, per rule, behaviour and count: the attack whose mean final held-out loss over
 //! the runs is highest (ties to the earlier attack in grid order); at count 0 the clean run's.
@@ -83,7 +83,7 @@ impl Cell {
 pub struct Level {
     /// The behaviour.
     pub behaviour: String,
-    /// Mean `world.data_heterogeneity` over its clean runs.
+    /// Mean motion heterogeneity (`world.data_heterogeneity`) over its clean runs.
     pub heterogeneity: Option<f64>,
     /// Those runs.
     pub runs: usize,
@@ -332,7 +332,7 @@ fn draw_all(b: &Bench, out: &Path, notes: &mut Vec<String>) -> anyhow::Result<Ve
     let cols: Vec<String> = b.levels.iter().map(Bench::column).collect();
     let rows: Vec<String> = b.counts.iter().map(|&c| Bench::row(c)).collect();
     let shared = b.scale();
-    let col_title = "swarm behaviour (V: its data heterogeneity)";
+    let col_title = "swarm behaviour (V: its motion heterogeneity)";
     let value_title = "worst-case final held-out loss over the attacks (log scale)";
     let mut maps: Vec<(String, String, Heatmap)> = Vec::new();
     for rule in &b.rules {
@@ -425,7 +425,7 @@ fn tables(b: &Bench) -> (String, String) {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "Heterogeneity axis (mean `world.data_heterogeneity` of the clean runs, runs):"
+        "Heterogeneity axis (mean motion heterogeneity, `world.data_heterogeneity`, of the clean runs, runs):"
     );
     for l in &b.levels {
         let _ = writeln!(

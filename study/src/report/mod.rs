@@ -7,7 +7,8 @@
 //! listed in `study` (one trait; each experiment's entry in `experiments::ALL` names the one
 //! that draws it): `figures` (the standard figures of each experiment), `robustness` (e4's
 //! heatmaps), `benchmark` (the robustness benchmark's heatmaps on a heterogeneity axis),
-//! `defence` (e5's figures) and `scale` (e6's figures and tables); `coords` (a `--grid`
+//! `defence` (e5's figures), `scale` (e6's figures and tables), `heterogeneity`
+//! (e4-heterogeneity's heatmaps) and `position` (e4-heterogeneity-measure's tables and figure); `coords` (a `--grid`
 //! sweep's keys and values, which name its points in figures and tables), and `tables` (the
 //! CSV files and `report.md`). `swarmfl report` prints every file it wrote.
 //!
@@ -26,6 +27,7 @@ mod heterogeneity;
 mod load;
 mod markdown;
 pub(crate) mod plots;
+mod position;
 mod robustness;
 mod scale;
 pub(crate) mod stats;
@@ -49,6 +51,7 @@ pub(crate) const STUDIES: &[&dyn StudyReport] = &[
     &heterogeneity::Heterogeneity,
     &defence::Defence,
     &scale::Scale,
+    &position::PositionMeasure,
 ];
 
 /// The list `report` and `traffic --out` print: `wrote N files into OUT:`, then each file's

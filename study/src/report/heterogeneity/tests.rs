@@ -114,9 +114,9 @@ fn a_two_run_sweep_of_the_grid_makes_the_report() {
     let dir = std::env::temp_dir().join(format!("swarmfl-hetero-{}", std::process::id()));
     let _ = std::fs::remove_dir_all(&dir);
     let exp = experiments::experiment(experiment()).unwrap();
-    // One seed: task i is point i. Shard 96/100 takes points 96 and 196.
-    let (a, b) = (&exp.points[96], &exp.points[196]);
-    assert_eq!(a.name, "alpha-1--geomed--optimal-alie--5");
+    // One seed: task i is point i. Shard 96/163 takes points 96 and 259.
+    let (a, b) = (&exp.points[96], &exp.points[259]);
+    assert_eq!(a.name, "alpha-10--geomed--optimal-alie--5");
     assert_eq!(b.name, "alpha-0.1--fedavg--none--0");
     let opts = SweepOptions {
         experiment: Some(experiment().to_string()),
@@ -125,7 +125,7 @@ fn a_two_run_sweep_of_the_grid_makes_the_report() {
         out: dir.join("results"),
         runs: Some(1),
         jobs: Some(1),
-        shard: Shard::new(96, 100).unwrap(),
+        shard: Shard::new(96, 163).unwrap(),
         overrides: vec!["run.duration_s=400".into()],
         keep_logs: false,
     };
