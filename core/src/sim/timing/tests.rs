@@ -38,8 +38,8 @@ fn the_authors_byzantine_robots_fire_within_the_jitter_of_each_other_every_cycle
     let byz = byzantine();
     let mut model = model(Timing::Authors, &setup(&byz));
     let all = slots(model.as_mut(), 15, 30);
-    for phase in 0..30 {
-        let cycle = phase as u64 + 1;
+    for cycle in 1..=30u64 {
+        let phase = (cycle - 1) as usize;
         let times: Vec<u64> = (0..15)
             .filter(|&r| byz[r])
             .map(|r| all[r][phase])
