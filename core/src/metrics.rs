@@ -228,6 +228,12 @@ pub struct ContractSummary {
     pub aggregated_honest: u64,
     /// Byzantine models aggregated.
     pub aggregated_byzantine: u64,
+    /// Rounds whose accepted submissions were more than half Byzantine (4 or more of the
+    /// paper's 7): the round majorities RESEARCH.md counts. Divide by `rounds` for the rate.
+    /// `None` without Byzantine robots, or without a chain (baselines), and in summaries made
+    /// before the field.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub byzantine_majority_rounds: Option<u64>,
     /// Learning phases skipped, by reason (from the robots' reports).
     pub skipped: BTreeMap<String, u64>,
 }
@@ -422,6 +428,7 @@ impl<'a> ChainWalk<'a> {
             submissions: BTreeMap::new(),
             aggregated_honest: 0,
             aggregated_byzantine: 0,
+            byzantine_majority_rounds: byzantine.iter().any(|&b| b).then_some(0),
             skipped: metrics
                 .skipped
                 .iter()
@@ -489,6 +496,20 @@ impl<'a> ChainWalk<'a> {
     /// Block `entry` aggregated a round: its paper loss (over the honest models aggregated),
     /// held-out loss, mean honest distance and outlier bound.
     fn close_round(&mut self, entry: &BlockEntry) {
+        let byzantine = self
+            .round_txs
+            .iter()
+            .filter_map(|hash| self.ledger.tx(hash))
+            .filter(|t| {
+                self.byzantine
+                    .get(t.tx.sender as usize)
+                    .copied()
+                    .unwrap_or(false)
+            })
+            .count();
+        if let Some(n) = self.summary.byzantine_majority_rounds.as_mut() {
+            *n += u64::from(2 * byzantine > self.round_txs.len());
+        }
         let loss = aggregated_loss(&mut self.summary, self.metrics, &self.round_txs);
         self.round_txs.clear();
         let s = &mut self.summary;

@@ -55,6 +55,9 @@ pub enum Purpose {
     /// over the regions (the stream of its robot id) and each goal period's pick (one
     /// substream per period).
     HomeRange = 18,
+    /// The authors' timing (`learn.timing = "authors"`, `sim/timing/authors.rs`): a robot's
+    /// jitter around the swarm's shared timer in each cycle (one substream per cycle).
+    Timing = 19,
 }
 
 /// A deterministic random number generator (PCG 128/64, "Pcg64") with portable float draws.

@@ -7,7 +7,9 @@
 use std::collections::BTreeSet;
 use std::path::Path;
 
-use swarmfl_core::config::{Behaviour, ByzantineKind, LedgerBehaviour, Preaggregator, Rule};
+use swarmfl_core::config::{
+    Behaviour, ByzantineKind, LedgerBehaviour, Preaggregator, Rule, Timing,
+};
 
 /// One plug point as the tests see it: its `ALL` as names and indices, its unlisted variants,
 /// and its lookup.
@@ -73,6 +75,12 @@ fn plug_points() -> Vec<PlugPoint> {
         // Behaviours are controllers spread over `world/` (and `mixed` is a swarm of them):
         // no folder of one file each to compare with.
         plug_point!("behaviour", Behaviour, [], None),
+        plug_point!(
+            "timing model",
+            Timing,
+            [],
+            Some(("sim/timing", &["mod", "tests"], &[]))
+        ),
     ]
 }
 

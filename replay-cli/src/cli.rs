@@ -375,6 +375,7 @@ pub struct TrafficArgs {
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
+    /// e2-malicious-authors-timing, e3-smart-authors-timing, e3-smart-authors-code,
     /// e6-scale, e6-scale-1000 or e4-heterogeneity-measure.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
@@ -663,6 +664,10 @@ Experiments, points and default runs (seeds 1..=runs):
                  (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
   e2-malicious-authors, e3-smart-authors  e2-malicious and e3-smart under the authors'
                  contract (preset authors: docs/CONTRACT.md's options at their values)  20, 18 runs
+  e2-malicious-authors-timing, e3-smart-authors-timing  the same under the authors'
+                 timing too (preset authors-timing: learn.timing = authors)            20, 18 runs
+  e3-smart-authors-code  e3-smart-authors-timing with the code's smart robot
+                 (byzantine.variant = authors)                                          18 runs
   e6-scale       {rounds,buffered,gossip}-{15,60,240}, {rounds,buffered}-240-faulty-24 3 runs
   e6-scale-1000  {rounds,buffered,gossip}-1000 (paper density, one training a second)  2 runs
   e4-heterogeneity-measure  alpha-{inf,10,1,0.3,0.1}-{15,60}: world.home_range.alpha x

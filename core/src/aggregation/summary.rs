@@ -134,6 +134,8 @@ pub fn summarise(
         submissions: BTreeMap::new(),
         aggregated_honest: 0,
         aggregated_byzantine: 0,
+        // Rounds of accepted submissions are the chain's.
+        byzantine_majority_rounds: None,
         skipped: metrics
             .skipped
             .iter()

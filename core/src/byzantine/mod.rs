@@ -404,6 +404,39 @@ mod tests {
         }
     }
 
+    /// Smart, authors: offsets 2 r Delta in [0, 2 Delta), mean Delta; before the first
+    /// aggregation Delta is taken from all-zero weights (the mean absolute weight), so the
+    /// first submission lands far from w(t), where the paper's variant sends w(t).
+    #[test]
+    fn smart_authors_adds_twice_the_step_and_starts_from_zeros() {
+        let n = 20_000;
+        let shared: Vec<f32> = (0..n).map(|i| (i % 5) as f32 * -0.5).collect(); // mean |w| 1
+        let previous: Vec<f32> = shared.iter().map(|w| w + 0.5).collect(); // Delta = 0.5
+        let offsets = |w: Vec<f32>| -> Vec<f64> {
+            w.iter()
+                .zip(&shared)
+                .map(|(&a, &b)| f64::from(a) - f64::from(b))
+                .collect()
+        };
+        let mean = |o: &[f64]| o.iter().sum::<f64>() / o.len() as f64;
+        let later = offsets(forge_with(
+            ByzantineKind::Smart,
+            ByzantineVariant::Authors,
+            &shared,
+            Some(&previous),
+        ));
+        assert!(later.iter().all(|&o| (0.0..=1.0).contains(&o)));
+        assert!((mean(&later) - 0.5).abs() < 0.01, "{}", mean(&later));
+        let first = offsets(forge_with(
+            ByzantineKind::Smart,
+            ByzantineVariant::Authors,
+            &shared,
+            None,
+        ));
+        assert!(first.iter().all(|&o| (0.0..=2.0).contains(&o)));
+        assert!((mean(&first) - 1.0).abs() < 0.02, "{}", mean(&first));
+    }
+
     #[test]
     fn byzantine_robots_are_exactly_count_drawn_from_the_seed() {
         let mut config = Preset::Paper.config();

@@ -62,4 +62,9 @@ pub enum ByzantineVariant {
     /// The reference implementation's variants (smart: positive-only noise, w(t) before the
     /// first change).
     Reference,
+    /// The authors' code as it runs (`controllers/docker/fedlerv2.py`, `bad_behaviour`,
+    /// rtype 2): smart adds `int(random() * mae * 2)`, i.e. 2 r Delta with `r` uniform in
+    /// [0, 1) per weight, and its `previous` model is all zeros until the first aggregation,
+    /// so its first submission extrapolates from zeros. Other attacks read it as `paper`.
+    Authors,
 }

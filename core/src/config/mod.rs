@@ -27,6 +27,7 @@ mod preset;
 mod protocol_fit;
 mod ranges;
 mod skip;
+mod timing;
 mod tree;
 mod validate;
 
@@ -54,6 +55,8 @@ pub use overrides::{is_reconfigurable, RECONFIGURABLE};
 pub(crate) use preagg::preagg_files;
 pub use preagg::{Preaggregator, StageOutputs, StageSpec};
 pub use preset::{Preset, AUTHORS_CONTRACT};
+pub(crate) use timing::timing_files;
+pub use timing::{AuthorsTimingConfig, Timing};
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,
     Frame, LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig,

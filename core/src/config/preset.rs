@@ -14,6 +14,7 @@ use super::contract::{
 };
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
+use super::timing::{AuthorsTimingConfig, Timing};
 use super::tree::{
     Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig, Frame, LearnConfig,
     LedgerConfig, OutputConfig, RunConfig, WorldConfig, DEFAULT_ROUND_TIMEOUT_S,
@@ -52,6 +53,9 @@ pub enum Preset {
     /// The paper's system under the authors' contract: every variant option of
     /// docs/CONTRACT.md at the authors' value and their script's reward weights (issue #36).
     Authors,
+    /// `authors` with the authors' timing (`learn.timing = "authors"`, issue #58): the
+    /// Byzantine robots in step, the honest robots' trainings queued at one server.
+    AuthorsTiming,
     /// Flow-FL's data-collection set-up (NESTLab TrajectoryCollection: Khepera IV robots and
     /// their avoidance in a 4 x 4 m arena, 2 m range, robots occlude): its obstacle-avoidance
     /// experiment. The other three experiments are the `flowfl-*` presets (issue #38;
@@ -95,11 +99,12 @@ pub enum Preset {
 
 impl Preset {
     /// Every variant, in documentation order (the order `swarmfl presets` lists them).
-    pub const ALL: [Preset; 18] = [
+    pub const ALL: [Preset; 19] = [
         Preset::Paper,
         Preset::PaperText,
         Preset::Reference,
         Preset::Authors,
+        Preset::AuthorsTiming,
         Preset::Smoke,
         Preset::Flowfl,
         Preset::FlowflFlocking,
@@ -123,6 +128,7 @@ impl Preset {
             Preset::PaperText => "paper-text",
             Preset::Reference => "reference",
             Preset::Authors => "authors",
+            Preset::AuthorsTiming => "authors-timing",
             Preset::Smoke => "smoke",
             Preset::Flowfl => "flowfl",
             Preset::FlowflFlocking => "flowfl-flocking",
@@ -155,6 +161,10 @@ impl Preset {
             Preset::Authors => {
                 "the paper's system under the authors' contract (median, rounding, ranking, \
                  payouts, pool) and their script's reward weights [1,1,1,1,1,-1,-1]"
+            }
+            Preset::AuthorsTiming => {
+                "`authors` with the authors' timing: Byzantine robots in step, honest \
+                 trainings queued at one server (learn.timing = authors)"
             }
             Preset::Smoke => "15 robots for 600 s: quick, for fixtures and CI",
             Preset::Flowfl => {
@@ -238,6 +248,11 @@ impl Preset {
                     c.set(assignment)
                         .expect("the authors' contract options are valid keys and values");
                 }
+            }
+            Preset::AuthorsTiming => {
+                c = Preset::Authors.config();
+                c.preset = self.name().to_string();
+                c.learn.timing = Timing::Authors;
             }
             Preset::Smoke => {
                 c.run.duration_s = 600.0;
@@ -494,6 +509,8 @@ fn paper_learn() -> LearnConfig {
         training_period_s: 100.0,
         training_duration_s: 0.0,
         min_train_samples: 1,
+        timing: Timing::Independent,
+        authors_timing: AuthorsTimingConfig::default(),
         aggregation: Aggregation::Chain,
         gossip_outlier_filter: false,
         frame: Frame::World,

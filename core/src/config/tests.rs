@@ -1063,3 +1063,64 @@ fn bad_home_ranges_are_refused_naming_the_key_the_value_and_the_fix() {
     }
     assert!(Config::resolve(None, None, &["world.behaviour=flocking".into()]).is_ok());
 }
+
+#[test]
+fn bad_authors_timing_is_refused_naming_the_key() {
+    let jitter = "learn.authors_timing.byzantine_jitter_s";
+    let service = "learn.authors_timing.service_time_s";
+    check_err(
+        &[&format!("{jitter}=-1")],
+        &format!("`{jitter}`: value -1 "),
+    );
+    check_err(
+        &[&format!("{jitter}=101")],
+        &format!("`{jitter}`: value 101 "),
+    );
+    check_err(
+        &[&format!("{service}=-0.5")],
+        &format!("`{service}`: value -0.5 "),
+    );
+    check_err(
+        &[&format!("{service}=nan")],
+        &format!("`{service}`: value NaN "),
+    );
+    for aggregation in ["gossip", "central"] {
+        let set = [
+            "learn.timing=authors".to_string(),
+            format!("learn.aggregation={aggregation}"),
+        ];
+        let set: Vec<&str> = set.iter().map(String::as_str).collect();
+        check_err(&set, "`learn.timing`: value authors ");
+        check_err(
+            &set,
+            "set learn.timing = independent or learn.aggregation = chain",
+        );
+    }
+    check_err(
+        &["learn.timing=authors", "learn.training_duration_s=2"],
+        "`learn.training_duration_s`: value 2 ",
+    );
+    check_err(&["learn.timing=queued"], "learn.timing");
+    // The same keys are fine under the default timing, and the preset resolves.
+    assert!(Config::resolve(None, None, &["learn.training_duration_s=2".into()]).is_ok());
+    let preset = Config::resolve(Some("authors-timing"), None, &[]).unwrap();
+    assert_eq!(preset.learn.timing, crate::config::Timing::Authors);
+    assert_eq!(
+        preset.contract.options(),
+        crate::config::ContractOptions::authors()
+    );
+}
+
+#[test]
+fn the_timing_is_left_out_of_the_recorded_text_at_its_default() {
+    for preset in Preset::ALL.iter().filter(|p| **p != Preset::AuthorsTiming) {
+        let text = preset.config().to_toml();
+        assert!(!text.contains("timing"), "{}", preset.name());
+    }
+    let authors = Preset::AuthorsTiming.config().to_toml();
+    assert!(authors.contains("timing = \"authors\""), "{authors}");
+    assert!(
+        !authors.contains("authors_timing"),
+        "at its default: {authors}"
+    );
+}

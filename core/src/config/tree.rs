@@ -17,6 +17,7 @@ use super::contract::{
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};
 use super::skip::omit;
+use super::timing::{AuthorsTimingConfig, Timing};
 use crate::faults::FaultsConfig;
 
 /// A complete, resolved configuration of a run.
@@ -204,6 +205,17 @@ pub struct LearnConfig {
     /// configuration at its default, so existing runs keep their hashes.
     #[serde(default, skip_serializing_if = "is_default")]
     pub frame: Frame,
+    /// The learning schedule's timing model: `independent` (swarmfl's: every robot on its own
+    /// uniform phase, start to start; the default) or `authors` (the authors' code: the
+    /// Byzantine robots in step, the honest robots' trainings queued at one server, end to
+    /// start; `learn.authors_timing`). Chain aggregation only. Left out of the recorded text
+    /// at its default, so records keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub timing: Timing,
+    /// The authors' timing's jitter and server time (read under `learn.timing = "authors"`).
+    /// Left out of the recorded text at its default.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub authors_timing: AuthorsTimingConfig,
 }
 
 /// The coordinates of the model's inputs and targets (`learn.frame`).
@@ -624,7 +636,9 @@ pub struct ByzantineConfig {
     pub kind: ByzantineKind,
     /// How many robots are Byzantine (they replace honest ones: the swarm size stays).
     pub count: u32,
-    /// Formula variant: the paper's (`paper`) or the reference implementation's (`reference`).
+    /// Formula variant: the paper's (`paper`), our reading of the reference implementation
+    /// (`reference`) or the authors' code as it runs (`authors`: `smart` adds 2 r Delta and
+    /// extrapolates its first submission from all-zero weights).
     pub variant: ByzantineVariant,
     /// Samples a Byzantine robot claims with each submission (reference: 200).
     pub claimed_samples: u32,

@@ -13,6 +13,7 @@ use super::preset::Preset;
 use super::ranges::{
     integer, integer_range, number, number_range, out_of_range, positive, positive_range,
 };
+use super::timing::Timing;
 use super::tree::{Aggregation, Config, DEFAULT_ROUND_TIMEOUT_S};
 use crate::faults::PartitionKind;
 use crate::types::show_f64;
@@ -101,6 +102,10 @@ fn table(c: &Config) -> Vec<Step> {
         Number("learn.train_fraction", l.train_fraction, 0.01, 1.0),
         Positive("learn.training_period_s", l.training_period_s, 1.0e6),
         Number("learn.training_duration_s", l.training_duration_s, 0.0, 1.0e6),
+        // At most a period: a robot's timer then never fires before its previous cycle's.
+        Number("learn.authors_timing.byzantine_jitter_s", l.authors_timing.byzantine_jitter_s, 0.0, l.training_period_s),
+        Number("learn.authors_timing.service_time_s", l.authors_timing.service_time_s, 0.0, 1.0e6),
+        Across(authors_timing_fits),
         Positive("ledger.block_period_s", g.block_period_s, 1.0e6),
         Number("ledger.wiggle_unit_s", g.wiggle_unit_s, 0.0, 1.0e6),
         Number("ledger.packet_loss", g.packet_loss, 0.0, 1.0),
@@ -148,6 +153,38 @@ fn table(c: &Config) -> Vec<Step> {
         Across(defences_need_stakes),
         Across(super::preagg_fit::chain_fits),
     ]
+}
+
+/// `learn.timing = "authors"` (`sim/timing/authors.rs`) schedules submissions to a chain's
+/// contract: the baselines have none, and the honest robots' training time is the server's
+/// (`learn.authors_timing.service_time_s`), not `learn.training_duration_s`.
+fn authors_timing_fits(c: &Config) -> Result<(), ConfigError> {
+    if c.learn.timing != Timing::Authors {
+        return Ok(());
+    }
+    if c.learn.aggregation != Aggregation::Chain {
+        return out_of_range(
+            "learn.timing",
+            "authors".to_string(),
+            format!(
+                "independent with learn.aggregation = {} (the authors' timing schedules \
+                 submissions to the chain's contract); set learn.timing = independent or \
+                 learn.aggregation = chain",
+                c.learn.aggregation.name()
+            ),
+        );
+    }
+    if c.learn.training_duration_s != 0.0 {
+        return out_of_range(
+            "learn.training_duration_s",
+            show_f64(c.learn.training_duration_s),
+            "0 under learn.timing = authors (an honest training takes the server's \
+             learn.authors_timing.service_time_s; a Byzantine robot submits when its timer \
+             fires); set learn.training_duration_s = 0"
+                .to_string(),
+        );
+    }
+    Ok(())
 }
 
 /// What `key` allows when the table has a row for it (`an integer in [1, 10000]`), as

@@ -5,11 +5,11 @@ use std::collections::BTreeMap;
 use std::sync::Arc;
 
 use super::protocol::Submission;
+use super::timing::{self, Setup, Slot, TimingModel};
 use crate::byzantine::{self, plugin::Plugins};
 use crate::config::{ByzantineKind, Config};
 use crate::learn::{ModelShape, Spawned};
 use crate::metrics::{LearnReport, SkipReason};
-use crate::rng::{self, Purpose};
 use crate::state::SimError;
 use crate::types::RobotId;
 use crate::world::heterogeneity::PositionTally;
@@ -47,8 +47,9 @@ pub(super) struct Decided {
     pub(super) robot: RobotId,
     /// The phase's index.
     pub(super) phase: u64,
-    /// When the phase began, ms.
-    pub(super) started_ms: u64,
+    /// The earliest its submission leaves (the phase's start plus its training's duration
+    /// on the schedule), ms.
+    pub(super) ready_ms: u64,
     pub(super) plan: Plan,
 }
 
@@ -57,9 +58,9 @@ pub(super) struct Decided {
 pub(super) struct Waiting {
     /// The phase's index (keys its random stream).
     pub(super) phase: u64,
-    /// When the phase began: the submission leaves no earlier than this plus the training
-    /// duration.
-    pub(super) started_ms: u64,
+    /// The earliest its submission leaves (the phase's start plus its training's duration on
+    /// the schedule), ms.
+    pub(super) ready_ms: u64,
 }
 
 /// A submission waiting for its training to finish (`learn.training_duration_s`).
@@ -78,10 +79,12 @@ pub(super) struct Learners {
     pub(super) plugins: Plugins,
     /// Byzantine robots whose attack chose to wait, by robot: the phase it waits in.
     pub(super) waiting: BTreeMap<RobotId, Waiting>,
+    /// When each robot's next phase begins (its slot in `timing`), ms.
     pub(super) next_due_ms: Vec<u64>,
+    /// Each robot's next phase.
     pub(super) phases: Vec<u64>,
-    pub(super) period_ms: u64,
-    pub(super) duration_ms: u64,
+    /// The schedule's timing model (`learn.timing`).
+    pub(super) timing: Box<dyn TimingModel>,
     pub(super) stake_units: u64,
     /// By (submission time, robot, phase): a waited phase and the robot's next one may leave
     /// at the same time.
@@ -94,25 +97,23 @@ pub(super) struct Learners {
 impl Learners {
     /// The learning loop of `config`; an error when it names a plug-in `plugins` lacks.
     pub(super) fn new(config: &Config, seed: u64, plugins: &Plugins) -> Result<Learners, SimError> {
-        let period_ms = (config.learn.training_period_s * 1000.0).round().max(1.0) as u64;
         let robots = config.world.robots;
+        // Robots that only attack the ledger train honestly.
+        let byzantine = if config.byzantine.kind == ByzantineKind::None {
+            vec![false; robots as usize]
+        } else {
+            byzantine::byzantine_robots(config, seed)
+        };
+        let mut timing = timing_model(config, seed, &byzantine, None);
         Ok(Learners {
             shape: ModelShape::from_config(config),
-            // Robots that only attack the ledger train honestly.
-            byzantine: if config.byzantine.kind == ByzantineKind::None {
-                vec![false; robots as usize]
-            } else {
-                byzantine::byzantine_robots(config, seed)
-            },
             attack: byzantine::agent(&config.byzantine, plugins).map_err(SimError::Plugin)?,
             plugins: plugins.clone(),
             waiting: BTreeMap::new(),
-            next_due_ms: (0..robots)
-                .map(|r| rng::stream(seed, Purpose::Schedule, r).below(period_ms))
-                .collect(),
+            next_due_ms: (0..robots).map(|r| timing.slot(r, 0).begin_ms).collect(),
             phases: vec![0; robots as usize],
-            period_ms,
-            duration_ms: (config.learn.training_duration_s * 1000.0).round() as u64,
+            byzantine,
+            timing,
             stake_units: if config.rule().stakes() {
                 config.contract.stake_tokens * config.contract.token_units
             } else {
@@ -126,6 +127,32 @@ impl Learners {
             ),
         })
     }
+
+    /// `robot`'s slot in `phase` on the schedule.
+    pub(super) fn slot(&mut self, robot: RobotId, phase: u64) -> Slot {
+        self.timing.slot(robot, phase)
+    }
+}
+
+/// The timing model of `config` for the learning robots marked in `byzantine`, keeping each
+/// robot's next phase of `kept` (a fork's reconfiguration).
+fn timing_model(
+    config: &Config,
+    seed: u64,
+    byzantine: &[bool],
+    kept: Option<&[(u64, Slot)]>,
+) -> Box<dyn TimingModel> {
+    let (period_ms, duration_ms, jitter_ms, service_ms) = Setup::durations(config);
+    let setup = Setup {
+        seed,
+        byzantine,
+        period_ms,
+        duration_ms,
+        jitter_ms,
+        service_ms,
+        kept,
+    };
+    timing::model(config.learn.timing, &setup)
 }
 
 impl Learners {
@@ -140,8 +167,14 @@ impl Learners {
         self.attack = fresh.attack;
         // A phase waited under the old attack ends unsubmitted, without a report.
         self.waiting.clear();
-        self.period_ms = fresh.period_ms;
-        self.duration_ms = fresh.duration_ms;
+        // Each robot's next phase keeps its slot; the later ones follow the new settings.
+        let kept: Vec<(u64, Slot)> = (0..self.phases.len() as RobotId)
+            .map(|r| {
+                let phase = self.phases[r as usize];
+                (phase, self.timing.slot(r, phase))
+            })
+            .collect();
+        self.timing = timing_model(config, seed, &self.byzantine, Some(&kept));
         self.stake_units = fresh.stake_units;
     }
 }

@@ -21,6 +21,7 @@
 mod learning;
 mod protocol;
 mod recorder;
+pub mod timing;
 
 use std::collections::{BTreeMap, VecDeque};
 
@@ -336,10 +337,15 @@ impl Sim {
         // Phases the look-ahead world has already passed are not captured: they read the
         // reduced world's data set when due.
         let ahead_ms = a.next_tick * self.tick_ms;
-        for (due, phase) in a.next_due_ms.iter_mut().zip(a.phases.iter_mut()) {
+        for (r, (due, phase)) in a
+            .next_due_ms
+            .iter_mut()
+            .zip(a.phases.iter_mut())
+            .enumerate()
+        {
             while *due <= ahead_ms {
-                *due += self.learners.period_ms;
                 *phase += 1;
+                *due = self.learners.slot(r as RobotId, *phase).begin_ms;
             }
         }
         self.total_ticks = config.ticks();
@@ -365,7 +371,7 @@ impl Sim {
                             .insert((a.next_due_ms[i], r), (a.phases[i], a.world.dataset(r)));
                     }
                     a.phases[i] += 1;
-                    a.next_due_ms[i] += self.learners.period_ms;
+                    a.next_due_ms[i] = self.learners.slot(r, a.phases[i]).begin_ms;
                 }
             }
         }
@@ -418,7 +424,7 @@ impl Sim {
                 Some(plan) => decided.push(Decided {
                     robot: r,
                     phase: w.phase,
-                    started_ms: w.started_ms,
+                    ready_ms: w.ready_ms,
                     plan,
                 }),
                 None if last_chance => {
@@ -450,8 +456,12 @@ impl Sim {
         let i = robot as usize;
         let phase = self.learners.phases[i];
         let due_ms = self.learners.next_due_ms[i];
+        let slot = self.learners.slot(robot, phase);
+        // The training takes its time on the schedule from the tick the phase begins in.
+        let ready_ms = now.0 + (slot.ready_ms - slot.begin_ms);
         self.learners.phases[i] += 1;
-        self.learners.next_due_ms[i] += self.learners.period_ms;
+        self.learners.next_due_ms[i] = self.learners.slot(robot, phase + 1).begin_ms;
+        self.learners.timing.forget(robot, phase + 1);
         let data = self.rec.state.world.samples(robot);
         let train = learn::split_point(data.len(), self.config.learn.train_fraction);
         self.learners.positions.count(i, phase, data, train);
@@ -459,10 +469,7 @@ impl Sim {
         let speculated = self.ahead.speculated.remove(&(robot, phase));
         self.protocol.phase_begins(&mut self.rec, now, robot);
         let plan = if self.learners.byzantine[i] {
-            let w = Waiting {
-                phase,
-                started_ms: now.0,
-            };
+            let w = Waiting { phase, ready_ms };
             let plan = self.byzantine_plan(robot, w, now, false, jobs);
             if plan.is_none() {
                 self.learners.waiting.insert(robot, w);
@@ -474,7 +481,7 @@ impl Sim {
         Some(Decided {
             robot,
             phase,
-            started_ms: now.0,
+            ready_ms,
             plan,
         })
     }
@@ -547,12 +554,12 @@ impl Sim {
         let Decided {
             robot: r,
             phase,
-            started_ms,
+            ready_ms,
             plan,
         } = decided;
         // A phase's submission leaves a training duration after the phase began, or now if a
         // waiting attack decided later than that.
-        let submit_at = (started_ms + self.learners.duration_ms).max(now.0);
+        let submit_at = ready_ms.max(now.0);
         let (base_round, action, submission) = match plan {
             Plan::Skip { reason, base_round } => {
                 (base_round, LearnAction::Skipped { reason }, None)
@@ -602,7 +609,9 @@ impl Sim {
             .lacks_stake(&self.rec.state, robot, self.learners.stake_units)
         {
             Some(SkipReason::InsufficientStake)
-        } else if self.protocol.submitted(&self.rec.state, robot) {
+        } else if !self.learners.timing.submits_blind()
+            && self.protocol.submitted(&self.rec.state, robot)
+        {
             Some(SkipReason::AlreadySubmitted)
         } else {
             None

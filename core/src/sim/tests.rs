@@ -149,3 +149,100 @@ fn position_heterogeneity_rises_as_home_ranges_narrow_and_is_deterministic() {
         position_measure(0.1, 3, 600.0)
     );
 }
+
+/// The smoke swarm under the authors' timing, 5 malicious robots, `seconds` long.
+fn authors_timing(seconds: f64) -> Config {
+    let mut c = Preset::AuthorsTiming.config();
+    c.run.duration_s = seconds;
+    c.byzantine.kind = crate::config::ByzantineKind::Malicious;
+    c.byzantine.count = 5;
+    c.validate().unwrap();
+    c
+}
+
+/// `(time ms, robot)` of every learning report of the robots `byzantine` marks (or not).
+fn reports(records: &[Record], byzantine: &[bool], of_byzantine: bool) -> Vec<(u64, RobotId)> {
+    records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Event {
+                time,
+                event: Event::Learn(report),
+            } if byzantine[report.robot as usize] == of_byzantine => Some((time.0, report.robot)),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn under_the_authors_timing_byzantine_robots_submit_in_step_and_honest_ones_one_at_a_time() {
+    let config = authors_timing(450.0);
+    let byzantine = byzantine::byzantine_robots(&config, 3);
+    let records: Vec<Record> = Sim::new(config.clone(), 3).unwrap().collect();
+    let tick = 100;
+    let (jitter, service) = (1_000, 1_500);
+    // Every cycle, each Byzantine robot reports once, within the jitter (and the tick that
+    // releases it) of the cycle's time.
+    let bad = reports(&records, &byzantine, true);
+    for cycle in 1..=4u64 {
+        let in_cycle: Vec<_> = bad
+            .iter()
+            .filter(|(t, _)| *t >= cycle * 100_000 && *t < cycle * 100_000 + jitter + tick)
+            .collect();
+        assert_eq!(in_cycle.len(), 5, "cycle {cycle}: {bad:?}");
+    }
+    assert_eq!(bad.len(), 20, "{bad:?}");
+    // Honest reports leave at least a service time apart (less the tick that releases them).
+    let good = reports(&records, &byzantine, false);
+    assert!(good.len() >= 30, "{}", good.len());
+    for pair in good.windows(2) {
+        assert!(pair[1].0 - pair[0].0 >= service - tick, "{pair:?}");
+    }
+    // Same seed, same records; on one pool thread or two; the default timing differs.
+    let on = |threads: usize| -> Vec<Record> {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("pool");
+        let config = config.clone();
+        pool.install(move || Sim::new(config, 3).unwrap().collect())
+    };
+    assert_eq!(records, on(1));
+    assert_eq!(records, on(2));
+    let mut independent = config.clone();
+    independent.learn.timing = crate::config::Timing::Independent;
+    let plain: Vec<Record> = Sim::new(independent, 3).unwrap().collect();
+    assert_ne!(records, plain);
+    let honest_plain = reports(&plain, &byzantine, false);
+    assert!(
+        honest_plain
+            .windows(2)
+            .any(|p| p[1].0 - p[0].0 < service - tick),
+        "independent phases put two honest trainings closer than a service time"
+    );
+}
+
+#[test]
+fn the_authors_timing_replays_and_forks_with_a_new_period() {
+    let config = authors_timing(300.0);
+    let records: Vec<Record> = Sim::with_lookahead(config.clone(), 4, 0).unwrap().collect();
+    assert_eq!(
+        records,
+        Sim::with_lookahead(config.clone(), 4, 60_000)
+            .unwrap()
+            .collect::<Vec<_>>()
+    );
+    let mut next = config.clone();
+    next.learn.training_period_s = 60.0;
+    next.byzantine.count = 3;
+    let change = Reconfiguration {
+        at_ms: 150_000,
+        overrides: vec![
+            "learn.training_period_s=60".into(),
+            "byzantine.count=3".into(),
+        ],
+        config_toml: next.to_toml(),
+    };
+    let forked: Vec<Record> = Sim::forked(config, 4, &[change]).unwrap().collect();
+    assert!(forked.iter().any(|r| r.kind() == "learn"));
+}

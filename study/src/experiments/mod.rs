@@ -16,7 +16,7 @@ pub use heterogeneity::{
 
 /// The experiments, in the order `swarmfl sweep --help` lists them: the one list, each named
 /// once, with everything `swarmfl sweep` and `swarmfl report` know of it.
-pub const ALL: [Entry; 16] = [
+pub const ALL: [Entry; 19] = [
     Entry {
         id: Id::Preset,
         preset: Preset::E0Baselines,
@@ -142,6 +142,40 @@ pub const ALL: [Entry; 16] = [
         runs: 18,
         drawn_by: DrawnBy::Standard(Standard::byzantine(
             "per number of smart robots, security on, the authors' contract",
+        )),
+    },
+    // Issue 58: the same two under the authors' timing (the `authors-timing` preset: the
+    // authors' contract, the Byzantine robots in step, the honest trainings queued at one
+    // server), at the paper's run counts; `-code` adds the smart robot as the authors' code
+    // runs it (`byzantine.variant = "authors"`).
+    Entry {
+        id: Id::Own("e2-malicious-authors-timing"),
+        preset: Preset::AuthorsTiming,
+        axis: "malicious robots",
+        points: || authors_grid(ByzantineKind::Malicious),
+        runs: 20,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of malicious robots, security on, the authors' contract and timing",
+        )),
+    },
+    Entry {
+        id: Id::Own("e3-smart-authors-timing"),
+        preset: Preset::AuthorsTiming,
+        axis: "smart robots",
+        points: || authors_grid(ByzantineKind::Smart),
+        runs: 18,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of smart robots, security on, the authors' contract and timing",
+        )),
+    },
+    Entry {
+        id: Id::Own("e3-smart-authors-code"),
+        preset: Preset::AuthorsTiming,
+        axis: "smart robots",
+        points: authors_code_grid,
+        runs: 18,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of smart robots, the authors' contract, timing and smart robot",
         )),
     },
     // Issue 32. Two experiments so that each has one number of runs: 3 seeds up to 240
@@ -527,6 +561,17 @@ fn authors_grid(kind: ByzantineKind) -> Vec<Point> {
     let mut points = byzantine_grid();
     for p in points.iter_mut().filter(|p| p.x > 0.0) {
         p.overrides.push(format!("byzantine.kind={}", kind.name()));
+    }
+    points
+}
+
+/// `e3-smart-authors-code`'s grid: [`authors_grid`] of smart robots forging as the authors'
+/// code does (`byzantine.variant = "authors"`: 2 r Delta, the first submission extrapolated
+/// from all-zero weights).
+fn authors_code_grid() -> Vec<Point> {
+    let mut points = authors_grid(ByzantineKind::Smart);
+    for p in points.iter_mut().filter(|p| p.x > 0.0) {
+        p.overrides.push("byzantine.variant=authors".into());
     }
     points
 }

@@ -1,5 +1,5 @@
 use super::*;
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{ByzantineVariant, Config};
 
 #[test]
 fn task_lists_have_the_papers_sizes_and_point_major_order() {
@@ -27,6 +27,9 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e5-smart-defence", 39, 3);
     check("e2-malicious-authors", 8, 20);
     check("e3-smart-authors", 8, 18);
+    check("e2-malicious-authors-timing", 8, 20);
+    check("e3-smart-authors-timing", 8, 18);
+    check("e3-smart-authors-code", 8, 18);
     check("e6-scale", 11, 3);
     check("e6-scale-1000", 3, 2);
     check("e4-heterogeneity-measure", 10, 3);
@@ -60,7 +63,6 @@ fn the_authors_experiments_differ_from_the_papers_only_in_the_contract() {
     }
 }
 
-/// e4-robustness's attacks are the 12 it was published with, in that order.
 #[test]
 fn the_e4_attacks_are_the_published_twelve() {
     let names: Vec<&str> = E4_ATTACKS.iter().map(|k| k.name()).collect();
@@ -132,6 +134,38 @@ fn every_point_resolves_to_a_valid_configuration() {
                 let aggregation = point.name.split('-').next().unwrap();
                 assert_eq!(config.learn.aggregation.name(), aggregation);
             }
+        }
+    }
+}
+
+/// Each point of an `-authors-timing` experiment is its namesake under the authors'
+/// contract with the authors' timing, and nothing else changed (`-code` also sets the smart
+/// robots' variant).
+#[test]
+fn the_authors_timing_experiments_differ_from_the_authors_only_in_the_timing() {
+    for (theirs, timed, variant) in [
+        ("e2-malicious-authors", "e2-malicious-authors-timing", None),
+        ("e3-smart-authors", "e3-smart-authors-timing", None),
+        (
+            "e3-smart-authors",
+            "e3-smart-authors-code",
+            Some(ByzantineVariant::Authors),
+        ),
+    ] {
+        let (a, b) = (experiment(theirs).unwrap(), experiment(timed).unwrap());
+        assert_eq!(a.runs, b.runs);
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert_eq!((&p.name, p.x), (&q.name, q.x));
+            let mut untimed = Config::resolve(Some(&a.preset), None, &p.overrides).unwrap();
+            let t = Config::resolve(Some(&b.preset), None, &q.overrides).unwrap();
+            assert_eq!(t.learn.timing, swarmfl_core::config::Timing::Authors);
+            untimed.learn.timing = t.learn.timing;
+            untimed.preset = t.preset.clone();
+            if let (Some(v), true) = (variant, p.x > 0.0) {
+                assert_eq!(t.byzantine.variant, v, "{timed} {}", q.name);
+                untimed.byzantine.variant = t.byzantine.variant;
+            }
+            assert_eq!(untimed, t, "{timed} {}", q.name);
         }
     }
 }

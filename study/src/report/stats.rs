@@ -380,6 +380,10 @@ impl Gathered {
         if let (Some(t), Some(h)) = (times, heldout) {
             self.heldout_runs.push((t, h));
         }
+        // The round majorities (RESEARCH.md): summaries made before the field lack it.
+        if let (Some(n), true) = (c.byzantine_majority_rounds, c.rounds > 0) {
+            self.push("byzantine_majority_rate", Some(n as f64 / c.rounds as f64));
+        }
         self.push("accepted", number(count(&c.submissions, "accepted")));
         self.push("outlier", number(count(&c.submissions, "outlier")));
     }

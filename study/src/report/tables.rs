@@ -168,6 +168,32 @@ fn experiment_section(
     let _ = writeln!(md);
 }
 
+/// The round majorities, when the summaries measured them (they were added with the authors'
+/// timing, issue #58): per point, the fraction of a run's rounds whose accepted submissions
+/// were more than half Byzantine, averaged over its runs.
+fn majority_table(md: &mut String, e: &ExperimentStats) {
+    let rated: Vec<(&PointStats, String)> = e
+        .points
+        .iter()
+        .filter_map(|p| {
+            let s = p.metrics.get("byzantine_majority_rate")?;
+            Some((p, s.text(3)))
+        })
+        .collect();
+    if rated.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "\nRounds with a Byzantine majority (more than half of the round's accepted \
+         submissions Byzantine), as a fraction of the run's rounds:\n\n| point | Byzantine \
+         majority rate |\n|---|---|"
+    );
+    for (p, rate) in rated {
+        let _ = writeln!(md, "| {} | {} |", p.point, rate);
+    }
+}
+
 /// The table of every point's numbers, the table of every point's settings and a note per
 /// section some result files lack.
 fn points_tables(md: &mut String, e: &ExperimentStats) {
@@ -203,6 +229,7 @@ fn points_tables(md: &mut String, e: &ExperimentStats) {
             p.wall_s.map_or_else(|| "n/a".to_string(), |s| s.text(1)),
         );
     }
+    majority_table(md, e);
     let _ = writeln!(
         md,
         "\nSettings: preset `{}`; per point the simulated duration and every override \
