@@ -497,6 +497,7 @@ fn paper_learn() -> LearnConfig {
         aggregation: Aggregation::Chain,
         gossip_outlier_filter: false,
         frame: Frame::World,
+        withheld: Vec::new(),
     }
 }
 
@@ -564,5 +565,6 @@ fn paper_byzantine() -> ByzantineConfig {
         switch_token_share: 0.5,
         search_evals: 20,
         plugin: String::new(),
+        as_honest: Vec::new(),
     }
 }

@@ -71,6 +71,8 @@ pub(super) struct Pending {
 pub(super) struct Learners {
     pub(super) shape: ModelShape,
     pub(super) byzantine: Vec<bool>,
+    /// Robots that take no learning phase (`learn.withheld`).
+    pub(super) withheld: Vec<bool>,
     /// The Byzantine robots' agent (`None` without Byzantine robots).
     pub(super) attack: Option<Arc<dyn byzantine::Attack>>,
     /// The plug-ins the run is offered (a fork's reconfiguration may name one).
@@ -95,11 +97,10 @@ impl Learners {
         Ok(Learners {
             shape: ModelShape::from_config(config),
             // Robots that only attack the ledger train honestly.
-            byzantine: if config.byzantine.kind == ByzantineKind::None {
-                vec![false; robots as usize]
-            } else {
-                byzantine::byzantine_robots(config, seed)
-            },
+            byzantine: learning_byzantine(config, seed),
+            withheld: (0..robots)
+                .map(|r| config.learn.withheld.contains(&r))
+                .collect(),
             attack: byzantine::agent(&config.byzantine, plugins).map_err(SimError::Plugin)?,
             plugins: plugins.clone(),
             waiting: BTreeMap::new(),
@@ -128,6 +129,7 @@ impl Learners {
             .expect("Sim::forked checked every reconfiguration's plug-in");
         // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
         self.byzantine = fresh.byzantine;
+        self.withheld = fresh.withheld;
         self.attack = fresh.attack;
         // A phase waited under the old attack ends unsubmitted, without a report.
         self.waiting.clear();
@@ -135,4 +137,20 @@ impl Learners {
         self.duration_ms = fresh.duration_ms;
         self.stake_units = fresh.stake_units;
     }
+}
+
+/// The robots whose learning phases the attack decides: the Byzantine robots of `config`
+/// (none when only the ledger misbehaves) but those `byzantine.as_honest` names.
+fn learning_byzantine(config: &Config, seed: u64) -> Vec<bool> {
+    let robots = config.world.robots as usize;
+    if config.byzantine.kind == ByzantineKind::None {
+        return vec![false; robots];
+    }
+    let mut byzantine = byzantine::byzantine_robots(config, seed);
+    for &r in &config.byzantine.as_honest {
+        if let Some(b) = byzantine.get_mut(r as usize) {
+            *b = false;
+        }
+    }
+    byzantine
 }
