@@ -35,8 +35,9 @@ pub fn command(args: ContributionsArgs) -> anyhow::Result<ExitCode> {
         c.outcome,
         c.block,
         c.time_s,
-        c.nobody
-            .map_or(String::new(), |v| format!("; with no robot submitting: {v}"))
+        c.nobody.map_or(String::new(), |v| format!(
+            "; with no robot submitting: {v}"
+        ))
     );
     println!(
         "{:>5} {:>4} {:>14} {:>14} {:>12}",

@@ -146,7 +146,11 @@ pub fn contributions(
     let mut marginals = vec![Vec::with_capacity(samples as usize); n as usize];
     let mut orders = Orders(seed);
     let everyone: Vec<u32> = (0..n).collect();
-    let nobody = if samples > 0 { Some(game.value(&everyone)?) } else { None };
+    let nobody = if samples > 0 {
+        Some(game.value(&everyone)?)
+    } else {
+        None
+    };
     for _ in 0..samples {
         let order = orders.order(n);
         // Walk the order: the coalition grows from nobody to everyone.

@@ -208,7 +208,11 @@ pub fn blame(log: &Path, request: &BlameRequest, watch: &dyn Watch) -> anyhow::R
             first_report_s: facts.first_learn.map(|t| t.secs()),
         });
     }
-    robots.sort_by(|a, b| b.influence.total_cmp(&a.influence).then(a.robot.cmp(&b.robot)));
+    robots.sort_by(|a, b| {
+        b.influence
+            .total_cmp(&a.influence)
+            .then(a.robot.cmp(&b.robot))
+    });
     Ok(BlameReport {
         log: parent.name.clone(),
         expr: request.outcome.clone(),

@@ -78,7 +78,12 @@ fn check_header(path: &Path, name: &str) -> anyhow::Result<(Config, u64)> {
             "{name} was made with plug-in attacks or rules ({}); the command line cannot \
              re-simulate them: blame it from Python, where the plug-ins are offered \
              (swarmfl.Run(...).blame(plugins=...)), or blame a run without plug-ins",
-            header.plugins.iter().map(|p| p.name.as_str()).collect::<Vec<_>>().join(", ")
+            header
+                .plugins
+                .iter()
+                .map(|p| p.name.as_str())
+                .collect::<Vec<_>>()
+                .join(", ")
         );
     }
     if header.parent.is_some() {
@@ -174,12 +179,29 @@ impl Parent {
     /// `as_honest` Byzantine robots learning honestly, re-simulated from genesis to the stop
     /// (its records up to the first robot changed's first learning report are checked against
     /// the parent's checkpoints).
-    pub(super) fn counterfactual(&self, withheld: &[u32], as_honest: &[u32]) -> anyhow::Result<f64> {
+    pub(super) fn counterfactual(
+        &self,
+        withheld: &[u32],
+        as_honest: &[u32],
+    ) -> anyhow::Result<f64> {
+        Ok(self.counterfactual_run(withheld, as_honest)?.0)
+    }
+
+    /// [`Parent::counterfactual`] and the last checkpoint the re-simulation made (its state's
+    /// digest: what the exactness test compares with a fresh run's).
+    pub(super) fn counterfactual_run(
+        &self,
+        withheld: &[u32],
+        as_honest: &[u32],
+    ) -> anyhow::Result<(f64, Option<Record>)> {
         let mut config = self.config.clone();
         config.learn.withheld = withheld.to_vec();
         config.byzantine.as_honest = as_honest.to_vec();
         config.validate()?;
-        let name = format!("{} without {withheld:?}, {as_honest:?} as honest", self.name);
+        let name = format!(
+            "{} without {withheld:?}, {as_honest:?} as honest",
+            self.name
+        );
         let diverges = withheld
             .iter()
             .chain(as_honest)
@@ -188,8 +210,14 @@ impl Parent {
         let mut indexer = Indexer::for_config(config.clone(), self.seed, &name, None)?;
         let sim = Sim::new(config, self.seed)?;
         let mut parent = self.checkpoints.iter();
+        let mut last = None;
         let mut check = |record: &Record| {
-            if !matches!(record, Record::Checkpoint(_)) || diverges.is_none_or(|t| record.time() >= t) {
+            if matches!(record, Record::Checkpoint(_)) {
+                last = Some(record.clone());
+            }
+            if !matches!(record, Record::Checkpoint(_))
+                || diverges.is_none_or(|t| record.time() >= t)
+            {
                 return Ok(());
             }
             if parent.next() != Some(record) {
@@ -205,7 +233,8 @@ impl Parent {
             Ok(())
         };
         fold_to_stop(&mut indexer, &mut sim.map(Ok), self.stop, &mut check)?;
-        Ok(read_outcome(&mut indexer, self.stop, &self.expr, &name)?.0)
+        let outcome = read_outcome(&mut indexer, self.stop, &self.expr, &name)?.0;
+        Ok((outcome, last))
     }
 }
 
