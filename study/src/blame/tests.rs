@@ -196,7 +196,7 @@ fn bad_input_is_refused() {
     .expect("writes");
     let plugin = err(BlameRequest::default(), &plug.join("run.swlog"));
     assert!(
-        plugin.contains("plug-in") && plugin.contains("Python"),
+        plugin.contains("plug-in") && plugin.contains("built-in"),
         "{plugin}"
     );
     let _ = std::fs::remove_dir_all(&base);

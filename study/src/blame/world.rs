@@ -75,9 +75,9 @@ fn check_header(path: &Path, name: &str) -> anyhow::Result<(Config, u64)> {
     let header = reader.header();
     if !header.plugins.is_empty() {
         bail!(
-            "{name} was made with plug-in attacks or rules ({}); the command line cannot \
-             re-simulate them: blame it from Python, where the plug-ins are offered \
-             (swarmfl.Run(...).blame(plugins=...)), or blame a run without plug-ins",
+            "{name} was made with plug-ins ({}); blame's counterfactuals re-simulate the \
+             run and cannot be offered plug-ins yet: blame a run of a built-in \
+             byzantine.kind and contract.rule (swarmfl run --set byzantine.kind=...)",
             header
                 .plugins
                 .iter()
