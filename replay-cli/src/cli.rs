@@ -245,6 +245,10 @@ pub struct ViewArgs {
     /// Output file (e.g. run.html).
     #[arg(long)]
     pub out: PathBuf,
+    /// A blame report (`swarmfl blame LOG --json > blame.json`) to show as a per-robot
+    /// influence bar beside the tokens.
+    #[arg(long, value_name = "BLAME_JSON")]
+    pub blame: Option<PathBuf>,
 }
 
 /// The arguments of `swarmfl diff`.
