@@ -462,6 +462,64 @@ fn at_time(py: Python<'_>, log: PathBuf, time_s: f64) -> PyResult<String> {
     serde_json::to_string(&report).map_err(err)
 }
 
+/// `swarmfl blame LOG --json`: each robot's influence on `outcome` read at the end, at block
+/// `block` or where `until` first holds, as JSON text.
+#[pyfunction]
+#[pyo3(signature = (log, outcome, until=None, block=None, robots=None, as_honest=true, quiet=true))]
+#[allow(clippy::too_many_arguments)]
+fn blame(
+    py: Python<'_>,
+    log: PathBuf,
+    outcome: String,
+    until: Option<String>,
+    block: Option<u64>,
+    robots: Option<Vec<u32>>,
+    as_honest: bool,
+    quiet: bool,
+) -> PyResult<String> {
+    use swarmfl_study::blame::{At, BlameRequest};
+    let request = BlameRequest {
+        outcome,
+        at: At::from_flags(until, block),
+        robots,
+        as_honest,
+    };
+    let report = py
+        .detach(|| swarmfl_study::blame::blame(&log, &request, &Lines { quiet }))
+        .map_err(err)?;
+    serde_json::to_string(&report).map_err(err)
+}
+
+/// `swarmfl contributions LOG --json`: leave-one-out and Shapley values, as JSON text.
+#[pyfunction]
+#[pyo3(signature = (log, outcome, until=None, block=None, samples=0, seed=1, quiet=true))]
+#[allow(clippy::too_many_arguments)]
+fn contributions(
+    py: Python<'_>,
+    log: PathBuf,
+    outcome: String,
+    until: Option<String>,
+    block: Option<u64>,
+    samples: u32,
+    seed: u64,
+    quiet: bool,
+) -> PyResult<String> {
+    let at = swarmfl_study::blame::At::from_flags(until, block);
+    let c = py
+        .detach(|| {
+            swarmfl_study::blame::contributions(
+                &log,
+                &outcome,
+                &at,
+                samples,
+                seed,
+                &Lines { quiet },
+            )
+        })
+        .map_err(err)?;
+    serde_json::to_string(&c).map_err(err)
+}
+
 /// The first checkpoint of a baseline run where `expr` holds: `(time_s, leaves)` or None.
 #[pyfunction]
 fn bisect_by_time(
@@ -624,6 +682,8 @@ fn _swarmfl(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(at_block, m)?)?;
     m.add_function(wrap_pyfunction!(at_time, m)?)?;
     m.add_function(wrap_pyfunction!(bisect_by_time, m)?)?;
+    m.add_function(wrap_pyfunction!(blame, m)?)?;
+    m.add_function(wrap_pyfunction!(contributions, m)?)?;
     m.add_class::<Index>()?;
     Ok(())
 }

@@ -21,7 +21,7 @@ import sys
 import tempfile
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any, Mapping, Optional, Union
+from typing import Any, Mapping, Optional, Sequence, Union
 
 import numpy as np
 import pandas as pd
@@ -497,6 +497,37 @@ class Run:
         time_s, leaves = hit
         self.last_bisect = {"time_s": time_s, "values": dict(leaves)}
         return time_s
+
+    def blame(self, outcome: str = "heldout_loss", until: Optional[str] = None,
+              block: Optional[int] = None, robots: Optional[Sequence[int]] = None,
+              as_honest: bool = True, quiet: bool = True) -> pd.DataFrame:
+        """Each robot's influence on ``outcome`` (``swarmfl blame``): the outcome (an
+        expression over ``bisect``'s identifiers) read at the end of the run, at ``block`` or at
+        the first block where ``until`` holds, minus the outcome of the exact re-simulation in
+        which the robot never submits. One row per robot, largest influence first: robot,
+        influence, byzantine, without, influence_as_honest (Byzantine robots), submissions,
+        accepted_rounds, outlier_rounds, first_report_s. The outcome, its block and the costs
+        are in ``frame.attrs``."""
+        raw = json.loads(_swarmfl.blame(os.fspath(self.log), outcome, until, block,
+                                        None if robots is None else [int(r) for r in robots],
+                                        as_honest, quiet))
+        frame = pd.DataFrame(raw.pop("robots"))
+        frame.attrs.update(raw)
+        return frame
+
+    def contributions(self, outcome: str = "heldout_loss", until: Optional[str] = None,
+                      block: Optional[int] = None, samples: int = 0, seed: int = 1,
+                      quiet: bool = True) -> pd.DataFrame:
+        """Whole-run contributions (``swarmfl contributions``): per robot its leave-one-out and,
+        with ``samples`` > 0, its Shapley value over ``samples`` orders drawn with ``seed`` and
+        the standard error (shapley_se). Positive values make the outcome larger. The outcome,
+        the outcome with no robot submitting (``nobody``) and the costs are in
+        ``frame.attrs``."""
+        raw = json.loads(_swarmfl.contributions(os.fspath(self.log), outcome, until, block,
+                                                int(samples), int(seed), quiet))
+        frame = pd.DataFrame(raw.pop("robots"))
+        frame.attrs.update(raw)
+        return frame
 
     def view(self, out: PathLike) -> Path:
         """Writes the run's viewer, one self-contained HTML file, into ``out`` (as ``swarmfl

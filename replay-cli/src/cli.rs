@@ -107,6 +107,17 @@ pub enum Command {
     /// the parent) and replays on its own.
     #[command(after_long_help = FORK_HELP)]
     Fork(ForkArgs),
+    /// Who caused it: each robot's influence on an outcome (an expression over bisect's
+    /// identifiers, the held-out loss by default) read at the end, at --block N or at the first
+    /// block where --until holds: the outcome minus the outcome of the exact re-simulation in
+    /// which the robot never submits (`learn.withheld = [k]`), and for a Byzantine robot also
+    /// as if it had learned honestly (`byzantine.as_honest = [k]`). Largest influence first;
+    /// prints what the counterfactuals cost.
+    Blame(BlameArgs),
+    /// Whole-run contributions: each robot's leave-one-out and Shapley value (permutation
+    /// sampling, --samples orders drawn with --seed, with the standard error) of an outcome,
+    /// from exact re-simulations in which only some robots submit.
+    Contributions(ContributionsArgs),
     /// Write CSV tables of a run: rounds.csv (per closed round: time, loss, held-out loss,
     /// accepted, outliers; a gossip or central run: per aggregation), submissions.csv (every
     /// counted submission of every closed round: outcome, distance, samples claimed, reward),
@@ -234,6 +245,10 @@ pub struct ViewArgs {
     /// Output file (e.g. run.html).
     #[arg(long)]
     pub out: PathBuf,
+    /// A blame report (`swarmfl blame LOG --json > blame.json`) to show as a per-robot
+    /// influence bar beside the tokens.
+    #[arg(long, value_name = "BLAME_JSON")]
+    pub blame: Option<PathBuf>,
 }
 
 /// The arguments of `swarmfl diff`.
@@ -296,6 +311,54 @@ pub struct BisectArgs {
     /// Print JSON.
     #[arg(long)]
     pub json: bool,
+}
+
+/// Where `blame` and `contributions` read the outcome.
+#[derive(Args, Debug)]
+pub struct OutcomeArgs {
+    /// The log (run.swlog) of a chain run made without plug-ins.
+    pub log: PathBuf,
+    /// The outcome: an expression over bisect's identifiers (`swarmfl bisect --help`).
+    #[arg(long, default_value = "heldout_loss")]
+    pub outcome: String,
+    /// Read the outcome at the first block where this condition holds.
+    #[arg(long, conflicts_with = "block")]
+    pub until: Option<String>,
+    /// Read the outcome at this block of the final canonical chain.
+    #[arg(long)]
+    pub block: Option<u64>,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress lines.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The arguments of `swarmfl blame`.
+#[derive(Args, Debug)]
+pub struct BlameArgs {
+    #[command(flatten)]
+    pub outcome: OutcomeArgs,
+    /// Blame only these robots (repeatable; default: every robot).
+    #[arg(long = "robot", value_name = "ID")]
+    pub robots: Vec<u32>,
+    /// Leave out the "as if honest" counterfactuals of the Byzantine robots.
+    #[arg(long)]
+    pub no_honest: bool,
+}
+
+/// The arguments of `swarmfl contributions`.
+#[derive(Args, Debug)]
+pub struct ContributionsArgs {
+    #[command(flatten)]
+    pub outcome: OutcomeArgs,
+    /// Sampled orders for the Shapley values (0: leave-one-out only).
+    #[arg(long, default_value_t = 0)]
+    pub samples: u32,
+    /// The seed of the sampled orders.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
 }
 
 /// The arguments of `swarmfl fork`.

@@ -49,6 +49,8 @@ fn dispatch(command: Command) -> anyhow::Result<ExitCode> {
         Command::Inspect(args) => inspect::command(args),
         Command::Bisect(args) => bisect::command(args),
         Command::Fork(args) => fork::command(args),
+        Command::Blame(args) => blame::command(args),
+        Command::Contributions(args) => contributions::command(args),
         Command::Export(args) => export::command(args),
         Command::Ranking(args) => ranking::command(args),
         Command::Traffic(args) => traffic::command(args),

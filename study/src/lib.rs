@@ -9,6 +9,7 @@
 //! the viewer ([`view`]). It prints nothing: a long job shows its progress and says its
 //! warnings through [`progress::Watch`], which each front end implements.
 
+pub mod blame;
 pub mod data_volume;
 pub mod experiments;
 pub mod export;

@@ -53,6 +53,7 @@ pub(super) fn list_example(key: &str) -> Option<&'static str> {
         "contract.preaggregators" => r#"["nnm"]"#,
         "contract.reward_weights" => "[1, 1, -1]",
         "world.mixed.per_robot" => r#"["avoidance", "flocking"]"#,
+        "learn.withheld" | "byzantine.as_honest" => "[0, 3]",
         _ => return None,
     })
 }

@@ -208,6 +208,7 @@ pub const RECONFIGURABLE: &[&str] = &[
     "learn.training_period_s",
     "learn.training_duration_s",
     "learn.min_train_samples",
+    "learn.withheld",
     "contract.security",
     "contract.stake_tokens",
     "contract.quorum_fraction",

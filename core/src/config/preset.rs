@@ -514,6 +514,7 @@ fn paper_learn() -> LearnConfig {
         aggregation: Aggregation::Chain,
         gossip_outlier_filter: false,
         frame: Frame::World,
+        withheld: Vec::new(),
     }
 }
 
@@ -581,5 +582,6 @@ fn paper_byzantine() -> ByzantineConfig {
         switch_token_share: 0.5,
         search_evals: 20,
         plugin: String::new(),
+        as_honest: Vec::new(),
     }
 }

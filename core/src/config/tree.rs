@@ -216,6 +216,12 @@ pub struct LearnConfig {
     /// Left out of the recorded text at its default.
     #[serde(default, skip_serializing_if = "is_default")]
     pub authors_timing: AuthorsTimingConfig,
+    /// Robots that never submit a model: they move, record data and seal blocks, but take no
+    /// learning phase (no training, no report, no submission). The counterfactual of
+    /// `swarmfl blame` and `contributions` ("the run without robot k's submissions"). Empty
+    /// (the default) and then left out of the recorded configuration, so no record moves.
+    #[serde(default, skip_serializing_if = "is_empty")]
+    pub withheld: Vec<u32>,
 }
 
 /// The coordinates of the model's inputs and targets (`learn.frame`).
@@ -690,6 +696,12 @@ pub struct ByzantineConfig {
     /// empty otherwise. Left out of the recorded configuration when empty.
     #[serde(default, skip_serializing_if = "is_default")]
     pub plugin: String,
+    /// Byzantine robots (of those `count` draws) that train and submit as honest robots do:
+    /// the "as if honest" counterfactual of `swarmfl blame`. They stay in the Byzantine set
+    /// that summaries and predicates group by. Empty (the default) and then left out of the
+    /// recorded configuration.
+    #[serde(default, skip_serializing_if = "is_empty")]
+    pub as_honest: Vec<u32>,
 }
 
 fn default_search_evals() -> u32 {

@@ -152,6 +152,7 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("contract.defence_refund_percent", k.defence_refund_percent.into(), 0, 100),
         Across(defences_need_stakes),
         Across(super::preagg_fit::chain_fits),
+        Across(withheld_are_robots),
     ]
 }
 
@@ -696,4 +697,34 @@ fn defences_need_stakes(c: &Config) -> Result<(), ConfigError> {
          contract.defence = none"
             .to_string(),
     )
+}
+
+/// `learn.withheld` and `byzantine.as_honest` name robots of the swarm, each once.
+fn withheld_are_robots(c: &Config) -> Result<(), ConfigError> {
+    for (key, list) in [
+        ("learn.withheld", &c.learn.withheld),
+        ("byzantine.as_honest", &c.byzantine.as_honest),
+    ] {
+        let robots = c.world.robots;
+        if let Some(bad) = list.iter().find(|&&r| r >= robots) {
+            return out_of_range(
+                key,
+                format!("{list:?} (robot {bad})"),
+                format!(
+                    "a list of robot ids from 0 to {}, each at most once",
+                    robots.saturating_sub(1)
+                ),
+            );
+        }
+        let mut sorted = list.clone();
+        sorted.sort_unstable();
+        if sorted.windows(2).any(|w| w[0] == w[1]) {
+            return out_of_range(
+                key,
+                format!("{list:?}"),
+                "a list of robot ids, each at most once".to_string(),
+            );
+        }
+    }
+    Ok(())
 }

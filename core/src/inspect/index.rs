@@ -232,7 +232,18 @@ impl Indexer {
         want: Option<u64>,
     ) -> Result<Indexer, InspectError> {
         let config = header_config(reader, name)?;
-        let seed = reader.header().seed;
+        Indexer::for_config(config, reader.header().seed, name, want)
+    }
+
+    /// An index of no record yet of a run of `config` with `seed` that is not read from a
+    /// log (a simulation folded as it runs: `swarmfl blame`'s counterfactuals); `name` names
+    /// it in errors, `want` as in [`index_run`].
+    pub fn for_config(
+        config: Config,
+        seed: u64,
+        name: &str,
+        want: Option<u64>,
+    ) -> Result<Indexer, InspectError> {
         let state = State::genesis(&config, seed).map_err(|source| ReplayError::Start {
             path: name.to_string(),
             cause: source,

@@ -73,6 +73,8 @@ pub(super) struct Pending {
 pub(super) struct Learners {
     pub(super) shape: ModelShape,
     pub(super) byzantine: Vec<bool>,
+    /// Robots that take no learning phase (`learn.withheld`).
+    pub(super) withheld: Vec<bool>,
     /// The Byzantine robots' agent (`None` without Byzantine robots).
     pub(super) attack: Option<Arc<dyn byzantine::Attack>>,
     /// The plug-ins the run is offered (a fork's reconfiguration may name one).
@@ -98,15 +100,14 @@ impl Learners {
     /// The learning loop of `config`; an error when it names a plug-in `plugins` lacks.
     pub(super) fn new(config: &Config, seed: u64, plugins: &Plugins) -> Result<Learners, SimError> {
         let robots = config.world.robots;
-        // Robots that only attack the ledger train honestly.
-        let byzantine = if config.byzantine.kind == ByzantineKind::None {
-            vec![false; robots as usize]
-        } else {
-            byzantine::byzantine_robots(config, seed)
-        };
+        // Robots that only attack the ledger, and those blamed as if honest, train honestly.
+        let byzantine = learning_byzantine(config, seed);
         let mut timing = timing_model(config, seed, &byzantine, None);
         Ok(Learners {
             shape: ModelShape::from_config(config),
+            withheld: (0..robots)
+                .map(|r| config.learn.withheld.contains(&r))
+                .collect(),
             attack: byzantine::agent(&config.byzantine, plugins).map_err(SimError::Plugin)?,
             plugins: plugins.clone(),
             waiting: BTreeMap::new(),
@@ -164,6 +165,7 @@ impl Learners {
             .expect("Sim::forked checked every reconfiguration's plug-in");
         // (The ledger agents keep the root configuration's behaviour: see `Sim::forked`.)
         self.byzantine = fresh.byzantine;
+        self.withheld = fresh.withheld;
         self.attack = fresh.attack;
         // A phase waited under the old attack ends unsubmitted, without a report.
         self.waiting.clear();
@@ -177,4 +179,20 @@ impl Learners {
         self.timing = timing_model(config, seed, &self.byzantine, Some(&kept));
         self.stake_units = fresh.stake_units;
     }
+}
+
+/// The robots whose learning phases the attack decides: the Byzantine robots of `config`
+/// (none when only the ledger misbehaves) but those `byzantine.as_honest` names.
+fn learning_byzantine(config: &Config, seed: u64) -> Vec<bool> {
+    let robots = config.world.robots as usize;
+    if config.byzantine.kind == ByzantineKind::None {
+        return vec![false; robots];
+    }
+    let mut byzantine = byzantine::byzantine_robots(config, seed);
+    for &r in &config.byzantine.as_honest {
+        if let Some(b) = byzantine.get_mut(r as usize) {
+            *b = false;
+        }
+    }
+    byzantine
 }

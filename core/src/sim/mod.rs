@@ -366,7 +366,7 @@ impl Sim {
             for r in 0..self.config.world.robots {
                 let i = r as usize;
                 while a.next_due_ms[i] <= now_ms {
-                    if !self.learners.byzantine[i] {
+                    if !self.learners.byzantine[i] && !self.learners.withheld[i] {
                         a.upcoming
                             .insert((a.next_due_ms[i], r), (a.phases[i], a.world.dataset(r)));
                     }
@@ -467,6 +467,10 @@ impl Sim {
         self.learners.positions.count(i, phase, data, train);
         let captured = self.ahead.upcoming.remove(&(due_ms, robot));
         let speculated = self.ahead.speculated.remove(&(robot, phase));
+        if self.learners.withheld[i] {
+            // `learn.withheld`: the phase passes without training, report or submission.
+            return None;
+        }
         self.protocol.phase_begins(&mut self.rec, now, robot);
         let plan = if self.learners.byzantine[i] {
             let w = Waiting { phase, ready_ms };
@@ -794,6 +798,10 @@ impl Sim {
                 break;
             }
             let Pending { report, submission } = entry.remove();
+            if self.learners.withheld[report.robot as usize] {
+                // Queued before a fork withheld the robot: it never leaves.
+                continue;
+            }
             // A training finished between ticks is submitted at the tick that follows.
             self.rec.emit(now, Event::Learn(report));
             match submission {

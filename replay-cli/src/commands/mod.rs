@@ -5,8 +5,10 @@
 
 pub mod bench;
 pub mod bisect;
+pub mod blame;
 pub mod chaos;
 pub mod config;
+pub mod contributions;
 pub mod data_volume;
 pub mod diff;
 pub mod export;

@@ -2,15 +2,17 @@
 
 use std::process::ExitCode;
 
-use swarmfl_study::view::view;
+use swarmfl_study::blame::read_report;
+use swarmfl_study::view::view_blamed;
 
 use crate::cli::ViewArgs;
 use crate::progress::Bar;
 
 /// Runs `swarmfl view`: writes the page and says what it holds.
 pub fn command(args: ViewArgs) -> anyhow::Result<ExitCode> {
-    let ViewArgs { log, out } = args;
-    let v = view(&log, &out, &Bar::new(false))?;
+    let ViewArgs { log, out, blame } = args;
+    let blame = blame.as_deref().map(read_report).transpose()?;
+    let v = view_blamed(&log, &out, blame.as_ref(), &Bar::new(false))?;
     if let Some(note) = &v.rule_note {
         println!(
             "wrote {} ({:.1} MB: {} frames, one every {} s): the world only. {note}",

@@ -33,6 +33,7 @@
 //! frames), [`data`] (the page's data object as JSON), [`world`] (the page of a log whose
 //! plug-in rule is not loaded); this module writes the page.
 
+mod blame_bar;
 mod data;
 mod fold;
 mod frames;
@@ -68,6 +69,17 @@ pub struct ViewOutcome {
 
 /// Writes the viewer of `log` into `out`; a truncated log is warned of on `watch`.
 pub fn view(log: &Path, out: &Path, watch: &dyn Watch) -> anyhow::Result<ViewOutcome> {
+    view_blamed(log, out, None, watch)
+}
+
+/// [`view`] with a blame report's pane (a per-robot influence bar beside the tokens) when
+/// `blame` is given (`swarmfl view LOG --blame blame.json`).
+pub fn view_blamed(
+    log: &Path,
+    out: &Path,
+    blame: Option<&crate::blame::BlameReport>,
+    watch: &dyn Watch,
+) -> anyhow::Result<ViewOutcome> {
     let page = match unloaded_rule(log)? {
         // The contract's results need the rule: the page draws the world from its records.
         Some(rule) => world_page(log, &rule, watch)?,
@@ -79,7 +91,10 @@ pub fn view(log: &Path, out: &Path, watch: &dyn Watch) -> anyhow::Result<ViewOut
             page
         }
     };
-    let html = page.html();
+    let html = match blame {
+        Some(report) => blame_bar::inject(&page.html(), report)?,
+        None => page.html(),
+    };
     if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create the folder {}", dir.display()))?;
