@@ -147,7 +147,7 @@ pub fn summarise(
     count_submissions(&mut s, state, metrics);
     s.final_loss = s.loss_by_round.last().copied();
     s.final_heldout_loss = match state.kind() {
-        Aggregation::Central => s.heldout_loss_by_round.last().copied(),
+        Aggregation::Central | Aggregation::Matched => s.heldout_loss_by_round.last().copied(),
         _ => {
             (!per_robot.is_empty()).then(|| per_robot.iter().sum::<f64>() / per_robot.len() as f64)
         }

@@ -250,6 +250,10 @@ pub enum Aggregation {
     Gossip,
     /// An ideal server that receives every model instantly and aggregates FedAvg.
     Central,
+    /// The matched ideal of the buffered protocol (`aggregation/matched.rs`): a server that
+    /// receives every update instantly and applies the buffered rule to every
+    /// `contract.buffer_size` of them, without delay, staleness bound or outlier check.
+    Matched,
 }
 
 impl Aggregation {
@@ -259,6 +263,7 @@ impl Aggregation {
             Aggregation::Chain => "chain",
             Aggregation::Gossip => "gossip",
             Aggregation::Central => "central",
+            Aggregation::Matched => "matched",
         }
     }
 }

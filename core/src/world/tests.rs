@@ -384,7 +384,10 @@ fn the_heldout_plan_has_the_same_windows_at_every_size_above_the_papers() {
         // first robot to the last stretch of the swarm.
         assert_eq!(seen.len(), (14 * 15).min(n), "{n} robots");
         assert_eq!(seen[0], 0);
-        assert!(*seen.last().unwrap() >= n - n.div_ceil(210), "{n} robots: {seen:?}");
+        assert!(
+            *seen.last().unwrap() >= n - n.div_ceil(210),
+            "{n} robots: {seen:?}"
+        );
     }
     // 0 windows: the rule before the key, one window of 240 robots.
     let old = HeldoutPlan::new(200, 240, 0, 50_000, 100);
