@@ -22,7 +22,7 @@ use crate::config::{Config, FedAvgRounding};
 use crate::contract::buffered::{staleness_weight, STEP_SCALE};
 use crate::contract::payout::{self, div_round_half_away};
 use crate::contract::MAX_WEIGHT_MAGNITUDE;
-use crate::types::{Digest, RobotId};
+use crate::types::{Digest, RobotId, SimTime};
 
 const MAX_W: i128 = MAX_WEIGHT_MAGNITUDE as i128 - 1;
 
@@ -49,6 +49,11 @@ pub struct MatchedServer {
     uploads: Vec<u64>,
     /// The open buffer, in arrival order.
     pending: Vec<Pending>,
+    /// When each version was made (`made_ms[v]`, genesis at 0).
+    made_ms: Vec<u64>,
+    /// Every update's base age at its upload: (versions, milliseconds), in upload order (a
+    /// figure for the summary; the state digest has the versions already).
+    pub ages: Vec<(u64, u64)>,
     buffer_size: usize,
     exponent: f64,
     step_units: u64,
@@ -67,6 +72,8 @@ impl MatchedServer {
             version: 0,
             uploads: vec![0; robots],
             pending: Vec::new(),
+            made_ms: vec![0],
+            ages: Vec::new(),
             buffer_size: c.buffer_size.max(1) as usize,
             exponent: c.staleness_exponent,
             step_units: (c.server_step * STEP_SCALE as f64).round() as u64,
@@ -105,6 +112,7 @@ impl MatchedServer {
     /// updates aggregated (the new version is then in `weights`).
     pub fn upload(
         &mut self,
+        time: SimTime,
         robot: RobotId,
         samples: u64,
         weights: Arc<[i64]>,
@@ -121,6 +129,13 @@ impl MatchedServer {
         }
         self.uploads[i] += 1;
         let (base_version, base) = self.bases[i].clone();
+        let made = self
+            .made_ms
+            .get(base_version as usize)
+            .copied()
+            .unwrap_or(0);
+        self.ages
+            .push((self.version - base_version, time.0.saturating_sub(made)));
         let update = weights
             .iter()
             .zip(base.iter())
@@ -142,7 +157,9 @@ impl MatchedServer {
         if self.pending.len() < self.buffer_size {
             return Ok((entry, None));
         }
-        Ok((entry, Some(self.step())))
+        let members = self.step();
+        self.made_ms.push(time.0);
+        Ok((entry, Some(members)))
     }
 
     /// Closes the buffer: the staleness- and sample-weighted mean update, the server step.
@@ -212,16 +229,22 @@ mod tests {
         let mut s = MatchedServer::new(&config(2), Arc::from(vec![0i64, 0]));
         s.download(0).unwrap();
         s.download(1).unwrap();
-        let (_, none) = s.upload(0, 1, Arc::from(vec![10i64, -10])).unwrap();
+        let (_, none) = s
+            .upload(SimTime(0), 0, 1, Arc::from(vec![10i64, -10]))
+            .unwrap();
         assert!(none.is_none(), "one update of K = 2 does not step");
-        let (_, members) = s.upload(1, 3, Arc::from(vec![2i64, 2])).unwrap();
+        let (_, members) = s
+            .upload(SimTime(0), 1, 3, Arc::from(vec![2i64, 2]))
+            .unwrap();
         // (1 * 10 + 3 * 2) / 4 = 4; (1 * -10 + 3 * 2) / 4 = -1: both fresh, equal staleness.
         assert_eq!(&s.weights[..], &[4, -1]);
         assert_eq!((s.version, members.unwrap().len()), (1, 2));
         // Robot 2 still trains from genesis (version 0, one behind); robot 0 from version 1.
         s.download(0).unwrap();
-        s.upload(0, 1, Arc::from(vec![6i64, 1])).unwrap(); // update (2, 2), S(0) = 65536
-        s.upload(2, 1, Arc::from(vec![-8i64, 8])).unwrap(); // update (-8, 8), S(1) = 46341
+        s.upload(SimTime(0), 0, 1, Arc::from(vec![6i64, 1]))
+            .unwrap(); // update (2, 2), S(0) = 65536
+        s.upload(SimTime(0), 2, 1, Arc::from(vec![-8i64, 8]))
+            .unwrap(); // update (-8, 8), S(1) = 46341
         let (s0, s1) = (65536i128, 46341i128);
         let want = |a: i128, b: i128| div_round_half_away(a * s0 + b * s1, s0 + s1);
         assert_eq!(
@@ -235,10 +258,10 @@ mod tests {
     #[test]
     fn a_second_update_of_one_robot_counts_and_nothing_is_refused() {
         let mut s = MatchedServer::new(&config(2), Arc::from(vec![0i64]));
-        s.upload(0, 1, Arc::from(vec![2i64])).unwrap();
-        s.upload(0, 1, Arc::from(vec![4i64])).unwrap();
+        s.upload(SimTime(0), 0, 1, Arc::from(vec![2i64])).unwrap();
+        s.upload(SimTime(0), 0, 1, Arc::from(vec![4i64])).unwrap();
         assert_eq!((&s.weights[..], s.version), (&[3i64][..], 1));
-        assert!(s.upload(5, 1, Arc::from(vec![1i64])).is_err());
-        assert!(s.upload(1, 0, Arc::from(vec![1i64])).is_err());
+        assert!(s.upload(SimTime(0), 5, 1, Arc::from(vec![1i64])).is_err());
+        assert!(s.upload(SimTime(0), 1, 0, Arc::from(vec![1i64])).is_err());
     }
 }

@@ -472,7 +472,9 @@ impl AggregationState {
                 weights,
             } => {
                 let (entry, members, now) = if self.kind == Aggregation::Matched {
-                    let (e, m) = self.matched.upload(*robot, *samples, weights.clone())?;
+                    let (e, m) = self
+                        .matched
+                        .upload(time, *robot, *samples, weights.clone())?;
                     (e, m, self.matched.weights.clone())
                 } else {
                     let (e, m) = self.server.upload(
