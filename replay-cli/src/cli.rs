@@ -375,7 +375,7 @@ pub struct TrafficArgs {
 pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
-    /// e6-scale or e6-scale-1000.
+    /// e6-scale, e6-scale-1000 or e6-scale-1000-gossip.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
@@ -663,8 +663,10 @@ Experiments, points and default runs (seeds 1..=runs):
                  (smart 0..7, smart-then-collude 3, 5, 7, faulty 3, malicious 3)       3 runs
   e2-malicious-authors, e3-smart-authors  e2-malicious and e3-smart under the authors'
                  contract (preset authors: docs/CONTRACT.md's options at their values)  20, 18 runs
-  e6-scale       {rounds,buffered,gossip}-{15,60,240}, {rounds,buffered}-240-faulty-24 3 runs
-  e6-scale-1000  {rounds,buffered,gossip}-1000 (paper density, one training a second)  2 runs
+  e6-scale       {rounds,buffered,matched,gossip}-{15,60,240}, buffered-240-faulty-24
+                 (paper density, a training every 100 s; matched: the buffered ideal)  3 runs
+  e6-scale-1000  {rounds,buffered,matched}-1000                                         2 runs
+  e6-scale-1000-gossip  gossip-1000                                                     2 runs
 
 Task list (fixed): point-major, task index = point_index * runs + (seed - 1), points in the
 order above. Shard I/N runs the tasks with index % N == I. The shard comes from --shard I/N,
