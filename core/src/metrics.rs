@@ -236,6 +236,85 @@ pub struct ContractSummary {
     pub byzantine_majority_rounds: Option<u64>,
     /// Learning phases skipped, by reason (from the robots' reports).
     pub skipped: BTreeMap<String, u64>,
+    /// The median of the shared model's held-out loss over the last [`LAST_WINDOW_S`] of the
+    /// run, sampled every [`LAST_SAMPLE_S`] (the loss of the version in force at each sample;
+    /// less noisy than the final value). Absent in summaries made before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub median_heldout_loss_last_1000s: Option<f64>,
+    /// The age of the accepted updates' bases (buffered protocol and matched ideal). Absent
+    /// under the paper's rounds and in summaries made before it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub staleness: Option<Staleness>,
+}
+
+/// The window of [`ContractSummary::median_heldout_loss_last_1000s`], in simulated seconds.
+pub const LAST_WINDOW_S: f64 = 1000.0;
+
+/// The sampling step of that median, in simulated seconds.
+pub const LAST_SAMPLE_S: f64 = 10.0;
+
+/// The age of the base of every accepted (counted and not refused) update.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Staleness {
+    /// Accepted updates by the age of their base in versions (index = versions behind the
+    /// newest when the update was executed).
+    pub age_versions: Vec<u64>,
+    /// The age of their base in seconds: from the base version's creation (the block that
+    /// made it, genesis at 0 s) to the update's execution.
+    pub age_s: crate::ledger::metrics::DelayStats,
+    /// Submissions refused as stale (`contract.max_staleness`).
+    pub stale_refusals: u64,
+}
+
+impl Staleness {
+    /// The section of `ages` (versions, milliseconds) and `stale_refusals`.
+    pub fn of(ages: &[(u64, u64)], stale_refusals: u64) -> Staleness {
+        let mut age_versions = Vec::new();
+        for &(v, _) in ages {
+            let v = v as usize;
+            if age_versions.len() <= v {
+                age_versions.resize(v + 1, 0);
+            }
+            age_versions[v] += 1;
+        }
+        Staleness {
+            age_versions,
+            age_s: crate::ledger::metrics::DelayStats::of(ages.iter().map(|a| a.1).collect()),
+            stale_refusals,
+        }
+    }
+}
+
+/// The median held-out loss over the last [`LAST_WINDOW_S`] of a run of `end_s` seconds whose
+/// shared model starts at loss `initial` and becomes version r (loss `losses[r - 1]`) at
+/// `times_s[r - 1]`: sampled every [`LAST_SAMPLE_S`] from `end_s - LAST_WINDOW_S` (or 0) to
+/// `end_s`, the version in force at each sample (lower median). NaN losses are skipped; None
+/// when none is left.
+pub fn median_last_window(
+    times_s: &[f64],
+    losses: &[f64],
+    initial: f64,
+    end_s: f64,
+) -> Option<f64> {
+    let start = (end_s - LAST_WINDOW_S).max(0.0);
+    let steps = ((end_s - start) / LAST_SAMPLE_S).floor() as usize;
+    let mut values: Vec<f64> = (0..=steps)
+        .map(|k| {
+            let t = start + k as f64 * LAST_SAMPLE_S;
+            let in_force = times_s.partition_point(|&x| x <= t);
+            if in_force == 0 {
+                initial
+            } else {
+                losses.get(in_force - 1).copied().unwrap_or(f64::NAN)
+            }
+        })
+        .filter(|v| v.is_finite())
+        .collect();
+    if values.is_empty() {
+        return None;
+    }
+    values.sort_by(f64::total_cmp);
+    Some(values[(values.len() - 1) / 2])
 }
 
 /// The tokens section of `summary.json`.
@@ -397,6 +476,9 @@ struct ChainWalk<'a> {
     round_honest: u64,
     /// The accepted submissions of the round under way.
     round_txs: Vec<TxHash>,
+    /// (versions, ms) of each accepted update's base (buffered protocol).
+    ages: Vec<(u64, u64)>,
+    end_s: f64,
 }
 
 impl<'a> ChainWalk<'a> {
@@ -434,6 +516,8 @@ impl<'a> ChainWalk<'a> {
                 .iter()
                 .map(|(k, v)| (k.name().to_string(), *v))
                 .collect(),
+            median_heldout_loss_last_1000s: None,
+            staleness: None,
         };
         ChainWalk {
             ledger,
@@ -447,6 +531,8 @@ impl<'a> ChainWalk<'a> {
             round_distance_sum: 0.0,
             round_honest: 0,
             round_txs: Vec::new(),
+            ages: Vec::new(),
+            end_s: config.run.duration_s,
         }
     }
 
@@ -465,6 +551,17 @@ impl<'a> ChainWalk<'a> {
         *s.submissions.entry(outcome.name().to_string()).or_insert(0) += 1;
         if outcome.is_accepted() {
             self.round_txs.push(*tx_hash);
+            if let Call::SubmitUpdate { base_round, .. } = submitted.tx.call {
+                // The version at execution: the rounds closed before this receipt.
+                let behind = s.rounds.saturating_sub(base_round);
+                let made_ms = match base_round {
+                    0 => 0.0,
+                    r => s.round_times_s.get(r as usize - 1).copied().unwrap_or(0.0) * 1000.0,
+                };
+                let at_ms = entry.block.header.timestamp_ms as f64;
+                self.ages
+                    .push((behind, (at_ms - made_ms).max(0.0).round() as u64));
+            }
         }
         let honest = !self
             .byzantine
@@ -539,6 +636,16 @@ impl<'a> ChainWalk<'a> {
             .then(|| self.honest_distance_sum / self.honest_accepted as f64);
         s.final_loss = s.loss_by_round.last().copied();
         s.final_heldout_loss = s.heldout_loss_by_round.last().copied();
+        s.median_heldout_loss_last_1000s = median_last_window(
+            &s.round_times_s,
+            &s.heldout_loss_by_round,
+            s.heldout_loss_initial,
+            self.end_s,
+        );
+        if self.ledger.params().buffered.is_some() {
+            let stale = s.submissions.get("stale").copied().unwrap_or(0);
+            s.staleness = Some(Staleness::of(&self.ages, stale));
+        }
         s
     }
 }
@@ -601,5 +708,33 @@ fn token_summary(
         balances: head.balances.iter().map(|&b| b as f64 / units).collect(),
         contract_holdings: head.holdings_units as f64 / units,
         byzantine_control: control,
+    }
+}
+
+#[cfg(test)]
+mod staleness_tests {
+    use super::*;
+
+    #[test]
+    fn the_median_of_the_last_1000_s_samples_the_version_in_force() {
+        // 5000 s run: versions at 100 s (loss 4), 4200 s (loss 2), 4600 s (loss 1). The
+        // window 4000..=5000 s has 101 samples: 20 at 4 (4000..4190), 40 at 2, 41 at 1.
+        let times = [100.0, 4200.0, 4600.0];
+        let losses = [4.0, 2.0, 1.0];
+        assert_eq!(median_last_window(&times, &losses, 9.0, 5000.0), Some(2.0));
+        // A run shorter than the window starts at 0 with the initial loss in force.
+        assert_eq!(median_last_window(&[], &[], 9.0, 300.0), Some(9.0));
+        assert_eq!(median_last_window(&[], &[], f64::NAN, 300.0), None);
+    }
+
+    #[test]
+    fn the_age_histogram_counts_each_update_at_its_age() {
+        let s = Staleness::of(&[(0, 1000), (2, 30_000), (0, 5000)], 4);
+        assert_eq!(s.age_versions, vec![2, 0, 1]);
+        assert_eq!(
+            (s.age_s.count, s.age_s.median_s, s.age_s.max_s),
+            (3, 5.0, 30.0)
+        );
+        assert_eq!(s.stale_refusals, 4);
     }
 }

@@ -161,13 +161,15 @@ impl RunSummary {
                 );
                 (contract, summary)
             }
-            Aggregation::Gossip | Aggregation::Central => aggregation::summary::summarise(
-                config,
-                &state.aggregation,
-                &state.metrics,
-                state.world.heldout(),
-                &byzantine,
-            ),
+            Aggregation::Gossip | Aggregation::Central | Aggregation::Matched => {
+                aggregation::summary::summarise(
+                    config,
+                    &state.aggregation,
+                    &state.metrics,
+                    state.world.heldout(),
+                    &byzantine,
+                )
+            }
         };
         RunSummary {
             format: crate::log::RECORD_VERSION,

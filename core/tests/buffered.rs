@@ -90,3 +90,70 @@ fn every_byzantine_kind_acts_under_the_buffered_protocol() {
         }
     }
 }
+
+/// The summary's staleness figures (issue 56) agree with the chain: one age per accepted
+/// update, every version reaches every node, and the matched ideal reports ages too.
+#[test]
+fn the_summary_measures_base_ages_and_version_propagation() {
+    use swarmfl_core::config::Aggregation;
+    use swarmfl_core::summary::RunSummary;
+    let summary = |config: &Config| {
+        let mut sim = Sim::new(config.clone(), 5).expect("a run");
+        let records = sim.by_ref().count() as u64;
+        RunSummary::new(sim.config(), 5, sim.state(), records, Default::default())
+    };
+    let chain = summary(&small());
+    let c = &chain.contract;
+    let ages = c
+        .staleness
+        .as_ref()
+        .expect("a buffered run has the staleness section");
+    let accepted: u64 = ["accepted", "aggregated"]
+        .iter()
+        .map(|k| c.submissions.get(*k).copied().unwrap_or(0))
+        .sum();
+    assert_eq!(
+        ages.age_versions.iter().sum::<u64>(),
+        accepted,
+        "{ages:?} {c:?}"
+    );
+    assert_eq!(ages.age_s.count, accepted);
+    assert!(
+        ages.age_s.median_s > 0.0,
+        "a base is older than its update: {ages:?}"
+    );
+    assert_eq!(
+        ages.stale_refusals,
+        c.submissions.get("stale").copied().unwrap_or(0)
+    );
+    let p = chain
+        .ledger
+        .details
+        .version_propagation
+        .as_ref()
+        .expect("versions were made");
+    assert_eq!(
+        p.versions, c.rounds,
+        "every version of the final chain reached a head"
+    );
+    assert_eq!(p.delay.count + p.not_reached, p.versions * 7);
+    assert!(
+        p.delay.p95_s >= p.delay.median_s && p.delay.max_s > 0.0,
+        "{p:?}"
+    );
+    let median = c.median_heldout_loss_last_1000s.expect("a median");
+    assert!(median.is_finite() && median > 0.0);
+
+    let mut ideal = small();
+    ideal.learn.aggregation = Aggregation::Matched;
+    ideal.validate().unwrap();
+    let matched = summary(&ideal);
+    let m = &matched.contract;
+    let ages = m.staleness.as_ref().expect("the matched ideal has ages");
+    assert_eq!(
+        m.rounds,
+        ages.age_versions.iter().sum::<u64>() / 3,
+        "a step per K = 3"
+    );
+    assert!(m.median_heldout_loss_last_1000s.is_some());
+}

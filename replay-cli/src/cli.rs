@@ -439,7 +439,7 @@ pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
     /// e2-malicious-authors-timing, e3-smart-authors-timing, e3-smart-authors-code,
-    /// e6-scale, e6-scale-1000 or e4-heterogeneity-measure.
+    /// e6-scale, e6-scale-1000, e6-scale-1000-gossip or e4-heterogeneity-measure.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
@@ -731,8 +731,10 @@ Experiments, points and default runs (seeds 1..=runs):
                  timing too (preset authors-timing: learn.timing = authors)            20, 18 runs
   e3-smart-authors-code  e3-smart-authors-timing with the code's smart robot
                  (byzantine.variant = authors)                                          18 runs
-  e6-scale       {rounds,buffered,gossip}-{15,60,240}, {rounds,buffered}-240-faulty-24 3 runs
-  e6-scale-1000  {rounds,buffered,gossip}-1000 (paper density, one training a second)  2 runs
+  e6-scale       {rounds,buffered,matched,gossip}-{15,60,240}, buffered-240-faulty-24
+                 (paper density, a training every 100 s; matched: the buffered ideal)  3 runs
+  e6-scale-1000  {rounds,buffered,matched}-1000                                         2 runs
+  e6-scale-1000-gossip  gossip-1000                                                     2 runs
   e4-heterogeneity-measure  alpha-{inf,10,1,0.3,0.1}-{15,60}: world.home_range.alpha x
                  size at the paper's density, 3600 s world-only runs (no training)      3 runs
 

@@ -85,7 +85,7 @@ pub fn summary_text(summary: &Summary, log: &Path, sealings: u64) -> String {
     match kind {
         Aggregation::Chain => chain_lines(s, sealings, &mut out),
         Aggregation::Gossip => gossip_lines(s, &mut out),
-        Aggregation::Central => central_lines(s, &mut out),
+        Aggregation::Central | Aggregation::Matched => central_lines(s, &mut out),
     }
     if let Some(gas) = &summary.evm_gas {
         let mean = |kind: &str| gas.get(kind).map_or("-".into(), |g| g.mean_gas.to_string());
@@ -253,7 +253,7 @@ fn central_lines(s: &RunSummary, out: &mut Vec<String>) {
 fn timing_line(timing: &Timing, kind: Aggregation) -> String {
     let protocol = match kind {
         Aggregation::Chain => "ledger",
-        Aggregation::Gossip | Aggregation::Central => "aggregation",
+        Aggregation::Gossip | Aggregation::Central | Aggregation::Matched => "aggregation",
     };
     let labels = ["world", protocol, "learning", "checkpoints", "log"];
     let mut parts = Vec::new();
@@ -292,7 +292,7 @@ pub fn next_text(summary: &Summary, log: &Path, me: &str) -> String {
                 "{me} inspect {log} --block {height}   # the chain, contract and robots at a block"
             )
         }
-        Aggregation::Gossip | Aggregation::Central => {
+        Aggregation::Gossip | Aggregation::Central | Aggregation::Matched => {
             let half_s = (finite(run.sim_time_s).unwrap_or(0.0) / 2.0).floor();
             format!(
                 "{me} inspect {log} --time {half_s}   # the models, losses and bytes at a time (no \

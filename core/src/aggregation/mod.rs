@@ -7,6 +7,9 @@
 //!   neighbour gossip. At each learning phase a robot *merges* (the [`merge`] rule below).
 //! - `central` ([`central`]): an ideal server that gets every upload instantly and aggregates
 //!   FedAvg over the contract's quorum.
+//! - `matched` ([`matched`]): the matched ideal of the buffered protocol, a server that gets
+//!   every update instantly and applies the buffered rule to every `contract.buffer_size` of
+//!   them (no delay, staleness bound or outlier check).
 //!
 //! **The merge rule.** Flow-FL aggregates serverlessly from the gossip-shared structure with
 //! FedAvg, each robot contributing a model update when it has collected enough data
@@ -40,6 +43,7 @@
 
 pub mod central;
 pub mod gossip;
+pub mod matched;
 pub mod summary;
 
 use std::sync::Arc;
@@ -52,6 +56,7 @@ use crate::types::{Digest, RobotId, SimTime};
 
 pub use central::Server;
 pub use gossip::{Entry, EntryId, Gossiper, Stigmergy};
+pub use matched::MatchedServer;
 pub use summary::AggregationSummary;
 
 /// An event of a baseline aggregation (a `chain` run has none).
@@ -194,6 +199,8 @@ pub struct AggregationState {
     pub stigmergy: Stigmergy,
     /// `central`: the server.
     pub server: Server,
+    /// `matched`: the matched ideal's server.
+    pub matched: MatchedServer,
     /// Per robot: its current starting model and digest.
     models: Vec<(Arc<[i64]>, Digest)>,
     previous: Vec<Option<Arc<[i64]>>>,
@@ -229,6 +236,7 @@ impl AggregationState {
             rounding: config.contract.fedavg_rounding,
             stigmergy: Stigmergy::new(robots),
             server: Server::new(genesis.clone(), robots),
+            matched: MatchedServer::new(config, genesis.clone()),
             models: vec![(genesis, digest); n],
             previous: vec![None; n],
             merges: vec![0; n],
@@ -264,6 +272,12 @@ impl AggregationState {
                 round: self.server.round,
                 previous: self.server.previous.clone(),
             },
+            Aggregation::Matched => StartView {
+                digest: weights_digest(&self.matched.weights),
+                weights: self.matched.weights.clone(),
+                round: self.matched.version,
+                previous: self.matched.previous.clone(),
+            },
             _ => {
                 let (weights, round) = match self.merged(robot) {
                     Some((w, _)) => (Arc::from(w), self.merges[i] + 1),
@@ -283,7 +297,7 @@ impl AggregationState {
     pub fn current(&self, robot: RobotId) -> StartView {
         let i = robot as usize;
         match self.kind {
-            Aggregation::Central => self.preview(robot),
+            Aggregation::Central | Aggregation::Matched => self.preview(robot),
             _ => StartView {
                 weights: self.models[i].0.clone(),
                 digest: self.models[i].1,
@@ -345,6 +359,12 @@ impl AggregationState {
                 .filter(|(r, _)| *r != robot)
                 .map(|(r, e)| (*r, e.samples, e.weights.clone()))
                 .collect(),
+            Aggregation::Matched => self
+                .matched
+                .pending()
+                .filter(|(r, _)| *r != robot)
+                .map(|(r, e)| (r, e.samples, e.weights.clone()))
+                .collect(),
             _ => self
                 .stigmergy
                 .held(robot)
@@ -383,6 +403,7 @@ impl AggregationState {
     pub fn next_hash(&self, robot: RobotId, samples: u64, weights: Arc<[i64]>) -> Digest {
         match self.kind {
             Aggregation::Central => self.server.next_entry(robot, samples, weights).hash,
+            Aggregation::Matched => self.matched.next_entry(robot, samples, weights).hash,
             _ => Entry::new(self.stigmergy.next_id(robot), samples, weights).hash,
         }
     }
@@ -395,7 +416,7 @@ impl AggregationState {
         weights: Arc<[i64]>,
     ) -> AggregationEvent {
         match self.kind {
-            Aggregation::Central => AggregationEvent::Upload {
+            Aggregation::Central | Aggregation::Matched => AggregationEvent::Upload {
                 robot,
                 samples,
                 weights,
@@ -411,12 +432,13 @@ impl AggregationState {
     /// Folds one event (the reducer).
     pub fn apply(&mut self, time: SimTime, event: &AggregationEvent) -> Result<(), String> {
         let robots = self.models.len();
-        let want = match event {
-            AggregationEvent::Upload { .. } => Aggregation::Central,
-            AggregationEvent::Merge { .. } => self.kind,
-            _ => Aggregation::Gossip,
+        let server = matches!(self.kind, Aggregation::Central | Aggregation::Matched);
+        let fits = match event {
+            AggregationEvent::Upload { .. } => server,
+            AggregationEvent::Merge { .. } => self.kind != Aggregation::Chain,
+            _ => self.kind == Aggregation::Gossip,
         };
-        if self.kind != want || self.kind == Aggregation::Chain {
+        if !fits {
             return Err(format!(
                 "a {} event in a run whose aggregation is {}",
                 event.kind(),
@@ -449,20 +471,28 @@ impl AggregationState {
                 samples,
                 weights,
             } => {
-                let (entry, members) = self.server.upload(
-                    *robot,
-                    *samples,
-                    weights.clone(),
-                    self.quorum,
-                    self.rounding,
-                )?;
+                let (entry, members, now) = if self.kind == Aggregation::Matched {
+                    let (e, m) = self
+                        .matched
+                        .upload(time, *robot, *samples, weights.clone())?;
+                    (e, m, self.matched.weights.clone())
+                } else {
+                    let (e, m) = self.server.upload(
+                        *robot,
+                        *samples,
+                        weights.clone(),
+                        self.quorum,
+                        self.rounding,
+                    )?;
+                    (e, m, self.server.weights.clone())
+                };
                 self.bytes_sent[*robot as usize] += entry.bytes;
                 if let Some(models) = members {
                     self.aggregations.push(AggregationRecord {
                         time,
                         robot: None,
                         models,
-                        weights: self.server.weights.clone(),
+                        weights: now,
                     });
                 }
             }
@@ -471,17 +501,23 @@ impl AggregationState {
                 if i >= robots {
                     return Err(format!("robot {robot} in a swarm of {robots}"));
                 }
-                if self.kind == Aggregation::Central {
-                    let bytes = Entry::new(
+                if server {
+                    let shared = match self.kind {
+                        Aggregation::Matched => {
+                            self.matched.download(*robot)?;
+                            self.matched.weights.clone()
+                        }
+                        _ => self.server.weights.clone(),
+                    };
+                    let entry = Entry::new(
                         EntryId {
                             key: *robot,
                             clock: 0,
                         },
                         1,
-                        self.server.weights.clone(),
-                    )
-                    .bytes;
-                    self.bytes_downloaded[i] += bytes;
+                        shared,
+                    );
+                    self.bytes_downloaded[i] += entry.bytes;
                 } else {
                     let next = match self.merged(*robot) {
                         Some((weights, models)) => {
@@ -517,6 +553,9 @@ impl AggregationState {
         h.update(&self.digest.0);
         self.stigmergy.digest_into(&mut h);
         self.server.digest_into(&mut h);
+        if self.kind == Aggregation::Matched {
+            self.matched.digest_into(&mut h);
+        }
         for (_, d) in &self.models {
             h.update(&d.0);
         }
@@ -530,6 +569,14 @@ impl AggregationState {
             .map(|r| match self.kind {
                 Aggregation::Central => {
                     Entry::new(EntryId { key: r, clock: 0 }, 1, self.server.weights.clone()).bytes
+                }
+                Aggregation::Matched => {
+                    Entry::new(
+                        EntryId { key: r, clock: 0 },
+                        1,
+                        self.matched.weights.clone(),
+                    )
+                    .bytes
                 }
                 _ => self.stigmergy.stored_bytes(r),
             })

@@ -141,6 +141,8 @@ pub fn summarise(
             .iter()
             .map(|(k, v)| (k.name().to_string(), *v))
             .collect(),
+        median_heldout_loss_last_1000s: None,
+        staleness: None,
     };
     for a in &records {
         let loss = aggregated_loss(&mut s, metrics, &a.models);
@@ -148,8 +150,17 @@ pub fn summarise(
     }
     count_submissions(&mut s, state, metrics);
     s.final_loss = s.loss_by_round.last().copied();
+    s.median_heldout_loss_last_1000s = crate::metrics::median_last_window(
+        &s.round_times_s,
+        &s.heldout_loss_by_round,
+        s.heldout_loss_initial,
+        config.run.duration_s,
+    );
+    if state.kind() == Aggregation::Matched {
+        s.staleness = Some(crate::metrics::Staleness::of(&state.matched.ages, 0));
+    }
     s.final_heldout_loss = match state.kind() {
-        Aggregation::Central => s.heldout_loss_by_round.last().copied(),
+        Aggregation::Central | Aggregation::Matched => s.heldout_loss_by_round.last().copied(),
         _ => {
             (!per_robot.is_empty()).then(|| per_robot.iter().sum::<f64>() / per_robot.len() as f64)
         }

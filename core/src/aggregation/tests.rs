@@ -346,3 +346,61 @@ fn the_ideal_server_is_off_the_radio_so_a_partition_changes_no_record() {
     assert!(plain.iter().any(|r| r.kind() == "upload"), "robots upload");
     assert_eq!(plain, parted);
 }
+
+#[test]
+fn the_matched_ideal_refuses_the_rounds_and_a_buffer_above_the_swarm_naming_the_key() {
+    let refused = |sets: &[&str]| {
+        let mut c = Preset::Smoke.config();
+        for s in sets {
+            c.set(s).unwrap();
+        }
+        c.validate().unwrap_err().to_string()
+    };
+    let e = refused(&["learn.aggregation=matched"]);
+    assert!(
+        e.contains("learn.aggregation") && e.contains("contract.protocol = buffered"),
+        "{e}"
+    );
+    let e = refused(&[
+        "learn.aggregation=matched",
+        "contract.protocol=buffered",
+        "contract.buffer_size=16",
+    ]);
+    assert!(
+        e.contains("contract.buffer_size") && e.contains("matched") && e.contains("15"),
+        "{e}"
+    );
+    let mut ok = Preset::Smoke.config();
+    ok.set("learn.aggregation=matched").unwrap();
+    ok.set("contract.protocol=buffered").unwrap();
+    ok.validate().unwrap();
+}
+
+#[test]
+fn a_matched_run_steps_every_k_uploads_and_its_log_folds_to_the_same_server() {
+    let mut c = Preset::Smoke.config();
+    c.run.duration_s = 300.0;
+    c.learn.aggregation = Aggregation::Matched;
+    c.contract.protocol = crate::config::RoundProtocol::Buffered;
+    c.validate().unwrap();
+    let records: Vec<crate::event::Record> = crate::sim::Sim::new(c.clone(), 3).unwrap().collect();
+    let again: Vec<crate::event::Record> = crate::sim::Sim::new(c.clone(), 3).unwrap().collect();
+    assert_eq!(records, again);
+    let genesis = crate::state::genesis_weights(&c, 3).unwrap();
+    let mut s = AggregationState::new(&c, genesis);
+    let mut uploads = 0;
+    for r in &records {
+        if let crate::event::Record::Event {
+            time,
+            event: crate::event::Event::Aggregation(e),
+        } = r
+        {
+            uploads += u64::from(matches!(e, AggregationEvent::Upload { .. }));
+            s.apply(*time, e).unwrap();
+        }
+    }
+    assert!(uploads >= 14, "15 robots train in 300 s: {uploads} uploads");
+    assert_eq!(s.matched.version, uploads / 7, "a step every K = 7 uploads");
+    assert_eq!(s.aggregations.len() as u64, uploads / 7);
+    assert_eq!(s.current(4).round, s.matched.version);
+}

@@ -489,6 +489,7 @@ fn paper_data() -> DataConfig {
         target_waypoints: 48,
         expiration_s: 750.0,
         heldout_samples: 200,
+        heldout_windows: super::tree::default_heldout_windows(),
         // The authors' `controllers/main.py` (ported from Flow-FL): a window is saved
         // at the next reading after its 100th, and the reading after a gap is dropped.
         window_rule: WindowRule::Confirmed,

@@ -45,6 +45,18 @@ pub(super) fn buffered_fits(config: &Config) -> Result<(), ConfigError> {
     let k = &config.contract;
     let robots = config.world.robots;
     let buffered = k.protocol == RoundProtocol::Buffered;
+    let matched = config.learn.aggregation == Aggregation::Matched;
+    if matched && k.buffer_size > robots {
+        return refuse(
+            "contract.buffer_size",
+            k.buffer_size.to_string(),
+            format!(
+                "an integer in [1, world.robots = {robots}] with learn.aggregation = matched: \
+                 the matched ideal aggregates every K updates of the swarm's trainings, as the \
+                 buffered contract does; set contract.buffer_size to at most {robots}"
+            ),
+        );
+    }
     if k.buffer_size == 0 || (buffered && k.buffer_size > robots) {
         return refuse(
             "contract.buffer_size",
@@ -86,7 +98,21 @@ pub(super) fn buffered_fits(config: &Config) -> Result<(), ConfigError> {
             format!("a number in (0, {MAX_SERVER_STEP}] (1 by default: the plain mean update)"),
         );
     }
-    if k.protocol != RoundProtocol::Buffered {
+    let matched = config.learn.aggregation == Aggregation::Matched;
+    if matched && k.protocol != RoundProtocol::Buffered {
+        return refuse(
+            "learn.aggregation",
+            "matched".to_string(),
+            format!(
+                "chain, gossip or central with contract.protocol = {}: the matched ideal \
+                 applies the buffered protocol's rule (every contract.buffer_size accepted \
+                 updates); set contract.protocol = buffered, or learn.aggregation = central \
+                 (the ideal of the paper's rounds)",
+                k.protocol.name()
+            ),
+        );
+    }
+    if k.protocol != RoundProtocol::Buffered || matched {
         return Ok(());
     }
     if config.learn.aggregation != Aggregation::Chain {

@@ -156,6 +156,17 @@ pub struct DataConfig {
     pub expiration_s: f64,
     /// Number of noise-free trajectories the ground-truth observer collects as a held-out set.
     pub heldout_samples: u32,
+    /// Observation windows the held-out set is drawn from, spread over the run, at every swarm
+    /// size (`world/mod.rs`, `heldout_window_starts`): each window holds up to
+    /// `ceil(heldout_samples / windows)` samples from robots spread over the swarm. A swarm too
+    /// small to fill them gets `ceil(heldout_samples / robots)` windows of every robot, as
+    /// before the key (so 15 robots and fewer keep their sets); 0 takes that rule at every size
+    /// (the set of records made before the key, one window at 240 robots). Default 14.
+    #[serde(
+        default = "default_heldout_windows",
+        skip_serializing_if = "is_default_heldout_windows"
+    )]
+    pub heldout_windows: u32,
     /// When a window becomes a sample: `confirmed` (the authors' code; `paper`, hence every
     /// preset) or `contiguous` (docs/SPEC.md section 1, "Data volume"). A recorded
     /// configuration without the key (made before it) reads as `contiguous`, how it ran; the
@@ -257,6 +268,10 @@ pub enum Aggregation {
     Gossip,
     /// An ideal server that receives every model instantly and aggregates FedAvg.
     Central,
+    /// The matched ideal of the buffered protocol (`aggregation/matched.rs`): a server that
+    /// receives every update instantly and applies the buffered rule to every
+    /// `contract.buffer_size` of them, without delay, staleness bound or outlier check.
+    Matched,
 }
 
 impl Aggregation {
@@ -266,6 +281,7 @@ impl Aggregation {
             Aggregation::Chain => "chain",
             Aggregation::Gossip => "gossip",
             Aggregation::Central => "central",
+            Aggregation::Matched => "matched",
         }
     }
 }
@@ -541,6 +557,15 @@ pub fn default_outlier_cap() -> f64 {
 
 fn is_default_outlier_cap(cap: &f64) -> bool {
     omit(*cap == default_outlier_cap())
+}
+
+/// `data.heldout_windows`'s default: the 14 windows of the paper's 200 samples of 15 robots.
+pub fn default_heldout_windows() -> u32 {
+    14
+}
+
+fn is_default_heldout_windows(w: &u32) -> bool {
+    omit(*w == default_heldout_windows())
 }
 
 /// `contract.buffer_size`'s default: the paper's quorum of 7.

@@ -94,6 +94,7 @@ fn table(c: &Config) -> Vec<Step> {
         Across(waypoints_fit_the_trajectory),
         Number("data.expiration_s", d.expiration_s, 0.0, 1.0e7),
         Integer("data.heldout_samples", d.heldout_samples.into(), 0, 1_000_000),
+        Integer("data.heldout_windows", d.heldout_windows.into(), 0, 100_000),
         Integer("learn.lstm_units", l.lstm_units.into(), 1, 1024),
         Number("learn.dropout", l.dropout, 0.0, 0.99),
         Number("learn.learning_rate", l.learning_rate, 0.0, 10.0),

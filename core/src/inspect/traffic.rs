@@ -234,7 +234,7 @@ fn row(time: SimTime, config: &Config, state: &State, sent: &Sent) -> TrafficRow
                 ),
             }
         }
-        Aggregation::Gossip | Aggregation::Central => {
+        Aggregation::Gossip | Aggregation::Central | Aggregation::Matched => {
             let a = &state.aggregation;
             let stored = a.stored_bytes();
             TrafficRow {

@@ -64,6 +64,8 @@ impl Ledger {
         n.head_since = at;
         n.version += 1;
         self.head_journal.push(node);
+        let version = self.blocks[&new_head].state.round;
+        self.metrics.on_head(node, version, at);
         self.return_abandoned(node, &abandoned, new_head);
         for b in branch.iter().rev() {
             for tx in &self.blocks[b].block.txs {

@@ -171,9 +171,27 @@ pub struct LedgerStats {
     /// Rounds closed by the contract's deadline on the final canonical chain.
     #[serde(default)]
     pub rounds_timed_out: u64,
+    /// How fast a new model version reaches the swarm: per (version, node), the time from the
+    /// version's first appearance at a node's head to its appearance at this node's head.
+    /// Absent in summaries made before it, and before any version.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub version_propagation: Option<VersionPropagation>,
     /// Stake units refunded by deadlines on the final canonical chain.
     #[serde(default)]
     pub timeout_refunded_units: u64,
+}
+
+/// The propagation of model versions across the swarm (see
+/// [`LedgerStats::version_propagation`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct VersionPropagation {
+    /// Versions seen at some node's head.
+    pub versions: u64,
+    /// Per (version, node that came to hold it): the delay after its first node.
+    pub delay: DelayStats,
+    /// (version, node) pairs never reached (the node's head stayed behind, or moved past it
+    /// on another branch before the end).
+    pub not_reached: u64,
 }
 
 /// Equivocation evidence against one sealer.
@@ -214,6 +232,9 @@ pub(crate) struct Tracker {
     lost: u64,
     gossip_bytes: u64,
     rejections: BTreeMap<&'static str, u64>,
+    /// Per node: when its head first held each model version (`reached[node][v - 1]`, in ms),
+    /// for the versions' propagation delay; not in the state digest (a figure, as the rest).
+    reached: Vec<Vec<u64>>,
 }
 
 impl Tracker {
@@ -229,6 +250,17 @@ impl Tracker {
             lost: 0,
             gossip_bytes: 0,
             rejections: BTreeMap::new(),
+            reached: vec![Vec::new(); robots as usize],
+        }
+    }
+
+    /// `node`'s head moved at `at` to a block whose contract state is at model version
+    /// `version`: the versions it did not hold yet reach it now.
+    pub(crate) fn on_head(&mut self, node: RobotId, version: u64, at: SimTime) {
+        if let Some(r) = self.reached.get_mut(node as usize) {
+            while (r.len() as u64) < version {
+                r.push(at.0);
+            }
         }
     }
 
@@ -392,6 +424,7 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
         stored_bytes_mean: last.stored_mean_bytes,
         stored_bytes_max: last.stored_max_bytes,
         chain_bytes_samples: samples,
+        version_propagation: version_propagation(&t.reached),
         messages_sent: t.messages,
         messages_lost: t.lost,
         gossip_bytes: t.gossip_bytes,
@@ -401,6 +434,33 @@ pub(crate) fn stats(ledger: &Ledger) -> LedgerStats {
             .map(|(k, v)| ((*k).to_string(), *v))
             .collect(),
     }
+}
+
+/// The propagation delay of the model versions: for each version and each node whose head
+/// came to hold it, the time from the first node's holding it (its creation, at the node that
+/// sealed or first received the block making it) to this node's; `None` before any version.
+fn version_propagation(reached: &[Vec<u64>]) -> Option<VersionPropagation> {
+    let versions = reached.iter().map(Vec::len).max().unwrap_or(0);
+    if versions == 0 {
+        return None;
+    }
+    let mut delays = Vec::new();
+    let mut missing = 0;
+    for v in 0..versions {
+        let first = reached.iter().filter_map(|r| r.get(v)).min().copied();
+        let Some(first) = first else { continue };
+        for r in reached {
+            match r.get(v) {
+                Some(&t) => delays.push(t - first),
+                None => missing += 1,
+            }
+        }
+    }
+    Some(VersionPropagation {
+        versions: versions as u64,
+        delay: DelayStats::of(delays),
+        not_reached: missing,
+    })
 }
 
 /// The node whose head ends the final canonical chain: the heaviest head, ties to the lowest
@@ -546,5 +606,24 @@ mod tests {
         assert_eq!(t.submissions[&hash].all_seen_at, Some(SimTime(30)));
         t.on_seen(&hash, 0, SimTime(40));
         assert_eq!(t.submissions[&hash].seen_count, 70);
+    }
+}
+
+#[cfg(test)]
+mod version_tests {
+    use super::*;
+
+    #[test]
+    fn a_versions_delay_runs_from_its_first_node_and_missing_nodes_count_apart() {
+        let mut t = Tracker::new(3);
+        t.on_head(0, 1, SimTime(10_000));
+        t.on_head(1, 2, SimTime(14_000)); // versions 1 and 2 at once
+        t.on_head(0, 2, SimTime(12_000));
+        t.on_head(0, 1, SimTime(20_000)); // a reorg back changes nothing
+        let p = version_propagation(&t.reached).unwrap();
+        // Version 1: 0 s (node 0), 4 s (node 1), node 2 never; version 2: 0 s, 2 s, never.
+        assert_eq!((p.versions, p.delay.count, p.not_reached), (2, 4, 2));
+        assert_eq!((p.delay.median_s, p.delay.max_s), (0.0, 4.0));
+        assert!(version_propagation(&Tracker::new(3).reached).is_none());
     }
 }

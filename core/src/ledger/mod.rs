@@ -48,7 +48,7 @@ use serde::{Deserialize, Serialize};
 pub use block::{Block, BlockHash, BlockHeader, WireBlock, WireItem};
 pub use evidence::Evidence;
 pub use keys::{Keys, Sig};
-pub use metrics::{EquivocationStat, LedgerStats};
+pub use metrics::{EquivocationStat, LedgerStats, VersionPropagation};
 pub use network::Network;
 pub use node::{Node, RejectReason, Rejection};
 pub use tx::{Tx, TxHash};

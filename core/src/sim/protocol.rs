@@ -80,7 +80,7 @@ impl Protocol {
                 Protocol::Chain(Box::new(Chain { network, agents }))
             }
             Aggregation::Gossip => Protocol::Gossip(Box::new(Gossiper::new(config, seed))),
-            Aggregation::Central => Protocol::Central,
+            Aggregation::Central | Aggregation::Matched => Protocol::Central,
         }
     }
 
@@ -134,7 +134,10 @@ impl Protocol {
         match self {
             Protocol::Chain(_) => state.ledger.head_state(robot).has_submitted(robot),
             Protocol::Gossip(_) => false,
-            Protocol::Central => state.aggregation.server.has_pending(robot),
+            Protocol::Central => {
+                state.aggregation.kind() == Aggregation::Central
+                    && state.aggregation.server.has_pending(robot)
+            }
         }
     }
 

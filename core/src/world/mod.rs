@@ -743,7 +743,7 @@ fn place_robots(
 /// `data.heldout_samples` trajectories in windows spread evenly over the whole run, so that
 /// the held-out set is drawn from the same stretch of time as the robots' training data (a set
 /// taken from the first minutes only would measure the start of the run, when robots have just
-/// been placed).
+/// been placed). [`HeldoutPlan`] says which windows and which robots.
 fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
     let wanted = config.data.heldout_samples as usize;
     if wanted == 0 {
@@ -754,23 +754,33 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
     let mut controllers = Controllers::new(config, derived);
     let rec = Recording::new(&config.data);
     let n = copy.poses.len();
-    let mut observer = HeldoutObserver::new(rec, n, wanted);
-    let starts = heldout_window_starts(wanted, n, config.ticks(), rec.trajectory_ticks);
+    let plan = HeldoutPlan::new(
+        wanted,
+        n,
+        config.data.heldout_windows as usize,
+        config.ticks(),
+        rec.trajectory_ticks,
+    );
+    let mut observer = HeldoutObserver::new(rec, plan.per_window, wanted);
     let window_ticks = u64::from(rec.trajectory_ticks);
-    let last_tick = starts.last().map_or(0, |s| s + window_ticks);
+    let last_tick = plan.starts.last().map_or(0, |s| s + window_ticks);
     let mut next = 0;
     for tick in 0..last_tick {
         let event = controllers.decide(&copy);
         copy.apply(&event);
         // Tick `tick` moves the world to time `tick + 1`; a window observes the positions after
         // each of its ticks.
-        let Some(&start) = starts.get(next) else {
+        let Some(&start) = plan.starts.get(next) else {
             break;
         };
         if tick >= start {
+            let poses = &copy.poses;
             observer.observe(
                 copy.time(),
-                copy.poses.iter().map(|p| [p.x as f32, p.y as f32]),
+                (0..plan.per_window).map(|i| {
+                    let p = &poses[plan.robot(next, i)];
+                    [p.x as f32, p.y as f32]
+                }),
             );
             if tick + 1 == start + window_ticks {
                 next += 1;
@@ -784,16 +794,60 @@ fn heldout_set(config: &Config, seed: u64) -> Result<Vec<Sample>, WorldError> {
     Ok(observer.into_samples())
 }
 
-/// The first tick of each held-out observation window: `ceil(wanted / robots)` windows of
-/// `window_ticks` ticks, each centered in its equal share of the run's `run_ticks`. When the run
-/// is too short for the windows to be apart, they follow each other from tick 0.
-fn heldout_window_starts(
-    wanted: usize,
+/// Which windows and robots the held-out observer records (`data.heldout_windows`, W):
+/// - when the swarm is too small to fill W windows (`ceil(wanted / robots) >= W`, 15 robots
+///   and fewer at the paper's 200 samples), or W = 0: `ceil(wanted / robots)` windows of every
+///   robot, the last one partial (the set as it was before the key);
+/// - otherwise W windows of `k = min(ceil(wanted / W), robots)` robots each: in window `w`,
+///   robot `floor((i W + w) N / (k W))` for `i = 0..k`, so the W k observations are spread
+///   evenly over the swarm's N robots (each window its own, distinct robots, ascending).
+///
+/// So the set's weight in windows, the noise of a final value, is the same at every size
+/// above the paper's, and 15 robots keep their set byte for byte.
+#[derive(Clone, Debug, PartialEq, Eq)]
+struct HeldoutPlan {
+    /// The first tick of each window ([`heldout_window_starts`]).
+    starts: Vec<u64>,
+    /// Robots observed per window.
+    per_window: usize,
     robots: usize,
-    run_ticks: u64,
-    window_ticks: u32,
-) -> Vec<u64> {
-    let windows = wanted.div_ceil(robots.max(1)) as u64;
+}
+
+impl HeldoutPlan {
+    fn new(
+        wanted: usize,
+        robots: usize,
+        windows: usize,
+        run_ticks: u64,
+        window_ticks: u32,
+    ) -> HeldoutPlan {
+        let robots = robots.max(1);
+        let every_robot = wanted.div_ceil(robots);
+        let (count, per_window) = if windows == 0 || every_robot >= windows {
+            (every_robot, robots)
+        } else {
+            (windows, wanted.div_ceil(windows).min(robots))
+        };
+        HeldoutPlan {
+            starts: heldout_window_starts(count as u64, run_ticks, window_ticks),
+            per_window,
+            robots,
+        }
+    }
+
+    /// The robot observed in slot `i` of window `w`.
+    fn robot(&self, w: usize, i: usize) -> usize {
+        let windows = self.starts.len() as u128;
+        let slot = i as u128 * windows + w as u128;
+        (slot * self.robots as u128 / (self.per_window as u128 * windows)) as usize
+    }
+}
+
+/// The first tick of each of `windows` held-out observation windows of `window_ticks` ticks,
+/// each centered in its equal share of the run's `run_ticks`. When the run is too short for the
+/// windows to be apart, they follow each other from tick 0.
+fn heldout_window_starts(windows: u64, run_ticks: u64, window_ticks: u32) -> Vec<u64> {
+    let windows = windows.max(1);
     let window_ticks = u64::from(window_ticks);
     let share = run_ticks / windows;
     if share <= window_ticks {

@@ -346,27 +346,79 @@ fn events_of_the_wrong_size_are_errors() {
 fn heldout_windows_spread_over_the_run() {
     // The paper: 200 samples of 15 robots = 14 windows of 100 ticks over 50,000 ticks; each
     // window centered in its 3571-tick share.
-    let starts = heldout_window_starts(200, 15, 50_000, 100);
+    let starts = heldout_window_starts(14, 50_000, 100);
     assert_eq!(starts.len(), 14);
     assert_eq!(starts[0], 1735);
     assert_eq!(starts[1], 3571 + 1735);
     assert_eq!(*starts.last().unwrap(), 13 * 3571 + 1735);
     assert!(starts.last().unwrap() + 100 <= 50_000);
     // A run too short to keep the windows apart: back to back from tick 0.
-    assert_eq!(heldout_window_starts(30, 15, 150, 100), vec![0, 100]);
-    assert_eq!(heldout_window_starts(31, 15, 250, 100), vec![0, 100, 200]);
+    assert_eq!(heldout_window_starts(2, 150, 100), vec![0, 100]);
+    assert_eq!(heldout_window_starts(3, 250, 100), vec![0, 100, 200]);
+}
+
+#[test]
+fn the_heldout_plan_has_the_same_windows_at_every_size_above_the_papers() {
+    // 15 robots (and fewer): ceil(200 / N) windows of every robot, as before the key.
+    let paper = HeldoutPlan::new(200, 15, 14, 50_000, 100);
+    assert_eq!(paper.starts, heldout_window_starts(14, 50_000, 100));
+    assert_eq!(paper.per_window, 15);
+    assert!((0..14).all(|w| (0..15).all(|i| paper.robot(w, i) == i)));
+    let five = HeldoutPlan::new(200, 5, 14, 50_000, 100);
+    assert_eq!((five.starts.len(), five.per_window), (40, 5));
+    // 60, 240 and 1000 robots: the same 14 windows of 15 robots, spread over the swarm.
+    for n in [60, 240, 1000] {
+        let plan = HeldoutPlan::new(200, n, 14, 50_000, 100);
+        assert_eq!(plan.starts, paper.starts, "{n} robots");
+        assert_eq!(plan.per_window, 15);
+        let mut seen = Vec::new();
+        for w in 0..14 {
+            let robots: Vec<usize> = (0..15).map(|i| plan.robot(w, i)).collect();
+            assert!(robots.windows(2).all(|p| p[0] < p[1]), "{robots:?}");
+            assert!(robots.iter().all(|&r| r < n));
+            seen.extend(robots);
+        }
+        seen.sort_unstable();
+        seen.dedup();
+        // Every robot observed (60), or every observation its own robot (240, 1000), from the
+        // first robot to the last stretch of the swarm.
+        assert_eq!(seen.len(), (14 * 15).min(n), "{n} robots");
+        assert_eq!(seen[0], 0);
+        assert!(
+            *seen.last().unwrap() >= n - n.div_ceil(210),
+            "{n} robots: {seen:?}"
+        );
+    }
+    // 0 windows: the rule before the key, one window of 240 robots.
+    let old = HeldoutPlan::new(200, 240, 0, 50_000, 100);
+    assert_eq!((old.starts.len(), old.per_window), (1, 240));
 }
 
 #[test]
 fn the_heldout_set_comes_from_the_whole_run() {
     let mut c = small(15, 5.0);
     c.run.duration_s = 600.0;
+    c.data.heldout_windows = 2;
     let w = World::new(&c, 4).unwrap();
     let times: Vec<u64> = w.heldout().iter().map(|s| s.time.0).collect();
     // Two windows, each centered in its 300 s half: they end at 155 s and 455 s.
     assert_eq!(times.len(), 20);
     assert!(times[..15].iter().all(|&t| t == 155_000), "{times:?}");
     assert!(times[15..].iter().all(|&t| t == 455_000), "{times:?}");
+    // 60 robots at the paper's density: the same two windows, ten robots each (ceil(20 / 2)),
+    // where the rule before `data.heldout_windows` took one window of 20 of them.
+    let mut wide = small(60, 10.0);
+    wide.run.duration_s = 600.0;
+    wide.data.heldout_windows = 2;
+    let times: Vec<u64> = World::new(&wide, 4)
+        .unwrap()
+        .heldout()
+        .iter()
+        .map(|s| s.time.0)
+        .collect();
+    assert_eq!(times.len(), 20);
+    assert!(times[..10].iter().all(|&t| t == 155_000), "{times:?}");
+    assert!(times[10..].iter().all(|&t| t == 455_000), "{times:?}");
 }
 
 #[test]

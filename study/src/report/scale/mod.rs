@@ -112,6 +112,16 @@ pub struct RunNumbers {
     pub heldout_times_s: Vec<f64>,
     /// The losses of [`RunNumbers::heldout_times_s`].
     pub heldout_losses: Vec<f64>,
+    /// The median held-out loss over the last 1000 s
+    /// (`contract.median_heldout_loss_last_1000s`; absent in summaries made before it).
+    pub median_last: Option<f64>,
+    /// Accepted updates by their base's age in versions (buffered and matched; empty
+    /// otherwise).
+    pub age_versions: Vec<u64>,
+    /// Median and 95th percentile of the base's age in seconds.
+    pub age_s: Option<(f64, f64)>,
+    /// Median and 95th percentile of a new version's delay to reach a node's head.
+    pub propagation_s: Option<(f64, f64)>,
 }
 
 impl RunNumbers {
@@ -178,6 +188,24 @@ impl RunNumbers {
             wall_s: present(summary.wall_s),
             heldout_times_s,
             heldout_losses,
+            median_last: contract.median_heldout_loss_last_1000s.and_then(present),
+            age_versions: contract
+                .staleness
+                .as_ref()
+                .map(|a| a.age_versions.clone())
+                .unwrap_or_default(),
+            age_s: contract
+                .staleness
+                .as_ref()
+                .filter(|a| a.age_s.count > 0)
+                .map(|a| (a.age_s.median_s, a.age_s.p95_s)),
+            propagation_s: run
+                .ledger
+                .details
+                .version_propagation
+                .as_ref()
+                .filter(|p| p.delay.count > 0)
+                .map(|p| (p.delay.median_s, p.delay.p95_s)),
         }
     }
 }
@@ -207,6 +235,19 @@ impl RunNumbers {
     pub fn of_genesis(&self) -> Option<f64> {
         let fraction = self.heldout? / self.genesis?;
         fraction.is_finite().then_some(fraction)
+    }
+
+    /// The median held-out loss over the last 1000 s as a fraction of the genesis model's.
+    pub fn median_of_genesis(&self) -> Option<f64> {
+        let fraction = self.median_last? / self.genesis?;
+        fraction.is_finite().then_some(fraction)
+    }
+
+    /// The share of accepted updates whose base was at most `versions` behind.
+    fn age_share_within(&self, versions: usize) -> Option<f64> {
+        let total: u64 = self.age_versions.iter().sum();
+        let within: u64 = self.age_versions.iter().take(versions + 1).sum();
+        (total > 0).then(|| within as f64 / total as f64)
     }
 }
 
@@ -360,9 +401,13 @@ fn point_mut<'a>(stats: &'a mut [ExperimentStats], row: &Row) -> Option<&'a mut 
 /// draw). Other experiments' statistics are left as they are.
 pub fn extend(stats: &mut [ExperimentStats], rows: &[Row]) {
     type Reader = fn(&RunNumbers) -> Option<f64>;
-    let metrics: [(&'static str, Reader); 8] = [
+    let metrics: [(&'static str, Reader); 9] = [
         ("heldout_loss_end", |r| r.heldout),
         ("heldout_of_genesis", RunNumbers::of_genesis),
+        (
+            "median_last_1000s_of_genesis",
+            RunNumbers::median_of_genesis,
+        ),
         ("submissions_accepted", |r| r.accepted),
         ("submissions_stale", |r| r.stale),
         ("submissions_refused", |r| r.refused),
@@ -478,7 +523,19 @@ struct Versus {
 }
 
 /// The figures versus the swarm's size.
-const VERSUS: [Versus; 6] = [
+const VERSUS: [Versus; 7] = [
+    Versus {
+        stem: "e6-scale-median-heldout-of-genesis",
+        caption: "e6-scale: median held-out loss of the shared model over the last 1000 s, as a \
+                  fraction of the genesis model's, versus the swarm's size: the chain's \
+                  protocols beside the matched ideal (the buffered rule without delay, \
+                  staleness bound or outlier check) and gossip (mean, 95 % CI, log axes)",
+        title: "e6-scale: median held-out loss, last 1000 s / genesis",
+        y_label: "held-out loss / genesis",
+        log_y: true,
+        protocols: &["rounds", "buffered", "matched", "gossip"],
+        read: |p| p.metrics.get("median_last_1000s_of_genesis").copied(),
+    },
     Versus {
         stem: "e6-scale-final-heldout",
         caption: "e6-scale: final held-out loss of the shared model versus the swarm's size, per \
@@ -487,7 +544,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: final held-out loss",
         y_label: "held-out loss",
         log_y: true,
-        protocols: &["rounds", "buffered", "gossip"],
+        protocols: &["rounds", "buffered", "matched", "gossip"],
         read: |p| p.metrics.get("heldout_loss_end").copied(),
     },
     Versus {
@@ -498,7 +555,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: final held-out loss / genesis model's",
         y_label: "held-out loss / genesis",
         log_y: true,
-        protocols: &["rounds", "buffered", "gossip"],
+        protocols: &["rounds", "buffered", "matched", "gossip"],
         read: |p| p.metrics.get("heldout_of_genesis").copied(),
     },
     Versus {
@@ -509,7 +566,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: model versions",
         y_label: "model versions",
         log_y: false,
-        protocols: &["rounds", "buffered"],
+        protocols: &["rounds", "buffered", "matched"],
         read: |p| p.metrics.get("rounds").copied(),
     },
     Versus {
@@ -520,7 +577,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: bytes sent per node",
         y_label: "sent per node (MB)",
         log_y: true,
-        protocols: &["rounds", "buffered", "gossip"],
+        protocols: &["rounds", "buffered", "matched", "gossip"],
         read: |p| p.metrics.get("sent_mb_per_robot").copied(),
     },
     Versus {
@@ -531,7 +588,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: bytes stored per node",
         y_label: "stored per node (MB)",
         log_y: true,
-        protocols: &["rounds", "buffered", "gossip"],
+        protocols: &["rounds", "buffered", "matched", "gossip"],
         read: |p| p.metrics.get("stored_mb_per_robot").copied(),
     },
     Versus {
@@ -541,7 +598,7 @@ const VERSUS: [Versus; 6] = [
         title: "e6-scale: wall time per run",
         y_label: "wall time per run (s)",
         log_y: true,
-        protocols: &["rounds", "buffered", "gossip"],
+        protocols: &["rounds", "buffered", "matched", "gossip"],
         read: |p| p.wall_s,
     },
 ];
@@ -642,6 +699,7 @@ pub fn section(rows: &[Row]) -> String {
             text(row.spread(|r| r.wall_s), 1),
         );
     }
+    md.push_str(&matched_table(rows));
     let faulty: Vec<&Row> = rows.iter().filter(|r| r.faulty > 0).collect();
     if faulty.is_empty() {
         return md;
@@ -681,6 +739,100 @@ pub fn section(rows: &[Row]) -> String {
             text(clean.and_then(|c| c.spread(|r| r.heldout)), 5),
             text(Spread::of(&row.ratio_to_clean), 2),
             worst.map_or_else(|| "n/a".to_string(), |w| fixed(w, 2)),
+        );
+    }
+    md
+}
+
+/// The chain against its matched ideal per size (issue 56), and how stale the updates were:
+/// per clean buffered point with a matched point of the same size, per seed that both have,
+/// the median held-out loss over the last 1000 s as a fraction of genesis, buffered over
+/// matched; then every clean point's base ages and version propagation. Empty without such
+/// figures (summaries made before them).
+fn matched_table(rows: &[Row]) -> String {
+    let mut md = String::new();
+    let clean = |protocol: &str, robots: f64| {
+        rows.iter()
+            .find(|r| r.faulty == 0 && r.protocol == protocol && r.robots == robots)
+    };
+    let mut ratio_lines = Vec::new();
+    for chain in rows
+        .iter()
+        .filter(|r| r.faulty == 0 && r.protocol == "buffered")
+    {
+        let Some(ideal) = clean("matched", chain.robots) else {
+            continue;
+        };
+        let ratios: Vec<f64> = chain
+            .runs
+            .iter()
+            .filter_map(|run| {
+                let i = ideal.runs.iter().find(|i| i.seed == run.seed)?;
+                let ratio = run.median_of_genesis()? / i.median_of_genesis()?;
+                ratio.is_finite().then_some(ratio)
+            })
+            .collect();
+        let worst = ratios
+            .iter()
+            .copied()
+            .fold(None::<f64>, |m, r| Some(m.map_or(r, |m| m.max(r))));
+        ratio_lines.push(format!(
+            "| {} | {} | {} | {} | {} |",
+            chain.robots,
+            text(chain.spread(RunNumbers::median_of_genesis), 4),
+            text(ideal.spread(RunNumbers::median_of_genesis), 4),
+            text(Spread::of(&ratios), 2),
+            worst.map_or_else(|| "n/a".to_string(), |w| fixed(w, 2)),
+        ));
+    }
+    if !ratio_lines.is_empty() {
+        let _ = writeln!(
+            md,
+            "\nThe chain against its matched ideal: the buffered protocol beside an ideal server \
+             applying the same rule to every K updates of the same trainings, with no delay, \
+             staleness bound or outlier check (`learn.aggregation = matched`). Median held-out \
+             loss over the last 1000 s as a fraction of the genesis model's; ratio: per seed, \
+             chain over ideal (1 = the chain loses nothing to its delays and checks).\n\n\
+             | robots | buffered, of genesis | matched ideal, of genesis | chain / ideal | worst seed |\n|---|---|---|---|---|"
+        );
+        for line in ratio_lines {
+            let _ = writeln!(md, "{line}");
+        }
+    }
+    let aged: Vec<&Row> = rows
+        .iter()
+        .filter(|r| {
+            r.runs
+                .iter()
+                .any(|n| n.age_s.is_some() || n.propagation_s.is_some())
+        })
+        .collect();
+    if aged.is_empty() {
+        return md;
+    }
+    let _ = writeln!(
+        md,
+        "\nStaleness. Base age of the accepted updates: the versions between the one an update \
+         trained from and the newest when it was executed, as shares of the updates at most 0, \
+         1, 3 and 7 versions behind, and in seconds from the base's creation (median, p95, \
+         mean over runs). Version propagation: per version and node, the time from the \
+         version's first appearance at a node's head to this node's (chain only).\n\n\
+         | point | age 0 | <= 1 | <= 3 | <= 7 | age median s | age p95 s | propagation median s | propagation p95 s |\n|---|---|---|---|---|---|---|---|---|"
+    );
+    for row in aged {
+        let share = |v| text(row.spread(|r| r.age_share_within(v)), 2);
+        let _ = writeln!(
+            md,
+            "| {} | {} | {} | {} | {} | {} | {} | {} | {} |",
+            row.point,
+            share(0),
+            share(1),
+            share(3),
+            share(7),
+            text(row.spread(|r| r.age_s.map(|a| a.0)), 1),
+            text(row.spread(|r| r.age_s.map(|a| a.1)), 1),
+            text(row.spread(|r| r.propagation_s.map(|a| a.0)), 1),
+            text(row.spread(|r| r.propagation_s.map(|a| a.1)), 1),
         );
     }
     md

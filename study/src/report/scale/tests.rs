@@ -227,3 +227,51 @@ fn the_figures_are_drawn_under_the_first_experiment_of_the_study() {
     assert!(study(&[]).is_empty());
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The chain against its matched ideal (issue 56): per seed, the buffered run's median
+/// over the last 1000 s over the matched run's, both as fractions of genesis; and the age and
+/// propagation table from the new summary sections.
+#[test]
+fn the_matched_table_divides_the_chain_by_its_ideal_per_seed() {
+    use swarmfl_core::ledger::metrics::DelayStats;
+    use swarmfl_core::ledger::VersionPropagation;
+    use swarmfl_core::metrics::Staleness;
+    let with = |point: &str, seed: u64, median: f64, ages: &[(u64, u64)]| {
+        let mut r = run(point, seed, 0, Some(0.1), &[("accepted", 10)]);
+        let s = &mut r.result.summary.run;
+        s.contract.median_heldout_loss_last_1000s = Some(median);
+        s.contract.staleness = Some(Staleness::of(ages, 0));
+        s.ledger.details.version_propagation = Some(VersionPropagation {
+            versions: 2,
+            delay: DelayStats::of(vec![0, 4000, 8000]),
+            not_reached: 0,
+        });
+        r
+    };
+    let mut all = vec![
+        with(
+            "buffered-240",
+            1,
+            0.6,
+            &[(0, 1000), (1, 2000), (5, 9000), (9, 20_000)],
+        ),
+        with("buffered-240", 2, 0.3, &[(0, 1000)]),
+        with("matched-240", 1, 0.3, &[(0, 1000)]),
+        with("matched-240", 2, 0.3, &[(0, 1000)]),
+    ];
+    sort(&mut all);
+    let rows = study(&all);
+    let md = matched_table(&rows);
+    // Genesis 3.0: 0.2 and 0.1 of genesis over 0.1: ratios 2 and 1, mean 1.5, worst 2.
+    assert!(
+        md.contains("| 240 | 0.1500 ± 0.0707 | 0.1000 ± 0.0000 | 1.50 ± 0.71 | 2.00 |"),
+        "{md}"
+    );
+    // Seed 1 of buffered-240: 1 of 4 at age 0, 2 within 1 and 3, 3 within 7; seed 2: all 0.
+    assert!(
+        md.contains("| buffered-240 | 0.62 ± 0.53 | 0.75 ± 0.35 | 0.75 ± 0.35 | 0.88 ± 0.18 |"),
+        "{md}"
+    );
+    assert!(md.contains("| 4.0 ± 0.0 | 8.0 ± 0.0 |"), "{md}");
+    assert!(matched_table(&study(&results())).is_empty());
+}
