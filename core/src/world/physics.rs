@@ -340,8 +340,8 @@ pub fn step(
     assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
     debug_assert_eq!(grid.robots(), poses.len());
     let mut refused = 0;
-    for i in 0..poses.len() {
-        let o = outcome(arena, grid, poses, body, &commands[i], slide, i);
+    for (i, command) in commands.iter().enumerate() {
+        let o = outcome(arena, grid, poses, body, command, slide, i);
         refused += take(arena, grid, poses, i, o);
     }
     refused
