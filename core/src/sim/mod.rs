@@ -21,6 +21,7 @@
 mod learning;
 mod protocol;
 mod recorder;
+mod speculation;
 pub mod timing;
 
 use std::collections::{BTreeMap, VecDeque};
@@ -43,6 +44,7 @@ use learning::{Decided, Learners, Pending, Plan, Waiting};
 use protocol::{Protocol, RadioTick, Submission};
 use recorder::Recorder;
 pub use recorder::{Part, Profiler};
+use speculation::Horizon;
 
 /// How far (simulated ms) the look-ahead world runs before the reduced state by default: the
 /// window in which honest trainings are speculated in parallel. A performance knob only: the
@@ -75,6 +77,8 @@ struct LookAhead {
     /// Speculated trainings by (robot, phase): (digest of the start model, the training,
     /// running on rayon's pool or done). Dropping one that has not started cancels it.
     speculated: BTreeMap<(RobotId, u64), (Digest, Spawned)>,
+    /// How far ahead, within the window, trainings are speculated now (`speculation.rs`).
+    horizon: Horizon,
 }
 
 /// The driver of one run: an iterator over its records.
@@ -132,6 +136,7 @@ impl Sim {
             phases: vec![0; config.world.robots as usize],
             upcoming: BTreeMap::new(),
             speculated: BTreeMap::new(),
+            horizon: Horizon::new(lookahead_ms.div_ceil(tick_ms)),
         };
         Ok(Sim {
             total_ticks: config.ticks(),
@@ -471,6 +476,7 @@ impl Sim {
             // `learn.withheld`: the phase passes without training, report or submission.
             return None;
         }
+        let had_speculation = speculated.is_some();
         self.protocol.phase_begins(&mut self.rec, now, robot);
         let plan = if self.learners.byzantine[i] {
             let w = Waiting { phase, ready_ms };
@@ -480,7 +486,11 @@ impl Sim {
             }
             plan?
         } else {
-            self.honest_plan(robot, phase, now, captured, speculated, jobs)
+            let plan = self.honest_plan(robot, phase, now, captured, speculated, jobs);
+            if had_speculation {
+                self.ahead.horizon.judge(matches!(plan, Plan::Ready { .. }));
+            }
+            plan
         };
         Some(Decided {
             robot,
@@ -758,22 +768,22 @@ impl Sim {
         }
     }
 
-    /// Starts on the pool the trainings of the honest phases due within the look-ahead window
+    /// Starts on the pool the trainings of the honest phases due within the speculation horizon
+    /// (`speculation.rs`; at most the look-ahead window)
     /// that are not yet speculated from their robot's current model (a speculation from an
     /// older model is replaced, and cancelled if it has not started).
     fn speculate(&mut self, now: SimTime) {
-        let horizon = now.0 + self.ahead.window_ticks * self.tick_ms;
+        let horizon = now.0 + self.ahead.horizon.ticks() * self.tick_ms;
         let mut started = Vec::new();
+        let mut replaced = 0;
         for (&(due_ms, r), (phase, samples)) in
             self.ahead.upcoming.range(..=(horizon, RobotId::MAX))
         {
             debug_assert!(due_ms > now.0, "due phases were taken out");
             let view = self.protocol.preview(&self.rec.state, r);
-            let unchanged = self
-                .ahead
-                .speculated
-                .get(&(r, *phase))
-                .is_some_and(|(digest, _)| *digest == view.digest);
+            let before = self.ahead.speculated.get(&(r, *phase));
+            let unchanged = before.is_some_and(|(digest, _)| *digest == view.digest);
+            let stale = before.is_some() && !unchanged;
             if unchanged
                 || !self.trainable(samples.len())
                 || self.protocol.submitted(&self.rec.state, r)
@@ -784,9 +794,13 @@ impl Sim {
                 continue;
             };
             let job = self.train_job(r, *phase, &view.weights, data);
+            replaced += usize::from(stale);
             started.push(((r, *phase), (view.digest, Spawned::start(job))));
         }
         self.ahead.speculated.extend(started);
+        for _ in 0..replaced {
+            self.ahead.horizon.judge(false);
+        }
     }
 
     /// Emits the reports and submissions whose training has finished by `now`, in time then

@@ -28,6 +28,7 @@
 //! heads for the region's centre (`steering::pull`), driving straight for 2 s after each
 //! avoidance move so it rounds the obstacle. Step 1 (avoidance) keeps priority.
 
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use super::home_range::HomeRanges;
@@ -36,7 +37,8 @@ use super::steering::{
     WheelCommand,
 };
 use super::{
-    behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, place, sensor_angle, World,
+    behaviour, epuck, flocking, foraging, foraging_flowfl, khepera, place, sensor_angle, Workers,
+    World,
 };
 use crate::config::{Avoidance, Behaviour, Config, FlockingConfig, MixedAssign};
 use crate::rng::{self, Purpose};
@@ -102,110 +104,153 @@ impl Controllers {
         }
     }
 
-    /// Decides every robot's wheel command for the next tick from the current state.
+    /// Decides every robot's wheel command for the next tick from the current state. A large
+    /// swarm decides on the process's world threads ([`Workers::default_pool`]).
     pub fn decide(&mut self, world: &World) -> TickEvent {
+        self.decide_on(world, Workers::default_pool())
+    }
+
+    /// [`Controllers::decide`] on `workers`: each robot's decision reads the world and changes
+    /// only its own controller, so robots decide in parallel, in robot order in the event (the
+    /// same bits on every number of threads).
+    pub fn decide_on(&mut self, world: &World, workers: Workers<'_>) -> TickEvent {
         assert_eq!(
             world.poses().len(),
             self.robots.len(),
             "controllers built for another swarm"
         );
+        let behaviours = world.behaviours();
+        if behaviours.is_some_and(|b| b.of.contains(&Behaviour::Flocking)) {
+            world.contacts(&mut self.contacts);
+        }
+        let mut robots = std::mem::take(&mut self.robots);
+        let mut flowfl = std::mem::take(&mut self.flowfl);
+        let mut readings = std::mem::take(&mut self.readings);
+        let shared = &*self;
+        let commands = match workers.for_robots(robots.len()) {
+            None => robots
+                .iter_mut()
+                .zip(flowfl.iter_mut())
+                .enumerate()
+                .map(|(i, (c, f))| shared.decide_one(world, i, c, f, &mut readings))
+                .collect(),
+            Some(pool) => pool.install(|| {
+                let sensors = readings.len();
+                robots
+                    .par_iter_mut()
+                    .zip(flowfl.par_iter_mut())
+                    .enumerate()
+                    .with_min_len(super::par::PIECE)
+                    .map_init(
+                        || vec![0.0; sensors],
+                        |readings, (i, (c, f))| shared.decide_one(world, i, c, f, readings),
+                    )
+                    .collect()
+            }),
+        };
+        self.robots = robots;
+        self.flowfl = flowfl;
+        self.readings = readings;
+        TickEvent { commands }
+    }
+
+    /// Robot `i`'s wheel command: `c` and `flowfl` are its controller and its Flow-FL wheels,
+    /// `readings` a buffer for its proximity readings.
+    fn decide_one(
+        &self,
+        world: &World,
+        i: usize,
+        c: &mut RobotController,
+        flowfl: &mut foraging_flowfl::Wheels,
+        readings: &mut [f64],
+    ) -> WheelCommand {
         let v = self.cruise_mmps;
         // Each robot's behaviour this tick is the world's (`behaviour.rs`): fixed per robot,
         // or, under the place rule, where the robot stands (`place.rs`).
         let behaviours = world.behaviours();
         let behaviour_of = |i: usize| behaviours.map_or(Behaviour::Avoidance, |b| b.of[i]);
         let by_place = behaviours.is_some_and(|b| b.assign == MixedAssign::Place);
-        if behaviours.is_some_and(|b| b.of.contains(&Behaviour::Flocking)) {
-            world.contacts(&mut self.contacts);
-        }
-        let mut commands = Vec::with_capacity(self.robots.len());
-        for (i, c) in self.robots.iter_mut().enumerate() {
-            world.proximity(i as u32, &mut self.readings);
-            let mut front_max = 0.0f64;
-            let mut lean = 0.0;
-            for (&(front, sin), &r) in self.sensors.iter().zip(&self.readings) {
-                if front {
-                    front_max = front_max.max(r);
-                    lean += r * sin;
-                }
+        world.proximity(i as u32, readings);
+        let mut front_max = 0.0f64;
+        let mut lean = 0.0;
+        for (&(front, sin), &r) in self.sensors.iter().zip(readings.iter()) {
+            if front {
+                front_max = front_max.max(r);
+                lean += r * sin;
             }
-            let blocked = front_max > self.threshold;
-            let steer = Steer {
-                blocked,
-                lean,
-                cruise_mmps: v,
-            };
-            let walk_params = self.walk;
-            let cruise_mps = f64::from(v) / 1000.0;
-            let ruled = match self.rule {
-                Avoidance::Turn => None,
-                Avoidance::Epuck => epuck::avoid(&self.readings, self.threshold, cruise_mps),
-                Avoidance::Khepera => khepera::avoid(&self.readings, self.threshold, cruise_mps),
-            };
-            let turn = self.rule == Avoidance::Turn;
-            let pose = world.poses()[i];
-            // With home ranges: the centre of the robot's current region, if it is outside.
-            let home = self.home.as_ref().and_then(|h| {
-                let region = h.current(i as u32, world.time().0);
-                (h.region_of(pose.x, pose.y) != region).then(|| h.centre(region))
-            });
-            let pulled = self.home.is_some();
-            let avoidance = |c: &mut RobotController| {
-                let command = match ruled {
-                    Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
-                    None if blocked && turn => avoid(c, lean, v),
-                    None => {
-                        return match home {
-                            Some(centre) => {
-                                pull(c, pose, (centre.0 - pose.x, centre.1 - pose.y), v)
-                            }
-                            None => walk(c, &walk_params, v),
-                        }
-                    }
-                };
-                if pulled {
-                    hold_after_avoiding(c);
-                }
-                command
-            };
-            let command = match (behaviour_of(i), behaviours) {
-                (Behaviour::Flocking, _) => {
-                    let goal = if by_place {
-                        place::flocking_goal(pose.x)
-                    } else {
-                        flocking::goal(&self.flocking, world.time().secs())
-                    };
-                    flocking::command(
-                        c,
-                        &steer,
-                        i,
-                        world.poses(),
-                        &self.contacts[i],
-                        &self.flocking,
-                        goal,
-                    )
-                }
-                (
-                    Behaviour::Foraging,
-                    Some(behaviour::Behaviours {
-                        flowfl: Some(f), ..
-                    }),
-                ) => foraging_flowfl::command(
-                    &mut self.flowfl[i],
-                    f.robots[i].drive,
-                    pose,
-                    self.rule,
-                    &self.readings,
-                    cruise_mps,
-                ),
-                (Behaviour::Foraging, Some(b)) => {
-                    foraging::command(c, b.foragers[i], pose, b, &steer, avoidance)
-                }
-                _ => avoidance(c),
-            };
-            commands.push(command);
         }
-        TickEvent { commands }
+        let blocked = front_max > self.threshold;
+        let steer = Steer {
+            blocked,
+            lean,
+            cruise_mmps: v,
+        };
+        let walk_params = self.walk;
+        let cruise_mps = f64::from(v) / 1000.0;
+        let ruled = match self.rule {
+            Avoidance::Turn => None,
+            Avoidance::Epuck => epuck::avoid(readings, self.threshold, cruise_mps),
+            Avoidance::Khepera => khepera::avoid(readings, self.threshold, cruise_mps),
+        };
+        let turn = self.rule == Avoidance::Turn;
+        let pose = world.poses()[i];
+        // With home ranges: the centre of the robot's current region, if it is outside.
+        let home = self.home.as_ref().and_then(|h| {
+            let region = h.current(i as u32, world.time().0);
+            (h.region_of(pose.x, pose.y) != region).then(|| h.centre(region))
+        });
+        let pulled = self.home.is_some();
+        let avoidance = |c: &mut RobotController| {
+            let command = match ruled {
+                Some((left, right)) => override_walk(c, WheelCommand::from_mps(left, right)),
+                None if blocked && turn => avoid(c, lean, v),
+                None => {
+                    return match home {
+                        Some(centre) => pull(c, pose, (centre.0 - pose.x, centre.1 - pose.y), v),
+                        None => walk(c, &walk_params, v),
+                    }
+                }
+            };
+            if pulled {
+                hold_after_avoiding(c);
+            }
+            command
+        };
+        match (behaviour_of(i), behaviours) {
+            (Behaviour::Flocking, _) => {
+                let goal = if by_place {
+                    place::flocking_goal(pose.x)
+                } else {
+                    flocking::goal(&self.flocking, world.time().secs())
+                };
+                flocking::command(
+                    c,
+                    &steer,
+                    i,
+                    world.poses(),
+                    &self.contacts[i],
+                    &self.flocking,
+                    goal,
+                )
+            }
+            (
+                Behaviour::Foraging,
+                Some(behaviour::Behaviours {
+                    flowfl: Some(f), ..
+                }),
+            ) => foraging_flowfl::command(
+                flowfl,
+                f.robots[i].drive,
+                pose,
+                self.rule,
+                readings,
+                cruise_mps,
+            ),
+            (Behaviour::Foraging, Some(b)) => {
+                foraging::command(c, b.foragers[i], pose, b, &steer, avoidance)
+            }
+            _ => avoidance(c),
+        }
     }
 }
 

@@ -23,8 +23,10 @@ pub mod foraging_flowfl;
 pub mod heterogeneity;
 mod home_range;
 mod khepera;
+pub mod par;
 pub mod physics;
 pub mod place;
+mod sense;
 pub mod sensors;
 pub mod steering;
 
@@ -42,6 +44,7 @@ use crate::types::{Digest, RobotId, SimTime};
 pub use arena::{Arena, Obstacle};
 pub use behaviour::{Behaviours, Food, Forager, Nest};
 pub use controller::{Controllers, TickEvent};
+pub use par::Workers;
 use physics::{Body, RobotGrid};
 pub use steering::WheelCommand;
 
@@ -151,6 +154,8 @@ struct Scratch {
     grid_tick: Option<u64>,
     contacts: Vec<Vec<RobotId>>,
     heard: Vec<RobotId>,
+    /// Each robot's reading words of the tick, when sensed in parallel (`sense.rs`).
+    words: Vec<Vec<u64>>,
 }
 
 impl PartialEq for Scratch {
@@ -351,27 +356,37 @@ impl World {
         Ok(())
     }
 
-    /// Folds one tick. The event must hold one command per robot (see [`World::check`]).
+    /// Folds one tick. The event must hold one command per robot (see [`World::check`]). A
+    /// large swarm is stepped on the process's world threads ([`Workers::default_pool`]).
     pub fn apply(&mut self, event: &TickEvent) {
+        self.apply_on(event, Workers::default_pool());
+    }
+
+    /// [`World::apply`] on `workers` (every choice of threads gives the same bits, `par.rs`).
+    pub fn apply_on(&mut self, event: &TickEvent, workers: Workers<'_>) {
         assert_eq!(
             event.commands.len(),
             self.poses.len(),
             "one wheel command per robot"
         );
+        let pool = workers.for_robots(self.poses.len());
         let mut grid = std::mem::take(&mut self.scratch.grid);
         if self.scratch.grid_tick != Some(self.tick) || grid.robots() != self.poses.len() {
             grid.rebuild(&self.arena.grid, &self.poses);
         }
-        self.counters.blocked_moves += physics::step(
-            &self.arena,
-            &mut grid,
-            &mut self.poses,
-            &self.params.body,
-            &event.commands,
-            self.extra.slide_on_contact,
-        );
-        let overlaps =
-            physics::overlaps(&self.arena, &grid, &self.poses, self.params.body.radius_m);
+        let (arena, body, slide) = (&self.arena, &self.params.body, self.extra.slide_on_contact);
+        let (poses, commands) = (&mut self.poses, &event.commands);
+        self.counters.blocked_moves += match pool {
+            Some(pool) => {
+                physics::step_parallel(pool, arena, &mut grid, poses, body, commands, slide)
+            }
+            None => physics::step(arena, &mut grid, poses, body, commands, slide),
+        };
+        let r = self.params.body.radius_m;
+        let overlaps = match pool {
+            Some(pool) => physics::overlaps_parallel(pool, &self.arena, &grid, &self.poses, r),
+            None => physics::overlaps(&self.arena, &grid, &self.poses, r),
+        };
         debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick + 1);
         self.counters.collisions += overlaps;
         self.tick += 1;
@@ -385,7 +400,7 @@ impl World {
         self.scratch.grid_tick = Some(self.tick);
         self.advance_flowfl_foragers();
         if self.params.sensing {
-            self.sense();
+            self.sense(pool);
         }
     }
 
@@ -419,67 +434,6 @@ impl World {
         }
         b.deliveries = f.deliveries;
         b.flowfl = Some(f);
-    }
-
-    /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick.
-    fn sense(&mut self) {
-        let mut contacts = std::mem::take(&mut self.scratch.contacts);
-        let mut heard = std::mem::take(&mut self.scratch.heard);
-        self.contacts(&mut contacts);
-        let now = self.time();
-        let p = &self.params;
-        let sigma = p.rab_noise_std_m;
-        for (i, neighbours) in contacts.iter().enumerate() {
-            self.counters.contact_ticks += neighbours.len() as u64;
-            let rng = &mut self.rab_rngs[i];
-            heard.clear();
-            for &j in neighbours {
-                if rng.chance(p.rab_packet_drop) {
-                    self.counters.messages_dropped += 1;
-                } else {
-                    heard.push(j);
-                }
-            }
-            // The receiver knows its own pose; the measured offset carries Gaussian noise on
-            // each axis (one Box-Muller pair per reading), so the recorded absolute position is
-            // the neighbour's true position plus that noise.
-            let poses = &self.poses;
-            let mix = &mut self.reading_mix;
-            let rule = self.extra.window_rule;
-            let completed =
-                self.recorders[i].observe(&p.recording, rule, now, &heard, |j, kept| {
-                    if !kept {
-                        return [0.0, 0.0];
-                    }
-                    let q = poses[j as usize];
-                    let (nx, ny) = if sigma > 0.0 {
-                        gaussian_pair(rng, sigma)
-                    } else {
-                        (0.0, 0.0)
-                    };
-                    let point = [(q.x + nx) as f32, (q.y + ny) as f32];
-                    *mix = mix_in(*mix, (u64::from(j) << 32) | i as u64);
-                    *mix = mix_in(
-                        *mix,
-                        (u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()),
-                    );
-                    point
-                });
-            if completed > 0 {
-                let samples = self.recorders[i].samples();
-                for s in samples.range(samples.len() - completed as usize..) {
-                    self.sample_chain = chain_sample(&self.sample_chain, i as RobotId, s);
-                }
-            }
-            self.recorders[i].expire(&p.recording, now);
-        }
-        if self.tick.is_multiple_of(p.peer_refresh_ticks) {
-            for (peers, c) in self.peers.iter_mut().zip(&contacts) {
-                peers.clone_from(c);
-            }
-        }
-        self.scratch.contacts = contacts;
-        self.scratch.heard = heard;
     }
 
     /// Simulated time of the state.

@@ -235,6 +235,97 @@ fn path_free(
     }
 }
 
+/// What one robot does in one tick: its new heading, and where it translates to (`None`: it
+/// does not translate, `Some(None)`: its translation is refused).
+#[derive(Clone, Copy, Debug)]
+struct Outcome {
+    theta: f64,
+    translation: Option<Option<(f64, f64)>>,
+}
+
+/// Robot `i`'s move for `command` against the current `poses` (indexed by `grid`); reads only
+/// robots whose centers lie within `2 r + |len|` of the robot's (the checked path and the
+/// contacts a slide considers).
+#[allow(clippy::too_many_arguments)]
+fn outcome(
+    arena: &Arena,
+    grid: &RobotGrid,
+    poses: &[Pose],
+    body: &Body,
+    command: &WheelCommand,
+    slide: bool,
+    i: usize,
+) -> Outcome {
+    let r = body.radius_m;
+    let (left, right) = (command.left_mps(), command.right_mps());
+    let v = 0.5 * (left + right);
+    let w = (right - left) / body.wheel_base_m;
+    let p = poses[i];
+    // Midpoint heading: exact for straight moves and turns in place.
+    let mid = p.theta + 0.5 * w * body.dt_s;
+    let theta = wrap_angle(p.theta + w * body.dt_s);
+    let len = v * body.dt_s;
+    if len == 0.0 {
+        return Outcome {
+            theta,
+            translation: None,
+        };
+    }
+    let (s, c) = libm::sincos(mid);
+    let (dx, dy) = (len * c, len * s);
+    let substeps = (len.abs() / (0.5 * r)).ceil();
+    let free = substeps <= f64::from(MAX_SUBSTEPS) && {
+        let n = substeps.max(1.0) as u32;
+        (1..=n).all(|k| {
+            let f = f64::from(k) / f64::from(n);
+            let (x, y) = if k == n {
+                (p.x + dx, p.y + dy)
+            } else {
+                (p.x + f * dx, p.y + f * dy)
+            };
+            !blocked(arena, grid, poses, r, i as u32, x, y)
+        })
+    };
+    let taken = if free {
+        Some((dx, dy))
+    } else if slide {
+        contact_normal(arena, grid, poses, r, i as u32, p.x, p.y, (dx, dy))
+            .map(|(nx, ny)| {
+                let into = dx * nx + dy * ny;
+                (dx - into * nx, dy - into * ny)
+            })
+            .filter(|&(sx, sy)| {
+                (sx != 0.0 || sy != 0.0) && path_free(arena, grid, poses, r, i as u32, p, sx, sy)
+            })
+    } else {
+        None
+    };
+    Outcome {
+        theta,
+        translation: Some(taken.map(|(tx, ty)| (p.x + tx, p.y + ty))),
+    }
+}
+
+/// The length of robot `i`'s translation this tick (as [`outcome`] computes it).
+fn move_length(body: &Body, command: &WheelCommand) -> f64 {
+    0.5 * (command.left_mps() + command.right_mps()) * body.dt_s
+}
+
+/// Takes robot `i`'s outcome into `poses` and `grid`; 1 if its translation was refused.
+fn take(arena: &Arena, grid: &mut RobotGrid, poses: &mut [Pose], i: usize, o: Outcome) -> u64 {
+    poses[i].theta = o.theta;
+    match o.translation {
+        None => 0,
+        Some(None) => 1,
+        Some(Some((x, y))) => {
+            poses[i].x = x;
+            poses[i].y = y;
+            grid.relocate(&arena.grid, i as u32, x, y);
+            0
+        }
+    }
+}
+
 /// Moves every robot by its wheel command for one tick; returns how many translations were
 /// refused (a slid one counts as taken). `grid` must index `poses` on entry and indexes them
 /// on exit. `slide`: `world.slide_on_contact`.
@@ -248,77 +339,125 @@ pub fn step(
 ) -> u64 {
     assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
     debug_assert_eq!(grid.robots(), poses.len());
-    let r = body.radius_m;
     let mut refused = 0;
-    for i in 0..poses.len() {
-        let (left, right) = (commands[i].left_mps(), commands[i].right_mps());
-        let v = 0.5 * (left + right);
-        let w = (right - left) / body.wheel_base_m;
-        let p = poses[i];
-        // Midpoint heading: exact for straight moves and turns in place.
-        let mid = p.theta + 0.5 * w * body.dt_s;
-        let theta = wrap_angle(p.theta + w * body.dt_s);
-        poses[i].theta = theta;
-        let len = v * body.dt_s;
-        if len == 0.0 {
-            continue;
-        }
-        let (s, c) = libm::sincos(mid);
-        let (dx, dy) = (len * c, len * s);
-        let substeps = (len.abs() / (0.5 * r)).ceil();
-        let free = substeps <= f64::from(MAX_SUBSTEPS) && {
-            let n = substeps.max(1.0) as u32;
-            (1..=n).all(|k| {
-                let f = f64::from(k) / f64::from(n);
-                let (x, y) = if k == n {
-                    (p.x + dx, p.y + dy)
-                } else {
-                    (p.x + f * dx, p.y + f * dy)
-                };
-                !blocked(arena, grid, poses, r, i as u32, x, y)
+    for (i, command) in commands.iter().enumerate() {
+        let o = outcome(arena, grid, poses, body, command, slide, i);
+        refused += take(arena, grid, poses, i, o);
+    }
+    refused
+}
+
+/// Added to the reach within which two robots may meet in a tick, against rounding.
+const REACH_SLACK_M: f64 = 1e-6;
+
+/// [`step`] on `pool`'s threads, with the same result to the bit.
+///
+/// In [`step`], robot `i` reads the robots before it at their new places and those after it
+/// at their old ones, but only robots within `2 r + |len_i|` of it (its path's checks and a
+/// slide's contacts), and a robot moves at most `L = max |len|` in a tick. A robot with no
+/// other robot's old center within `2 r + 2 L` of its own therefore reads no robot, whatever
+/// order the others move in: its outcome is computed in parallel against the old state. The
+/// other robots (at the paper's density, about 2 %) are computed afterwards in robot order,
+/// between the outcomes taken in robot order, so each reads exactly the state [`step`] shows
+/// it, and the grid sees the same relocations in the same order.
+#[allow(clippy::too_many_arguments)]
+pub fn step_parallel(
+    pool: &rayon::ThreadPool,
+    arena: &Arena,
+    grid: &mut RobotGrid,
+    poses: &mut [Pose],
+    body: &Body,
+    commands: &[WheelCommand],
+    slide: bool,
+) -> u64 {
+    use rayon::prelude::*;
+    assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
+    debug_assert_eq!(grid.robots(), poses.len());
+    let longest = commands
+        .iter()
+        .map(|c| move_length(body, c).abs())
+        .fold(0.0, f64::max);
+    let reach = 2.0 * body.radius_m + 2.0 * longest + REACH_SLACK_M;
+    let (shared_grid, shared_poses) = (&*grid, &*poses);
+    let alone: Vec<Option<Outcome>> = pool.install(|| {
+        (0..shared_poses.len())
+            .into_par_iter()
+            .with_min_len(super::par::PIECE)
+            .map(|i| {
+                let p = shared_poses[i];
+                let mut alone = true;
+                shared_grid.near(
+                    &arena.grid,
+                    p.x - reach,
+                    p.y - reach,
+                    p.x + reach,
+                    p.y + reach,
+                    |j| {
+                        if alone && j as usize != i {
+                            let q = &shared_poses[j as usize];
+                            alone = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y)
+                                >= reach * reach;
+                        }
+                    },
+                );
+                alone.then(|| {
+                    outcome(
+                        arena,
+                        shared_grid,
+                        shared_poses,
+                        body,
+                        &commands[i],
+                        slide,
+                        i,
+                    )
+                })
             })
-        };
-        let taken = if free {
-            Some((dx, dy))
-        } else if slide {
-            contact_normal(arena, grid, poses, r, i as u32, p.x, p.y, (dx, dy))
-                .map(|(nx, ny)| {
-                    let into = dx * nx + dy * ny;
-                    (dx - into * nx, dy - into * ny)
-                })
-                .filter(|&(sx, sy)| {
-                    (sx != 0.0 || sy != 0.0)
-                        && path_free(arena, grid, poses, r, i as u32, p, sx, sy)
-                })
-        } else {
-            None
-        };
-        if let Some((tx, ty)) = taken {
-            poses[i].x = p.x + tx;
-            poses[i].y = p.y + ty;
-            grid.relocate(&arena.grid, i as u32, poses[i].x, poses[i].y);
-        } else {
-            refused += 1;
-        }
+            .collect()
+    });
+    let mut refused = 0;
+    for (i, early) in alone.into_iter().enumerate() {
+        let o = early.unwrap_or_else(|| outcome(arena, grid, poses, body, &commands[i], slide, i));
+        refused += take(arena, grid, poses, i, o);
     }
     refused
 }
 
 /// Counts overlaps (robot-wall, robot-obstacle, robot-robot pairs); must be 0.
 pub fn overlaps(arena: &Arena, grid: &RobotGrid, poses: &[Pose], r: f64) -> u64 {
-    let mut count = 0;
+    (0..poses.len())
+        .map(|i| overlaps_of(arena, grid, poses, r, i))
+        .sum()
+}
+
+/// [`overlaps`] on `pool`'s threads (a sum of integers: the same count).
+pub fn overlaps_parallel(
+    pool: &rayon::ThreadPool,
+    arena: &Arena,
+    grid: &RobotGrid,
+    poses: &[Pose],
+    r: f64,
+) -> u64 {
+    use rayon::prelude::*;
+    pool.install(|| {
+        (0..poses.len())
+            .into_par_iter()
+            .with_min_len(super::par::PIECE)
+            .map(|i| overlaps_of(arena, grid, poses, r, i))
+            .sum()
+    })
+}
+
+/// Robot `i`'s overlaps: with a wall or an obstacle, and with robots after it.
+fn overlaps_of(arena: &Arena, grid: &RobotGrid, poses: &[Pose], r: f64, i: usize) -> u64 {
+    let mut count = u64::from(arena.disk_blocked(poses[i].x, poses[i].y, r));
     let d = 2.0 * r;
-    for (i, p) in poses.iter().enumerate() {
-        if arena.disk_blocked(p.x, p.y, r) {
+    let p = poses[i];
+    grid.near(&arena.grid, p.x - d, p.y - d, p.x + d, p.y + d, |j| {
+        let q = &poses[j as usize];
+        if j as usize > i && (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y) < d * d {
             count += 1;
         }
-        grid.near(&arena.grid, p.x - d, p.y - d, p.x + d, p.y + d, |j| {
-            let q = &poses[j as usize];
-            if j as usize > i && (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y) < d * d {
-                count += 1;
-            }
-        });
-    }
+    });
     count
 }
 

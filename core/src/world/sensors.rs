@@ -19,6 +19,8 @@
 use parry2d_f64::na::{Point2, Vector2};
 use parry2d_f64::query::{Ray, RayCast};
 use parry2d_f64::shape::Ball;
+use rayon::prelude::*;
+use rayon::ThreadPool;
 
 use super::{epuck, khepera, World};
 use crate::config::Avoidance;
@@ -127,30 +129,70 @@ impl World {
 
     /// Fills `adj[i]` with the robots in range-and-bearing contact with `i`, ascending.
     pub(super) fn contacts(&self, adj: &mut Vec<Vec<RobotId>>) {
+        self.contacts_on(adj, None);
+    }
+
+    /// [`World::contacts`], on `pool`'s threads if given: each robot's contacts after it are
+    /// found in parallel, then every pair is inserted in robot order and each list sorted, so
+    /// the lists are the sequential ones.
+    pub(super) fn contacts_on(&self, adj: &mut Vec<Vec<RobotId>>, pool: Option<&ThreadPool>) {
         let n = self.poses.len();
         adj.resize(n, Vec::new());
         adj.iter_mut().for_each(Vec::clear);
-        let range = self.params.rab_range_m;
-        for i in 0..n {
-            let p = self.poses[i];
-            self.robots_near(p.x - range, p.y - range, p.x + range, p.y + range, |j| {
-                if (j as usize) <= i {
-                    return;
+        match pool {
+            None => {
+                let mut later = Vec::new();
+                for i in 0..n {
+                    later.clear();
+                    self.contacts_after(i, &mut later);
+                    for &j in &later {
+                        adj[i].push(j);
+                        adj[j as usize].push(i as u32);
+                    }
                 }
-                let q = &self.poses[j as usize];
-                let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
-                if d2 <= range * range
-                    && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
-                    && !(self.extra.rab_robot_occlusion && self.robot_between(i as u32, j))
-                {
-                    adj[i].push(j);
-                    adj[j as usize].push(i as u32);
+            }
+            Some(pool) => {
+                let later: Vec<Vec<RobotId>> = pool.install(|| {
+                    (0..n)
+                        .into_par_iter()
+                        .with_min_len(super::par::PIECE)
+                        .map(|i| {
+                            let mut later = Vec::new();
+                            self.contacts_after(i, &mut later);
+                            later
+                        })
+                        .collect()
+                });
+                for (i, later) in later.iter().enumerate() {
+                    for &j in later {
+                        adj[i].push(j);
+                        adj[j as usize].push(i as u32);
+                    }
                 }
-            });
+            }
         }
         for a in adj.iter_mut() {
             a.sort_unstable();
         }
+    }
+
+    /// Pushes onto `out` the robots `j > i` in range-and-bearing contact with `i`.
+    fn contacts_after(&self, i: usize, out: &mut Vec<RobotId>) {
+        let range = self.params.rab_range_m;
+        let p = self.poses[i];
+        self.robots_near(p.x - range, p.y - range, p.x + range, p.y + range, |j| {
+            if (j as usize) <= i {
+                return;
+            }
+            let q = &self.poses[j as usize];
+            let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+            if d2 <= range * range
+                && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
+                && !(self.extra.rab_robot_occlusion && self.robot_between(i as u32, j))
+            {
+                out.push(j);
+            }
+        });
     }
 
     /// Whether the body of a robot other than `a` and `b` meets the segment between their

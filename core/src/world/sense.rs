@@ -1,0 +1,137 @@
+//! One tick's sensing: range-and-bearing contacts, packet drop and noise, trajectory
+//! recording, expiry and the peer refresh, on one thread or on a pool's (`par.rs`).
+//!
+//! Each robot's sensing reads the poses and its contacts and changes only its own random
+//! stream and recorder, so robots are sensed in parallel; what they share is folded afterwards
+//! in robot order: the counters (sums), the running mix of every reading (each robot's words
+//! in the order it read them) and the chain of completed samples.
+
+use rayon::prelude::*;
+use rayon::ThreadPool;
+
+use super::{gaussian_pair, mix_in, Params, Pose, World};
+use crate::config::WindowRule;
+use crate::data::Recorder;
+use crate::rng::Rng;
+use crate::types::{RobotId, SimTime};
+
+/// What one robot's sensing leaves to fold: messages lost, samples completed.
+#[derive(Clone, Copy, Default)]
+struct Tally {
+    dropped: u64,
+    completed: u32,
+}
+
+/// Robot `i`'s sensing this tick: drops, noise and recording. Every reading's two words go to
+/// `word`, in order; `heard` is a buffer.
+#[allow(clippy::too_many_arguments)]
+fn sense_one(
+    p: &Params,
+    poses: &[Pose],
+    rule: WindowRule,
+    now: SimTime,
+    i: usize,
+    (rng, recorder): (&mut Rng, &mut Recorder),
+    neighbours: &[RobotId],
+    heard: &mut Vec<RobotId>,
+    mut word: impl FnMut(u64),
+) -> Tally {
+    let sigma = p.rab_noise_std_m;
+    let mut dropped = 0;
+    heard.clear();
+    for &j in neighbours {
+        if rng.chance(p.rab_packet_drop) {
+            dropped += 1;
+        } else {
+            heard.push(j);
+        }
+    }
+    // The receiver knows its own pose; the measured offset carries Gaussian noise on each axis
+    // (one Box-Muller pair per reading), so the recorded absolute position is the neighbour's
+    // true position plus that noise.
+    let completed = recorder.observe(&p.recording, rule, now, heard, |j, kept| {
+        if !kept {
+            return [0.0, 0.0];
+        }
+        let q = poses[j as usize];
+        let (nx, ny) = if sigma > 0.0 {
+            gaussian_pair(rng, sigma)
+        } else {
+            (0.0, 0.0)
+        };
+        let point = [(q.x + nx) as f32, (q.y + ny) as f32];
+        word((u64::from(j) << 32) | i as u64);
+        word((u64::from(point[0].to_bits()) << 32) | u64::from(point[1].to_bits()));
+        point
+    });
+    Tally { dropped, completed }
+}
+
+impl World {
+    /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick,
+    /// on `pool`'s threads if given (the same bits).
+    pub(super) fn sense(&mut self, pool: Option<&ThreadPool>) {
+        let mut contacts = std::mem::take(&mut self.scratch.contacts);
+        let mut heard = std::mem::take(&mut self.scratch.heard);
+        let mut words = std::mem::take(&mut self.scratch.words);
+        self.contacts_on(&mut contacts, pool);
+        let now = self.time();
+        let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
+        let n = poses.len();
+        let tallies: Vec<Tally> = match pool {
+            None => {
+                let mix = &mut self.reading_mix;
+                (0..n)
+                    .map(|i| {
+                        let own = (&mut self.rab_rngs[i], &mut self.recorders[i]);
+                        sense_one(p, poses, rule, now, i, own, &contacts[i], &mut heard, |w| {
+                            *mix = mix_in(*mix, w);
+                        })
+                    })
+                    .collect()
+            }
+            Some(pool) => {
+                words.resize_with(n, Vec::new);
+                let tallies: Vec<Tally> = pool.install(|| {
+                    self.rab_rngs
+                        .par_iter_mut()
+                        .zip(self.recorders.par_iter_mut())
+                        .zip(contacts.par_iter())
+                        .zip(words.par_iter_mut())
+                        .enumerate()
+                        .with_min_len(super::par::PIECE)
+                        .map_init(Vec::new, |heard, (i, (((rng, rec), nb), words))| {
+                            words.clear();
+                            sense_one(p, poses, rule, now, i, (rng, rec), nb, heard, |w| {
+                                words.push(w);
+                            })
+                        })
+                        .collect()
+                });
+                for w in words.iter().flatten() {
+                    self.reading_mix = mix_in(self.reading_mix, *w);
+                }
+                tallies
+            }
+        };
+        for (i, t) in tallies.iter().enumerate() {
+            self.counters.contact_ticks += contacts[i].len() as u64;
+            self.counters.messages_dropped += t.dropped;
+            if t.completed > 0 {
+                let samples = self.recorders[i].samples();
+                for s in samples.range(samples.len() - t.completed as usize..) {
+                    self.sample_chain = super::chain_sample(&self.sample_chain, i as RobotId, s);
+                }
+            }
+            self.recorders[i].expire(&self.params.recording, now);
+        }
+        if self.tick.is_multiple_of(self.params.peer_refresh_ticks) {
+            for (peers, c) in self.peers.iter_mut().zip(&contacts) {
+                peers.clone_from(c);
+            }
+        }
+        self.scratch.contacts = contacts;
+        self.scratch.heard = heard;
+        self.scratch.words = words;
+    }
+}
