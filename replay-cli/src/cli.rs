@@ -439,7 +439,8 @@ pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
     /// e2-malicious-authors-timing, e3-smart-authors-timing, e3-smart-authors-code,
-    /// e6-scale, e6-scale-1000, e6-scale-1000-gossip or e4-heterogeneity-measure.
+    /// e6-scale, e6-scale-1000, e6-scale-1000-gossip, e4-heterogeneity or
+    /// e4-heterogeneity-measure.
     /// Omit it to sweep a --grid.
     pub experiment: Option<String>,
     /// A grid axis over any configuration key, `KEY=V1,V2,...` (repeat for more axes: every
@@ -735,6 +736,8 @@ Experiments, points and default runs (seeds 1..=runs):
                  (paper density, a training every 100 s; matched: the buffered ideal)  3 runs
   e6-scale-1000  {rounds,buffered,matched}-1000                                         2 runs
   e6-scale-1000-gossip  gossip-1000                                                     2 runs
+  e4-heterogeneity  alpha-<alpha>--<rule>--<attack>--<count>: home-range alpha {inf,10,1,
+                 0.3,0.1} x 9 rules x (clean + 3 attacks x {3, 5} Byzantine), 5000 s   5 runs
   e4-heterogeneity-measure  alpha-{inf,10,1,0.3,0.1}-{15,60}: world.home_range.alpha x
                  size at the paper's density, 3600 s world-only runs (no training)      3 runs
 
