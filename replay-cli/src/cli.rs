@@ -540,6 +540,15 @@ pub struct BenchArgs {
     /// `scale` only: simulated seconds per size (default 300; `run.duration_s` of each run).
     #[arg(long = "duration", visible_alias = "duration-s", value_name = "SECONDS", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: Option<f64>,
+    /// `scale` only: the seed of every size's run (default 1).
+    #[arg(long)]
+    pub seed: Option<u64>,
+    /// `scale` only: a configuration override applied to every size after the scaling (e.g.
+    /// `--set contract.protocol=buffered --set learn.training_period_s=100`); repeatable.
+    /// `world.robots`, `world.arena_side_m`, `world.cylinders`, `world.boxes` and
+    /// `run.duration_s` are the benchmark's own and refused here.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 /// The arguments of `swarmfl data-volume`.
@@ -578,6 +587,12 @@ pub struct BenchScaleOneArgs {
     /// Simulated seconds.
     #[arg(long = "duration", visible_alias = "duration-s", value_name = "SECONDS", allow_negative_numbers = true, value_parser = duration_s)]
     pub duration_s: f64,
+    /// The seed.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Overrides applied after the scaling.
+    #[arg(long = "set", value_name = "KEY=VALUE")]
+    pub set: Vec<String>,
 }
 
 /// A `--duration` in simulated seconds: the range and message of `run.duration_s`, which it
@@ -681,8 +696,9 @@ pub enum BenchTarget {
     /// One local training of the reference workload.
     Train,
     /// Whole `paper` runs at the paper's density at growing swarm sizes (default 15, 60, 240,
-    /// 960 robots, 300 simulated s each): wall, CPU and per-part time per robot-simulated-second,
-    /// peak RSS per size.
+    /// 960 robots, 300 simulated s each; `--set` changes the protocol, the training period, ...):
+    /// wall, CPU and per-part time per robot-simulated-second, peak RSS, model versions and the
+    /// held-out loss per size.
     Scale,
 }
 

@@ -13,6 +13,10 @@ fn bench_scale_reports_every_size_with_positive_figures() {
             "15,30",
             "--duration-s",
             "20",
+            "--seed",
+            "3",
+            "--set",
+            "contract.protocol=buffered",
             "--json",
         ])
         .output()
@@ -24,6 +28,8 @@ fn bench_scale_reports_every_size_with_positive_figures() {
     );
     let report: serde_json::Value = serde_json::from_slice(&out.stdout).expect("JSON on stdout");
     assert_eq!(report["duration_s"], 20.0);
+    assert_eq!(report["seed"], 3);
+    assert_eq!(report["overrides"][0], "contract.protocol=buffered");
     // Without 60 robots, the smallest size is the reference.
     assert_eq!(
         (
@@ -55,6 +61,10 @@ fn bench_scale_reports_every_size_with_positive_figures() {
             assert!(cost >= 0.0, "{robots} robots: {part} cost {cost}");
         }
         assert!(size["records"].as_u64().unwrap() > 0);
+        // The learning figures: the held-out loss of the genesis model, tokens conserved.
+        assert!(size["heldout_genesis"].as_f64().unwrap() > 0.0);
+        assert_eq!(size["tokens_conserved"], true);
+        assert!(size["model_versions"].as_u64().is_some());
     }
     for key in ["wall", "cpu", "world", "ledger"] {
         let r = report["ratio_largest_to_reference"][key]
@@ -87,6 +97,19 @@ fn bench_scale_refuses_bad_sizes_and_foreign_options() {
     assert_eq!(code, Some(2));
     assert!(err.contains("--duration <SECONDS>"), "{err}");
     assert!(err.contains("0 seconds is out of range"), "{err}");
+    // The benchmark's own keys, and bad overrides, are refused before any run.
+    let (code, err) = run(&["bench", "scale", "--set", "world.robots=3"]);
+    assert_eq!(code, Some(2));
+    assert!(
+        err.contains("`world.robots` is set by `bench scale` itself"),
+        "{err}"
+    );
+    let (code, err) = run(&["bench", "scale", "--set", "contract.protocol=sideways"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("contract.protocol"), "{err}");
+    let (code, err) = run(&["bench", "train", "--seed", "2"]);
+    assert_eq!(code, Some(2));
+    assert!(err.contains("belong to `bench scale` only"), "{err}");
     let (code, err) = run(&["bench", "train", "--robots", "15"]);
     assert_eq!(code, Some(2));
     assert!(err.contains("belong to `bench scale` only"), "{err}");

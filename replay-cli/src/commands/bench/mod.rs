@@ -16,15 +16,21 @@ pub fn command(args: BenchArgs) -> anyhow::Result<ExitCode> {
         json,
         robots,
         duration_s,
+        seed,
+        set,
     } = args;
     match target {
         BenchTarget::Scale => scale::run(
             &scale::parse_robots(robots.as_deref().unwrap_or(scale::DEFAULT_ROBOTS))?,
-            duration_s.unwrap_or(scale::DEFAULT_DURATION_S),
+            &scale::Workload {
+                duration_s: duration_s.unwrap_or(scale::DEFAULT_DURATION_S),
+                seed: seed.unwrap_or(scale::DEFAULT_SEED),
+                overrides: set,
+            },
             json,
         )?,
-        _ if robots.is_some() || duration_s.is_some() => {
-            anyhow::bail!("--robots and --duration belong to `bench scale` only")
+        _ if robots.is_some() || duration_s.is_some() || seed.is_some() || !set.is_empty() => {
+            anyhow::bail!("--robots, --duration, --seed and --set belong to `bench scale` only")
         }
         BenchTarget::World => world::run(json)?,
         BenchTarget::Train => train::run(json)?,
@@ -34,6 +40,11 @@ pub fn command(args: BenchArgs) -> anyhow::Result<ExitCode> {
 
 /// Runs the hidden `swarmfl bench-scale-one`: one size of `bench scale`, in its own process.
 pub fn scale_one(args: BenchScaleOneArgs) -> anyhow::Result<ExitCode> {
-    scale::one(args.robots, args.duration_s)?;
+    let workload = scale::Workload {
+        duration_s: args.duration_s,
+        seed: args.seed,
+        overrides: args.set,
+    };
+    scale::one(args.robots, &workload)?;
     Ok(ExitCode::SUCCESS)
 }

@@ -22,8 +22,38 @@ pub const DEFAULT_ROBOTS: &str = "15,60,240,960";
 /// Simulated seconds per size by default: 15..240 robots take seconds, 960 robots about 1.5
 /// min on 2 cores (9 min before the ledger's cost per robot stopped growing with the swarm).
 pub const DEFAULT_DURATION_S: f64 = 300.0;
-/// The seed of every run.
-const SEED: u64 = 1;
+/// The seed of every run by default.
+pub const DEFAULT_SEED: u64 = 1;
+/// The keys the benchmark sets itself, which `--set` may not change.
+const OWN_KEYS: [&str; 5] = [
+    "world.robots",
+    "world.arena_side_m",
+    "world.cylinders",
+    "world.boxes",
+    "run.duration_s",
+];
+
+/// What every size runs besides its swarm size: the duration, the seed and the overrides.
+#[derive(Clone, Debug)]
+pub struct Workload {
+    /// Simulated seconds (`run.duration_s`).
+    pub duration_s: f64,
+    /// The seed of every size's run.
+    pub seed: u64,
+    /// `KEY=VALUE` overrides applied after the scaling (`--set`).
+    pub overrides: Vec<String>,
+}
+
+impl Workload {
+    /// The paper preset at the default duration and seed, without overrides.
+    pub fn paper(duration_s: f64) -> Workload {
+        Workload {
+            duration_s,
+            seed: DEFAULT_SEED,
+            overrides: Vec::new(),
+        }
+    }
+}
 /// The size the others are compared with when it is run (the issue's acceptance).
 const REFERENCE_ROBOTS: u32 = 60;
 /// The parts of the driver's timing, as named in `summary.json`'s `timing` (`<part>_s` wall,
@@ -37,8 +67,18 @@ const PARTS: [&str; 5] = [
     "log_and_summary",
 ];
 
-/// The `paper` preset at `robots` robots and the paper's density, run for `duration_s`.
-pub fn scaled_config(robots: u32, duration_s: f64) -> anyhow::Result<Config> {
+/// The `paper` preset at `robots` robots and the paper's density, run for the workload's
+/// duration, with its overrides.
+pub fn scaled_config(robots: u32, workload: &Workload) -> anyhow::Result<Config> {
+    for o in &workload.overrides {
+        let key = o.split('=').next().unwrap_or("").trim();
+        anyhow::ensure!(
+            !OWN_KEYS.contains(&key),
+            "--set {o}: `{key}` is set by `bench scale` itself (the swarm size, the paper's density \
+             and --duration); choose sizes with --robots and the duration with --duration"
+        );
+    }
+    let duration_s = workload.duration_s;
     let paper = Preset::Paper.config();
     let scale = f64::from(robots) / f64::from(paper.world.robots);
     let obstacles = |n: u32| (f64::from(n) * scale).round() as u32;
@@ -51,7 +91,10 @@ pub fn scaled_config(robots: u32, duration_s: f64) -> anyhow::Result<Config> {
         format!("world.cylinders={}", obstacles(paper.world.cylinders)),
         format!("world.boxes={}", obstacles(paper.world.boxes)),
         format!("run.duration_s={duration_s}"),
-    ];
+    ]
+    .into_iter()
+    .chain(workload.overrides.iter().cloned())
+    .collect::<Vec<_>>();
     Config::resolve(Some("paper"), None, &overrides)
         .with_context(|| format!("the paper preset at {robots} robots ({overrides:?})"))
 }
@@ -90,8 +133,9 @@ fn peak_rss_kib() -> anyhow::Result<u64> {
 /// The hidden `bench-scale-one` command: one run at `robots`, its figures as one JSON line on
 /// stdout and the run's progress on stderr. The log and summary go to a temporary directory,
 /// removed afterwards.
-pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
-    let config = scaled_config(robots, duration_s)?;
+pub fn one(robots: u32, workload: &Workload) -> anyhow::Result<()> {
+    let duration_s = workload.duration_s;
+    let config = scaled_config(robots, workload)?;
     let world = config.world.clone();
     let dir = std::env::temp_dir().join(format!(
         "swarmfl-bench-scale-{}-{robots}",
@@ -99,7 +143,7 @@ pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
     ));
     let cpu0 = swarmfl_study::run::process_cpu_s();
     // Progress on stderr (inherited from the parent): a large swarm takes minutes.
-    let outcome = swarmfl_study::run::RunRequest::new(config, SEED, &dir)
+    let outcome = swarmfl_study::run::RunRequest::new(config, workload.seed, &dir)
         .run(&crate::progress::Bar::new(false));
     let cpu_s = swarmfl_study::run::process_cpu_s() - cpu0;
     // The directory goes whatever happened; the run's error, if any, is the one reported.
@@ -123,13 +167,18 @@ pub fn one(robots: u32, duration_s: f64) -> anyhow::Result<()> {
         "canonical_height": summary.run.ledger.canonical_height,
         "mean_neighbours": summary.run.world.mean_neighbours,
         "final_hash": summary.run.final_hash,
+        "model_versions": summary.run.contract.rounds,
+        "heldout_genesis": summary.run.contract.heldout_loss_initial,
+        "heldout_final": summary.run.contract.final_heldout_loss,
+        "heldout_median_last_1000s": summary.run.contract.median_heldout_loss_last_1000s,
+        "tokens_conserved": summary.run.tokens.total_units_start == summary.run.tokens.total_units_end,
     });
     println!("{}", serde_json::to_string(&line)?);
     Ok(())
 }
 
 /// Runs one size in a child process and returns what it printed.
-fn child(robots: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
+fn child(robots: u32, workload: &Workload) -> anyhow::Result<serde_json::Value> {
     let exe = std::env::current_exe().context("finding this binary to run a size in a child")?;
     let out = Command::new(&exe)
         .args([
@@ -137,8 +186,16 @@ fn child(robots: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
             "--robots",
             &robots.to_string(),
             "--duration",
-            &duration_s.to_string(),
+            &workload.duration_s.to_string(),
+            "--seed",
+            &workload.seed.to_string(),
         ])
+        .args(
+            workload
+                .overrides
+                .iter()
+                .flat_map(|o| ["--set", o.as_str()]),
+        )
         .stderr(std::process::Stdio::inherit())
         .output()
         .with_context(|| format!("starting {} bench-scale-one", exe.display()))?;
@@ -159,7 +216,8 @@ fn num(v: &serde_json::Value) -> f64 {
 }
 
 /// Runs the benchmark over `robots` and prints its figures (JSON with `json`).
-pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
+pub fn run(robots: &[u32], workload: &Workload, json: bool) -> anyhow::Result<()> {
+    let duration_s = workload.duration_s;
     anyhow::ensure!(!robots.is_empty(), "--robots: give at least one swarm size");
     anyhow::ensure!(
         duration_s.is_finite() && duration_s > 0.0,
@@ -167,28 +225,28 @@ pub fn run(robots: &[u32], duration_s: f64, json: bool) -> anyhow::Result<()> {
     );
     // Every size's configuration is checked before the first (long) run starts.
     for &n in robots {
-        scaled_config(n, duration_s)?;
+        scaled_config(n, workload)?;
     }
     let mut sizes = Vec::new();
     for &n in robots {
         if !json {
             eprintln!("bench scale: {n} robots, {duration_s} simulated s ...");
         }
-        sizes.push(measure(n, duration_s)?);
+        sizes.push(measure(n, workload)?);
     }
-    let report = compare(robots, duration_s, sizes);
+    let report = compare(robots, workload, sizes);
     if json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {
-        print_table(&report, duration_s);
+        print_table(&report, workload);
     }
     Ok(())
 }
 
 /// One size, run in a child, with its costs per robot-simulated-second added.
-fn measure(n: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
-    let mut size = child(n, duration_s)?;
-    let robot_s = f64::from(n) * duration_s;
+fn measure(n: u32, workload: &Workload) -> anyhow::Result<serde_json::Value> {
+    let mut size = child(n, workload)?;
+    let robot_s = f64::from(n) * workload.duration_s;
     let per = |s: f64| s / robot_s * 1e6;
     let mut cost = serde_json::Map::new();
     cost.insert("wall".into(), per(num(&size["wall_s"])).into());
@@ -207,7 +265,11 @@ fn measure(n: u32, duration_s: f64) -> anyhow::Result<serde_json::Value> {
 
 /// The benchmark's report: every size, and the largest size's costs relative to the reference
 /// size's (60 robots if measured, else the smallest).
-fn compare(robots: &[u32], duration_s: f64, sizes: Vec<serde_json::Value>) -> serde_json::Value {
+fn compare(
+    robots: &[u32],
+    workload: &Workload,
+    sizes: Vec<serde_json::Value>,
+) -> serde_json::Value {
     let reference_robots = if robots.contains(&REFERENCE_ROBOTS) {
         REFERENCE_ROBOTS
     } else {
@@ -245,8 +307,9 @@ fn compare(robots: &[u32], duration_s: f64, sizes: Vec<serde_json::Value>) -> se
         .expect("three parts");
     serde_json::json!({
         "workload": "the paper preset at the paper's density: world.robots = N, world.arena_side_m = 5 * sqrt(N / 15), world.cylinders = world.boxes = round(5 * N / 15), seed 1; each size in its own child process through the code of `swarmfl run`",
-        "duration_s": duration_s,
-        "seed": SEED,
+        "duration_s": workload.duration_s,
+        "seed": workload.seed,
+        "overrides": workload.overrides,
         "units": "us_per_robot_sim_s: microseconds of wall (or process CPU) time per robot per simulated second; the parts' times are the driver's (summary.json `timing`): wall on the driver thread; CPU of the driver thread in that part, and for learning also every other thread's (the background trainings)",
         "sizes": sizes,
         "reference_robots": reference_robots,
@@ -263,7 +326,10 @@ fn cost_ratio(big: &serde_json::Value, reference: &serde_json::Value, key: &str)
 }
 
 /// The human-readable table of a report from [`compare`].
-fn print_table(report: &serde_json::Value, duration_s: f64) {
+fn print_table(report: &serde_json::Value, workload: &Workload) {
+    let Workload {
+        duration_s, seed, ..
+    } = workload;
     let largest = num(&report["largest_robots"]);
     let reference_robots = num(&report["reference_robots"]);
     let find = |n: f64| {
@@ -280,8 +346,11 @@ fn print_table(report: &serde_json::Value, duration_s: f64) {
         .unwrap_or("");
     println!(
         "paper preset at the paper's density (15 robots / 25 m^2), {duration_s} simulated s per \
-         size, seed {SEED}; one child process per size"
+         size, seed {seed}; one child process per size"
     );
+    if !workload.overrides.is_empty() {
+        println!("overrides: {}", workload.overrides.join(" "));
+    }
     println!(
         "after |: microseconds of CPU per robot-simulated-second (whole process; per part: the \
          driver thread's, learning also the training threads')"
@@ -315,6 +384,26 @@ fn print_table(report: &serde_json::Value, duration_s: f64) {
             num(&c["learning_cpu"]),
             num(&c["checkpoint_cpu"]),
             num(&c["log_and_summary_cpu"]),
+        );
+    }
+    println!(
+        "{:>6} {:>9} {:>11} {:>11} {:>11} {:>9} {:>9}",
+        "robots", "versions", "heldout_gen", "median_last", "final", "median/gen", "conserved"
+    );
+    for s in report["sizes"].as_array().expect("sizes") {
+        let genesis = num(&s["heldout_genesis"]);
+        let median = s["heldout_median_last_1000s"].as_f64();
+        println!(
+            "{:>6.0} {:>9.0} {:>11.4} {:>11} {:>11.4} {:>9} {:>9}",
+            num(&s["robots"]),
+            num(&s["model_versions"]),
+            genesis,
+            median.map_or("-".to_string(), |m| format!("{m:.4}")),
+            s["heldout_final"].as_f64().unwrap_or(f64::NAN),
+            median.map_or("-".to_string(), |m| format!("{:.4}", m / genesis)),
+            s["tokens_conserved"]
+                .as_bool()
+                .map_or("-", |c| if c { "yes" } else { "NO" }),
         );
     }
     println!(

@@ -105,7 +105,8 @@ struct Threads {
 /// 1000 robots at the paper's density (the rule of `bench scale`) for `ticks` ticks, on one
 /// thread and on two.
 fn threads(ticks: u64) -> anyhow::Result<Threads> {
-    let mut config = super::scale::scaled_config(1000, ticks as f64 * 0.1)?;
+    let mut config =
+        super::scale::scaled_config(1000, &super::scale::Workload::paper(ticks as f64 * 0.1))?;
     // A run as long as the benchmark: its held-out windows lie inside it.
     config.run.duration_s = ticks as f64 * config.run.tick_s;
     let pool = |n: usize| {
