@@ -367,8 +367,9 @@ fn clean_of<'a>(row: &Row, rows: &'a [Row]) -> Option<&'a Row> {
     })
 }
 
-/// Per seed that both have, `row`'s final held-out loss over its clean point's (empty for a
-/// clean point).
+/// Per seed that both have, `row`'s median held-out loss over the last 1000 s over its clean
+/// point's (issue 56's acceptance; the final values where either run's summary predates the
+/// median). Empty for a clean point.
 fn ratios_to_clean(row: &Row, rows: &[Row]) -> Vec<f64> {
     if row.faulty == 0 {
         return Vec::new();
@@ -379,8 +380,11 @@ fn ratios_to_clean(row: &Row, rows: &[Row]) -> Vec<f64> {
     row.runs
         .iter()
         .filter_map(|run| {
-            let base = clean.runs.iter().find(|c| c.seed == run.seed)?.heldout?;
-            let ratio = run.heldout? / base;
+            let base = clean.runs.iter().find(|c| c.seed == run.seed)?;
+            let ratio = match (run.median_last, base.median_last) {
+                (Some(m), Some(b)) => m / b,
+                _ => run.heldout? / base.heldout?,
+            };
             ratio.is_finite().then_some(ratio)
         })
         .collect()
@@ -712,8 +716,9 @@ pub fn section(rows: &[Row]) -> String {
          an aggregation, so 0 faulty models aggregated means that every faulty submission on \
          the chain was rejected or refused (save any still in an open round or buffer at the \
          end). Token change: the faulty robots' mean, in tokens (stakes of rejected submissions \
-         are kept by the pool). Held-out ratio: per seed, the final held-out loss over that of \
-         the clean run of the same seed; worst: the largest.\n"
+         are kept by the pool). Held-out ratio: per seed, the median held-out loss over the last \
+         1000 s (the final value in summaries made before that median) over that of the clean \
+         run of the same seed; worst: the largest.\n"
     );
     let _ = writeln!(
         md,

@@ -275,3 +275,27 @@ fn the_matched_table_divides_the_chain_by_its_ideal_per_seed() {
     assert!(md.contains("| 4.0 ± 0.0 | 8.0 ± 0.0 |"), "{md}");
     assert!(matched_table(&study(&results())).is_empty());
 }
+
+#[test]
+fn a_faulty_point_is_judged_by_its_median_of_the_last_1000_s_where_both_runs_have_it() {
+    let mut results = results();
+    let set = |results: &mut Vec<RunResult>, point: &str, seed: u64, median: f64| {
+        let r = results
+            .iter_mut()
+            .find(|r| r.point == point && r.seed == seed)
+            .expect("the run");
+        r.result.summary.run.contract.median_heldout_loss_last_1000s = Some(median);
+    };
+    // Seed 1 has both medians: 0.06 / 0.05 = 1.2, not the finals' 0.03 / 0.02 = 1.5 ...
+    set(&mut results, "buffered-240-faulty-24", 1, 0.06);
+    set(&mut results, "buffered-240", 1, 0.05);
+    // ... seed 2 has only the faulty run's: the finals, 0.02 / 0.04.
+    set(&mut results, "buffered-240-faulty-24", 2, 0.9);
+    let rows = study(&results);
+    let ratio = &rows[2].ratio_to_clean;
+    assert_eq!(ratio.len(), 2);
+    assert!(
+        (ratio[0] - 1.2).abs() < 1e-12 && (ratio[1] - 0.5).abs() < 1e-12,
+        "{ratio:?}"
+    );
+}
