@@ -51,3 +51,7 @@ pub fn estimate(
         limit: estimate.saturating_add(margin).min(params.block_gas_limit),
     }
 }
+
+#[cfg(all(test, feature = "evm"))]
+#[path = "gas_limit_tests.rs"]
+mod tests;

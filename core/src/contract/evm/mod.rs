@@ -21,8 +21,6 @@
 
 mod abi;
 mod gas_limit;
-#[cfg(test)]
-mod gas_tests;
 pub mod geth;
 #[cfg(test)]
 mod tests;

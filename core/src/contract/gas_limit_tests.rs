@@ -4,9 +4,9 @@
 
 use std::sync::Arc;
 
-use super::super::gas_limit::{estimate, TxGas};
 use super::super::test_support::{self, TOKEN};
 use super::super::{Call, ContractParams, ContractState, Outcome};
+use super::{estimate, TxGas};
 use crate::config::{ContractEngine, WEB3_GAS_MARGIN};
 use crate::types::RobotId;
 
@@ -164,55 +164,4 @@ fn an_estimate_leaves_the_node_state_alone_and_a_limit_above_the_block_is_refuse
     assert!(n
         .execute_with_gas(&native, 0, TOKEN * 5, &submit(0), Some(21_000))
         .is_accepted());
-}
-
-/// A smoke run under the evm engine with the authors' gas limits, on `threads` pool threads.
-fn authors_gas_run(threads: usize) -> Vec<crate::event::Record> {
-    let mut config = crate::config::Preset::Smoke.config();
-    config.contract.engine = ContractEngine::Evm;
-    config.contract.gas_limit = crate::config::GasLimitRule::Estimate;
-    config.validate().expect("a valid configuration");
-    let pool = rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()
-        .expect("pool");
-    pool.install(move || crate::sim::Sim::new(config, 7).unwrap().collect())
-}
-
-#[test]
-fn a_run_with_estimated_gas_limits_is_deterministic_and_replays() {
-    use crate::event::{Event, Record};
-    use crate::ledger::LedgerEvent;
-    let one = authors_gas_run(1);
-    assert!(one == authors_gas_run(2), "1 and 2 threads disagree");
-    // Every robot transaction carries its estimate and limit in the log.
-    let txs: Vec<_> = one
-        .iter()
-        .filter_map(|r| match r {
-            Record::Event {
-                event: Event::Ledger(LedgerEvent::Submit { tx }),
-                ..
-            } => Some(tx),
-            _ => None,
-        })
-        .collect();
-    assert!(!txs.is_empty());
-    assert!(txs.iter().all(|tx| tx
-        .gas
-        .is_some_and(|g| g.limit == g.estimate + WEB3_GAS_MARGIN)));
-    // The reducers re-derive every checkpoint from the events alone.
-    let mut config = crate::config::Preset::Smoke.config();
-    config.contract.engine = ContractEngine::Evm;
-    config.contract.gas_limit = crate::config::GasLimitRule::Estimate;
-    let mut state = crate::state::State::genesis(&config, 7).unwrap();
-    for (i, record) in one.iter().enumerate() {
-        crate::replay::fold_record(&mut state, "run", i as u64, record).unwrap();
-    }
-    let gas = &state.ledger.head_state(0).evm.as_ref().unwrap().gas;
-    assert!(gas.contains_key("accepted"), "{gas:?}");
-    // Some submissions estimated before another landed closed no round (11 at this seed).
-    assert!(
-        gas.get("out_of_gas").is_some_and(|g| g.calls > 0),
-        "{gas:?}"
-    );
 }
