@@ -211,7 +211,8 @@ fn run(security: bool, txs: &[Tx]) -> Result<(), TestCaseError> {
             | Outcome::InsufficientStake
             | Outcome::InsufficientFunds
             | Outcome::Malformed(_)
-            | Outcome::OverGasLimit { .. } => {
+            | Outcome::OverGasLimit { .. }
+            | Outcome::OutOfGas { .. } => {
                 prop_assert_eq!(&state, &before, "a failed call changed the state");
             }
             // The buffered protocol's refusals: these rounds send no `submitUpdate`.

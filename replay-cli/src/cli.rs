@@ -439,6 +439,7 @@ pub struct SweepArgs {
     /// The experiment: e0-baselines, e1-expiration, e1-faulty, e2-faulty, e2-malicious,
     /// e3-smart, e4-robustness, e5-smart-defence, e2-malicious-authors, e3-smart-authors,
     /// e2-malicious-authors-timing, e3-smart-authors-timing, e3-smart-authors-code,
+    /// e2-malicious-authors-gas, e3-smart-authors-gas,
     /// e6-scale, e6-scale-1000, e6-scale-1000-gossip, e4-heterogeneity or
     /// e4-heterogeneity-measure.
     /// Omit it to sweep a --grid.
@@ -748,6 +749,9 @@ Experiments, points and default runs (seeds 1..=runs):
                  timing too (preset authors-timing: learn.timing = authors)            20, 18 runs
   e3-smart-authors-code  e3-smart-authors-timing with the code's smart robot
                  (byzantine.variant = authors)                                          18 runs
+  e2-malicious-authors-gas, e3-smart-authors-gas  the -authors-timing two with the
+                 authors' gas (contract.engine = evm, contract.gas_limit = estimate; a build
+                 with --features evm)                                                   20, 18 runs
   e6-scale       {rounds,buffered,matched,gossip}-{15,60,240}, buffered-240-faulty-24
                  (paper density, a training every 100 s; matched: the buffered ideal)  3 runs
   e6-scale-1000  {rounds,buffered,matched}-1000                                         2 runs

@@ -205,6 +205,30 @@ pub enum ContractEngine {
     Evm,
 }
 
+/// The gas limit a robot's transaction carries under `contract.engine = "evm"`
+/// (`contract.gas_limit`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GasLimitRule {
+    /// The block's gas limit (`contract.block_gas_limit`): gas never decides an outcome below
+    /// it (swarmfl).
+    #[default]
+    Block,
+    /// The gas the call uses on the state the sender's node holds when it sends, plus
+    /// `contract.gas_margin` (the authors' web3.py: estimate plus 100000).
+    Estimate,
+}
+
+impl GasLimitRule {
+    /// The configuration name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GasLimitRule::Block => "block",
+            GasLimitRule::Estimate => "estimate",
+        }
+    }
+}
+
 /// The median of an even number of distances.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -548,6 +548,8 @@ fn paper_contract() -> ContractConfig {
         pool: PoolRule::Carry,
         defence: Defence::None,
         block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
+        gas_limit: Default::default(),
+        gas_margin: super::tree::WEB3_GAS_MARGIN,
         defence_refund_percent: 50,
         preaggregators: Vec::new(),
         threshold_gate: false,

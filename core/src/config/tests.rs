@@ -451,6 +451,8 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "world.slide_on_contact",
         "data.window_rule",
         "contract.block_gas_limit",
+        "contract.gas_limit",
+        "contract.gas_margin",
         "contract.preaggregators",
         "contract.bucket_size",
         "contract.clip_radius",
@@ -1123,4 +1125,38 @@ fn the_timing_is_left_out_of_the_recorded_text_at_its_default() {
         !authors.contains("authors_timing"),
         "at its default: {authors}"
     );
+}
+
+#[test]
+fn the_authors_gas_limits_need_the_evm_engine() {
+    let resolve = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        Config::resolve(Some("smoke"), None, &sets)
+    };
+    let e = resolve(&["contract.gas_limit=estimate"])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("contract.gas_limit") && e.contains("contract.engine = evm"),
+        "{e}"
+    );
+    let e = resolve(&["contract.gas_limit=bid"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gas_limit"), "{e}");
+    assert!(resolve(&["contract.gas_margin=0"]).is_ok());
+    // Under the evm engine (in a build that has it) the option is accepted and recorded.
+    if cfg!(feature = "evm") {
+        let c = resolve(&[
+            "contract.engine=evm",
+            "contract.gas_limit=estimate",
+            "contract.gas_margin=5000",
+        ])
+        .unwrap();
+        let text = c.to_toml();
+        assert!(text.contains("gas_limit = \"estimate\""), "{text}");
+        assert!(text.contains("gas_margin = 5000"), "{text}");
+        let back: Config = toml::from_str(&text).unwrap();
+        assert_eq!(back, c);
+    }
 }

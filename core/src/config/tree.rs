@@ -11,8 +11,9 @@ use super::behaviour::{
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
-    ContractEngine, ContractOptions, Defence, FedAvgRounding, MedianRule, OutlierRule,
-    PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule, ThresholdRule,
+    ContractEngine, ContractOptions, Defence, FedAvgRounding, GasLimitRule, MedianRule,
+    OutlierRule, PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule,
+    ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};
@@ -432,6 +433,22 @@ pub struct ContractConfig {
         skip_serializing_if = "is_default_block_gas_limit"
     )]
     pub block_gas_limit: u64,
+    /// The gas limit of a robot's transaction, under `engine = "evm"`: `block` (every call may
+    /// use the block's, `block_gas_limit`; swarmfl's default) or `estimate` (the authors' web3:
+    /// the gas the call uses on the state its node holds when the robot sends it, plus
+    /// `gas_margin`; a call that then needs more runs out of gas and reverts, outcome
+    /// `out_of_gas`; docs/CONTRACT.md, "Gas"). Left out of the recorded configuration at its
+    /// default, so existing runs keep their hashes.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub gas_limit: GasLimitRule,
+    /// The gas added to the estimate under `gas_limit = "estimate"`: web3.py's buffer,
+    /// 100000 (`get_buffered_gas_estimate`). Left out of the recorded configuration at its
+    /// default.
+    #[serde(
+        default = "default_gas_margin",
+        skip_serializing_if = "is_default_gas_margin"
+    )]
+    pub gas_margin: u64,
     /// Pre-aggregation stages in front of the rule, applied in list order (`nnm`,
     /// `bucketing`, `clipping`, `arc`; see `contract::preagg`), e.g. `["nnm"]`. Needs a staking
     /// rule on the native contract; the rule then runs on the stages' output, the rewards stay
@@ -631,6 +648,18 @@ fn is_empty<T>(list: &[T]) -> bool {
 
 fn is_default_block_gas_limit(limit: &u64) -> bool {
     omit(*limit == AUTHORS_BLOCK_GAS_LIMIT)
+}
+
+/// web3.py's gas buffer over an estimate (`contract.gas_margin`'s default).
+pub const WEB3_GAS_MARGIN: u64 = 100_000;
+
+/// `contract.gas_margin`'s default, [`WEB3_GAS_MARGIN`].
+pub fn default_gas_margin() -> u64 {
+    WEB3_GAS_MARGIN
+}
+
+fn is_default_gas_margin(margin: &u64) -> bool {
+    omit(*margin == WEB3_GAS_MARGIN)
 }
 
 impl ContractConfig {

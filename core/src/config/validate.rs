@@ -6,7 +6,7 @@
 //! behaviours' keys are in `behaviour_fit.rs`, as the protocol's are in `protocol_fit.rs`.
 
 use super::byzantine::ByzantineKind;
-use super::contract::{ContractEngine, ContractOptions, Defence, Rule};
+use super::contract::{ContractEngine, ContractOptions, Defence, GasLimitRule, Rule};
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
@@ -134,6 +134,8 @@ fn table(c: &Config) -> Vec<Step> {
         // At least a plain transaction's intrinsic gas; at most what revm's gas counter holds
         // with room to spare.
         Integer("contract.block_gas_limit", k.block_gas_limit, 21_000, 1 << 62),
+        Integer("contract.gas_margin", k.gas_margin, 0, 1 << 62),
+        Across(gas_limit_needs_the_evm),
         Integer("contract.max_claimed_samples", k.max_claimed_samples, 0, u32::MAX.into()),
         Across(faults_fit_the_run),
         Across(baseline_supports),
@@ -602,6 +604,23 @@ fn baseline_supports(config: &Config) -> Result<(), ConfigError> {
             "sealer".to_string(),
             "split or isolate (there is no sealer)".to_string(),
         );
+    }
+    Ok(())
+}
+
+/// `contract.gas_limit = "estimate"` only under `contract.engine = "evm"` (the native engine
+/// has no gas).
+fn gas_limit_needs_the_evm(config: &Config) -> Result<(), ConfigError> {
+    let c = &config.contract;
+    if c.gas_limit == GasLimitRule::Estimate && c.engine != ContractEngine::Evm {
+        return Err(ConfigError::OutOfRange {
+            key: "contract.gas_limit".to_string(),
+            value: c.gas_limit.name().to_string(),
+            allowed: "block with contract.engine = native, which has no gas; set \
+                      contract.engine = evm to give transactions the authors' estimated gas \
+                      limit, or contract.gas_limit = block"
+                .to_string(),
+        });
     }
     Ok(())
 }

@@ -100,6 +100,13 @@ pub enum Outcome {
     },
     /// The buffered protocol refused the submission's base (reason given); no stake moved.
     Refused(buffered::Refusal),
+    /// The call ran out of the gas its transaction carried (`contract.gas_limit =
+    /// "estimate"`, the `evm` engine only): it reverted, so nothing changed (the stake stays
+    /// with the sender), and the sender's turn is used.
+    OutOfGas {
+        /// The transaction's gas limit, all of it spent.
+        gas_limit: u64,
+    },
 }
 
 impl Outcome {
@@ -116,6 +123,7 @@ impl Outcome {
             Outcome::Malformed(_) => "malformed",
             Outcome::OverGasLimit { .. } => "over_gas_limit",
             Outcome::Refused(r) => r.name(),
+            Outcome::OutOfGas { .. } => "out_of_gas",
         }
     }
 

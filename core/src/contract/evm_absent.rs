@@ -27,6 +27,7 @@ pub fn execute(
     _sender: RobotId,
     _value_units: u64,
     _call: &Call,
+    _tx_gas: Option<u64>,
 ) -> Outcome {
     unreachable!(
         "contract.engine = evm executed in a build without the evm feature (state holds an EVM: {})",
@@ -47,5 +48,19 @@ pub fn enter_block(state: &mut ContractState, _params: &ContractParams, _timesta
     unreachable!(
         "an EVM block entered in a build without the evm feature (state holds an EVM: {})",
         state.evm.is_some()
+    )
+}
+
+/// Never called: validation refuses `contract.gas_limit = "estimate"` without the evm engine.
+pub fn estimate(
+    head: &ContractState,
+    _params: &ContractParams,
+    _sender: RobotId,
+    _value_units: u64,
+    _call: &Call,
+) -> u64 {
+    unreachable!(
+        "a gas estimate in a build without the evm feature (state holds an EVM: {})",
+        head.evm.is_some()
     )
 }

@@ -54,6 +54,7 @@ pub mod evm;
 #[cfg(not(feature = "evm"))]
 #[path = "evm_absent.rs"]
 pub mod evm;
+pub mod gas_limit;
 pub mod options;
 pub mod outlier;
 pub mod payout;
@@ -546,13 +547,30 @@ impl ContractState {
         value_units: u64,
         call: &Call,
     ) -> Outcome {
+        self.execute_with_gas(params, sender, value_units, call, None)
+    }
+
+    /// [`ContractState::execute`] with the transaction's own gas limit, when it carries one
+    /// ([`gas_limit::TxGas`]): the `evm` engine runs the call with it (out of gas it
+    /// reverts, [`Outcome::OutOfGas`]); without one the block's limit applies. The native
+    /// engine has no gas and ignores it.
+    pub fn execute_with_gas(
+        &mut self,
+        params: &ContractParams,
+        sender: RobotId,
+        value_units: u64,
+        call: &Call,
+        gas_limit: Option<u64>,
+    ) -> Outcome {
         assert_eq!(
             self.balances.len(),
             params.robots as usize,
             "state and params disagree"
         );
         let outcome = match (params.engine, call) {
-            (ContractEngine::Evm, call) => evm::execute(self, params, sender, value_units, call),
+            (ContractEngine::Evm, call) => {
+                evm::execute(self, params, sender, value_units, call, gas_limit)
+            }
             (ContractEngine::Native, Call::SubmitModel { .. }) if params.buffered.is_some() => {
                 Outcome::Malformed(
                     "the buffered protocol takes submitUpdate naming the base".into(),

@@ -483,6 +483,10 @@ fn outcome_detail(outcome: &Outcome, distance: impl Fn(u64) -> String) -> String
         Outcome::OverGasLimit { gas_limit } => {
             format!("needs more gas than a block holds (contract.block_gas_limit {gas_limit})")
         }
+        Outcome::OutOfGas { gas_limit } => format!(
+            "ran out of its {gas_limit} gas and reverted (contract.gas_limit = estimate: its \
+             node's estimate plus contract.gas_margin); its stake stayed with it"
+        ),
         _ => String::new(),
     }
 }

@@ -27,7 +27,13 @@ impl Ledger {
                     .get(tx)
                     .ok_or_else(|| format!("transaction {tx:?} is not stored"))?
                     .tx;
-                state.execute(params, tx.sender, tx.value_units, &tx.call);
+                state.execute_with_gas(
+                    params,
+                    tx.sender,
+                    tx.value_units,
+                    &tx.call,
+                    tx.gas.map(|g| g.limit),
+                );
             }
         }
         Ok(state)
@@ -160,7 +166,13 @@ impl Ledger {
                 return Err("bad transaction signature or nonce");
             }
             nonces[tx.sender as usize] += 1;
-            state.execute(params, tx.sender, tx.value_units, &tx.call);
+            state.execute_with_gas(
+                params,
+                tx.sender,
+                tx.value_units,
+                &tx.call,
+                tx.gas.map(|g| g.limit),
+            );
         }
         if state.digest() != entry.state.digest()
             || entry.state_digest != entry.state.digest()
@@ -245,7 +257,13 @@ impl Ledger {
                     return fail("bad transaction signature or nonce");
                 }
                 nonces[tx.sender as usize] += 1;
-                state.execute(params, tx.sender, tx.value_units, &tx.call);
+                state.execute_with_gas(
+                    params,
+                    tx.sender,
+                    tx.value_units,
+                    &tx.call,
+                    tx.gas.map(|g| g.limit),
+                );
             }
             td += h.difficulty;
             if td != child.total_difficulty || state.digest() != child.state.digest() {

@@ -438,8 +438,12 @@ mod imp {
             }
             tx_bytes.push(bytes);
             gas_used += call.gas;
-            stored.push(g::stored_receipt_bytes(true, gas_used, &call.logs));
-            consensus.push(g::consensus_receipt_bytes(true, gas_used, &call.logs));
+            stored.push(g::stored_receipt_bytes(call.success, gas_used, &call.logs));
+            consensus.push(g::consensus_receipt_bytes(
+                call.success,
+                gas_used,
+                &call.logs,
+            ));
         }
         let time = g::GENESIS_UNIX_S + header.timestamp_ms / 1000;
         let (header_rlp, gas_limit) = match parent {

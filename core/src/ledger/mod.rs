@@ -708,6 +708,18 @@ impl Ledger {
     /// node's view (its chain, then its pending transactions). Driver-side helper: the
     /// transaction enters the ledger with a [`LedgerEvent::Submit`].
     pub fn make_tx(&self, robot: RobotId, value_units: u64, call: Call) -> Tx {
+        self.make_tx_with_gas(robot, value_units, call, None)
+    }
+
+    /// [`Ledger::make_tx`] carrying its own gas estimate and limit when `gas` is given
+    /// (`contract.gas_limit = "estimate"`).
+    pub fn make_tx_with_gas(
+        &self,
+        robot: RobotId,
+        value_units: u64,
+        call: Call,
+        gas: Option<crate::contract::gas_limit::TxGas>,
+    ) -> Tx {
         let n = self.node(robot);
         let mut nonce = self.blocks[&n.head].next_nonce[robot as usize];
         for (p, _) in n.mempool.of_sender(robot) {
@@ -715,7 +727,7 @@ impl Ledger {
                 nonce += 1;
             }
         }
-        Tx::signed(&self.keys, robot, nonce, value_units, call)
+        Tx::signed_with_gas(&self.keys, robot, nonce, value_units, call, gas)
     }
 
     /// A cheap digest of a node's view (head, mempool, counters).

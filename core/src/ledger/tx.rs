@@ -12,6 +12,7 @@
 use serde::{Deserialize, Serialize};
 
 use super::keys::{Keys, Sig};
+use crate::contract::gas_limit::TxGas;
 use crate::contract::Call;
 use crate::types::{Digest, RobotId};
 
@@ -35,6 +36,12 @@ pub struct Tx {
     pub call: Call,
     /// The sender's ed25519 signature of [`Tx::signing_hash`].
     pub signature: Sig,
+    /// The gas estimate and limit its sender's node set (`contract.gas_limit = "estimate"`,
+    /// [`crate::contract::gas_limit`]); signed, as an Ethereum transaction's gas limit is.
+    /// Absent otherwise, and then left out of the encoding and the signed body, so the
+    /// transactions of runs without it keep their hashes.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gas: Option<TxGas>,
 }
 
 /// The signed part of a transaction, borrowed.
@@ -45,17 +52,32 @@ struct UnsignedTx<'a> {
     nonce: u64,
     value_units: u64,
     call: &'a Call,
+    #[serde(skip_serializing_if = "Option::is_none")]
+    gas: Option<&'a TxGas>,
 }
 
 impl Tx {
     /// A transaction signed by `sender`'s key.
     pub fn signed(keys: &Keys, sender: RobotId, nonce: u64, value_units: u64, call: Call) -> Tx {
+        Tx::signed_with_gas(keys, sender, nonce, value_units, call, None)
+    }
+
+    /// A transaction signed by `sender`'s key, carrying its own gas limit when `gas` is given.
+    pub fn signed_with_gas(
+        keys: &Keys,
+        sender: RobotId,
+        nonce: u64,
+        value_units: u64,
+        call: Call,
+        gas: Option<TxGas>,
+    ) -> Tx {
         let mut tx = Tx {
             sender,
             nonce,
             value_units,
             call,
             signature: Sig::ZERO,
+            gas,
         };
         tx.signature = keys.sign(sender, &tx.signing_hash(&keys.chain()));
         tx
@@ -69,6 +91,7 @@ impl Tx {
             nonce: self.nonce,
             value_units: self.value_units,
             call: &self.call,
+            gas: self.gas.as_ref(),
         };
         Digest::of(&rmp_serde::to_vec(&body).expect("a transaction body always encodes"))
     }

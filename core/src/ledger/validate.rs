@@ -290,7 +290,13 @@ impl Ledger {
                 }));
             }
             next_nonce[tx.sender as usize] += 1;
-            receipts.push(state.execute(params, tx.sender, tx.value_units, &tx.call));
+            receipts.push(state.execute_with_gas(
+                params,
+                tx.sender,
+                tx.value_units,
+                &tx.call,
+                tx.gas.map(|g| g.limit),
+            ));
         }
         Ok(BlockEntry {
             block: Arc::new(Block {

@@ -27,7 +27,7 @@ pub mod timing;
 use std::collections::{BTreeMap, VecDeque};
 
 use crate::byzantine::{self, plugin::Plugins};
-use crate::config::Config;
+use crate::config::{Config, GasLimitRule};
 use crate::data::Sample;
 use crate::event::{CheckpointCause, Event, Reconfiguration, Record};
 use crate::faults::FaultSchedule;
@@ -714,8 +714,16 @@ impl Sim {
     /// learning report.
     fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> (Digest, Submission) {
         let stake_units = self.learners.stake_units;
-        self.protocol
-            .submission(&self.rec.state, robot, stake_units, weights, samples)
+        let c = &self.config.contract;
+        let gas_margin = (c.gas_limit == GasLimitRule::Estimate).then_some(c.gas_margin);
+        self.protocol.submission(
+            &self.rec.state,
+            robot,
+            stake_units,
+            weights,
+            samples,
+            gas_margin,
+        )
     }
 
     /// The report and submission of a forged model claiming `claimed` samples (a model that

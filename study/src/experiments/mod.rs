@@ -16,7 +16,7 @@ pub use heterogeneity::{
 
 /// The experiments, in the order `swarmfl sweep --help` lists them: the one list, each named
 /// once, with everything `swarmfl sweep` and `swarmfl report` know of it.
-pub const ALL: [Entry; 20] = [
+pub const ALL: [Entry; 22] = [
     Entry {
         id: Id::Preset,
         preset: Preset::E0Baselines,
@@ -176,6 +176,30 @@ pub const ALL: [Entry; 20] = [
         runs: 18,
         drawn_by: DrawnBy::Standard(Standard::byzantine(
             "per number of smart robots, the authors' contract, timing and smart robot",
+        )),
+    },
+    // Issue 58: the two under the authors' timing with the authors' gas too (the EVM engine,
+    // `contract.gas_limit = "estimate"`: a transaction's limit is its node's estimate plus
+    // 100,000, so a submission that lands as the round's closing one can run out of gas).
+    // A sweep needs a build with `--features evm`; without it every task is refused.
+    Entry {
+        id: Id::Own("e2-malicious-authors-gas"),
+        preset: Preset::AuthorsTiming,
+        axis: "malicious robots",
+        points: || authors_gas_grid(ByzantineKind::Malicious),
+        runs: 20,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of malicious robots, the authors' contract, timing and gas",
+        )),
+    },
+    Entry {
+        id: Id::Own("e3-smart-authors-gas"),
+        preset: Preset::AuthorsTiming,
+        axis: "smart robots",
+        points: || authors_gas_grid(ByzantineKind::Smart),
+        runs: 18,
+        drawn_by: DrawnBy::Standard(Standard::byzantine(
+            "per number of smart robots, the authors' contract, timing and gas",
         )),
     },
     // Issue 32. Two experiments so that each has one number of runs: 3 seeds up to 240
@@ -571,6 +595,20 @@ fn authors_grid(kind: ByzantineKind) -> Vec<Point> {
     let mut points = byzantine_grid();
     for p in points.iter_mut().filter(|p| p.x > 0.0) {
         p.overrides.push(format!("byzantine.kind={}", kind.name()));
+    }
+    points
+}
+
+/// The overrides that give a run the authors' gas limits: the EVM engine with
+/// `contract.gas_limit = "estimate"` (web3.py's estimate plus 100,000).
+pub const AUTHORS_GAS: [&str; 2] = ["contract.engine=evm", "contract.gas_limit=estimate"];
+
+/// `e2-malicious-authors-gas` and `e3-smart-authors-gas`'s grid: [`authors_grid`] with the
+/// authors' gas limits ([`AUTHORS_GAS`]) at every point.
+fn authors_gas_grid(kind: ByzantineKind) -> Vec<Point> {
+    let mut points = authors_grid(kind);
+    for p in &mut points {
+        p.overrides.extend(AUTHORS_GAS.map(String::from));
     }
     points
 }

@@ -30,6 +30,8 @@ fn task_lists_have_the_papers_sizes_and_point_major_order() {
     check("e2-malicious-authors-timing", 8, 20);
     check("e3-smart-authors-timing", 8, 18);
     check("e3-smart-authors-code", 8, 18);
+    check("e2-malicious-authors-gas", 8, 20);
+    check("e3-smart-authors-gas", 8, 18);
     check("e6-scale", 13, 3);
     check("e6-scale-1000", 3, 2);
     check("e6-scale-1000-gossip", 1, 2);
@@ -108,8 +110,19 @@ fn every_point_resolves_to_a_valid_configuration() {
     for name in EXPERIMENTS {
         let exp = experiment(name).unwrap();
         for point in &exp.points {
-            let config = Config::resolve(Some(&exp.preset), None, &point.overrides)
-                .unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
+            let resolved = Config::resolve(Some(&exp.preset), None, &point.overrides);
+            let evm = point.overrides.iter().any(|o| o == "contract.engine=evm");
+            if evm && !cfg!(feature = "evm") {
+                // The `-authors-gas` points: a build without the EVM refuses them, saying how
+                // to build one.
+                let e = resolved.unwrap_err().to_string();
+                assert!(
+                    e.contains("contract.engine") && e.contains("--features evm"),
+                    "{e}"
+                );
+                continue;
+            }
+            let config = resolved.unwrap_or_else(|e| panic!("{name} {}: {e}", point.name));
             if name == "e1-expiration" {
                 assert_eq!(config.data.expiration_s, point.x);
             } else if name == "e4-heterogeneity-measure" {
@@ -217,4 +230,25 @@ fn the_heterogeneity_grid_sets_alpha_and_at_inf_is_the_benchmarks_avoidance_colu
     assert_eq!(exp.points.len(), 5 * 9 * (1 + 2 * 3));
     // Eight rules in e4-benchmark (7 points each) and the gated median at 0 and 5 in e4-gate.
     assert_eq!(namesakes, 8 * 7 + 4);
+}
+
+/// Each point of an `-authors-gas` experiment is its `-authors-timing` namesake with the EVM
+/// engine and the authors' gas limits, and nothing else changed (compared as overrides: a
+/// build without the evm feature refuses the engine).
+#[test]
+fn the_authors_gas_experiments_add_only_the_evm_and_its_gas_limits() {
+    for (timed, gas) in [
+        ("e2-malicious-authors-timing", "e2-malicious-authors-gas"),
+        ("e3-smart-authors-timing", "e3-smart-authors-gas"),
+    ] {
+        let (a, b) = (experiment(timed).unwrap(), experiment(gas).unwrap());
+        assert_eq!((a.runs, &a.preset), (b.runs, &b.preset));
+        assert_eq!(a.points.len(), b.points.len());
+        for (p, q) in a.points.iter().zip(&b.points) {
+            assert_eq!((&p.name, p.x), (&q.name, q.x));
+            let mut want = p.overrides.clone();
+            want.extend(AUTHORS_GAS.map(String::from));
+            assert_eq!(q.overrides, want, "{gas} {}", q.name);
+        }
+    }
 }

@@ -20,6 +20,7 @@
 //! and closes a round that is `round_timeout_ms` old ([`enter_block`]).
 
 mod abi;
+mod gas_limit;
 pub mod geth;
 #[cfg(test)]
 mod tests;
@@ -30,6 +31,7 @@ use std::sync::{Arc, OnceLock};
 use revm::context::result::{ExecutionResult, Output};
 use revm::context::{Context, TxEnv};
 use revm::database::{CacheDB, EmptyDB};
+use revm::handler::MainnetContext;
 use revm::primitives::hardfork::SpecId;
 use revm::primitives::{Address, Bytes, Log, TxKind, U256};
 use revm::{ExecuteCommitEvm, MainBuilder, MainContext};
@@ -42,6 +44,7 @@ use super::{
 use crate::config::ContractEngine;
 use crate::types::RobotId;
 use abi::{Decoder, Encoder};
+pub use gas_limit::estimate;
 
 /// The compiled contract: `{compiler, contract, abi, bytecode}` written by `contracts/build.sh`.
 pub const ARTEFACT_JSON: &str = include_str!("../../../../contracts/build/SwarmFL.json");
@@ -151,6 +154,9 @@ pub struct CallTrace {
     /// Whether a block could hold it: false for a call over the block gas limit (a real
     /// chain's pool refuses it, so no receipt would exist).
     pub included: bool,
+    /// Whether it ran to the end: false for a call that ran out of its transaction's gas and
+    /// reverted (receipt status 0).
+    pub success: bool,
     /// The events it emitted, in order.
     pub logs: Vec<Log>,
 }
@@ -236,27 +242,8 @@ impl EvmState {
         gas_limit: u64,
     ) -> Result<ExecutionResult, String> {
         let db = std::mem::take(&mut self.db);
-        let mut evm = Context::mainnet()
-            .modify_cfg_chained(|cfg| {
-                cfg.set_spec_and_mainnet_gas_params(SPEC);
-                cfg.disable_nonce_check = true;
-                cfg.limit_contract_initcode_size = Some(usize::MAX);
-            })
-            .modify_block_chained(|block| {
-                // Gas price and base fee 0: calls cost the callers nothing, the gas is measured.
-                block.basefee = 0;
-                block.gas_limit = gas_limit;
-            })
-            .with_db(db)
-            .build_mainnet();
-        let tx = TxEnv::builder()
-            .caller(caller)
-            .kind(kind)
-            .data(data)
-            .gas_limit(gas_limit)
-            .gas_price(0)
-            .build()
-            .expect("a complete transaction");
+        let mut evm = context(db, gas_limit).build_mainnet();
+        let tx = tx_env(caller, kind, data, gas_limit);
         let result = evm.transact_commit(tx);
         self.db = std::mem::take(&mut evm.ctx.journaled_state.database);
         // The database would keep every log forever; the result carries this call's.
@@ -386,6 +373,35 @@ impl EvmState {
     }
 }
 
+/// The EVM's context over `db`: the fork, no nonce check, no initcode size limit, a block
+/// whose gas limit is `gas_limit` and whose base fee is 0 (calls cost the callers nothing,
+/// the gas is measured).
+fn context(db: CacheDB<EmptyDB>, gas_limit: u64) -> MainnetContext<CacheDB<EmptyDB>> {
+    Context::mainnet()
+        .modify_cfg_chained(|cfg| {
+            cfg.set_spec_and_mainnet_gas_params(SPEC);
+            cfg.disable_nonce_check = true;
+            cfg.limit_contract_initcode_size = Some(usize::MAX);
+        })
+        .modify_block_chained(|block| {
+            block.basefee = 0;
+            block.gas_limit = gas_limit;
+        })
+        .with_db(db)
+}
+
+/// A transaction from `caller` with `gas_limit` gas at gas price 0.
+fn tx_env(caller: Address, kind: TxKind, data: Bytes, gas_limit: u64) -> TxEnv {
+    TxEnv::builder()
+        .caller(caller)
+        .kind(kind)
+        .data(data)
+        .gas_limit(gas_limit)
+        .gas_price(0)
+        .build()
+        .expect("a complete transaction")
+}
+
 fn push_rules(args: &mut Encoder, rules: &Rules) {
     args.uint(u128::from(rules.stake_units));
     args.uint(u128::from(rules.security));
@@ -407,13 +423,15 @@ fn to_i64(word: U256) -> i64 {
 }
 
 /// Executes `call` on the EVM of `state` (the dispatch of [`ContractState::execute`] for the
-/// evm engine) and reads the state back.
+/// evm engine) and reads the state back. `tx_gas` is the transaction's own gas limit
+/// (`contract.gas_limit = "estimate"`); without one the call may use the block's.
 pub fn execute(
     state: &mut ContractState,
     params: &ContractParams,
     sender: RobotId,
     value_units: u64,
     call: &Call,
+    tx_gas: Option<u64>,
 ) -> Outcome {
     let evm = Arc::make_mut(
         state
@@ -421,13 +439,14 @@ pub fn execute(
             .as_mut()
             .expect("a state made under contract.engine = evm holds its EVM"),
     );
-    if matches!(call, Call::SubmitUpdate { .. }) {
+    let Some(data) = calldata(call, value_units) else {
         // Validation refuses the buffered protocol with this engine; a foreign transaction
         // can still carry the call. It never reaches the EVM (on a chain it would revert: no
         // such function), so its receipt has no gas and no events.
         evm.block_calls.push(CallTrace {
             gas: 0,
             included: true,
+            success: true,
             logs: Vec::new(),
         });
         return Outcome::Malformed(
@@ -435,45 +454,17 @@ pub fn execute(
              paper's rounds only"
                 .to_string(),
         );
-    }
+    };
     if evm.rules != Rules::of(params) {
         evm.configure(params);
     }
-    let (data, weights, samples) = match call {
-        Call::SubmitModel { weights, samples } => {
-            let mut data = abi::selector("submitModel(int64[],uint64,uint64)");
-            let mut args = Encoder::default();
-            args.int_array(weights);
-            args.uint(u128::from(*samples));
-            args.uint(u128::from(value_units));
-            data.extend_from_slice(&args.finish());
-            (data, Some(weights), *samples)
-        }
-        Call::SubmitUpdate { .. } => unreachable!("refused above"),
-        Call::Transfer { to, amount_units } => {
-            let mut data = abi::selector("transfer(address,uint64,uint64)");
-            let mut args = Encoder::default();
-            args.address(robot_address(*to));
-            args.uint(u128::from(*amount_units));
-            args.uint(u128::from(value_units));
-            data.extend_from_slice(&args.finish());
-            (data, None, 0)
-        }
+    let (weights, samples) = match call {
+        Call::SubmitModel { weights, samples } => (Some(weights), *samples),
+        _ => (None, 0),
     };
-    let Some(result) = evm.call_within(robot_address(sender), data, params.block_gas_limit) else {
-        // No block could include it: refused, nothing changed (a real chain's pool refuses a
-        // transaction whose gas exceeds the block's).
-        let gas_limit = params.block_gas_limit;
-        evm.gas
-            .entry(Outcome::OverGasLimit { gas_limit }.name().to_string())
-            .or_default()
-            .add(gas_limit);
-        evm.block_calls.push(CallTrace {
-            gas: gas_limit,
-            included: false,
-            logs: Vec::new(),
-        });
-        return Outcome::OverGasLimit { gas_limit };
+    let result = match gas_limit::run(evm, sender, data, params.block_gas_limit, tx_gas) {
+        Ok(result) => result,
+        Err(refused) => return refused,
     };
     let d = Decoder::new(&result.output);
     let code = to_u64(d.word(0));
@@ -517,6 +508,7 @@ pub fn execute(
     evm.block_calls.push(CallTrace {
         gas: result.gas,
         included: true,
+        success: true,
         logs: result.logs.clone(),
     });
 
@@ -586,6 +578,31 @@ pub fn execute(
     }
     state.round = new_round;
     outcome
+}
+
+/// The calldata of a robot's `call` with `value_units` attached; None for `submitUpdate`,
+/// which `contracts/SwarmFL.sol` does not have.
+fn calldata(call: &Call, value_units: u64) -> Option<Vec<u8>> {
+    let (signature, args) = match call {
+        Call::SubmitModel { weights, samples } => {
+            let mut args = Encoder::default();
+            args.int_array(weights);
+            args.uint(u128::from(*samples));
+            args.uint(u128::from(value_units));
+            ("submitModel(int64[],uint64,uint64)", args)
+        }
+        Call::SubmitUpdate { .. } => return None,
+        Call::Transfer { to, amount_units } => {
+            let mut args = Encoder::default();
+            args.address(robot_address(*to));
+            args.uint(u128::from(*amount_units));
+            args.uint(u128::from(value_units));
+            ("transfer(address,uint64,uint64)", args)
+        }
+    };
+    let mut data = abi::selector(signature);
+    data.extend_from_slice(&args.finish());
+    Some(data)
 }
 
 fn submission_from_storage(s: &[u128; 5], weights: &Arc<[i64]>) -> Submission {
