@@ -259,6 +259,29 @@ mod tests {
     }
 
     #[test]
+    fn round_majorities_are_averaged_over_the_runs_that_count_them() {
+        let dir = temp("majority");
+        let name = "e2-malicious";
+        let point = &experiments::experiment(name).unwrap().points[4];
+        assert_eq!(point.x, 4.0);
+        // Seeds 1 and 2 count 10 and 20 majority rounds; seed 3's summary predates the count.
+        for (seed, majority) in [(1, Some(10)), (2, Some(20)), (3, None)] {
+            let mut file = synthetic_summary(name, point.x, seed);
+            let c = &mut file.summary.run.contract;
+            c.rounds = 40;
+            c.byzantine_majority_rounds = majority;
+            let path = results::result_path(&dir, name, &point.name, seed);
+            results::write_atomic(&path, &file).unwrap();
+        }
+        let out = dir.join("report");
+        report(&dir, &out).unwrap();
+        let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+        let line = format!("| {} | 2 | 0.375 ± ", point.name);
+        assert!(md.contains(&line), "no `{line}` in:\n{md}");
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
     fn paper_figures_are_print_sized_with_vector_text_and_filled_bands() {
         let dir = temp("style");
         synthetic_dir(&dir, &["e2-faulty"], 3);

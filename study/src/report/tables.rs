@@ -172,12 +172,12 @@ fn experiment_section(
 /// timing, issue #58): per point, the fraction of a run's rounds whose accepted submissions
 /// were more than half Byzantine, averaged over its runs.
 fn majority_table(md: &mut String, e: &ExperimentStats) {
-    let rated: Vec<(&PointStats, String)> = e
+    let rated: Vec<(&PointStats, usize, String)> = e
         .points
         .iter()
         .filter_map(|p| {
             let s = p.metrics.get("byzantine_majority_rate")?;
-            Some((p, s.text(3)))
+            Some((p, s.n, s.text(3)))
         })
         .collect();
     if rated.is_empty() {
@@ -186,11 +186,12 @@ fn majority_table(md: &mut String, e: &ExperimentStats) {
     let _ = writeln!(
         md,
         "\nRounds with a Byzantine majority (more than half of the round's accepted \
-         submissions Byzantine), as a fraction of the run's rounds:\n\n| point | Byzantine \
-         majority rate |\n|---|---|"
+         submissions Byzantine), as a fraction of the run's rounds; runs: those whose \
+         summaries count them (summaries made before the count lack it):\n\n| point | runs | \
+         Byzantine majority rate |\n|---|---|---|"
     );
-    for (p, rate) in rated {
-        let _ = writeln!(md, "| {} | {} |", p.point, rate);
+    for (p, runs, rate) in rated {
+        let _ = writeln!(md, "| {} | {} | {} |", p.point, runs, rate);
     }
 }
 
