@@ -87,11 +87,10 @@ fn genesis_submission(state: &State, robot: u32) -> swarmfl_core::ledger::Tx {
     state.ledger.make_tx(robot, p.stake_units, call)
 }
 
-/// Robots 1..=k submit at 1 s (each into its own node) and node 0 receives their
-/// transactions at 1 s: its head is still genesis, its mempool holds k submissions.
-fn k_submissions_at_node_0(state: &mut State, k: u32) {
-    let at = SimTime(1_000);
-    for r in 1..=k {
+/// Robots `robots` submit at `at` (each into its own node) and node 0 receives their
+/// transactions at `at`.
+fn submissions_at_node_0(state: &mut State, robots: std::ops::RangeInclusive<u32>, at: SimTime) {
+    for r in robots {
         let tx = genesis_submission(state, r);
         let hash = tx.hash_and_size().0;
         state.ledger.apply(at, &LedgerEvent::Submit { tx }).unwrap();
@@ -108,7 +107,19 @@ fn k_submissions_at_node_0(state: &mut State, k: u32) {
             .apply(at, &LedgerEvent::Deliver { message })
             .unwrap();
     }
-    assert_eq!(state.ledger.mempool(0).len(), k as usize);
+}
+
+/// Node 0 seals its next block at `at` with what its mempool offers.
+fn seal_at_node_0(state: &mut State, at: SimTime) {
+    let (parent, _) = state.ledger.head(0);
+    let txs = state.ledger.sealable_txs(0);
+    let seal = LedgerEvent::Seal {
+        node: 0,
+        parent,
+        txs,
+        evidence: Vec::new(),
+    };
+    state.ledger.apply(at, &seal).unwrap();
 }
 
 #[test]
@@ -117,20 +128,32 @@ fn the_pending_estimate_sees_the_mempool_and_the_closing_submission_gets_its_gas
     let mut state = State::genesis(&config, 7).unwrap();
     let p = state.ledger.current_params().clone();
     let q = p.quorum;
-    assert!(q >= 2, "{q}");
-    // q - 1 submissions wait in node 0's mempool: robot 0's completes the round.
-    k_submissions_at_node_0(&mut state, q - 1);
+    assert!(q >= 2 && q < p.robots, "{q}");
+    // Round 1 closes in node 0's first block (sealed at `s`), so that a round's first
+    // submission costs what a plain one does (no storage slot is fresh).
+    let first = state.ledger.head_state(0).round;
+    submissions_at_node_0(&mut state, 1..=q, SimTime(1_000));
+    let s = SimTime(state.ledger.period_ms() + 5_000);
+    seal_at_node_0(&mut state, s);
+    assert_eq!(
+        state.ledger.head_state(0).round,
+        first + 1,
+        "round 1 closed"
+    );
+    // Round 2: q - 1 submissions reach node 0's mempool 1 s later; robot 0's closes it.
+    submissions_at_node_0(&mut state, 1..=q - 1, SimTime(s.0 + 1_000));
+    assert_eq!(state.ledger.mempool(0).len(), (q - 1) as usize);
     let mine = genesis_submission(&state, 0);
     let (value, call) = (mine.value_units, &mine.call);
     let head = state.ledger.head_state(0).clone();
     let on_head = gas_limit::estimate(&head, &p, 0, value, call, WEB3_GAS_MARGIN).unwrap();
-    // The miner rebuilt its block at 0 s (genesis) and next at 3 s: at 2 s it shows the
-    // head alone, from 3 s on the head and the q - 1 submissions.
-    let lagging = state.ledger.pending_state(0, SimTime(2_000), 3_000);
+    // The miner rebuilt its block at `s` (the new head) and next at `s` + 3 s: 2 s after the
+    // head it shows the head alone, from 3 s on the head and the q - 1 submissions.
+    let lagging = state.ledger.pending_state(0, SimTime(s.0 + 2_000), 3_000);
     assert!(lagging.submissions.is_empty(), "the 3 s recommit");
-    let pending = state.ledger.pending_state(0, SimTime(3_000), 3_000);
+    let pending = state.ledger.pending_state(0, SimTime(s.0 + 3_000), 3_000);
     assert_eq!(pending.submissions.len(), (q - 1) as usize);
-    let current = state.ledger.pending_state(0, SimTime(2_000), 0);
+    let current = state.ledger.pending_state(0, SimTime(s.0 + 2_000), 0);
     assert_eq!(
         current.submissions, pending.submissions,
         "recommit 0: the block always current"
@@ -157,7 +180,7 @@ fn a_second_submission_in_the_round_fails_the_pending_estimate_and_is_not_sent()
     let config = pending_config();
     let mut state = State::genesis(&config, 7).unwrap();
     let p = state.ledger.current_params().clone();
-    k_submissions_at_node_0(&mut state, 1);
+    submissions_at_node_0(&mut state, 1..=1, SimTime(1_000));
     // Robot 1's first submission waits in its own node's mempool; it submits again.
     let again = genesis_submission(&state, 1);
     let pending = state.ledger.pending_state(1, SimTime(3_000), 3_000);

@@ -42,8 +42,8 @@ pub use behaviour::{
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
     mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, GasEstimateState,
-    GasLimitRule, MedianRule, OutlierRule, PayoutRounding, PoolRule, Quorum, RankKey, RankOrder, RankTies,
-    RoundProtocol, Rule, ThresholdRule, MDA_MAX_SUBSETS,
+    GasLimitRule, MedianRule, OutlierRule, PayoutRounding, PoolRule, Quorum, RankKey, RankOrder,
+    RankTies, RoundProtocol, Rule, ThresholdRule, MDA_MAX_SUBSETS,
 };
 // The plug points' file lists, for the domains that declare and dispatch them (`registry!`).
 pub(crate) use byzantine::attack_files;

@@ -1158,7 +1158,10 @@ fn the_authors_gas_limits_need_the_evm_engine() {
         let text = c.to_toml();
         assert!(text.contains("gas_limit = \"estimate\""), "{text}");
         assert!(text.contains("gas_margin = 5000"), "{text}");
-        assert!(!text.contains("gas_estimate_state"), "at its default: {text}");
+        assert!(
+            !text.contains("gas_estimate_state"),
+            "at its default: {text}"
+        );
         assert!(!text.contains("gas_recommit_s"), "at its default: {text}");
         let back: Config = toml::from_str(&text).unwrap();
         assert_eq!(back, c);
@@ -1209,6 +1212,10 @@ fn the_estimate_state_and_recommit_need_the_estimated_gas_limits() {
         .to_string();
     assert!(e.contains("gas_estimate_state"), "{e}");
     // At their defaults nothing is recorded and nothing is refused.
-    let c = resolve(&["contract.gas_estimate_state=pending", "contract.gas_recommit_s=3"]).unwrap();
+    let c = resolve(&[
+        "contract.gas_estimate_state=pending",
+        "contract.gas_recommit_s=3",
+    ])
+    .unwrap();
     assert_eq!(c, resolve(&[]).unwrap());
 }

@@ -12,9 +12,8 @@ use super::behaviour::{
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
     ContractEngine, ContractOptions, Defence, FedAvgRounding, GasEstimateState, GasLimitRule,
-    MedianRule,
-    OutlierRule, PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule,
-    ThresholdRule,
+    MedianRule, OutlierRule, PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol,
+    Rule, ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};

@@ -33,9 +33,7 @@ impl Ledger {
         let txs = self.sealable_txs_until(node, Some(rebuilt));
         let head = &self.blocks[&n.head];
         let parent_ms = head.block.header.timestamp_ms;
-        let timestamp_ms = self
-            .clock_ms(node, rebuilt)
-            .max(parent_ms + self.period_ms);
+        let timestamp_ms = self.clock_ms(node, rebuilt).max(parent_ms + self.period_ms);
         let mut state = head.state.clone();
         let epoch = self.enter_block(&mut state, parent_ms, timestamp_ms);
         let params = &self.epochs[epoch].params;
