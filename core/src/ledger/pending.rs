@@ -25,11 +25,9 @@ impl Ledger {
     pub fn pending_state(&self, node: RobotId, at: SimTime, recommit_ms: u64) -> ContractState {
         let n = self.node(node);
         let since = n.head_since.0.min(at.0);
-        let rebuilt = if recommit_ms == 0 {
-            at
-        } else {
-            SimTime(since + (at.0 - since) / recommit_ms * recommit_ms)
-        };
+        let rebuilt = (at.0 - since)
+            .checked_div(recommit_ms)
+            .map_or(at, |rebuilds| SimTime(since + rebuilds * recommit_ms));
         let txs = self.sealable_txs_until(node, Some(rebuilt));
         let head = &self.blocks[&n.head];
         let parent_ms = head.block.header.timestamp_ms;
