@@ -60,7 +60,7 @@ fn a_run_with_estimated_gas_limits_is_deterministic_and_replays() {
     }
     let gas = &state.ledger.head_state(0).evm.as_ref().unwrap().gas;
     assert!(gas.contains_key("accepted"), "{gas:?}");
-    // Some submissions estimated before another landed closed no round (11 at this seed).
+    // Some submissions estimated on a head without another robot's waiting one run out of gas.
     assert!(
         gas.get("out_of_gas").is_some_and(|g| g.calls > 0),
         "{gas:?}"
