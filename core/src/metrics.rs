@@ -70,6 +70,10 @@ pub enum SkipReason {
     Waited,
     /// The robot is crashed (a fault): it neither trains nor submits.
     Crashed,
+    /// Its node's gas estimate failed (`contract.gas_limit = "estimate"`: on the estimated
+    /// state the contract refuses the call, e.g. a second submission in the round): web3.py
+    /// raises and the authors' controller sends nothing.
+    EstimateFailed,
 }
 
 impl SkipReason {
@@ -82,6 +86,7 @@ impl SkipReason {
             SkipReason::NonFiniteModel => "non_finite_model",
             SkipReason::Waited => "waited",
             SkipReason::Crashed => "crashed",
+            SkipReason::EstimateFailed => "estimate_failed",
         }
     }
 }

@@ -229,6 +229,30 @@ impl GasLimitRule {
     }
 }
 
+/// The state a node estimates a transaction's gas on under `contract.gas_limit = "estimate"`
+/// (`contract.gas_estimate_state`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GasEstimateState {
+    /// The block its miner would seal next: its head state, then the transactions of its
+    /// mempool that block would take (geth's `eth_estimateGas` without a block, as web3.py
+    /// calls it).
+    #[default]
+    Pending,
+    /// Its head block's state alone (`eth_estimateGas` at `latest`).
+    Head,
+}
+
+impl GasEstimateState {
+    /// The configuration name.
+    pub fn name(self) -> &'static str {
+        match self {
+            GasEstimateState::Pending => "pending",
+            GasEstimateState::Head => "head",
+        }
+    }
+}
+
 /// The median of an even number of distances.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]

@@ -41,9 +41,9 @@ pub use behaviour::{
 };
 pub use byzantine::{ByzantineKind, ByzantineVariant};
 pub use contract::{
-    mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, GasLimitRule,
-    MedianRule, OutlierRule, PayoutRounding, PoolRule, Quorum, RankKey, RankOrder, RankTies,
-    RoundProtocol, Rule, ThresholdRule, MDA_MAX_SUBSETS,
+    mda_subsets, ContractEngine, ContractOptions, Defence, FedAvgRounding, GasEstimateState,
+    GasLimitRule, MedianRule, OutlierRule, PayoutRounding, PoolRule, Quorum, RankKey, RankOrder,
+    RankTies, RoundProtocol, Rule, ThresholdRule, MDA_MAX_SUBSETS,
 };
 // The plug points' file lists, for the domains that declare and dispatch them (`registry!`).
 pub(crate) use byzantine::attack_files;
@@ -60,7 +60,7 @@ pub use timing::{AuthorsTimingConfig, Timing};
 pub use tree::{
     default_block_gas_limit, Aggregation, ByzantineConfig, Config, ContractConfig, DataConfig,
     Frame, LearnConfig, LedgerConfig, OutputConfig, RunConfig, WorldConfig,
-    AUTHORS_BLOCK_GAS_LIMIT, DEFAULT_ROUND_TIMEOUT_S, WEB3_GAS_MARGIN,
+    AUTHORS_BLOCK_GAS_LIMIT, DEFAULT_ROUND_TIMEOUT_S, GETH_RECOMMIT_S, WEB3_GAS_MARGIN,
 };
 
 /// Parses and validates a resolved configuration recorded as TOML text (a log header's or a

@@ -550,6 +550,8 @@ fn paper_contract() -> ContractConfig {
         block_gas_limit: super::tree::AUTHORS_BLOCK_GAS_LIMIT,
         gas_limit: Default::default(),
         gas_margin: super::tree::WEB3_GAS_MARGIN,
+        gas_estimate_state: Default::default(),
+        gas_recommit_s: super::tree::GETH_RECOMMIT_S,
         defence_refund_percent: 50,
         preaggregators: Vec::new(),
         threshold_gate: false,

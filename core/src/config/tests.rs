@@ -453,6 +453,8 @@ fn keys_added_later_leave_the_canonical_text_unchanged_at_their_default() {
         "contract.block_gas_limit",
         "contract.gas_limit",
         "contract.gas_margin",
+        "contract.gas_estimate_state",
+        "contract.gas_recommit_s",
         "contract.preaggregators",
         "contract.bucket_size",
         "contract.clip_radius",
@@ -1156,7 +1158,64 @@ fn the_authors_gas_limits_need_the_evm_engine() {
         let text = c.to_toml();
         assert!(text.contains("gas_limit = \"estimate\""), "{text}");
         assert!(text.contains("gas_margin = 5000"), "{text}");
+        assert!(
+            !text.contains("gas_estimate_state"),
+            "at its default: {text}"
+        );
+        assert!(!text.contains("gas_recommit_s"), "at its default: {text}");
         let back: Config = toml::from_str(&text).unwrap();
         assert_eq!(back, c);
+        let head = resolve(&[
+            "contract.engine=evm",
+            "contract.gas_limit=estimate",
+            "contract.gas_estimate_state=head",
+        ])
+        .unwrap();
+        assert!(head.to_toml().contains("gas_estimate_state = \"head\""));
+        assert!(resolve(&[
+            "contract.engine=evm",
+            "contract.gas_limit=estimate",
+            "contract.gas_recommit_s=0",
+        ])
+        .is_ok());
+        let e = resolve(&[
+            "contract.engine=evm",
+            "contract.gas_limit=estimate",
+            "contract.gas_estimate_state=head",
+            "contract.gas_recommit_s=1",
+        ])
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("contract.gas_recommit_s"), "{e}");
     }
+}
+
+#[test]
+fn the_estimate_state_and_recommit_need_the_estimated_gas_limits() {
+    let resolve = |sets: &[&str]| {
+        let sets: Vec<String> = sets.iter().map(|s| s.to_string()).collect();
+        Config::resolve(Some("smoke"), None, &sets)
+    };
+    let e = resolve(&["contract.gas_estimate_state=head"])
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("contract.gas_estimate_state") && e.contains("contract.gas_limit = estimate"),
+        "{e}"
+    );
+    let e = resolve(&["contract.gas_recommit_s=1"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("contract.gas_recommit_s"), "{e}");
+    let e = resolve(&["contract.gas_estimate_state=latest"])
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("gas_estimate_state"), "{e}");
+    // At their defaults nothing is recorded and nothing is refused.
+    let c = resolve(&[
+        "contract.gas_estimate_state=pending",
+        "contract.gas_recommit_s=3",
+    ])
+    .unwrap();
+    assert_eq!(c, resolve(&[]).unwrap());
 }

@@ -11,9 +11,9 @@ use super::behaviour::{
 };
 use super::byzantine::{ByzantineKind, ByzantineVariant};
 use super::contract::{
-    ContractEngine, ContractOptions, Defence, FedAvgRounding, GasLimitRule, MedianRule,
-    OutlierRule, PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol, Rule,
-    ThresholdRule,
+    ContractEngine, ContractOptions, Defence, FedAvgRounding, GasEstimateState, GasLimitRule,
+    MedianRule, OutlierRule, PayoutRounding, PoolRule, RankKey, RankOrder, RankTies, RoundProtocol,
+    Rule, ThresholdRule,
 };
 use super::ledger::LedgerBehaviour;
 use super::preagg::{self, Preaggregator};
@@ -449,6 +449,21 @@ pub struct ContractConfig {
         skip_serializing_if = "is_default_gas_margin"
     )]
     pub gas_margin: u64,
+    /// The state the estimate runs on under `gas_limit = "estimate"`: `pending` (the block the
+    /// sender's node would seal next: its head, then the transactions of its mempool that
+    /// block would take; geth's default for `eth_estimateGas`, as web3.py calls it) or `head`
+    /// (the head block's state alone). Left out of the recorded configuration at its default.
+    #[serde(default, skip_serializing_if = "is_default")]
+    pub gas_estimate_state: GasEstimateState,
+    /// How often, in seconds, a node's miner rebuilds its pending block when transactions
+    /// arrived (geth's `--miner.recommit`, 3 s), under `gas_estimate_state = "pending"`; the
+    /// block is also rebuilt at each new head. 0: on every arrival. Left out of the recorded
+    /// configuration at its default.
+    #[serde(
+        default = "default_gas_recommit_s",
+        skip_serializing_if = "is_default_gas_recommit_s"
+    )]
+    pub gas_recommit_s: f64,
     /// Pre-aggregation stages in front of the rule, applied in list order (`nnm`,
     /// `bucketing`, `clipping`, `arc`; see `contract::preagg`), e.g. `["nnm"]`. Needs a staking
     /// rule on the native contract; the rule then runs on the stages' output, the rewards stay
@@ -660,6 +675,19 @@ pub fn default_gas_margin() -> u64 {
 
 fn is_default_gas_margin(margin: &u64) -> bool {
     omit(*margin == WEB3_GAS_MARGIN)
+}
+
+/// geth's `--miner.recommit` default, 3 s (`contract.gas_recommit_s`'s default).
+pub const GETH_RECOMMIT_S: f64 = 3.0;
+
+/// `contract.gas_recommit_s`'s default, [`GETH_RECOMMIT_S`].
+pub fn default_gas_recommit_s() -> f64 {
+    GETH_RECOMMIT_S
+}
+
+#[allow(clippy::float_cmp)]
+fn is_default_gas_recommit_s(s: &f64) -> bool {
+    omit(*s == GETH_RECOMMIT_S)
 }
 
 impl ContractConfig {

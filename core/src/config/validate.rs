@@ -6,7 +6,9 @@
 //! behaviours' keys are in `behaviour_fit.rs`, as the protocol's are in `protocol_fit.rs`.
 
 use super::byzantine::ByzantineKind;
-use super::contract::{ContractEngine, ContractOptions, Defence, GasLimitRule, Rule};
+use super::contract::{
+    ContractEngine, ContractOptions, Defence, GasEstimateState, GasLimitRule, Rule,
+};
 use super::error::ConfigError;
 use super::ledger::LedgerBehaviour;
 use super::preset::Preset;
@@ -136,6 +138,8 @@ fn table(c: &Config) -> Vec<Step> {
         Integer("contract.block_gas_limit", k.block_gas_limit, 21_000, 1 << 62),
         Integer("contract.gas_margin", k.gas_margin, 0, 1 << 62),
         Across(gas_limit_needs_the_evm),
+        Number("contract.gas_recommit_s", k.gas_recommit_s, 0.0, 1.0e6),
+        Across(gas_estimate_needs_the_option),
         Integer("contract.max_claimed_samples", k.max_claimed_samples, 0, u32::MAX.into()),
         Across(faults_fit_the_run),
         Across(baseline_supports),
@@ -621,6 +625,37 @@ fn gas_limit_needs_the_evm(config: &Config) -> Result<(), ConfigError> {
                       limit, or contract.gas_limit = block"
                 .to_string(),
         });
+    }
+    Ok(())
+}
+
+/// `contract.gas_estimate_state` and `contract.gas_recommit_s` only under
+/// `contract.gas_limit = "estimate"` (the recommit only under the pending state): without
+/// the option no transaction is estimated.
+#[allow(clippy::float_cmp)]
+fn gas_estimate_needs_the_option(config: &Config) -> Result<(), ConfigError> {
+    let c = &config.contract;
+    let estimated = c.gas_limit == GasLimitRule::Estimate;
+    if c.gas_estimate_state != GasEstimateState::Pending && !estimated {
+        return out_of_range(
+            "contract.gas_estimate_state",
+            c.gas_estimate_state.name().to_string(),
+            "pending (the default) without contract.gas_limit = estimate, which no transaction \
+             is estimated under; set contract.gas_limit = estimate (with contract.engine = \
+             evm) or leave contract.gas_estimate_state out"
+                .to_string(),
+        );
+    }
+    let pending = estimated && c.gas_estimate_state == GasEstimateState::Pending;
+    if c.gas_recommit_s != super::tree::GETH_RECOMMIT_S && !pending {
+        return out_of_range(
+            "contract.gas_recommit_s",
+            c.gas_recommit_s.to_string(),
+            "3 (the default) unless contract.gas_limit = estimate with \
+             contract.gas_estimate_state = pending, the only estimate that reads the pending \
+             block; set those or leave contract.gas_recommit_s out"
+                .to_string(),
+        );
     }
     Ok(())
 }

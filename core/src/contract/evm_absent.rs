@@ -58,7 +58,7 @@ pub fn estimate(
     _sender: RobotId,
     _value_units: u64,
     _call: &Call,
-) -> u64 {
+) -> Result<u64, &'static str> {
     unreachable!(
         "a gas estimate in a build without the evm feature (state holds an EVM: {})",
         head.evm.is_some()

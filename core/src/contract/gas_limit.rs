@@ -11,9 +11,10 @@
 //! so a submission estimated as a plain one that lands as the closing one runs out of gas and
 //! reverts. docs/CONTRACT.md ("Gas", "The authors' gas limits").
 //!
-//! [`estimate`] is the driver's side (the sender's node, when the robot makes its
-//! transaction): the gas limit it writes into the transaction ([`TxGas`], recorded in the
-//! log, so replay derives nothing). The transaction's execution ([`ContractState::execute_with_gas`])
+//! [`estimate`] is the driver's side (the sender's node, when the robot sends its
+//! transaction, on its pending block's state or its head's, `contract.gas_estimate_state`):
+//! the gas limit it writes into the transaction ([`TxGas`], recorded in the log, so replay
+//! derives nothing), or the failure that keeps the robot from sending ([`EstimateFailed`]). The transaction's execution ([`ContractState::execute_with_gas`])
 //! runs the call with that limit; out of gas it reverts ([`Outcome::OutOfGas`]): the contract's
 //! state is unchanged, so the stake never left the sender.
 
@@ -32,24 +33,40 @@ pub struct TxGas {
     pub limit: u64,
 }
 
+/// Why a node's estimate failed, so that its robot sent nothing: web3.py raises when
+/// `eth_estimateGas` fails, and the authors' controller catches the exception and moves on
+/// (`controllers/docker/fedlerv2.py`, lines 199-202 and 221-224).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct EstimateFailed {
+    /// The outcome the call had on the estimated state ([`Outcome::name`]: `duplicate`,
+    /// `insufficient_stake`, `insufficient_funds`, `malformed`, or `over_gas_limit` for a
+    /// call that cannot complete within a block).
+    ///
+    /// [`Outcome::name`]: super::Outcome::name
+    pub outcome: &'static str,
+}
+
 /// The gas limit `sender`'s node gives its transaction `call` (with `value_units` attached)
-/// when its head state is `head` and the rules are `params`: the call's estimate on `head`
-/// plus `margin`, capped at the block gas limit as web3.py caps it. `head` is not changed
+/// when the state it estimates on is `seen` (its head's, or its pending block's) and the
+/// rules are `params`: the call's estimate on `seen` plus `margin`, capped at the block gas
+/// limit as web3.py caps it. `Err` when the estimate fails (the contract refuses the call,
+/// or it cannot complete within a block): the robot sends nothing. `seen` is not changed
 /// (the estimate runs on a copy). Only for a state that holds an EVM (`contract.engine =
 /// "evm"`; validation refuses `contract.gas_limit = "estimate"` otherwise).
 pub fn estimate(
-    head: &ContractState,
+    seen: &ContractState,
     params: &ContractParams,
     sender: RobotId,
     value_units: u64,
     call: &Call,
     margin: u64,
-) -> TxGas {
-    let estimate = evm::estimate(head, params, sender, value_units, call);
-    TxGas {
+) -> Result<TxGas, EstimateFailed> {
+    let estimate = evm::estimate(seen, params, sender, value_units, call)
+        .map_err(|outcome| EstimateFailed { outcome })?;
+    Ok(TxGas {
         estimate,
         limit: estimate.saturating_add(margin).min(params.block_gas_limit),
-    }
+    })
 }
 
 #[cfg(all(test, feature = "evm"))]

@@ -46,7 +46,7 @@ fn send(
 ) -> (TxGas, Outcome) {
     let sender: RobotId = 1;
     let call = submit(5);
-    let gas = estimate(seen, p, sender, p.stake_units, &call, margin);
+    let gas = estimate(seen, p, sender, p.stake_units, &call, margin).unwrap();
     let outcome = landed.execute_with_gas(p, sender, p.stake_units, &call, Some(gas.limit));
     (gas, outcome)
 }
@@ -135,7 +135,7 @@ fn an_estimate_leaves_the_node_state_alone_and_a_limit_above_the_block_is_refuse
     let p = params();
     let seen = after_one_round(&p);
     let digest = seen.digest();
-    let gas = estimate(&seen, &p, 2, p.stake_units, &submit(2), WEB3_GAS_MARGIN);
+    let gas = estimate(&seen, &p, 2, p.stake_units, &submit(2), WEB3_GAS_MARGIN).unwrap();
     assert_eq!(seen.digest(), digest);
     assert!(gas.estimate > 1_000_000, "{gas:?}");
     // web3.py caps the limit at the block's.
@@ -143,8 +143,15 @@ fn an_estimate_leaves_the_node_state_alone_and_a_limit_above_the_block_is_refuse
         block_gas_limit: gas.estimate + 10,
         ..p.clone()
     };
-    let capped = estimate(&seen, &tight, 2, p.stake_units, &submit(2), WEB3_GAS_MARGIN);
+    let capped = estimate(&seen, &tight, 2, p.stake_units, &submit(2), WEB3_GAS_MARGIN).unwrap();
     assert_eq!(capped.limit, tight.block_gas_limit);
+    // A call that cannot complete within a block fails the estimate: nothing is sent.
+    let tiny = ContractParams {
+        block_gas_limit: gas.estimate / 2,
+        ..p.clone()
+    };
+    let failed = estimate(&seen, &tiny, 2, p.stake_units, &submit(2), WEB3_GAS_MARGIN);
+    assert_eq!(failed.map_err(|e| e.outcome), Err("over_gas_limit"));
     // A transaction asking for more than a block holds is never included.
     let mut s = seen.clone();
     let over = s.execute_with_gas(&tight, 2, p.stake_units, &submit(2), Some(gas.limit));
@@ -164,4 +171,29 @@ fn an_estimate_leaves_the_node_state_alone_and_a_limit_above_the_block_is_refuse
     assert!(n
         .execute_with_gas(&native, 0, TOKEN * 5, &submit(0), Some(21_000))
         .is_accepted());
+}
+
+#[test]
+fn a_call_the_contract_refuses_fails_its_estimate() {
+    let p = params();
+    let mut s = after_one_round(&p);
+    assert!(s.execute(&p, 0, p.stake_units, &submit(1)).is_accepted());
+    let refused = |seen: &ContractState, sender: RobotId, value: u64, call: &Call| {
+        estimate(seen, &p, sender, value, call, WEB3_GAS_MARGIN).map_err(|e| e.outcome)
+    };
+    // Robot 0 submitted in this round (the authors' `require(!participates)`).
+    assert_eq!(refused(&s, 0, p.stake_units, &submit(2)), Err("duplicate"));
+    // A stake below the contract's (`require(msg.value >= aggregationPrice)`).
+    assert_eq!(
+        refused(&s, 2, p.stake_units - 1, &submit(2)),
+        Err("insufficient_stake")
+    );
+    // No samples (`require(nbSamples > 0)`).
+    let zero = Call::SubmitModel {
+        weights: (0..2848).map(|i| 1_000 + (i % 7)).collect(),
+        samples: 0,
+    };
+    assert_eq!(refused(&s, 2, p.stake_units, &zero), Err("malformed"));
+    // A fresh robot's submission estimates.
+    assert!(refused(&s, 2, p.stake_units, &submit(2)).is_ok());
 }

@@ -66,7 +66,7 @@ impl Ledger {
         self.head_journal.push(node);
         let version = self.blocks[&new_head].state.round;
         self.metrics.on_head(node, version, at);
-        self.return_abandoned(node, &abandoned, new_head);
+        self.return_abandoned(node, &abandoned, new_head, at);
         for b in branch.iter().rev() {
             for tx in &self.blocks[b].block.txs {
                 if self.txs[tx].tx.sender == node {
@@ -85,7 +85,13 @@ impl Ledger {
     /// evicts. Each returning transaction takes an arrival number, pending or not, as every
     /// one did before the caps applied here: arrival numbers enter the node's digest, so runs
     /// that never reach the caps keep their records.
-    fn return_abandoned(&mut self, node: RobotId, abandoned: &[BlockHash], new_head: BlockHash) {
+    fn return_abandoned(
+        &mut self,
+        node: RobotId,
+        abandoned: &[BlockHash],
+        new_head: BlockHash,
+        at: SimTime,
+    ) {
         let n = &mut self.nodes[node as usize];
         let mut returning = Vec::new();
         for b in abandoned {
@@ -112,7 +118,7 @@ impl Ledger {
             }
             self.nodes[node as usize]
                 .mempool
-                .insert(tx, sender, nonce, arrival);
+                .insert(tx, sender, nonce, arrival, at);
         }
     }
 }

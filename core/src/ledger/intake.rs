@@ -141,7 +141,7 @@ impl Ledger {
         self.hold_tx(node, &hash);
         let n = &mut self.nodes[node as usize];
         n.version += 1;
-        n.mempool.insert(hash, sender, nonce, n.arrivals);
+        n.mempool.insert(hash, sender, nonce, n.arrivals, at);
         n.arrivals += 1;
         applied.accepted += 1;
         self.metrics.on_seen(&hash, node, at);

@@ -35,6 +35,7 @@ pub mod keys;
 pub mod metrics;
 pub mod network;
 pub mod node;
+mod pending;
 mod seal;
 pub mod synthetic;
 pub mod tx;

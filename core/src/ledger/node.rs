@@ -197,6 +197,9 @@ struct Pending {
     arrival: u64,
     sender: RobotId,
     nonce: u64,
+    /// When it entered the mempool (not part of the node's digest: the pending block's
+    /// recommit, [`super::Ledger::pending_state`], reads it).
+    at: SimTime,
 }
 
 /// A node's pending transactions, indexed the three ways the ledger and the gossip read them:
@@ -233,6 +236,11 @@ impl Mempool {
     /// The arrival number of a pending transaction.
     pub(crate) fn arrival(&self, hash: &TxHash) -> Option<u64> {
         self.by_id.get(hash).map(|p| p.arrival)
+    }
+
+    /// When a pending transaction entered the mempool.
+    pub(crate) fn arrived_at(&self, hash: &TxHash) -> Option<SimTime> {
+        self.by_id.get(hash).map(|p| p.at)
     }
 
     /// (id, arrival number) in id order.
@@ -291,12 +299,20 @@ impl Mempool {
         }
     }
 
-    /// Adds a transaction that is not pending.
-    pub(crate) fn insert(&mut self, hash: TxHash, sender: RobotId, nonce: u64, arrival: u64) {
+    /// Adds a transaction that is not pending, arrived at `at`.
+    pub(crate) fn insert(
+        &mut self,
+        hash: TxHash,
+        sender: RobotId,
+        nonce: u64,
+        arrival: u64,
+        at: SimTime,
+    ) {
         let pending = Pending {
             arrival,
             sender,
             nonce,
+            at,
         };
         let old = self.by_id.insert(hash, pending);
         assert!(old.is_none(), "a transaction enters a mempool twice");
@@ -580,7 +596,7 @@ mod tests {
                 0..=5 => {
                     let hash = Digest::of(&step.to_le_bytes());
                     let (sender, nonce) = (r.below(5) as RobotId, r.below(6));
-                    pool.insert(hash, sender, nonce, arrivals);
+                    pool.insert(hash, sender, nonce, arrivals, SimTime(step));
                     plain.push((hash, sender, nonce, arrivals));
                     arrivals += 1;
                 }

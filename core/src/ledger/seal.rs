@@ -3,7 +3,7 @@
 //! its head now carries.
 
 use super::{block, evidence, BlockEntry, BlockHash, Evidence, Ledger, TxHash, MAX_BLOCK_BYTES};
-use crate::types::RobotId;
+use crate::types::{RobotId, SimTime};
 
 impl Ledger {
     /// Clique's recent-signer rule: whether `signer` sealed one of the last floor(S/2) blocks
@@ -141,7 +141,16 @@ impl Ledger {
     /// nonce: the lowest id), senders interleaved by arrival at the node. At most
     /// [`block::MAX_BLOCK_TXS`].
     pub fn sealable_txs(&self, node: RobotId) -> Vec<TxHash> {
+        self.sealable_txs_until(node, None)
+    }
+
+    /// [`Ledger::sealable_txs`] from the node's mempool as it was at `until` (the transactions
+    /// that entered it later left out, as if not yet arrived); the whole mempool with None.
+    pub(crate) fn sealable_txs_until(&self, node: RobotId, until: Option<SimTime>) -> Vec<TxHash> {
         let n = self.node(node);
+        let arrived = |hash: &TxHash| {
+            until.is_none_or(|t| n.mempool.arrived_at(hash).is_some_and(|a| a <= t))
+        };
         let next = &self.blocks[&n.head].next_nonce;
         // Per sender (in id order), the run of consecutive nonces from the next expected one.
         let mut runs: Vec<std::collections::VecDeque<(u64, TxHash)>> = Vec::new();
@@ -157,7 +166,10 @@ impl Ledger {
             if !*open {
                 continue;
             }
-            if nonce == *expected {
+            if nonce == *expected && !arrived(&hash) {
+                // Not there yet: the sender's run stops as at a gap.
+                *open = false;
+            } else if nonce == *expected {
                 let arrival = n.mempool.arrival(&hash).expect("indexed as pending");
                 runs.last_mut().expect("pushed").push_back((arrival, hash));
                 *expected += 1;

@@ -18,6 +18,7 @@
 //! `Submit` event). Trainings due in the same tick run in parallel and are combined in robot
 //! order.
 
+mod gas_estimate;
 mod learning;
 mod protocol;
 mod recorder;
@@ -714,16 +715,8 @@ impl Sim {
     /// learning report.
     fn submission(&self, robot: RobotId, weights: Vec<i64>, samples: u64) -> (Digest, Submission) {
         let stake_units = self.learners.stake_units;
-        let c = &self.config.contract;
-        let gas_margin = (c.gas_limit == GasLimitRule::Estimate).then_some(c.gas_margin);
-        self.protocol.submission(
-            &self.rec.state,
-            robot,
-            stake_units,
-            weights,
-            samples,
-            gas_margin,
-        )
+        self.protocol
+            .submission(&self.rec.state, robot, stake_units, weights, samples)
     }
 
     /// The report and submission of a forged model claiming `claimed` samples (a model that
@@ -824,6 +817,7 @@ impl Sim {
                 // Queued before a fork withheld the robot: it never leaves.
                 continue;
             }
+            let (report, submission) = self.estimated(report, submission, now);
             // A training finished between ticks is submitted at the tick that follows.
             self.rec.emit(now, Event::Learn(report));
             match submission {
@@ -834,6 +828,31 @@ impl Sim {
                 Some(Submission::Baseline(event)) => self.rec.emit(now, Event::Aggregation(event)),
                 None => {}
             }
+        }
+    }
+}
+
+impl Sim {
+    /// Under `contract.gas_limit = "estimate"`, a transaction as its robot sends it now: with
+    /// its node's gas estimate, or not at all when the estimate fails (`gas_estimate.rs`).
+    fn estimated(
+        &self,
+        report: LearnReport,
+        submission: Option<Submission>,
+        now: SimTime,
+    ) -> (LearnReport, Option<Submission>) {
+        let contract = &self.config.contract;
+        match submission {
+            Some(Submission::Tx(draft)) if contract.gas_limit == GasLimitRule::Estimate => {
+                match gas_estimate::sent(&self.rec.state, contract, &draft, now) {
+                    Ok(tx) => (
+                        gas_estimate::reported(report, Ok(&tx)),
+                        Some(Submission::Tx(tx)),
+                    ),
+                    Err(failed) => (gas_estimate::reported(report, Err(failed)), None),
+                }
+            }
+            other => (report, other),
         }
     }
 }

@@ -11,7 +11,7 @@ use super::recorder::{Part, Recorder};
 use crate::aggregation::{AggregationEvent, Gossiper, StartView};
 use crate::byzantine::ledger::LedgerAgents;
 use crate::config::{Aggregation, Config};
-use crate::contract::{gas_limit, Call, ContractState};
+use crate::contract::{Call, ContractState};
 use crate::event::{CheckpointCause, Event};
 use crate::faults::FaultSchedule;
 use crate::ledger::{LedgerEvent, Network, Tx};
@@ -191,8 +191,8 @@ impl Protocol {
     /// The submission of `weights` claiming `samples` by `robot` and its identity in the
     /// learning report: a transaction signed by its own node (staking `stake_units`; under the
     /// buffered protocol naming the base its node's head shows), or a baseline's write or
-    /// upload. With `gas_margin` (`contract.gas_limit = "estimate"`) the transaction carries
-    /// the gas its call uses on the robot's node's head state plus the margin.
+    /// upload. Under `contract.gas_limit = "estimate"` the transaction is made again with its
+    /// gas when the robot sends it (`gas_estimate.rs`).
     pub(super) fn submission(
         &self,
         state: &State,
@@ -200,7 +200,6 @@ impl Protocol {
         stake_units: u64,
         weights: Vec<i64>,
         samples: u64,
-        gas_margin: Option<u64>,
     ) -> (Digest, Submission) {
         let weights: Arc<[i64]> = Arc::from(weights);
         match self {
@@ -218,11 +217,7 @@ impl Protocol {
                 } else {
                     Call::SubmitModel { weights, samples }
                 };
-                let gas = gas_margin.map(|margin| {
-                    let params = state.ledger.current_params();
-                    gas_limit::estimate(head, params, robot, stake_units, &call, margin)
-                });
-                let tx = state.ledger.make_tx_with_gas(robot, stake_units, call, gas);
+                let tx = state.ledger.make_tx(robot, stake_units, call);
                 (tx.hash_and_size().0, Submission::Tx(tx))
             }
             Protocol::Gossip(_) | Protocol::Central => {

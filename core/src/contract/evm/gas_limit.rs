@@ -79,23 +79,38 @@ impl<CTX> Inspector<CTX> for SstoreSentry {
     }
 }
 
+/// The contract's outcome codes that refuse a call and change nothing (`contracts/SwarmFL.sol`:
+/// `DUPLICATE`, `INSUFFICIENT_STAKE`, `INSUFFICIENT_FUNDS`, and from `BAD_SENDER` on the
+/// malformed ones): each a `require` of the authors' contract or a check its ABI decoder or
+/// checked arithmetic makes, so there the call reverts and `eth_estimateGas` fails.
+fn refused(code: u64) -> Option<&'static str> {
+    match code {
+        3 => Some("duplicate"),
+        4 => Some("insufficient_stake"),
+        6 => Some("insufficient_funds"),
+        10.. => Some("malformed"),
+        _ => None,
+    }
+}
+
 /// The gas `sender`'s call needs on `head` under `params`, as `eth_estimateGas` answers it:
 /// the least gas limit with which it runs to the end. That is the gas it spends before
 /// refunds (the refund comes after execution), at least the calldata floor (EIP-7623), and at
 /// least what leaves 2301 gas at each of its `SSTORE`s (EIP-2200's sentry), found in one
 /// execution where geth searches by bisection. Runs on a copy of `head`'s EVM, committing
-/// nothing. A call that cannot complete within the block gas limit estimates at that limit
-/// (web3.py would raise and send nothing; such a transaction then runs out of gas).
+/// nothing. `Err` names the outcome when the estimate fails, as geth's does on the authors'
+/// contract (web3.py then raises and sends nothing): the call cannot complete within the
+/// block gas limit (`over_gas_limit`), or the contract refuses it ([`refused`]).
 pub fn estimate(
     head: &ContractState,
     params: &ContractParams,
     sender: RobotId,
     value_units: u64,
     call: &Call,
-) -> u64 {
+) -> Result<u64, &'static str> {
     let Some(data) = calldata(call, value_units) else {
         // submitUpdate never reaches the EVM.
-        return 0;
+        return Err("malformed");
     };
     let mut evm: EvmState = Arc::unwrap_or_clone(
         head.evm
@@ -115,14 +130,18 @@ pub fn estimate(
     let mut machine = context(evm.db, limit).build_mainnet_with_inspector(SstoreSentry::default());
     let result = machine.inspect_tx(tx).map(|r| r.result);
     match result {
-        Ok(ExecutionResult::Success { gas, .. }) => {
+        Ok(ExecutionResult::Success { gas, output, .. }) => {
+            let code = super::to_u64(super::abi::Decoder::new(output.data()).word(0));
+            if let Some(outcome) = refused(code) {
+                return Err(outcome);
+            }
             let sentry = machine.inspector.least_left.map_or(0, |left| {
                 // With limit L the SSTORE would have `left - (limit - L)` left: L must make
                 // that more than the stipend.
                 (limit - left).saturating_add(CALL_STIPEND + 1)
             });
-            gas.total_gas_spent().max(gas.floor_gas()).max(sentry)
+            Ok(gas.total_gas_spent().max(gas.floor_gas()).max(sentry))
         }
-        Ok(_) | Err(_) => limit,
+        Ok(_) | Err(_) => Err("over_gas_limit"),
     }
 }
