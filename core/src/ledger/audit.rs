@@ -27,13 +27,7 @@ impl Ledger {
                     .get(tx)
                     .ok_or_else(|| format!("transaction {tx:?} is not stored"))?
                     .tx;
-                state.execute_with_gas(
-                    params,
-                    tx.sender,
-                    tx.value_units,
-                    &tx.call,
-                    tx.gas.map(|g| g.limit),
-                );
+                tx.execute_on(&mut state, params);
             }
         }
         Ok(state)
@@ -166,13 +160,7 @@ impl Ledger {
                 return Err("bad transaction signature or nonce");
             }
             nonces[tx.sender as usize] += 1;
-            state.execute_with_gas(
-                params,
-                tx.sender,
-                tx.value_units,
-                &tx.call,
-                tx.gas.map(|g| g.limit),
-            );
+            tx.execute_on(&mut state, params);
         }
         if state.digest() != entry.state.digest()
             || entry.state_digest != entry.state.digest()
@@ -257,13 +245,7 @@ impl Ledger {
                     return fail("bad transaction signature or nonce");
                 }
                 nonces[tx.sender as usize] += 1;
-                state.execute_with_gas(
-                    params,
-                    tx.sender,
-                    tx.value_units,
-                    &tx.call,
-                    tx.gas.map(|g| g.limit),
-                );
+                tx.execute_on(&mut state, params);
             }
             td += h.difficulty;
             if td != child.total_difficulty || state.digest() != child.state.digest() {

@@ -37,13 +37,7 @@ impl Ledger {
         let params = &self.epochs[epoch].params;
         for hash in &txs {
             let tx = &self.txs[hash].tx;
-            state.execute_with_gas(
-                params,
-                tx.sender,
-                tx.value_units,
-                &tx.call,
-                tx.gas.map(|g| g.limit),
-            );
+            tx.execute_on(&mut state, params);
         }
         state
     }

@@ -13,7 +13,7 @@ use serde::{Deserialize, Serialize};
 
 use super::keys::{Keys, Sig};
 use crate::contract::gas_limit::TxGas;
-use crate::contract::Call;
+use crate::contract::{Call, ContractParams, ContractState, Outcome};
 use crate::types::{Digest, RobotId};
 
 /// The id of a transaction: blake3 of its signed encoding.
@@ -57,6 +57,20 @@ struct UnsignedTx<'a> {
 }
 
 impl Tx {
+    /// Executes this transaction's call on `state` under `params`: its sender, stake and
+    /// call, with its own gas limit when it carries one
+    /// ([`ContractState::execute_with_gas`]). Every place that applies a stored transaction
+    /// to a contract state (validation, audit, a node's pending block) goes through here.
+    pub fn execute_on(&self, state: &mut ContractState, params: &ContractParams) -> Outcome {
+        state.execute_with_gas(
+            params,
+            self.sender,
+            self.value_units,
+            &self.call,
+            self.gas.map(|g| g.limit),
+        )
+    }
+
     /// A transaction signed by `sender`'s key.
     pub fn signed(keys: &Keys, sender: RobotId, nonce: u64, value_units: u64, call: Call) -> Tx {
         Tx::signed_with_gas(keys, sender, nonce, value_units, call, None)

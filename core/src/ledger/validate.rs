@@ -290,13 +290,7 @@ impl Ledger {
                 }));
             }
             next_nonce[tx.sender as usize] += 1;
-            receipts.push(state.execute_with_gas(
-                params,
-                tx.sender,
-                tx.value_units,
-                &tx.call,
-                tx.gas.map(|g| g.limit),
-            ));
+            receipts.push(tx.execute_on(&mut state, params));
         }
         Ok(BlockEntry {
             block: Arc::new(Block {
