@@ -125,16 +125,10 @@ pub fn check_study(
     );
     for name in only {
         if !committed.iter().any(|c| c.sweep.experiment == *name) {
-            let mut has: Vec<&str> = committed
-                .iter()
-                .map(|c| c.sweep.experiment.as_str())
-                .collect();
-            has.sort_unstable();
-            has.dedup();
             anyhow::bail!(
                 "--experiment {name}: no result file of it under {} (its experiments: {})",
                 results.display(),
-                has.join(", ")
+                experiments(&committed).join(", ")
             );
         }
     }
@@ -336,6 +330,17 @@ fn clip(s: &str) -> String {
     }
 }
 
+/// The experiments of `committed`, sorted, each once.
+fn experiments(committed: &[Committed]) -> Vec<&str> {
+    let mut names: Vec<&str> = committed
+        .iter()
+        .map(|c| c.sweep.experiment.as_str())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    names
+}
+
 /// Check 3's tasks: per experiment, the `per_experiment` files with the smallest recorded wall
 /// time (ties by path), in path order, leaving out tasks recorded over `max_task_s`; and the
 /// experiments (with `per_experiment` > 0) left with no task that way, with their fastest time.
@@ -344,15 +349,9 @@ fn choose(
     per_experiment: usize,
     max_task_s: Option<f64>,
 ) -> (Vec<Committed>, Vec<(String, f64)>) {
-    let mut experiments: Vec<&str> = committed
-        .iter()
-        .map(|c| c.sweep.experiment.as_str())
-        .collect();
-    experiments.sort_unstable();
-    experiments.dedup();
     let mut chosen = Vec::new();
     let mut not_rerun = Vec::new();
-    for e in experiments {
+    for e in experiments(committed) {
         let mut of: Vec<&Committed> = committed
             .iter()
             .filter(|c| c.sweep.experiment == e)
