@@ -204,19 +204,21 @@ fn parse(path: &Path) -> anyhow::Result<Committed> {
 /// needs the EVM engine in a build without it is counted in `needs_evm` instead.
 fn check_configurations(committed: &[Committed], findings: &mut Findings) {
     for c in committed {
-        match resolve(c) {
-            Err(e) if needs_evm_feature(&e) => {
-                match findings
-                    .needs_evm
-                    .iter_mut()
-                    .find(|(experiment, _)| *experiment == c.sweep.experiment)
-                {
-                    Some((_, files)) => *files += 1,
-                    None => findings.needs_evm.push((c.sweep.experiment.clone(), 1)),
-                }
+        let resolved = resolve(c);
+        if matches!(&resolved, Err(e) if needs_evm_feature(e)) {
+            match findings
+                .needs_evm
+                .iter_mut()
+                .find(|(experiment, _)| *experiment == c.sweep.experiment)
+            {
+                Some((_, files)) => *files += 1,
+                None => findings.needs_evm.push((c.sweep.experiment.clone(), 1)),
             }
+            continue;
+        }
+        findings.files += 1;
+        match resolved {
             Ok(config) => {
-                findings.files += 1;
                 let today = config.hash().to_hex().to_string();
                 let theirs = c.config_hash.as_str();
                 if today != theirs {
@@ -231,13 +233,10 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
                     ));
                 }
             }
-            Err(e) => {
-                findings.files += 1;
-                findings.problems.push(format!(
-                    "{}: its task no longer resolves: {e:#}",
-                    c.path.display()
-                ));
-            }
+            Err(e) => findings.problems.push(format!(
+                "{}: its task no longer resolves: {e:#}",
+                c.path.display()
+            )),
         }
     }
 }
