@@ -122,7 +122,8 @@ PY
 rewards() {
   local seeds="1 2 3" counts="1 2 3" kinds="faulty malicious smart" samples=10
   if [ -n "$tiny" ]; then duration=150; seeds=1; counts=1; kinds=smart; samples=2; fi
-  for kind in $kinds; do for f in $counts; do for seed in $seeds; do
+  # Seed by seed, so a study stopped early holds every cell at the seeds it finished.
+  for seed in $seeds; do for kind in $kinds; do for f in $counts; do
     local dir="$out/rewards/$kind-f$f-seed$seed"
     run "$dir" "$seed" "run.duration_s=$duration" "byzantine.kind=$kind" "byzantine.count=$f"
     if [ ! -s "$dir/contributions.json" ]; then
