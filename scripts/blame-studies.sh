@@ -11,8 +11,8 @@
 # median under the line-searched ALIE and IPM, the paper's rule under smart and malicious) x
 # f = 1, 2, 3 Byzantine of 15 x 10 seeds = 180 runs of 1000 s (the harm shows within the first
 # rounds: rounds close every ~100 s), each blamed on the held-out loss at the end
-# (15 counterfactuals, --no-honest). Estimate: a 1000 s paper run is ~7 s CPU, so 16 x 7 s x
-# 180 = ~5.6 CPU-hours. Reported: how often the f robots of largest influence are exactly the
+# (15 counterfactuals, --no-honest). Measured: a 1000 s paper run is ~3 CPU-s, a localisation
+# ~40 CPU-s and ~30 s of wall on 2 cores, so the study is ~2 CPU-hours (95 min of wall). Reported: how often the f robots of largest influence are exactly the
 # Byzantine set, per attack and f, with a Wilson 95 % interval (FedDebug: 100 % at 1, 90.3 %
 # with several faulty clients).
 #
@@ -24,7 +24,8 @@
 # (minus its Shapley value of the held-out loss: positive = it lowered the loss), and the smart
 # robots' mean contribution.
 #
-# Together ~10 CPU-hours; `tiny` runs one seed of one cell per study at 150 s (a check, minutes).
+# Estimated together ~10 CPU-hours before the first was run; see the study's README for what
+# they took; `tiny` runs one seed of one cell per study at 150 s (a check, minutes).
 set -euo pipefail
 BIN=${SWARMFL_BIN:-./target/release/swarmfl}
 study=${1:?localisation, rewards, summarise, collect or recheck}
