@@ -503,6 +503,10 @@ pub struct RecheckArgs {
     /// re-run, never skipped silently.
     #[arg(long, value_name = "S")]
     pub max_task_s: Option<f64>,
+    /// Re-run only tasks of this experiment (repeatable; default every experiment). The
+    /// configuration and report checks still cover every file.
+    #[arg(long = "experiment", value_name = "NAME")]
+    pub experiments: Vec<String>,
 }
 
 /// The arguments of `swarmfl chaos`.

@@ -20,6 +20,11 @@
 //!    record anywhere in the run fails it. With `--max-task-s S`, only tasks recorded at most
 //!    S seconds are candidates; an experiment with none is listed as not re-run.
 //!
+//! A task whose configuration runs the Solidity contract (`contract.engine = "evm"`) cannot be
+//! resolved or run by a build without the `evm` cargo feature: in such a build its experiment
+//! is named as needing that build and left out of checks 1 and 3 (never counted as passing);
+//! a build with the feature checks it (CI runs both).
+//!
 //! A study whose README.md has a line starting with `Stale:` is not checked: the line says why
 //! its results are not from the current build (a change that moved records and the re-make
 //! still to do). `recheck` prints the reason, so a stale study is visible, never silent.
@@ -29,7 +34,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use anyhow::Context;
-use swarmfl_core::config::Config;
+use swarmfl_core::config::{Config, ConfigError};
 
 use crate::summary::{self, ResultFile, SweepTask};
 use crate::{report, run};
@@ -73,6 +78,9 @@ pub struct Findings {
     pub reran: usize,
     /// Experiments with no task under `--max-task-s`, with their fastest recorded wall time.
     pub not_rerun: Vec<(String, f64)>,
+    /// Experiments whose tasks run the EVM engine, which this build lacks (cargo feature
+    /// `evm`): neither resolved nor re-run here, with their number of result files.
+    pub needs_evm: Vec<(String, usize)>,
     /// The problems, one line each, naming the file.
     pub problems: Vec<String>,
 }
@@ -93,10 +101,14 @@ pub fn stale_reason(dir: &Path) -> anyhow::Result<Option<String>> {
 }
 
 /// The three checks of one study.
+///
+/// `only`, when not empty, names the experiments whose tasks may be re-run (check 3); checks
+/// 1 and 2 still cover every file.
 pub fn check_study(
     dir: &Path,
     tasks: usize,
     max_task_s: Option<f64>,
+    only: &[String],
     jobs: usize,
 ) -> anyhow::Result<Findings> {
     let results = dir.join("results");
@@ -111,13 +123,30 @@ pub fn check_study(
         "no result files under {} (expected <experiment>/<point>/seed<N>.json)",
         results.display()
     );
-    let mut findings = Findings {
-        files: committed.len(),
-        ..Findings::default()
-    };
+    for name in only {
+        if !committed.iter().any(|c| c.sweep.experiment == *name) {
+            anyhow::bail!(
+                "--experiment {name}: no result file of it under {} (its experiments: {})",
+                results.display(),
+                experiments(&committed).join(", ")
+            );
+        }
+    }
+    let mut findings = Findings::default();
     check_configurations(&committed, &mut findings);
     check_report(dir, &results, &mut findings)?;
-    let (chosen, not_rerun) = choose(&committed, tasks, max_task_s);
+    let runnable: Vec<Committed> = committed
+        .into_iter()
+        .filter(|c| {
+            let evm = findings
+                .needs_evm
+                .iter()
+                .any(|(e, _)| *e == c.sweep.experiment);
+            let named = only.is_empty() || only.contains(&c.sweep.experiment);
+            !evm && named
+        })
+        .collect();
+    let (chosen, not_rerun) = choose(&runnable, tasks, max_task_s);
     findings.reran = chosen.len();
     findings.not_rerun = not_rerun;
     findings.problems.extend(rerun(&chosen, jobs));
@@ -171,10 +200,24 @@ fn parse(path: &Path) -> anyhow::Result<Committed> {
     })
 }
 
-/// Check 1: today's presets give every file's recorded configuration hash.
+/// Check 1: today's presets give every file's recorded configuration hash. A file whose task
+/// needs the EVM engine in a build without it is counted in `needs_evm` instead.
 fn check_configurations(committed: &[Committed], findings: &mut Findings) {
     for c in committed {
-        match resolve(c) {
+        let resolved = resolve(c);
+        if matches!(&resolved, Err(e) if needs_evm_feature(e)) {
+            match findings
+                .needs_evm
+                .iter_mut()
+                .find(|(experiment, _)| *experiment == c.sweep.experiment)
+            {
+                Some((_, files)) => *files += 1,
+                None => findings.needs_evm.push((c.sweep.experiment.clone(), 1)),
+            }
+            continue;
+        }
+        findings.files += 1;
+        match resolved {
             Ok(config) => {
                 let today = config.hash().to_hex().to_string();
                 let theirs = c.config_hash.as_str();
@@ -196,6 +239,17 @@ fn check_configurations(committed: &[Committed], findings: &mut Findings) {
             )),
         }
     }
+}
+
+/// Whether a resolution failed only because this build has no EVM engine (cargo feature
+/// `evm`) and the task sets `contract.engine = "evm"`.
+fn needs_evm_feature(error: &anyhow::Error) -> bool {
+    !cfg!(feature = "evm")
+        && matches!(
+            error.downcast_ref::<ConfigError>(),
+            Some(ConfigError::OutOfRange { key, value, .. })
+                if key == "contract.engine" && value == "evm"
+        )
 }
 
 /// The configuration of a committed task under today's presets.
@@ -275,6 +329,17 @@ fn clip(s: &str) -> String {
     }
 }
 
+/// The experiments of `committed`, sorted, each once.
+fn experiments(committed: &[Committed]) -> Vec<&str> {
+    let mut names: Vec<&str> = committed
+        .iter()
+        .map(|c| c.sweep.experiment.as_str())
+        .collect();
+    names.sort_unstable();
+    names.dedup();
+    names
+}
+
 /// Check 3's tasks: per experiment, the `per_experiment` files with the smallest recorded wall
 /// time (ties by path), in path order, leaving out tasks recorded over `max_task_s`; and the
 /// experiments (with `per_experiment` > 0) left with no task that way, with their fastest time.
@@ -283,15 +348,9 @@ fn choose(
     per_experiment: usize,
     max_task_s: Option<f64>,
 ) -> (Vec<Committed>, Vec<(String, f64)>) {
-    let mut experiments: Vec<&str> = committed
-        .iter()
-        .map(|c| c.sweep.experiment.as_str())
-        .collect();
-    experiments.sort_unstable();
-    experiments.dedup();
     let mut chosen = Vec::new();
     let mut not_rerun = Vec::new();
-    for e in experiments {
+    for e in experiments(committed) {
         let mut of: Vec<&Committed> = committed
             .iter()
             .filter(|c| c.sweep.experiment == e)
@@ -556,7 +615,7 @@ mod tests {
         .unwrap();
         assert_eq!((outcome.ran, outcome.failed.len()), (1, 0));
         report::report(&results, &dir).unwrap();
-        let clean = check_study(&dir, 1, None, 1).unwrap();
+        let clean = check_study(&dir, 1, None, &[], 1).unwrap();
         assert_eq!(clean.problems, Vec::<String>::new());
         assert_eq!((clean.files, clean.reran), (1, 1));
 
@@ -566,7 +625,7 @@ mod tests {
         let mut edited = ResultFile::parse(original.as_bytes(), &file).unwrap();
         edited.summary.run.world.collisions = 12345;
         results::write_atomic(&file, &edited).unwrap();
-        let found = check_study(&dir, 1, None, 1).unwrap().problems;
+        let found = check_study(&dir, 1, None, &[], 1).unwrap().problems;
         assert!(
             found
                 .iter()
@@ -579,27 +638,59 @@ mod tests {
         results::write_atomic(&file, &timed).unwrap();
         report::report(&results, &dir).unwrap();
         assert_eq!(
-            check_study(&dir, 1, None, 1).unwrap().problems,
+            check_study(&dir, 1, None, &[], 1).unwrap().problems,
             Vec::<String>::new()
         );
         // Another configuration hash: named without a re-run.
         let mut other = ResultFile::parse(original.as_bytes(), &file).unwrap();
         other.summary.run.config_hash = "00112233445566778899".into();
         results::write_atomic(&file, &other).unwrap();
-        let found = check_study(&dir, 0, None, 1).unwrap().problems;
+        let found = check_study(&dir, 0, None, &[], 1).unwrap().problems;
         assert!(
             found
                 .iter()
                 .any(|p| p.contains("made under configuration 001122334455")),
             "{found:?}"
         );
+        // Naming the experiment re-runs it; naming one the study does not have is an error.
+        std::fs::write(&file, &original).unwrap();
+        let named = check_study(&dir, 1, None, &["e1-faulty".into()], 1).unwrap();
+        assert_eq!((named.files, named.reran), (1, 1));
+        let unknown = check_study(&dir, 1, None, &["e2-malicious".into()], 1).unwrap_err();
+        assert!(
+            format!("{unknown:#}").contains("--experiment e2-malicious: no result file of it"),
+            "{unknown:#}"
+        );
+        // A task on the EVM engine: a build without it names the experiment and checks none of
+        // its files (never passing them); a build with it resolves the task, whose
+        // configuration is then not the recorded one.
+        let mut evm = ResultFile::parse(original.as_bytes(), &file).unwrap();
+        evm.sweep.overrides.push("contract.engine=evm".into());
+        results::write_atomic(&file, &evm).unwrap();
+        report::report(&results, &dir).unwrap();
+        let found = check_study(&dir, 1, None, &[], 1).unwrap();
+        if cfg!(feature = "evm") {
+            assert!(found.needs_evm.is_empty());
+            assert!(
+                found
+                    .problems
+                    .iter()
+                    .any(|p| p.contains("made under configuration")),
+                "{:?}",
+                found.problems
+            );
+        } else {
+            assert_eq!(found.needs_evm, [("e1-faulty".to_string(), 1)]);
+            assert_eq!((found.files, found.reran), (0, 0));
+            assert_eq!(found.problems, Vec::<String>::new());
+        }
         // The committed report edited.
         std::fs::write(&file, &original).unwrap();
         report::report(&results, &dir).unwrap();
         let numbers = dir.join("numbers.csv");
         let text = std::fs::read_to_string(&numbers).unwrap();
         std::fs::write(&numbers, text.replacen('1', "2", 1)).unwrap();
-        let found = check_study(&dir, 0, None, 1).unwrap().problems;
+        let found = check_study(&dir, 0, None, &[], 1).unwrap().problems;
         assert!(
             found
                 .iter()

@@ -30,7 +30,15 @@ pub fn command(args: RecheckArgs) -> anyhow::Result<ExitCode> {
             );
             continue;
         }
-        let findings = check_study(dir, args.tasks, args.max_task_s, jobs)?;
+        let findings = check_study(dir, args.tasks, args.max_task_s, &args.experiments, jobs)?;
+        for (experiment, files) in &findings.needs_evm {
+            println!(
+                "{}: experiment {experiment} not checked ({files} result files): its runs use \
+                 contract.engine = evm, which this build lacks; `recheck` from a build with \
+                 `--features evm` checks them",
+                dir.display()
+            );
+        }
         for (experiment, fastest) in &findings.not_rerun {
             println!(
                 "{}: experiment {experiment} not re-run: its fastest task took {fastest:.0} s, \
