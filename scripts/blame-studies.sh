@@ -4,13 +4,15 @@
 #   scripts/blame-studies.sh localisation OUT [tiny]   # who is Byzantine: top-f accuracy
 #   scripts/blame-studies.sh rewards OUT [tiny]        # tokens gained vs Shapley contribution
 #   scripts/blame-studies.sh summarise OUT             # both tables (python3, stdlib only)
+#   scripts/blame-studies.sh collect OUT DEST          # copy the small files (no logs) to DEST
+#   scripts/blame-studies.sh recheck DIR               # one committed localisation, made again
 #
 # Localisation: 6 attacks that harm the model (fedavg under sign flipping and extreme values,
 # median under the line-searched ALIE and IPM, the paper's rule under smart and malicious) x
 # f = 1, 2, 3 Byzantine of 15 x 10 seeds = 180 runs of 1000 s (the harm shows within the first
 # rounds: rounds close every ~100 s), each blamed on the held-out loss at the end
-# (15 counterfactuals, --no-honest). Estimate: a 1000 s paper run is ~7 s CPU, so 16 x 7 s x
-# 180 = ~5.6 CPU-hours. Reported: how often the f robots of largest influence are exactly the
+# (15 counterfactuals, --no-honest). Measured: a 1000 s paper run is ~3 CPU-s, a localisation
+# ~40 CPU-s and ~30 s of wall on 2 cores, so the study is ~2 CPU-hours (95 min of wall). Reported: how often the f robots of largest influence are exactly the
 # Byzantine set, per attack and f, with a Wilson 95 % interval (FedDebug: 100 % at 1, 90.3 %
 # with several faulty clients).
 #
@@ -22,10 +24,11 @@
 # (minus its Shapley value of the held-out loss: positive = it lowered the loss), and the smart
 # robots' mean contribution.
 #
-# Together ~10 CPU-hours; `tiny` runs one seed of one cell per study at 150 s (a check, minutes).
+# Estimated together ~10 CPU-hours before the first was run; see the study's README for what
+# they took; `tiny` runs one seed of one cell per study at 150 s (a check, minutes).
 set -euo pipefail
 BIN=${SWARMFL_BIN:-./target/release/swarmfl}
-study=${1:?localisation, rewards or summarise}
+study=${1:?localisation, rewards, summarise, collect or recheck}
 out=${2:?output folder}
 tiny=${3:-}
 mkdir -p "$out"
@@ -34,37 +37,101 @@ run() { # dir seed overrides...
   local dir=$1 seed=$2; shift 2
   local sets=()
   for s in "$@"; do sets+=(--set "$s"); done
-  [ -f "$dir/run.swlog" ] || "$BIN" run --preset paper --seed "$seed" "${sets[@]}" --out "$dir" --quiet >/dev/null
+  [ -f "$dir/summary.json" ] || "$BIN" run --preset paper --seed "$seed" "${sets[@]}" --out "$dir" --quiet >/dev/null
 }
 
+# One localisation: the run, then blame on the held-out loss at its end. Files are written aside
+# and renamed, so a study stopped mid-way resumes without a half-written file.
+localise() { # dir seed f overrides...
+  local dir=$1 seed=$2 f=$3; shift 3
+  run "$dir" "$seed" "run.duration_s=$duration" "byzantine.count=$f" "$@"
+  if [ ! -s "$dir/blame.json" ]; then
+    "$BIN" blame "$dir/run.swlog" --no-honest --json --quiet > "$dir/blame.json.part"
+    mv "$dir/blame.json.part" "$dir/blame.json"
+  fi
+}
+
+duration=1000
+cells=(
+  "fedavg-signflip contract.rule=fedavg byzantine.kind=sign-flip"
+  "fedavg-extreme contract.rule=fedavg byzantine.kind=faulty byzantine.faulty_range=100"
+  "median-optalie contract.rule=median byzantine.kind=optimal-alie"
+  "median-optipm contract.rule=median byzantine.kind=optimal-ipm"
+  "paper-smart contract.rule=paper byzantine.kind=smart"
+  "paper-malicious contract.rule=paper byzantine.kind=malicious"
+)
+
 localisation() {
-  local duration=1000 seeds="1 2 3 4 5 6 7 8 9 10" counts="1 2 3"
-  local cells=(
-    "fedavg-signflip contract.rule=fedavg byzantine.kind=sign-flip"
-    "fedavg-extreme contract.rule=fedavg byzantine.kind=faulty byzantine.faulty_range=100"
-    "median-optalie contract.rule=median byzantine.kind=optimal-alie"
-    "median-optipm contract.rule=median byzantine.kind=optimal-ipm"
-    "paper-smart contract.rule=paper byzantine.kind=smart"
-    "paper-malicious contract.rule=paper byzantine.kind=malicious"
-  )
+  local seeds="1 2 3 4 5 6 7 8 9 10" counts="1 2 3"
   if [ -n "$tiny" ]; then duration=150; seeds=1; counts=1; cells=("${cells[0]}"); fi
+  # The clean run of each rule and seed (no Byzantine robot): how much each cell harms the model.
+  for rule in fedavg median paper; do for seed in $seeds; do
+    run "$out/clean/$rule-seed$seed" "$seed" "run.duration_s=$duration" "contract.rule=$rule"
+  done; done
   for cell in "${cells[@]}"; do
     set -- $cell; local name=$1; shift
     for f in $counts; do for seed in $seeds; do
-      local dir="$out/localisation/$name-f$f-seed$seed"
-      run "$dir" "$seed" "run.duration_s=$duration" "byzantine.count=$f" "$@"
-      [ -f "$dir/blame.json" ] || "$BIN" blame "$dir/run.swlog" --no-honest --json --quiet > "$dir/blame.json"
+      localise "$out/localisation/$name-f$f-seed$seed" "$seed" "$f" "$@"
     done; done
   done
 }
 
+# CI's check of a committed study (OUT: its folder): the first cell's seed-1, f = 1 localisation
+# and the clean run it is measured against, made again by this build (~45 CPU-s) and compared
+# with the committed files, the costs apart. Exits 1 naming the first difference.
+recheck() {
+  local tmp name; tmp=$(mktemp -d); set -- ${cells[0]}; name=$1; shift
+  run "$tmp/clean/fedavg-seed1" 1 "run.duration_s=$duration" "contract.rule=fedavg"
+  localise "$tmp/localisation/$name-f1-seed1" 1 1 "$@"
+  local status=0
+  python3 - "$out" "$tmp" "clean/fedavg-seed1" "localisation/$name-f1-seed1" <<'PY' || status=1
+import json, pathlib, sys
+committed, fresh = pathlib.Path(sys.argv[1]), pathlib.Path(sys.argv[2])
+costs = {"wall_s", "cpu_s", "log", "timing"}  # wall clock and the run's own path
+def strip(v):
+    if isinstance(v, dict): return {k: strip(x) for k, x in v.items() if k not in costs}
+    if isinstance(v, list): return [strip(x) for x in v]
+    return v
+def first_difference(a, b, path):
+    if isinstance(a, dict) and isinstance(b, dict):
+        for k in sorted(set(a) | set(b)):
+            if k not in a or k not in b: return f"{path}.{k}: only in {'the committed file' if k in a else 'the new run'}"
+            d = first_difference(a[k], b[k], f"{path}.{k}")
+            if d: return d
+        return None
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        for i, (x, y) in enumerate(zip(a, b)):
+            d = first_difference(x, y, f"{path}[{i}]")
+            if d: return d
+        return None
+    return None if a == b else f"{path}: committed {a!r}, this build {b!r}"
+failed = False
+for run in sys.argv[3:]:
+    for name in ("summary.json", "blame.json") if run.startswith("localisation") else ("summary.json",):
+        c = committed / run / name
+        if not c.exists():
+            print(f"{c}: not committed (run `collect` after the study)"); failed = True; continue
+        d = first_difference(strip(json.loads(c.read_text())), strip(json.loads((fresh / run / name).read_text())), "")
+        print(f"{c}: {'differs at ' + d if d else 'same'}")
+        failed |= bool(d)
+sys.exit(1 if failed else 0)
+PY
+  rm -rf "$tmp"
+  return $status
+}
+
 rewards() {
-  local duration=1000 seeds="1 2 3" counts="1 2 3" kinds="faulty malicious smart" samples=10
+  local seeds="1 2 3" counts="1 2 3" kinds="faulty malicious smart" samples=10
   if [ -n "$tiny" ]; then duration=150; seeds=1; counts=1; kinds=smart; samples=2; fi
-  for kind in $kinds; do for f in $counts; do for seed in $seeds; do
+  # Seed by seed, so a study stopped early holds every cell at the seeds it finished.
+  for seed in $seeds; do for kind in $kinds; do for f in $counts; do
     local dir="$out/rewards/$kind-f$f-seed$seed"
     run "$dir" "$seed" "run.duration_s=$duration" "byzantine.kind=$kind" "byzantine.count=$f"
-    [ -f "$dir/contributions.json" ] || "$BIN" contributions "$dir/run.swlog" --samples "$samples" --seed "$seed" --json --quiet > "$dir/contributions.json"
+    if [ ! -s "$dir/contributions.json" ]; then
+      "$BIN" contributions "$dir/run.swlog" --samples "$samples" --seed "$seed" --json --quiet \
+        > "$dir/contributions.json.part"
+      mv "$dir/contributions.json.part" "$dir/contributions.json"
+    fi
     [ -f "$dir/export/balances.csv" ] || "$BIN" export "$dir/run.swlog" --out "$dir/export" >/dev/null
   done; done; done
 }
@@ -79,20 +146,39 @@ def wilson(k, n):
     c = (p + z * z / (2 * n)) / (1 + z * z / n)
     h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
     return c - h, c + h
+def median(v):
+    v = sorted(v); n = len(v)
+    return (v[(n - 1) // 2] + v[n // 2]) / 2 if n else float("nan")
+def share(xs):
+    k, n = sum(xs), len(xs)
+    if n == 0: return "-"
+    lo, hi = wilson(k, n)
+    return f"{k}/{n} = {100*k/n:.0f} % ({100*lo:.0f}-{100*hi:.0f} %)"
 cells = collections.defaultdict(list)
 for b in sorted(out.glob("localisation/*/blame.json")):
+    if b.stat().st_size == 0: continue  # a blame still running (a study made before the rename)
     r = json.loads(b.read_text())
-    name = b.parent.name.rsplit("-seed", 1)[0]
+    name, seed = b.parent.name.rsplit("-seed", 1)
     f = int(name.rsplit("-f", 1)[1])
     top = {x["robot"] for x in r["robots"][:f]}
     byz = {x["robot"] for x in r["robots"] if x["byzantine"]}
-    cells[name].append((top == byz, r["wall_s"], r["cpu_s"]))
+    clean = out / "clean" / f"{name.split('-')[0]}-seed{seed}" / "summary.json"
+    # Harm: the run's held-out loss at the end over the clean run's of the same rule and seed.
+    harm = (r["outcome"] / json.loads(clean.read_text())["contract"]["final_heldout_loss"]
+            if clean.exists() else float("nan"))
+    cells[name].append((top == byz, harm, r["cpu_s"], r["wall_s"]))
 if cells:
-    print("| attack, f | runs | top f = Byzantine set | 95 % interval | CPU s per localisation |")
-    print("|---|---|---|---|---|")
+    print("Localisation: the f robots of largest influence on the held-out loss at the end, against")
+    print("the Byzantine set. Harm: held-out loss at the end over the clean run's (same rule and seed);")
+    print("a run is harmed when it is at least 1.1. Intervals: Wilson 95 %.")
+    print()
+    print("| attack, f | runs | harm (median) | harmed runs | top f = Byzantine, all runs | top f = Byzantine, harmed runs | CPU s / wall s per localisation |")
+    print("|---|---|---|---|---|---|---|")
     for name, xs in cells.items():
-        k = sum(x[0] for x in xs); lo, hi = wilson(k, len(xs))
-        print(f"| {name} | {len(xs)} | {100*k/len(xs):.0f} % | {100*lo:.0f}-{100*hi:.0f} % | {sum(x[2] for x in xs)/len(xs):.0f} |")
+        harmed = [x for x in xs if x[1] >= 1.1]
+        print(f"| {name} | {len(xs)} | {median([x[1] for x in xs]):.2f} | {len(harmed)} "
+              f"| {share([x[0] for x in xs])} | {share([x[0] for x in harmed])} "
+              f"| {median([x[2] for x in xs]):.0f} / {median([x[3] for x in xs]):.0f} |")
 def ranks(v):
     order = sorted(range(len(v)), key=lambda i: v[i]); r = [0.0] * len(v); i = 0
     while i < len(v):
@@ -132,9 +218,20 @@ if groups:
 PY
 }
 
+# The small files of both studies, without the logs (a 1000 s log is ~3 MB), for committing.
+collect() {
+  local dest=${3:?collect OUT DEST}
+  (cd "$out" && find . \( -name summary.json -o -name blame.json -o -name contributions.json \
+    -o -path '*/export/balances.csv' \) -print0 | while IFS= read -r -d '' f; do
+      mkdir -p "$dest/$(dirname "$f")"; cp "$f" "$dest/$f"
+    done)
+}
+
 case $study in
   localisation) localisation ;;
   rewards) rewards ;;
   summarise) summarise ;;
-  *) echo "unknown study $study: localisation, rewards or summarise" >&2; exit 2 ;;
+  collect) collect "$@" ;;
+  recheck) recheck ;;
+  *) echo "unknown study $study: localisation, rewards, summarise, collect or recheck" >&2; exit 2 ;;
 esac
