@@ -28,6 +28,7 @@ mod pair;
 pub use pair::set_allowed as allow_two_thread_training;
 #[cfg(target_arch = "x86_64")]
 mod simd;
+mod subnormals;
 #[cfg(test)]
 mod tests;
 
@@ -355,6 +356,9 @@ pub fn split_point(samples: usize, train_fraction: f64) -> usize {
 /// Dropout draws `units` values `u = dropout.uniform_f32()` per training sample pass (samples
 /// in order), keeping a unit iff `u >= p` and scaling kept units by `1 / (1 - p)` (f32).
 ///
+/// The epochs run with subnormal numbers flushed to zero (x86-64's FTZ and DAZ, as TensorFlow
+/// on a CPU; `subnormals.rs` says why and what it changes); the validation loss does not.
+///
 /// Panics if `start.len() != shape.weights()` or `data` was built for another shape (internal
 /// invariants: the contract only stores models of the right length).
 pub fn train(
@@ -423,29 +427,17 @@ pub fn train_threads(
             dropout: cfg.dropout as f32,
             samples: n_train,
         };
-        let single = |weights: &mut Array1<f32>, dropout: &mut Rng| {
-            let mut ws = Workspace::new(shape);
-            dispatch_train(kernel, &mut ws, weights, data, &sgd, dropout)
-        };
-        let two = match threads {
-            Threads::One => false,
-            Threads::Two => true,
-            Threads::Auto => pair::worth_it(sgd.samples, sgd.batch),
-        };
-        final_train_loss = if two {
-            let force = threads == Threads::Two;
-            pair::train(
-                kernel.resolve(),
-                force,
-                &mut weights,
-                data,
-                &sgd,
-                &mut dropout,
-                single,
-            )
-        } else {
-            single(&mut weights, &mut dropout)
-        };
+        let flush = subnormals::FlushSubnormals::enter();
+        final_train_loss = epochs(
+            kernel,
+            threads,
+            shape,
+            &sgd,
+            &mut weights,
+            data,
+            &mut dropout,
+        );
+        drop(flush);
     }
     let weights = weights.to_vec();
     let val_loss = if n_val > 0 {
@@ -459,6 +451,36 @@ pub fn train_threads(
         val_samples: n_val as u32,
         val_loss,
         final_train_loss,
+    }
+}
+
+/// [`train_threads`]'s SGD epochs, on this thread or two; the last epoch's training loss. Its
+/// caller holds a [`subnormals::FlushSubnormals`] around the call, and the pair's helper
+/// thread its own: not inlined, so no arithmetic of it moves out of that mode.
+#[inline(never)]
+fn epochs(
+    kernel: Kernel,
+    threads: Threads,
+    shape: &ModelShape,
+    sgd: &Sgd,
+    weights: &mut Array1<f32>,
+    data: &TrainData,
+    dropout: &mut Rng,
+) -> f64 {
+    let single = |weights: &mut Array1<f32>, dropout: &mut Rng| {
+        let mut ws = Workspace::new(shape);
+        dispatch_train(kernel, &mut ws, weights, data, sgd, dropout)
+    };
+    let two = match threads {
+        Threads::One => false,
+        Threads::Two => true,
+        Threads::Auto => pair::worth_it(sgd.samples, sgd.batch),
+    };
+    if two {
+        let force = threads == Threads::Two;
+        pair::train(kernel.resolve(), force, weights, data, sgd, dropout, single)
+    } else {
+        single(weights, dropout)
     }
 }
 

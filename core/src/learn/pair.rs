@@ -432,6 +432,7 @@ fn run_owner(
     }
 }
 
+#[inline(never)]
 fn run_helper(kernel: Resolved, shared: &Shared<'_>) {
     match kernel {
         // SAFETY: the portable kernels run on any CPU.
@@ -485,7 +486,11 @@ pub(super) fn train(
         parked: AtomicBool::new(false),
     };
     let loss = std::thread::scope(|scope| {
-        let handle = scope.spawn(|| run_helper(kernel, &shared));
+        let handle = scope.spawn(|| {
+            // The owner's epochs run in this mode too (`learn::train_threads`).
+            let _flush = super::subnormals::FlushSubnormals::enter();
+            run_helper(kernel, &shared);
+        });
         let _stop = StopOnDrop {
             shared: &shared,
             helper: handle.thread().clone(),
