@@ -255,6 +255,7 @@ PY
 # The small files of both studies, without the logs (a 1000 s log is ~3 MB), for committing.
 collect() {
   local dest=${3:?collect OUT DEST}
+  dest=$(mkdir -p "$dest" && cd "$dest" && pwd)  # absolute: the copy runs from OUT
   (cd "$out" && find . \( -name summary.json -o -name blame.json -o -name contributions.json \
     -o -path '*/export/balances.csv' \) -print0 | while IFS= read -r -d '' f; do
       mkdir -p "$dest/$(dirname "$f")"; cp "$f" "$dest/$f"
