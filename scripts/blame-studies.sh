@@ -246,13 +246,20 @@ if groups:
     print("or leave-one-out, of the held-out loss at the end: positive = it lowered the loss); means")
     print("over the runs with 95 % t half-widths. Shapley from 10 sampled orders a run.")
     print()
-    print("| kind, f | runs | Spearman(tokens, Shapley) | Spearman(tokens, leave-one-out) | Spearman(tokens, Shapley), honest robots only | tokens gained: Byzantine / honest | contribution: Byzantine / honest | largest Shapley s.e. |")
-    print("|---|---|---|---|---|---|---|---|")
-    for name, xs in groups.items():
-        col = lambda k: [x[k] for x in xs]
-        print(f"| {name} | {len(xs)} | {t95(col(0))} | {t95(col(1))} | {t95(col(2))} "
-              f"| {sum(col(3))/len(xs):+.2f} / {sum(col(4))/len(xs):+.2f} "
-              f"| {sum(col(5))/len(xs):+.3f} / {sum(col(6))/len(xs):+.3f} | {max(col(7)):.2f} |")
+    def table(heads, rows, cells):
+        """A markdown table: one row per (name, runs) of `rows`, its cells from `cells`."""
+        print("| " + " | ".join(heads) + " |")
+        print("|" + "---|" * len(heads))
+        for name, xs in rows.items():
+            col = lambda k: [x[k] for x in xs]
+            mean = lambda k: sum(col(k)) / len(xs)
+            print(f"| {name} | {len(xs)} | " + " | ".join(cells(col, mean)) + " |")
+    table(["kind, f", "runs", "Spearman(tokens, Shapley)", "Spearman(tokens, leave-one-out)",
+           "Spearman(tokens, Shapley), honest robots only", "tokens gained: Byzantine / honest",
+           "contribution: Byzantine / honest", "largest Shapley s.e."], groups,
+          lambda col, mean: [t95(col(0)), t95(col(1)), t95(col(2)),
+                             f"{mean(3):+.2f} / {mean(4):+.2f}", f"{mean(5):+.3f} / {mean(6):+.3f}",
+                             f"{max(col(7)):.2f}"])
     # Pooled over the Byzantine counts (per kind), then over every run: the figures the study's
     # prose quotes, each a mean over runs with its 95 % t half-width.
     kinds = collections.defaultdict(list)
@@ -262,13 +269,11 @@ if groups:
     print()
     print("Pooled over the Byzantine counts (1-3), then over every run:")
     print()
-    print("| kind | runs | Spearman(tokens, Shapley) | Spearman(tokens, Shapley), honest robots only | tokens gained: Byzantine / honest | contribution: Byzantine | contribution: honest |")
-    print("|---|---|---|---|---|---|---|")
-    for name, xs in kinds.items():
-        col = lambda k: [x[k] for x in xs]
-        print(f"| {name} | {len(xs)} | {t95(col(0))} | {t95(col(2))} "
-              f"| {sum(col(3))/len(xs):+.2f} / {sum(col(4))/len(xs):+.2f} "
-              f"| {t95(col(5))} | {t95(col(6))} |")
+    table(["kind", "runs", "Spearman(tokens, Shapley)",
+           "Spearman(tokens, Shapley), honest robots only", "tokens gained: Byzantine / honest",
+           "contribution: Byzantine", "contribution: honest"], kinds,
+          lambda col, mean: [t95(col(0)), t95(col(2)), f"{mean(3):+.2f} / {mean(4):+.2f}",
+                             t95(col(5)), t95(col(6))])
 PY
 }
 
