@@ -36,6 +36,16 @@ fn after_one_round(p: &ContractParams) -> ContractState {
     s
 }
 
+/// `seen` with robot 0's submission of the round landed on it: the state robot 1's call lands
+/// on when its node had not seen robot 0's.
+fn with_robot_0s_submission(p: &ContractParams, seen: &ContractState) -> ContractState {
+    let mut landed = seen.clone();
+    assert!(landed
+        .execute(p, 0, p.stake_units, &submit(1))
+        .is_accepted());
+    landed
+}
+
 /// Robot 1's submission estimated on `seen` (its node's head) with `margin`, executed on
 /// `landed` (the block that includes it).
 fn send(
@@ -56,10 +66,7 @@ fn a_submission_estimated_as_plain_that_closes_the_round_runs_out_of_gas_and_rev
     let p = params();
     let seen = after_one_round(&p);
     // Robot 0's submission lands first; robot 1's node has not seen it.
-    let mut landed = seen.clone();
-    assert!(landed
-        .execute(&p, 0, p.stake_units, &submit(1))
-        .is_accepted());
+    let mut landed = with_robot_0s_submission(&p, &seen);
     let before = landed.clone();
     let (gas, outcome) = send(&p, &seen, &mut landed, WEB3_GAS_MARGIN);
     assert_eq!(gas.limit, gas.estimate + WEB3_GAS_MARGIN);
@@ -106,25 +113,16 @@ fn a_submission_estimated_as_plain_that_closes_the_round_runs_out_of_gas_and_rev
 fn with_a_margin_above_the_aggregations_extra_gas_the_submission_closes_the_round() {
     let p = params();
     let seen = after_one_round(&p);
-    let mut landed = seen.clone();
-    assert!(landed
-        .execute(&p, 0, p.stake_units, &submit(1))
-        .is_accepted());
+    let mut landed = with_robot_0s_submission(&p, &seen);
     let (_, outcome) = send(&p, &seen, &mut landed, 20_000_000);
     assert!(matches!(outcome, Outcome::Aggregated { .. }), "{outcome:?}");
     assert_eq!(landed.round, seen.round + 1);
     assert_eq!(landed.total_units(), p.total_units());
     // Its estimate on the state it lands on is exactly enough: not one gas short.
-    let mut exact = seen.clone();
-    assert!(exact
-        .execute(&p, 0, p.stake_units, &submit(1))
-        .is_accepted());
+    let mut exact = with_robot_0s_submission(&p, &seen);
     let (gas, outcome) = send(&p, &exact.clone(), &mut exact, 0);
     assert!(matches!(outcome, Outcome::Aggregated { .. }), "{outcome:?}");
-    let mut short = seen.clone();
-    assert!(short
-        .execute(&p, 0, p.stake_units, &submit(1))
-        .is_accepted());
+    let mut short = with_robot_0s_submission(&p, &seen);
     let call = submit(5);
     let outcome = short.execute_with_gas(&p, 1, p.stake_units, &call, Some(gas.limit - 1));
     assert!(matches!(outcome, Outcome::OutOfGas { .. }), "{outcome:?}");

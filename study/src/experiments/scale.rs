@@ -25,8 +25,15 @@ pub const E6_PROTOCOLS: [(&str, &[&str]); 4] = [
 /// at 1000 robots in an experiment of its own).
 const E6_CHAIN_AND_IDEAL: usize = 3;
 
-/// The faulty robots of `e6-scale`'s 240-robot point with faults: 10 % of the swarm.
-pub const E6_FAULTY: u32 = 24;
+/// The index of the buffered protocol in [`E6_PROTOCOLS`]: the protocol of the point with
+/// faults.
+const E6_BUFFERED: usize = 1;
+
+/// The swarm of `e6-scale`'s point with faults.
+pub const E6_FAULTY_SWARM: u32 = 240;
+
+/// The faulty robots of `e6-scale`'s point with faults: 10 % of [`E6_FAULTY_SWARM`].
+pub const E6_FAULTY: u32 = E6_FAULTY_SWARM / 10;
 
 /// The overrides that put the paper's system at `robots` robots at its density (the rule of
 /// `bench scale`): the arena side grown by `sqrt(robots / 15)`, the obstacles with the area.
@@ -93,11 +100,11 @@ pub(super) fn e6_points(sizes: &[u32], faulty: bool) -> Vec<Point> {
         }
     }
     if faulty {
-        let (protocol, overrides) = E6_PROTOCOLS[1];
-        let mut point = e6_point(240, protocol, overrides);
+        let (protocol, overrides) = E6_PROTOCOLS[E6_BUFFERED];
+        let mut point = e6_point(E6_FAULTY_SWARM, protocol, overrides);
         point.overrides.push("byzantine.kind=faulty".into());
         point.overrides.push(format!("byzantine.count={E6_FAULTY}"));
-        point.name = format!("{protocol}-240-faulty-{E6_FAULTY}");
+        point.name = format!("{protocol}-{E6_FAULTY_SWARM}-faulty-{E6_FAULTY}");
         point.tags[1].1 = format!("faulty-{E6_FAULTY}");
         points.push(point);
     }
