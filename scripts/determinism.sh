@@ -10,7 +10,11 @@ OUT=$(mktemp -d)
 trap 'rm -rf "$OUT"' EXIT
 
 cargo build --release --locked -p replay-cli
-cargo build --locked -p replay-cli
+# The debug build's code without its debug info (CARGO_PROFILE_DEV_DEBUG, for this build only):
+# debug info changes no instruction, and writing it for every dependency lengthens the build
+# (measured in docs/PERFORMANCE.md, "Build time"); the dev profile in Cargo.toml keeps it for a
+# developer's debugger.
+CARGO_PROFILE_DEV_DEBUG=false cargo build --locked -p replay-cli
 REL=target/release/swarmfl
 DBG=target/debug/swarmfl
 
