@@ -156,6 +156,8 @@ struct Scratch {
     heard: Vec<RobotId>,
     /// Each robot's reading words of the tick, when sensed in parallel (`sense.rs`).
     words: Vec<Vec<u64>>,
+    /// Each robot's contacts after it (`World::contacts_on`).
+    later: Vec<Vec<RobotId>>,
 }
 
 impl PartialEq for Scratch {

@@ -74,7 +74,8 @@ impl World {
         let mut contacts = std::mem::take(&mut self.scratch.contacts);
         let mut heard = std::mem::take(&mut self.scratch.heard);
         let mut words = std::mem::take(&mut self.scratch.words);
-        self.contacts_on(&mut contacts, pool);
+        let mut later = std::mem::take(&mut self.scratch.later);
+        self.contacts_on(&mut contacts, &mut later, pool);
         let now = self.time();
         let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
         let n = poses.len();
@@ -133,5 +134,6 @@ impl World {
         self.scratch.contacts = contacts;
         self.scratch.heard = heard;
         self.scratch.words = words;
+        self.scratch.later = later;
     }
 }

@@ -129,51 +129,62 @@ impl World {
 
     /// Fills `adj[i]` with the robots in range-and-bearing contact with `i`, ascending.
     pub(super) fn contacts(&self, adj: &mut Vec<Vec<RobotId>>) {
-        self.contacts_on(adj, None);
+        self.contacts_on(adj, &mut Vec::new(), None);
     }
 
-    /// [`World::contacts`], on `pool`'s threads if given: each robot's contacts after it are
-    /// found in parallel, then every pair is inserted in robot order and each list sorted, so
-    /// the lists are the sequential ones.
-    pub(super) fn contacts_on(&self, adj: &mut Vec<Vec<RobotId>>, pool: Option<&ThreadPool>) {
+    /// [`World::contacts`], on `pool`'s threads if given (`later`: buffers kept between ticks,
+    /// one per robot in parallel, one in all sequentially). Each robot's contacts after it are found and sorted (in parallel), then every
+    /// pair is inserted in robot order: `adj[i]` receives the robots before it in ascending
+    /// order, then its own sorted later ones, so every list is ascending without a sort, and the
+    /// lists are the sequential ones.
+    pub(super) fn contacts_on(
+        &self,
+        adj: &mut Vec<Vec<RobotId>>,
+        later: &mut Vec<Vec<RobotId>>,
+        pool: Option<&ThreadPool>,
+    ) {
         let n = self.poses.len();
         adj.resize(n, Vec::new());
         adj.iter_mut().for_each(Vec::clear);
+        let find = |i: usize, later: &mut Vec<RobotId>| {
+            later.clear();
+            self.contacts_after(i, later);
+            later.sort_unstable();
+        };
+        let insert = |adj: &mut Vec<Vec<RobotId>>, i: usize, later: &[RobotId]| {
+            for &j in later {
+                adj[i].push(j);
+                adj[j as usize].push(i as u32);
+            }
+        };
         match pool {
             None => {
-                let mut later = Vec::new();
+                let mut buffer = later.pop().unwrap_or_default();
                 for i in 0..n {
-                    later.clear();
-                    self.contacts_after(i, &mut later);
-                    for &j in &later {
-                        adj[i].push(j);
-                        adj[j as usize].push(i as u32);
-                    }
+                    find(i, &mut buffer);
+                    insert(adj, i, &buffer);
                 }
+                later.push(buffer);
             }
             Some(pool) => {
-                let later: Vec<Vec<RobotId>> = pool.install(|| {
-                    (0..n)
-                        .into_par_iter()
+                // The per-robot buffers live between ticks: allocating a thousand lists a tick
+                // from two threads at once took the two-thread world from 1.54x to 1.45x the
+                // one-thread speed (docs/PERFORMANCE.md, "The parallel world and the
+                // speculation horizon").
+                later.resize(n, Vec::new());
+                pool.install(|| {
+                    later
+                        .par_iter_mut()
+                        .enumerate()
                         .with_min_len(super::par::PIECE)
-                        .map(|i| {
-                            let mut later = Vec::new();
-                            self.contacts_after(i, &mut later);
-                            later
-                        })
-                        .collect()
+                        .for_each(|(i, l)| find(i, l));
                 });
-                for (i, later) in later.iter().enumerate() {
-                    for &j in later {
-                        adj[i].push(j);
-                        adj[j as usize].push(i as u32);
-                    }
+                for (i, l) in later.iter().enumerate() {
+                    insert(adj, i, l);
                 }
             }
         }
-        for a in adj.iter_mut() {
-            a.sort_unstable();
-        }
+        debug_assert!(adj.iter().all(|a| a.is_sorted()));
     }
 
     /// Pushes onto `out` the robots `j > i` in range-and-bearing contact with `i`.
