@@ -4,8 +4,8 @@
 //! Every parallel part of a tick is a pure function of the state before it, per robot, and its
 //! results are merged in robot order: the controllers' decisions (each robot reads the world and
 //! its own controller), the range-and-bearing contacts (pairs `i < j` found and sorted per `i`,
-//! then inserted in robot order, which leaves every list ascending), the sensing (each robot's own random stream and
-//! recorder; the running digests `reading_mix` and `sample_chain` are folded afterwards in robot
+//! then inserted in robot order, which leaves every list ascending), the sensing (each robot's
+//! own random stream and recorder; the running digests `reading_mix` and `sample_chain` are folded afterwards in robot
 //! order) and the overlap count. The physics is sequential by definition (a robot moves against
 //! the robots before it, already moved): `physics::step_parallel` computes in parallel only the
 //! robots that no other robot can reach this tick, and moves the others in robot order, which

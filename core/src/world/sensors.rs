@@ -133,8 +133,8 @@ impl World {
     }
 
     /// [`World::contacts`], on `pool`'s threads if given (`later`: buffers kept between ticks,
-    /// one per robot in parallel, one in all sequentially). Each robot's contacts after it are found and sorted (in parallel), then every
-    /// pair is inserted in robot order: `adj[i]` receives the robots before it in ascending
+    /// one per robot in parallel, one in all sequentially). Each robot's contacts after it are
+    /// found and sorted (in parallel), then every pair is inserted in robot order: `adj[i]` receives the robots before it in ascending
     /// order, then its own sorted later ones, so every list is ascending without a sort, and the
     /// lists are the sequential ones.
     pub(super) fn contacts_on(
