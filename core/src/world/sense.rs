@@ -13,7 +13,7 @@ use super::{gaussian_pair, mix_in, Params, Pose, World};
 use crate::config::WindowRule;
 use crate::data::Recorder;
 use crate::rng::Rng;
-use crate::types::{RobotId, SimTime};
+use crate::types::{Digest, RobotId, SimTime};
 
 /// What one robot's sensing leaves to fold: messages lost, samples completed.
 #[derive(Clone, Copy, Default)]
@@ -82,49 +82,62 @@ impl World {
         let tallies: Vec<Tally> = match pool {
             None => {
                 let mix = &mut self.reading_mix;
-                (0..n)
+                let tallies: Vec<Tally> = (0..n)
                     .map(|i| {
                         let own = (&mut self.rab_rngs[i], &mut self.recorders[i]);
                         sense_one(p, poses, rule, now, i, own, &contacts[i], &mut heard, |w| {
                             *mix = mix_in(*mix, w);
                         })
                     })
-                    .collect()
+                    .collect();
+                chain_completed(&mut self.sample_chain, &self.recorders, &tallies);
+                for r in &mut self.recorders {
+                    r.expire(&p.recording, now);
+                }
+                tallies
             }
             Some(pool) => {
                 words.resize_with(n, Vec::new);
-                let tallies: Vec<Tally> = pool.install(|| {
-                    self.rab_rngs
+                let (mix, chain) = (&mut self.reading_mix, &mut self.sample_chain);
+                let (rngs, recorders) = (&mut self.rab_rngs, &mut self.recorders);
+                pool.install(|| {
+                    // A robot's expiry drops only samples older than `data.expiration_s`, never
+                    // the ones it completed now, so it may come before the chain reads those.
+                    let tallies: Vec<Tally> = rngs
                         .par_iter_mut()
-                        .zip(self.recorders.par_iter_mut())
+                        .zip(recorders.par_iter_mut())
                         .zip(contacts.par_iter())
                         .zip(words.par_iter_mut())
                         .enumerate()
                         .with_min_len(super::par::PIECE)
                         .map_init(Vec::new, |heard, (i, (((rng, rec), nb), words))| {
                             words.clear();
-                            sense_one(p, poses, rule, now, i, (rng, rec), nb, heard, |w| {
+                            let own = (rng, &mut *rec);
+                            let tally = sense_one(p, poses, rule, now, i, own, nb, heard, |w| {
                                 words.push(w);
-                            })
+                            });
+                            rec.expire(&p.recording, now);
+                            tally
                         })
-                        .collect()
-                });
-                for w in words.iter().flatten() {
-                    self.reading_mix = mix_in(self.reading_mix, *w);
-                }
-                tallies
+                        .collect();
+                    // The two running digests are independent folds, each in robot order: one
+                    // thread each.
+                    let recorders = &*recorders;
+                    rayon::join(
+                        || {
+                            for w in words.iter().flatten() {
+                                *mix = mix_in(*mix, *w);
+                            }
+                        },
+                        || chain_completed(chain, recorders, &tallies),
+                    );
+                    tallies
+                })
             }
         };
-        for (i, t) in tallies.iter().enumerate() {
-            self.counters.contact_ticks += contacts[i].len() as u64;
+        for (c, t) in contacts.iter().zip(&tallies) {
+            self.counters.contact_ticks += c.len() as u64;
             self.counters.messages_dropped += t.dropped;
-            if t.completed > 0 {
-                let samples = self.recorders[i].samples();
-                for s in samples.range(samples.len() - t.completed as usize..) {
-                    self.sample_chain = super::chain_sample(&self.sample_chain, i as RobotId, s);
-                }
-            }
-            self.recorders[i].expire(&self.params.recording, now);
         }
         if self.tick.is_multiple_of(self.params.peer_refresh_ticks) {
             for (peers, c) in self.peers.iter_mut().zip(&contacts) {
@@ -135,5 +148,18 @@ impl World {
         self.scratch.heard = heard;
         self.scratch.words = words;
         self.scratch.later = later;
+    }
+}
+
+/// Folds into `chain`, in robot order, the samples each robot completed this tick (the last
+/// `completed` of its recorder).
+fn chain_completed(chain: &mut Digest, recorders: &[Recorder], tallies: &[Tally]) {
+    for (i, (r, t)) in recorders.iter().zip(tallies).enumerate() {
+        if t.completed > 0 {
+            let samples = r.samples();
+            for s in samples.range(samples.len() - t.completed as usize..) {
+                *chain = super::chain_sample(chain, i as RobotId, s);
+            }
+        }
     }
 }
