@@ -158,6 +158,12 @@ struct Scratch {
     words: Vec<Vec<u64>>,
     /// Each robot's contacts after it (`World::contacts_on`).
     later: Vec<Vec<RobotId>>,
+    /// Each robot's squared distance to the nearest other robot within `rab_range_m`, found by
+    /// the parallel contacts' search (`World::contacts_on`) at tick `nearest_tick`: the next
+    /// step's test of which robots move alone (`physics::step_parallel`).
+    nearest: Vec<f64>,
+    /// The tick `nearest` describes, if any.
+    nearest_tick: Option<u64>,
 }
 
 impl PartialEq for Scratch {
@@ -380,17 +386,31 @@ impl World {
         let (poses, commands) = (&mut self.poses, &event.commands);
         self.counters.blocked_moves += match pool {
             Some(pool) => {
-                physics::step_parallel(pool, arena, &mut grid, poses, body, commands, slide)
+                let s = &self.scratch;
+                let nearest = (s.nearest_tick == Some(self.tick) && s.nearest.len() == poses.len())
+                    .then_some((&s.nearest[..], self.params.rab_range_m));
+                physics::step_parallel(
+                    pool, arena, &mut grid, poses, body, commands, slide, nearest,
+                )
             }
             None => physics::step(arena, &mut grid, poses, body, commands, slide),
         };
         let r = self.params.body.radius_m;
+        // Sensing on the threads counts the overlaps in its contacts' search, which sees every
+        // overlapping pair when the range-and-bearing range is at least a body's diameter.
+        let counted_by_sensing =
+            pool.is_some() && self.params.sensing && self.params.rab_range_m >= 2.0 * r;
         let overlaps = match pool {
-            Some(pool) => physics::overlaps_parallel(pool, &self.arena, &grid, &self.poses, r),
-            None => physics::overlaps(&self.arena, &grid, &self.poses, r),
+            _ if counted_by_sensing => None,
+            Some(pool) => Some(physics::overlaps_parallel(
+                pool,
+                &self.arena,
+                &grid,
+                &self.poses,
+                r,
+            )),
+            None => Some(physics::overlaps(&self.arena, &grid, &self.poses, r)),
         };
-        debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick + 1);
-        self.counters.collisions += overlaps;
         self.tick += 1;
         if let Some(b) = &mut self.extra.behaviours {
             // Under the place rule the behaviours follow the new positions first, so a forager
@@ -401,9 +421,16 @@ impl World {
         self.scratch.grid = grid;
         self.scratch.grid_tick = Some(self.tick);
         self.advance_flowfl_foragers();
-        if self.params.sensing {
-            self.sense(pool);
-        }
+        let sensed = if self.params.sensing {
+            self.sense(pool)
+        } else {
+            None
+        };
+        let overlaps = overlaps
+            .or(sensed)
+            .expect("the overlaps are counted here or by the sensing");
+        debug_assert_eq!(overlaps, 0, "robots overlap after tick {}", self.tick);
+        self.counters.collisions += overlaps;
     }
 
     /// Flow-FL's foragers (`foraging_flowfl.rs`), if any: their step after this tick's physics,

@@ -2,14 +2,20 @@
 //! thread (issue 56).
 //!
 //! Every parallel part of a tick is a pure function of the state before it, per robot, and its
-//! results are merged in robot order: the controllers' decisions (each robot reads the world and
-//! its own controller), the range-and-bearing contacts (pairs `i < j` found and sorted per `i`,
-//! then inserted in robot order, which leaves every list ascending), the sensing (each robot's
-//! own random stream and recorder; the running digests `reading_mix` and `sample_chain` are folded afterwards in robot
-//! order) and the overlap count. The physics is sequential by definition (a robot moves against
-//! the robots before it, already moved): `physics::step_parallel` computes in parallel only the
-//! robots that no other robot can reach this tick, and moves the others in robot order, which
-//! gives the sequential step's result exactly (see there).
+//! results are merged in robot order:
+//! - the controllers' decisions (each robot reads the world and its own controller);
+//! - the range-and-bearing contacts (pairs `i < j` found and sorted per `i`, then inserted in
+//!   robot order, which leaves every list ascending). The same search of the grid also counts
+//!   the overlaps and finds each robot's nearest other robot, which the next tick's physics
+//!   reads;
+//! - the sensing (each robot's own random stream, recorder and expiry). The running digests
+//!   `reading_mix` and `sample_chain` are folded afterwards, each in robot order, one on each of
+//!   two threads.
+//!
+//! The physics is sequential by definition (a robot moves against the robots before it, already
+//! moved): `physics::step_parallel` computes in parallel only the robots that no other robot
+//! can reach this tick, and moves the others in robot order, which gives the sequential step's
+//! result exactly (see there).
 //!
 //! The threads are their own rayon pool ([`Workers`]), not the global one: the global pool runs
 //! the background trainings (`learn/background.rs`), and a world step queued behind 25 ms

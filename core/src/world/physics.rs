@@ -360,6 +360,11 @@ const REACH_SLACK_M: f64 = 1e-6;
 /// other robots (at the paper's density, about 2 %) are computed afterwards in robot order,
 /// between the outcomes taken in robot order, so each reads exactly the state [`step`] shows
 /// it, and the grid sees the same relocations in the same order.
+///
+/// `nearest`, if given, holds each robot's squared distance to the nearest other robot of
+/// `poses` among all within the distance that comes with it (infinite if none): when the
+/// reach is within that distance, a robot is alone exactly when its nearest is at least the
+/// reach away, and the grid is not searched again.
 #[allow(clippy::too_many_arguments)]
 pub fn step_parallel(
     pool: &rayon::ThreadPool,
@@ -369,6 +374,7 @@ pub fn step_parallel(
     body: &Body,
     commands: &[WheelCommand],
     slide: bool,
+    nearest: Option<(&[f64], f64)>,
 ) -> u64 {
     use rayon::prelude::*;
     assert_eq!(commands.len(), poses.len(), "one wheel command per robot");
@@ -378,6 +384,9 @@ pub fn step_parallel(
         .map(|c| move_length(body, c).abs())
         .fold(0.0, f64::max);
     let reach = 2.0 * body.radius_m + 2.0 * longest + REACH_SLACK_M;
+    let nearest = nearest
+        .filter(|&(d2, within)| d2.len() == poses.len() && reach <= within)
+        .map(|(d2, _)| d2);
     let (shared_grid, shared_poses) = (&*grid, &*poses);
     let alone: Vec<Option<Outcome>> = pool.install(|| {
         (0..shared_poses.len())
@@ -386,20 +395,24 @@ pub fn step_parallel(
             .map(|i| {
                 let p = shared_poses[i];
                 let mut alone = true;
-                shared_grid.near(
-                    &arena.grid,
-                    p.x - reach,
-                    p.y - reach,
-                    p.x + reach,
-                    p.y + reach,
-                    |j| {
-                        if alone && j as usize != i {
-                            let q = &shared_poses[j as usize];
-                            alone = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y)
-                                >= reach * reach;
-                        }
-                    },
-                );
+                if let Some(d2) = nearest {
+                    alone = d2[i] >= reach * reach;
+                } else {
+                    shared_grid.near(
+                        &arena.grid,
+                        p.x - reach,
+                        p.y - reach,
+                        p.x + reach,
+                        p.y + reach,
+                        |j| {
+                            if alone && j as usize != i {
+                                let q = &shared_poses[j as usize];
+                                alone = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y)
+                                    >= reach * reach;
+                            }
+                        },
+                    );
+                }
                 alone.then(|| {
                     outcome(
                         arena,

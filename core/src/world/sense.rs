@@ -69,13 +69,28 @@ fn sense_one(
 
 impl World {
     /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick,
-    /// on `pool`'s threads if given (the same bits).
-    pub(super) fn sense(&mut self, pool: Option<&ThreadPool>) {
+    /// on `pool`'s threads if given (the same bits). On threads, it also leaves each robot's
+    /// nearest other robot for the next tick's physics (`Scratch::nearest`) and returns the
+    /// overlap count of its contacts' search ([`World::contacts_on`]).
+    pub(super) fn sense(&mut self, pool: Option<&ThreadPool>) -> Option<u64> {
         let mut contacts = std::mem::take(&mut self.scratch.contacts);
         let mut heard = std::mem::take(&mut self.scratch.heard);
         let mut words = std::mem::take(&mut self.scratch.words);
-        let mut later = std::mem::take(&mut self.scratch.later);
-        self.contacts_on(&mut contacts, &mut later, pool);
+        let overlaps = match pool {
+            None => {
+                self.contacts(&mut contacts);
+                None
+            }
+            Some(pool) => {
+                let mut later = std::mem::take(&mut self.scratch.later);
+                let mut nearest = std::mem::take(&mut self.scratch.nearest);
+                let overlaps = self.contacts_on(pool, &mut contacts, &mut later, &mut nearest);
+                self.scratch.later = later;
+                self.scratch.nearest = nearest;
+                self.scratch.nearest_tick = Some(self.tick);
+                Some(overlaps)
+            }
+        };
         let now = self.time();
         let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
         let n = poses.len();
@@ -147,7 +162,7 @@ impl World {
         self.scratch.contacts = contacts;
         self.scratch.heard = heard;
         self.scratch.words = words;
-        self.scratch.later = later;
+        overlaps
     }
 }
 

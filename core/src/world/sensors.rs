@@ -129,74 +129,91 @@ impl World {
 
     /// Fills `adj[i]` with the robots in range-and-bearing contact with `i`, ascending.
     pub(super) fn contacts(&self, adj: &mut Vec<Vec<RobotId>>) {
-        self.contacts_on(adj, &mut Vec::new(), None);
-    }
-
-    /// [`World::contacts`], on `pool`'s threads if given (`later`: buffers kept between ticks,
-    /// one per robot in parallel, one in all sequentially). Each robot's contacts after it are
-    /// found and sorted (in parallel), then every pair is inserted in robot order: `adj[i]` receives the robots before it in ascending
-    /// order, then its own sorted later ones, so every list is ascending without a sort, and the
-    /// lists are the sequential ones.
-    pub(super) fn contacts_on(
-        &self,
-        adj: &mut Vec<Vec<RobotId>>,
-        later: &mut Vec<Vec<RobotId>>,
-        pool: Option<&ThreadPool>,
-    ) {
-        let n = self.poses.len();
-        adj.resize(n, Vec::new());
+        adj.resize(self.poses.len(), Vec::new());
         adj.iter_mut().for_each(Vec::clear);
-        let find = |i: usize, later: &mut Vec<RobotId>| {
+        let mut later = Vec::new();
+        for i in 0..self.poses.len() {
             later.clear();
-            self.contacts_after(i, later);
+            self.contacts_after::<false>(i, &mut later);
             later.sort_unstable();
-        };
-        let insert = |adj: &mut Vec<Vec<RobotId>>, i: usize, later: &[RobotId]| {
-            for &j in later {
-                adj[i].push(j);
-                adj[j as usize].push(i as u32);
-            }
-        };
-        match pool {
-            None => {
-                let mut buffer = later.pop().unwrap_or_default();
-                for i in 0..n {
-                    find(i, &mut buffer);
-                    insert(adj, i, &buffer);
-                }
-                later.push(buffer);
-            }
-            Some(pool) => {
-                // The per-robot buffers live between ticks: allocating a thousand lists a tick
-                // from two threads at once took the two-thread world from 1.54x to 1.45x the
-                // one-thread speed (docs/PERFORMANCE.md, "The parallel world and the
-                // speculation horizon").
-                later.resize(n, Vec::new());
-                pool.install(|| {
-                    later
-                        .par_iter_mut()
-                        .enumerate()
-                        .with_min_len(super::par::PIECE)
-                        .for_each(|(i, l)| find(i, l));
-                });
-                for (i, l) in later.iter().enumerate() {
-                    insert(adj, i, l);
-                }
-            }
+            insert(adj, i, &later);
         }
         debug_assert!(adj.iter().all(|a| a.is_sorted()));
     }
 
-    /// Pushes onto `out` the robots `j > i` in range-and-bearing contact with `i`.
-    fn contacts_after(&self, i: usize, out: &mut Vec<RobotId>) {
+    /// [`World::contacts`] on `pool`'s threads, with what the next tick's physics and this
+    /// tick's overlap count need from the same search: `later` holds buffers kept between
+    /// ticks, one per robot; `nearest[i]` receives the squared distance from robot `i` to the
+    /// nearest other robot within `rab_range_m` (infinite if none); the return value is the
+    /// count of [`physics::overlaps`](super::physics::overlaps) when `rab_range_m` is at least
+    /// the body's diameter (the search then sees every overlapping pair).
+    ///
+    /// Each robot's contacts after it are found and sorted in parallel, then every pair is
+    /// inserted in robot order: `adj[i]` receives the robots before it in ascending order, then
+    /// its own sorted later ones, so every list is ascending without a sort, and the lists are
+    /// the sequential ones.
+    pub(super) fn contacts_on(
+        &self,
+        pool: &ThreadPool,
+        adj: &mut Vec<Vec<RobotId>>,
+        later: &mut Vec<Vec<RobotId>>,
+        nearest: &mut Vec<f64>,
+    ) -> u64 {
+        let n = self.poses.len();
+        adj.resize(n, Vec::new());
+        adj.iter_mut().for_each(Vec::clear);
+        // The per-robot buffers live between ticks: allocating a thousand lists a tick from
+        // two threads at once took the two-thread world from 1.54x to 1.45x the one-thread
+        // speed (docs/PERFORMANCE.md, "The parallel world and the speculation horizon").
+        later.resize(n, Vec::new());
+        nearest.resize(n, f64::INFINITY);
+        let r = self.params.body.radius_m;
+        let overlaps = pool.install(|| {
+            later
+                .par_iter_mut()
+                .zip(nearest.par_iter_mut())
+                .enumerate()
+                .with_min_len(super::par::PIECE)
+                .map(|(i, (l, near))| {
+                    l.clear();
+                    let (closest, overlapping) = self.contacts_after::<true>(i, l);
+                    l.sort_unstable();
+                    *near = closest;
+                    let p = self.poses[i];
+                    overlapping + u64::from(self.arena.disk_blocked(p.x, p.y, r))
+                })
+                .sum()
+        });
+        for (i, l) in later.iter().enumerate() {
+            insert(adj, i, l);
+        }
+        debug_assert!(adj.iter().all(|a| a.is_sorted()));
+        overlaps
+    }
+
+    /// Pushes onto `out` the robots `j > i` in range-and-bearing contact with `i`. With `NEAR`,
+    /// also returns the smallest squared distance from `i` to another robot the search visited
+    /// (every robot within `rab_range_m`) and how many robots `j > i` overlap it (closer than
+    /// the body's diameter: [`physics::overlaps`](super::physics::overlaps)'s test); without
+    /// it, `(inf, 0)`.
+    fn contacts_after<const NEAR: bool>(&self, i: usize, out: &mut Vec<RobotId>) -> (f64, u64) {
         let range = self.params.rab_range_m;
+        let d = 2.0 * self.params.body.radius_m;
         let p = self.poses[i];
+        let (mut closest, mut overlapping) = (f64::INFINITY, 0);
         self.robots_near(p.x - range, p.y - range, p.x + range, p.y + range, |j| {
-            if (j as usize) <= i {
+            if j as usize == i || (!NEAR && (j as usize) < i) {
                 return;
             }
             let q = &self.poses[j as usize];
             let d2 = (q.x - p.x) * (q.x - p.x) + (q.y - p.y) * (q.y - p.y);
+            if NEAR {
+                closest = closest.min(d2);
+                if (j as usize) < i {
+                    return;
+                }
+                overlapping += u64::from(d2 < d * d);
+            }
             if d2 <= range * range
                 && !(self.params.rab_occlusion && self.arena.occluded((p.x, p.y), (q.x, q.y)))
                 && !(self.extra.rab_robot_occlusion && self.robot_between(i as u32, j))
@@ -204,6 +221,7 @@ impl World {
                 out.push(j);
             }
         });
+        (closest, overlapping)
     }
 
     /// Whether the body of a robot other than `a` and `b` meets the segment between their
@@ -252,5 +270,13 @@ impl World {
             );
         }
         out
+    }
+}
+
+/// Inserts robot `i`'s contacts after it (ascending) into both lists of each pair.
+fn insert(adj: &mut [Vec<RobotId>], i: usize, later: &[RobotId]) {
+    for &j in later {
+        adj[i].push(j);
+        adj[j as usize].push(i as u32);
     }
 }

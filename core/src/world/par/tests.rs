@@ -114,7 +114,7 @@ fn the_parallel_physics_moves_a_crowd_in_robot_order() {
                 grid.rebuild(&arena.grid, &poses);
                 let refused = if parallel {
                     physics::step_parallel(
-                        &pool, &arena, &mut grid, &mut poses, &body, &commands, slide,
+                        &pool, &arena, &mut grid, &mut poses, &body, &commands, slide, None,
                     )
                 } else {
                     physics::step(&arena, &mut grid, &mut poses, &body, &commands, slide)
