@@ -73,6 +73,18 @@ pub struct Run {
     /// The final held-out loss (the summary's own, else the last aggregation's); infinite
     /// when the model's loss is not a number any more.
     pub last: f64,
+    /// Submissions the contract judged outliers on the final canonical chain
+    /// (`submissions.outlier`).
+    pub outliers: u64,
+    /// Submissions counted for their rounds: accepted, aggregated or outliers.
+    pub counted: u64,
+    /// The mean distance of the accepted honest submissions to the shared model
+    /// (`mean_honest_distance`), if any.
+    pub honest_distance: Option<f64>,
+    /// The largest round's mean of it (`mean_honest_distance_by_round`), if any.
+    pub honest_distance_max_round: Option<f64>,
+    /// The contract's outlier threshold (`outlier_threshold`).
+    pub threshold: f64,
 }
 
 impl Run {
@@ -168,10 +180,22 @@ pub fn study(results: &[RunResult], experiment: &str) -> Option<Hetero> {
             continue;
         };
         let count = point.x as u32;
+        let c = &r.result.summary.run.contract;
+        let submitted = |k: &str| c.submissions.get(k).copied().unwrap_or(0);
         let run = Run {
             seed: r.seed,
             genesis,
             last,
+            outliers: submitted("outlier"),
+            counted: submitted("accepted") + submitted("aggregated") + submitted("outlier"),
+            honest_distance: c.mean_honest_distance,
+            honest_distance_max_round: c
+                .mean_honest_distance_by_round
+                .iter()
+                .copied()
+                .filter(|d| d.is_finite())
+                .max_by(f64::total_cmp),
+            threshold: c.outlier_threshold,
         };
         let same =
             |c: &Cell| c.alpha == alpha && c.rule == rule && c.attack == attack && c.count == count;

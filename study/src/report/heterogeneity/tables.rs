@@ -77,6 +77,7 @@ pub(super) fn markdown(h: &Hetero) -> String {
         }
     );
     clean_fedavg(&mut md, h);
+    threshold_table(&mut md, h);
     destroyed_table(&mut md, h);
     worst_table(&mut md, h);
     per_seed_table(&mut md, h);
@@ -146,6 +147,101 @@ fn clean_fedavg(md: &mut String, h: &Hetero) {
                 format!("Learning stops (median above {LEARNED} of genesis) from alpha {s} on."),
             None => format!("At no alpha does the median run end above {LEARNED} of genesis."),
         }
+    );
+}
+
+/// The rules that judge every submission by the paper's absolute distance threshold
+/// (`contract.outlier_threshold`): the paper's rule, and its gate before the median.
+pub const THRESHOLD_RULES: [&str; 2] = ["paper", "gate+median"];
+
+/// Does the paper's absolute threshold start rejecting honest robots as their data grow apart?
+/// Per threshold rule and alpha, from the clean runs (every robot honest, so every outlier is
+/// an honest robot's): the submissions judged outliers, the honest submissions' mean distance
+/// to the shared model and its largest round mean, beside the threshold.
+fn threshold_table(md: &mut String, h: &Hetero) {
+    let cells: Vec<&Cell> = THRESHOLD_RULES
+        .iter()
+        .flat_map(|rule| h.alphas.iter().flat_map(move |a| h.of(rule, a, 0)))
+        .filter(|c| !c.runs.is_empty())
+        .collect();
+    if cells.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        md,
+        "### Does the paper's threshold reject honest robots?\n\nThe rules that judge every \
+         submission by one absolute distance (the mean absolute difference per weight from the \
+         shared model, against `contract.outlier_threshold`), in the clean runs, where every \
+         robot is honest: the submissions judged outliers of those counted (every seed), the \
+         honest submissions' mean distance (min / median / max over the seeds) and the largest \
+         mean of one round (over every seed).\n"
+    );
+    let columns = [
+        "rule",
+        "alpha",
+        "outliers / counted",
+        "mean distance (min / median / max)",
+        "largest round mean",
+        "threshold",
+    ];
+    markdown::header(md, &columns.map(String::from));
+    let (mut outliers, mut counted, mut largest) = (0, 0, 0.0f64);
+    let mut threshold = f64::INFINITY;
+    for cell in &cells {
+        let o: u64 = cell.runs.iter().map(|r| r.outliers).sum();
+        let n: u64 = cell.runs.iter().map(|r| r.counted).sum();
+        let mut d: Vec<f64> = cell.runs.iter().filter_map(|r| r.honest_distance).collect();
+        d.sort_by(f64::total_cmp);
+        let max_round = cell
+            .runs
+            .iter()
+            .filter_map(|r| r.honest_distance_max_round)
+            .max_by(f64::total_cmp);
+        let t = cell
+            .runs
+            .iter()
+            .map(|r| r.threshold)
+            .fold(f64::INFINITY, f64::min);
+        let spread = match (d.first(), d.last()) {
+            (Some(&lo), Some(&hi)) => {
+                format!(
+                    "{} / {} / {}",
+                    fixed(lo, 4),
+                    fixed(median(&d), 4),
+                    fixed(hi, 4)
+                )
+            }
+            _ => "n/a".to_string(),
+        };
+        let _ = writeln!(
+            md,
+            "| {} | {} | {o} / {n} | {spread} | {} | {} |",
+            cell.rule,
+            column(&cell.alpha),
+            max_round.map_or("n/a".to_string(), |m| fixed(m, 4)),
+            fixed(t, 4)
+        );
+        outliers += o;
+        counted += n;
+        largest = largest.max(max_round.unwrap_or(0.0));
+        threshold = threshold.min(t);
+    }
+    let verdict = if outliers == 0 {
+        "none".to_string()
+    } else {
+        format!(
+            "{outliers} ({} %)",
+            fixed(100.0 * outliers as f64 / counted as f64, 2)
+        )
+    };
+    let _ = writeln!(
+        md,
+        "\nOf {counted} honest submissions in these clean runs, the threshold rejected \
+         {verdict}. The largest round mean of the honest distances, {}, is {} of the threshold \
+         ({}).\n",
+        fixed(largest, 4),
+        fixed(largest / threshold, 3),
+        fixed(threshold, 4)
     );
 }
 

@@ -106,6 +106,65 @@ fn fractions_worst_cases_destroyed_runs_and_seeds_match_hand_computed_cells() {
     );
 }
 
+/// The threshold's table: per threshold rule and alpha, the clean runs' outliers of the counted
+/// submissions, the honest distances' spread and largest round mean, and the verdict summed
+/// over the table; attacked runs and other rules stay out of it.
+#[test]
+fn the_threshold_table_counts_the_clean_runs_honest_outliers() {
+    let mut results = Vec::new();
+    for (alpha, outliers) in [("inf", 0u64), ("0.1", 3)] {
+        for seed in 1..=2u64 {
+            for (point, distance) in [
+                (
+                    format!("alpha-{alpha}--paper--none--0"),
+                    0.002 * seed as f64,
+                ),
+                (format!("alpha-{alpha}--gate+median--none--0"), 0.001),
+                (format!("alpha-{alpha}--fedavg--none--0"), 0.5),
+                (format!("alpha-{alpha}--paper--optimal-ipm--5"), 0.5),
+            ] {
+                let mut r = result(&point, seed, 2.0, 1.0);
+                let c = &mut r.result.summary.run.contract;
+                c.submissions = [("accepted".to_string(), 90), ("aggregated".to_string(), 10)]
+                    .into_iter()
+                    .collect();
+                if point.contains("paper--none") && seed == 2 && outliers > 0 {
+                    c.submissions.insert("outlier".to_string(), outliers);
+                }
+                c.mean_honest_distance = Some(distance);
+                c.mean_honest_distance_by_round = vec![distance, f64::NAN, 2.0 * distance];
+                c.outlier_threshold = 0.05;
+                results.push(r);
+            }
+        }
+    }
+    let h = study(&results, experiment()).unwrap();
+    let md = tables::markdown(&h);
+    assert!(
+        md.contains(
+            "| paper | inf (roaming) | 0 / 200 | 0.0020 / 0.0030 / 0.0040 | 0.0080 | 0.0500 |"
+        ),
+        "{md}"
+    );
+    assert!(
+        md.contains("| paper | 0.1 | 3 / 203 | 0.0020 / 0.0030 / 0.0040 | 0.0080 | 0.0500 |"),
+        "{md}"
+    );
+    assert!(
+        md.contains("| gate+median | 0.1 | 0 / 200 | 0.0010 / 0.0010 / 0.0010 | 0.0020 | 0.0500 |"),
+        "{md}"
+    );
+    assert!(!md.contains("| fedavg | inf (roaming) | 0 / 200"), "{md}");
+    assert!(
+        md.contains(
+            "Of 803 honest submissions in these clean runs, the threshold rejected 3 (0.37 %). \
+             The largest round mean of the honest distances, 0.0080, is 0.160 of the threshold \
+             (0.0500)."
+        ),
+        "{md}"
+    );
+}
+
 /// The report's whole path on two real (short) runs of the grid: a sweep of two of its
 /// tasks, then `report::make`, which must draw the section, the maps and both CSV files from
 /// what the runs wrote.
