@@ -32,6 +32,7 @@ pub mod steering;
 
 use std::collections::VecDeque;
 
+use rayon::ThreadPool;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{
@@ -156,10 +157,10 @@ struct Scratch {
     heard: Vec<RobotId>,
     /// Each robot's reading words of the tick, when sensed in parallel (`sense.rs`).
     words: Vec<Vec<u64>>,
-    /// Each robot's contacts after it (`World::contacts_on`).
+    /// Each robot's contacts after it (`World::contacts_par`).
     later: Vec<Vec<RobotId>>,
     /// Each robot's squared distance to the nearest other robot within `rab_range_m`, found by
-    /// the parallel contacts' search (`World::contacts_on`) at tick `nearest_tick`: the next
+    /// the parallel contacts' search (`World::contacts_par`) at tick `nearest_tick`: the next
     /// step's test of which robots move alone (`physics::step_parallel`).
     nearest: Vec<f64>,
     /// The tick `nearest` describes, if any.
@@ -377,7 +378,17 @@ impl World {
             self.poses.len(),
             "one wheel command per robot"
         );
-        let pool = workers.for_robots(self.poses.len());
+        match workers.for_robots(self.poses.len()) {
+            // The whole tick inside one `install`: the physics' and the sensing's own
+            // `install`s then run inline on the pool's thread, and a tick pays one fork from
+            // outside the pool instead of two (12-20 us each, docs/PERFORMANCE.md).
+            Some(pool) => pool.install(|| self.fold_tick(event, Some(pool))),
+            None => self.fold_tick(event, None),
+        }
+    }
+
+    /// The body of [`World::apply_on`], on `pool`'s threads if given.
+    fn fold_tick(&mut self, event: &TickEvent, pool: Option<&ThreadPool>) {
         let mut grid = std::mem::take(&mut self.scratch.grid);
         if self.scratch.grid_tick != Some(self.tick) || grid.robots() != self.poses.len() {
             grid.rebuild(&self.arena.grid, &self.poses);

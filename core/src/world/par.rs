@@ -17,6 +17,10 @@
 //! can reach this tick, and moves the others in robot order, which gives the sequential step's
 //! result exactly (see there).
 //!
+//! A tick's physics and sensing run inside one `install` of the pool (`World::apply_on`), so
+//! the driver forks from outside the pool once for them (a fork from outside costs 12-40 us,
+//! a few percent of a 1000-robot tick; docs/PERFORMANCE.md); the decisions fork once more.
+//!
 //! The threads are their own rayon pool ([`Workers`]), not the global one: the global pool runs
 //! the background trainings (`learn/background.rs`), and a world step queued behind 25 ms
 //! trainings would stall the driver every tick. A swarm of fewer than

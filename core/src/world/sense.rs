@@ -71,83 +71,21 @@ impl World {
     /// Range-and-bearing, trajectory recording, expiry and peer refresh at the current tick,
     /// on `pool`'s threads if given (the same bits). On threads, it also leaves each robot's
     /// nearest other robot for the next tick's physics (`Scratch::nearest`) and returns the
-    /// overlap count of its contacts' search ([`World::contacts_on`]).
+    /// overlap count of its contacts' search ([`World::contacts_par`]).
     pub(super) fn sense(&mut self, pool: Option<&ThreadPool>) -> Option<u64> {
         let mut contacts = std::mem::take(&mut self.scratch.contacts);
         let mut heard = std::mem::take(&mut self.scratch.heard);
-        let mut words = std::mem::take(&mut self.scratch.words);
-        let overlaps = match pool {
+        let (overlaps, tallies) = match pool {
             None => {
                 self.contacts(&mut contacts);
-                None
+                (None, self.sense_seq(&contacts, &mut heard))
             }
             Some(pool) => {
-                let mut later = std::mem::take(&mut self.scratch.later);
-                let mut nearest = std::mem::take(&mut self.scratch.nearest);
-                let overlaps = self.contacts_on(pool, &mut contacts, &mut later, &mut nearest);
-                self.scratch.later = later;
-                self.scratch.nearest = nearest;
+                // One fork for the whole tick's sensing: a fork from outside the pool costs
+                // 12-40 us, a few percent of a 1000-robot tick (docs/PERFORMANCE.md).
+                let (overlaps, tallies) = pool.install(|| self.sense_par(&mut contacts));
                 self.scratch.nearest_tick = Some(self.tick);
-                Some(overlaps)
-            }
-        };
-        let now = self.time();
-        let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
-        let n = poses.len();
-        let tallies: Vec<Tally> = match pool {
-            None => {
-                let mix = &mut self.reading_mix;
-                let tallies: Vec<Tally> = (0..n)
-                    .map(|i| {
-                        let own = (&mut self.rab_rngs[i], &mut self.recorders[i]);
-                        sense_one(p, poses, rule, now, i, own, &contacts[i], &mut heard, |w| {
-                            *mix = mix_in(*mix, w);
-                        })
-                    })
-                    .collect();
-                chain_completed(&mut self.sample_chain, &self.recorders, &tallies);
-                for r in &mut self.recorders {
-                    r.expire(&p.recording, now);
-                }
-                tallies
-            }
-            Some(pool) => {
-                words.resize_with(n, Vec::new);
-                let (mix, chain) = (&mut self.reading_mix, &mut self.sample_chain);
-                let (rngs, recorders) = (&mut self.rab_rngs, &mut self.recorders);
-                pool.install(|| {
-                    // A robot's expiry drops only samples older than `data.expiration_s`, never
-                    // the ones it completed now, so it may come before the chain reads those.
-                    let tallies: Vec<Tally> = rngs
-                        .par_iter_mut()
-                        .zip(recorders.par_iter_mut())
-                        .zip(contacts.par_iter())
-                        .zip(words.par_iter_mut())
-                        .enumerate()
-                        .with_min_len(super::par::PIECE)
-                        .map_init(Vec::new, |heard, (i, (((rng, rec), nb), words))| {
-                            words.clear();
-                            let own = (rng, &mut *rec);
-                            let tally = sense_one(p, poses, rule, now, i, own, nb, heard, |w| {
-                                words.push(w);
-                            });
-                            rec.expire(&p.recording, now);
-                            tally
-                        })
-                        .collect();
-                    // The two running digests are independent folds, each in robot order: one
-                    // thread each.
-                    let recorders = &*recorders;
-                    rayon::join(
-                        || {
-                            for w in words.iter().flatten() {
-                                *mix = mix_in(*mix, *w);
-                            }
-                        },
-                        || chain_completed(chain, recorders, &tallies),
-                    );
-                    tallies
-                })
+                (Some(overlaps), tallies)
             }
         };
         for (c, t) in contacts.iter().zip(&tallies) {
@@ -161,8 +99,74 @@ impl World {
         }
         self.scratch.contacts = contacts;
         self.scratch.heard = heard;
-        self.scratch.words = words;
         overlaps
+    }
+
+    /// The sensing after the contacts, on the calling thread.
+    fn sense_seq(&mut self, contacts: &[Vec<RobotId>], heard: &mut Vec<RobotId>) -> Vec<Tally> {
+        let now = self.time();
+        let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
+        let mix = &mut self.reading_mix;
+        let tallies: Vec<Tally> = (0..poses.len())
+            .map(|i| {
+                let own = (&mut self.rab_rngs[i], &mut self.recorders[i]);
+                sense_one(p, poses, rule, now, i, own, &contacts[i], heard, |w| {
+                    *mix = mix_in(*mix, w);
+                })
+            })
+            .collect();
+        chain_completed(&mut self.sample_chain, &self.recorders, &tallies);
+        for r in &mut self.recorders {
+            r.expire(&p.recording, now);
+        }
+        tallies
+    }
+
+    /// The contacts and the sensing on the current rayon pool's threads (call it inside the
+    /// pool's `install`), with the overlap count of the contacts' search.
+    fn sense_par(&mut self, contacts: &mut Vec<Vec<RobotId>>) -> (u64, Vec<Tally>) {
+        let mut later = std::mem::take(&mut self.scratch.later);
+        let mut nearest = std::mem::take(&mut self.scratch.nearest);
+        let overlaps = self.contacts_par(contacts, &mut later, &mut nearest);
+        self.scratch.later = later;
+        self.scratch.nearest = nearest;
+        let mut words = std::mem::take(&mut self.scratch.words);
+        let now = self.time();
+        let (p, poses, rule) = (&self.params, &self.poses, self.extra.window_rule);
+        words.resize_with(poses.len(), Vec::new);
+        let (mix, chain) = (&mut self.reading_mix, &mut self.sample_chain);
+        let (rngs, recorders) = (&mut self.rab_rngs, &mut self.recorders);
+        // A robot's expiry drops only samples older than `data.expiration_s`, never the ones it
+        // completed now, so it may come before the chain reads those.
+        let tallies: Vec<Tally> = rngs
+            .par_iter_mut()
+            .zip(recorders.par_iter_mut())
+            .zip(contacts.par_iter())
+            .zip(words.par_iter_mut())
+            .enumerate()
+            .with_min_len(super::par::PIECE)
+            .map_init(Vec::new, |heard, (i, (((rng, rec), nb), words))| {
+                words.clear();
+                let own = (rng, &mut *rec);
+                let tally = sense_one(p, poses, rule, now, i, own, nb, heard, |w| {
+                    words.push(w);
+                });
+                rec.expire(&p.recording, now);
+                tally
+            })
+            .collect();
+        // The two running digests are independent folds, each in robot order: one thread each.
+        let recorders = &*recorders;
+        rayon::join(
+            || {
+                for w in words.iter().flatten() {
+                    *mix = mix_in(*mix, *w);
+                }
+            },
+            || chain_completed(chain, recorders, &tallies),
+        );
+        self.scratch.words = words;
+        (overlaps, tallies)
     }
 }
 

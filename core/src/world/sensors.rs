@@ -20,7 +20,6 @@ use parry2d_f64::na::{Point2, Vector2};
 use parry2d_f64::query::{Ray, RayCast};
 use parry2d_f64::shape::Ball;
 use rayon::prelude::*;
-use rayon::ThreadPool;
 
 use super::{epuck, khepera, World};
 use crate::config::Avoidance;
@@ -141,7 +140,8 @@ impl World {
         debug_assert!(adj.iter().all(|a| a.is_sorted()));
     }
 
-    /// [`World::contacts`] on `pool`'s threads, with what the next tick's physics and this
+    /// [`World::contacts`] on the current rayon pool's threads (call it inside the pool's
+    /// `install`: the caller's one fork then covers the sensing too), with what the next tick's physics and this
     /// tick's overlap count need from the same search: `later` holds buffers kept between
     /// ticks, one per robot; `nearest[i]` receives the squared distance from robot `i` to the
     /// nearest other robot within `rab_range_m` (infinite if none); the return value is the
@@ -152,9 +152,8 @@ impl World {
     /// inserted in robot order: `adj[i]` receives the robots before it in ascending order, then
     /// its own sorted later ones, so every list is ascending without a sort, and the lists are
     /// the sequential ones.
-    pub(super) fn contacts_on(
+    pub(super) fn contacts_par(
         &self,
-        pool: &ThreadPool,
         adj: &mut Vec<Vec<RobotId>>,
         later: &mut Vec<Vec<RobotId>>,
         nearest: &mut Vec<f64>,
@@ -168,22 +167,20 @@ impl World {
         later.resize(n, Vec::new());
         nearest.resize(n, f64::INFINITY);
         let r = self.params.body.radius_m;
-        let overlaps = pool.install(|| {
-            later
-                .par_iter_mut()
-                .zip(nearest.par_iter_mut())
-                .enumerate()
-                .with_min_len(super::par::PIECE)
-                .map(|(i, (l, near))| {
-                    l.clear();
-                    let (closest, overlapping) = self.contacts_after::<true>(i, l);
-                    l.sort_unstable();
-                    *near = closest;
-                    let p = self.poses[i];
-                    overlapping + u64::from(self.arena.disk_blocked(p.x, p.y, r))
-                })
-                .sum()
-        });
+        let overlaps = later
+            .par_iter_mut()
+            .zip(nearest.par_iter_mut())
+            .enumerate()
+            .with_min_len(super::par::PIECE)
+            .map(|(i, (l, near))| {
+                l.clear();
+                let (closest, overlapping) = self.contacts_after::<true>(i, l);
+                l.sort_unstable();
+                *near = closest;
+                let p = self.poses[i];
+                overlapping + u64::from(self.arena.disk_blocked(p.x, p.y, r))
+            })
+            .sum();
         for (i, l) in later.iter().enumerate() {
             insert(adj, i, l);
         }
